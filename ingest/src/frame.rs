@@ -1,0 +1,94 @@
+//! Frames: the camera images of a flight, each with its time, camera pose and
+//! where to find its pixels in the recording.
+
+use nalgebra::Isometry3;
+
+use crate::recording::MessageLocation;
+
+/// Whether and why a frame has a camera pose.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PoseStatus {
+    /// Interpolated from the trajectory and the camera extrinsic.
+    Ok,
+    /// Taken before the first pose of the trajectory.
+    BeforeTrajectory,
+    /// Taken after the last pose of the trajectory.
+    AfterTrajectory,
+    /// The poses either side are further apart than the allowed gap.
+    PoseGap,
+    /// No transform chain from the body to the image's frame.
+    NoExtrinsic,
+}
+
+impl PoseStatus {
+    pub const ALL: [Self; 5] = [
+        Self::Ok,
+        Self::BeforeTrajectory,
+        Self::AfterTrajectory,
+        Self::PoseGap,
+        Self::NoExtrinsic,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Ok => "ok",
+            Self::BeforeTrajectory => "before_trajectory",
+            Self::AfterTrajectory => "after_trajectory",
+            Self::PoseGap => "pose_gap",
+            Self::NoExtrinsic => "no_extrinsic",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|v| v.as_str() == s)
+    }
+}
+
+/// Whether the frame's image header could be read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ImageStatus {
+    Ok,
+    /// The compressed data is not JPEG or PNG, or its header is damaged.
+    Unreadable,
+    /// A raw encoding postflight cannot decode.
+    UnsupportedEncoding,
+}
+
+impl ImageStatus {
+    pub const ALL: [Self; 3] = [Self::Ok, Self::Unreadable, Self::UnsupportedEncoding];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Ok => "ok",
+            Self::Unreadable => "unreadable",
+            Self::UnsupportedEncoding => "unsupported_encoding",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|v| v.as_str() == s)
+    }
+}
+
+/// One camera image of the flight.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    /// Position in time order among all frames of the flight, from 0.
+    pub index: u32,
+    /// Capture time (`header.stamp`; the log time when the stamp is unset), ns.
+    pub time_ns: i64,
+    /// Time the recorder logged the message, ns.
+    pub log_time_ns: i64,
+    pub topic: String,
+    /// Optical frame (`header.frame_id`).
+    pub frame_id: String,
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    /// `jpeg`, `png`, or the raw encoding (`rgb8`, `mono16`, ...).
+    pub encoding: String,
+    /// Pose of the camera's optical frame in the world (`T_world_camera`).
+    pub camera_pose: Option<Isometry3<f64>>,
+    pub pose_status: PoseStatus,
+    pub image_status: ImageStatus,
+    pub location: MessageLocation,
+}

@@ -1,0 +1,283 @@
+//! PCD point clouds (the Point Cloud Library's format): `DATA ascii`,
+//! `binary` and `binary_compressed` (LZF, fields stored column by column).
+
+use nalgebra::Point3;
+
+struct Field {
+    name: String,
+    size: usize,
+    kind: char,
+    count: usize,
+}
+
+impl Field {
+    fn bytes(&self) -> usize {
+        self.size * self.count
+    }
+
+    fn read(&self, b: &[u8]) -> Option<f64> {
+        Some(match (self.kind, self.size) {
+            ('F', 4) => f64::from(f32::from_le_bytes(b.get(..4)?.try_into().ok()?)),
+            ('F', 8) => f64::from_le_bytes(b.get(..8)?.try_into().ok()?),
+            ('I', 1) => f64::from(*b.first()? as i8),
+            ('U', 1) => f64::from(*b.first()?),
+            ('I', 2) => f64::from(i16::from_le_bytes(b.get(..2)?.try_into().ok()?)),
+            ('U', 2) => f64::from(u16::from_le_bytes(b.get(..2)?.try_into().ok()?)),
+            ('I', 4) => f64::from(i32::from_le_bytes(b.get(..4)?.try_into().ok()?)),
+            ('U', 4) => f64::from(u32::from_le_bytes(b.get(..4)?.try_into().ok()?)),
+            _ => return None,
+        })
+    }
+}
+
+pub fn parse(bytes: &[u8]) -> Result<Vec<Point3<f64>>, String> {
+    let data_line = super::ply::find(bytes, b"\nDATA ").ok_or("not a PCD file: no DATA line")?;
+    let eol = bytes[data_line + 1..]
+        .iter()
+        .position(|&b| b == b'\n')
+        .map(|p| data_line + 1 + p)
+        .ok_or("PCD header has no end")?;
+    let header = std::str::from_utf8(&bytes[..eol]).map_err(|_| "PCD header is not text")?;
+    let body = &bytes[eol + 1..];
+
+    let mut names = Vec::new();
+    let mut sizes = Vec::new();
+    let mut kinds = Vec::new();
+    let mut counts = Vec::new();
+    let mut points_n = None;
+    let mut data = "";
+    for line in header
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.starts_with('#'))
+    {
+        let mut words = line.split_whitespace();
+        let key = words.next().unwrap_or_default();
+        let rest: Vec<&str> = words.collect();
+        match key {
+            "FIELDS" => names = rest.iter().map(|s| s.to_string()).collect(),
+            "SIZE" => sizes = parse_all(&rest, line)?,
+            "TYPE" => {
+                kinds = rest
+                    .iter()
+                    .map(|s| s.chars().next().unwrap_or('?'))
+                    .collect()
+            }
+            "COUNT" => counts = parse_all(&rest, line)?,
+            "POINTS" => {
+                points_n = Some(
+                    parse_all::<usize>(&rest, line)?
+                        .first()
+                        .copied()
+                        .unwrap_or(0),
+                )
+            }
+            "DATA" => data = rest.first().copied().unwrap_or_default(),
+            _ => {}
+        }
+    }
+    if counts.is_empty() {
+        counts = vec![1; names.len()];
+    }
+    if sizes.len() != names.len() || kinds.len() != names.len() || counts.len() != names.len() {
+        return Err("PCD header's FIELDS, SIZE, TYPE and COUNT disagree in length".into());
+    }
+    let fields: Vec<Field> = (0..names.len())
+        .map(|i| Field {
+            name: names[i].clone(),
+            size: sizes[i],
+            kind: kinds[i],
+            count: counts[i],
+        })
+        .collect();
+    let n = points_n.ok_or("PCD header has no POINTS line")?;
+    let axis = |a: &str| {
+        fields
+            .iter()
+            .position(|f| f.name == a)
+            .ok_or(format!("PCD file has no {a} field"))
+    };
+    let xyz = [axis("x")?, axis("y")?, axis("z")?];
+    let offsets: Vec<usize> = fields
+        .iter()
+        .scan(0, |acc, f| {
+            let o = *acc;
+            *acc += f.bytes();
+            Some(o)
+        })
+        .collect();
+    let point_size: usize = fields.iter().map(Field::bytes).sum();
+    let short = || "PCD file is shorter than its header says".to_string();
+    let mut points = Vec::with_capacity(n);
+    match data {
+        "ascii" => {
+            let text = std::str::from_utf8(body).map_err(|_| "PCD ascii data is not text")?;
+            // Columns: each field contributes COUNT values.
+            let column: Vec<usize> = fields
+                .iter()
+                .scan(0, |acc, f| {
+                    let c = *acc;
+                    *acc += f.count;
+                    Some(c)
+                })
+                .collect();
+            for line in text.lines().filter(|l| !l.trim().is_empty()).take(n) {
+                let values: Vec<&str> = line.split_whitespace().collect();
+                let get = |a: usize| -> Result<f64, String> {
+                    values
+                        .get(column[xyz[a]])
+                        .and_then(|v| v.parse().ok())
+                        .ok_or(format!("bad PCD line {line:?}"))
+                };
+                points.push(Point3::new(get(0)?, get(1)?, get(2)?));
+            }
+            if points.len() < n {
+                return Err(short());
+            }
+        }
+        "binary" => {
+            for i in 0..n {
+                let p = body
+                    .get(i * point_size..(i + 1) * point_size)
+                    .ok_or_else(short)?;
+                let get = |a: usize| {
+                    fields[xyz[a]]
+                        .read(&p[offsets[xyz[a]]..])
+                        .ok_or("unsupported PCD field type")
+                };
+                points.push(Point3::new(get(0)?, get(1)?, get(2)?));
+            }
+        }
+        "binary_compressed" => {
+            let word = |at: usize| -> Result<usize, String> {
+                Ok(
+                    u32::from_le_bytes(body.get(at..at + 4).ok_or_else(short)?.try_into().unwrap())
+                        as usize,
+                )
+            };
+            let (compressed, raw) = (word(0)?, word(4)?);
+            let src = body.get(8..8 + compressed).ok_or_else(short)?;
+            let soa = lzf_decompress(src, raw)?;
+            if soa.len() != n * point_size {
+                return Err("PCD compressed data has the wrong size".into());
+            }
+            // Field-major: all points' first field, then the second, ...
+            let column = |a: usize, i: usize| {
+                let f = &fields[xyz[a]];
+                let start = offsets[xyz[a]] * n + i * f.bytes();
+                f.read(&soa[start..]).ok_or("unsupported PCD field type")
+            };
+            for i in 0..n {
+                points.push(Point3::new(column(0, i)?, column(1, i)?, column(2, i)?));
+            }
+        }
+        other => return Err(format!("unknown PCD DATA kind {other:?}")),
+    }
+    // PCL marks missing points as NaN in organised clouds.
+    points.retain(|p| p.iter().all(|v| v.is_finite()));
+    Ok(points)
+}
+
+fn parse_all<T: std::str::FromStr>(words: &[&str], line: &str) -> Result<Vec<T>, String> {
+    words
+        .iter()
+        .map(|w| {
+            w.parse()
+                .map_err(|_| format!("bad PCD header line {line:?}"))
+        })
+        .collect()
+}
+
+/// Decompress LZF (liblzf's format, as PCL writes it).
+fn lzf_decompress(src: &[u8], expected: usize) -> Result<Vec<u8>, String> {
+    let bad = || "corrupt LZF data in PCD file".to_string();
+    let mut out = Vec::with_capacity(expected);
+    let mut i = 0;
+    while i < src.len() {
+        let ctrl = usize::from(src[i]);
+        i += 1;
+        if ctrl < 32 {
+            let run = src.get(i..i + ctrl + 1).ok_or_else(bad)?;
+            out.extend_from_slice(run);
+            i += ctrl + 1;
+        } else {
+            let mut len = ctrl >> 5;
+            if len == 7 {
+                len += usize::from(*src.get(i).ok_or_else(bad)?);
+                i += 1;
+            }
+            let back = ((ctrl & 0x1f) << 8) + usize::from(*src.get(i).ok_or_else(bad)?) + 1;
+            i += 1;
+            let start = out.len().checked_sub(back).ok_or_else(bad)?;
+            // Overlapping copies repeat bytes, so copy one at a time.
+            for k in 0..len + 2 {
+                let b = out[start + k];
+                out.push(b);
+            }
+        }
+        if out.len() > expected {
+            return Err(bad());
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HEADER: &str = "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 8 4\nTYPE F F F U\nCOUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\n";
+
+    fn points() -> [[f64; 3]; 2] {
+        [[1.0, 2.0, 3.0], [-4.5, 0.25, 1e3]]
+    }
+
+    fn binary_points() -> Vec<u8> {
+        let mut b = Vec::new();
+        for p in points() {
+            b.extend_from_slice(&(p[0] as f32).to_le_bytes());
+            b.extend_from_slice(&(p[1] as f32).to_le_bytes());
+            b.extend_from_slice(&p[2].to_le_bytes());
+            b.extend_from_slice(&7u32.to_le_bytes());
+        }
+        b
+    }
+
+    fn expected() -> Vec<Point3<f64>> {
+        points().iter().map(|p| Point3::from(*p)).collect()
+    }
+
+    #[test]
+    fn ascii_and_binary() {
+        let ascii = format!("{HEADER}DATA ascii\n1 2 3 7\n-4.5 0.25 1000 7\n");
+        assert_eq!(parse(ascii.as_bytes()).unwrap(), expected());
+        let mut bin = format!("{HEADER}DATA binary\n").into_bytes();
+        bin.extend_from_slice(&binary_points());
+        assert_eq!(parse(&bin).unwrap(), expected());
+        assert!(parse(&bin[..bin.len() - 1]).is_err());
+    }
+
+    #[test]
+    fn binary_compressed_is_field_major_lzf() {
+        let aos = binary_points();
+        // Reorder to field-major, then "compress" as LZF literal runs plus one
+        // back-reference, which is what liblzf emits for repeated bytes.
+        let mut soa = Vec::new();
+        for (off, size) in [(0, 4), (4, 4), (8, 8), (16, 4)] {
+            for i in 0..2 {
+                soa.extend_from_slice(&aos[i * 20 + off..i * 20 + off + size]);
+            }
+        }
+        let (head, tail) = soa.split_at(32);
+        assert_eq!(tail, [7, 0, 0, 0, 7, 0, 0, 0]);
+        let mut lzf = vec![31u8];
+        lzf.extend_from_slice(head);
+        lzf.extend_from_slice(&[3, 7, 0, 0, 0]); // literal "7 0 0 0"
+        lzf.extend_from_slice(&[(2 << 5) as u8, 3]); // copy 4 bytes from 4 back
+        let mut file = format!("{HEADER}DATA binary_compressed\n").into_bytes();
+        file.extend_from_slice(&(lzf.len() as u32).to_le_bytes());
+        file.extend_from_slice(&(soa.len() as u32).to_le_bytes());
+        file.extend_from_slice(&lzf);
+        assert_eq!(parse(&file).unwrap(), expected());
+    }
+}

@@ -1,0 +1,90 @@
+//! The inspection plan that was flown: the structure's target voxels and the
+//! planned viewpoints, as written by the planner (`plan.json`).
+
+use std::path::Path;
+
+use nalgebra::Point3;
+use serde::{Deserialize, Serialize};
+
+use crate::error::IngestError;
+use crate::map::{VoxelGrid, VoxelIndex};
+
+/// A planned camera viewpoint.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Viewpoint {
+    /// Position of the vehicle in the world frame, metres.
+    pub position: [f64; 3],
+    /// Heading about world z, radians (ROS: counter-clockwise from x).
+    pub yaw: f64,
+    /// Gimbal pitch, radians, positive looking down.
+    pub gimbal_pitch: f64,
+}
+
+/// An inspection plan: which voxels must be seen, and from where.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InspectionPlan {
+    /// World frame of positions, e.g. `map`.
+    pub frame_id: String,
+    /// Voxel edge, metres.
+    pub resolution: f64,
+    /// World position of the corner of voxel `[0, 0, 0]`.
+    #[serde(default)]
+    pub origin: [f64; 3],
+    /// Voxels of the structure to inspect.
+    pub target_voxels: Vec<VoxelIndex>,
+    /// Viewpoints in flight order.
+    pub viewpoints: Vec<Viewpoint>,
+}
+
+impl InspectionPlan {
+    pub fn load(path: &Path) -> Result<Self, IngestError> {
+        let error = |why: String| IngestError::Plan {
+            path: path.to_owned(),
+            why,
+        };
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| error(format!("{e}; check the path given to --plan")))?;
+        let plan: Self = serde_json::from_str(&text)
+            .map_err(|e| error(format!("not a postflight plan: {e}")))?;
+        if !(plan.resolution > 0.0) {
+            return Err(error(
+                "resolution must be a positive number of metres".into(),
+            ));
+        }
+        if plan.target_voxels.is_empty() {
+            return Err(error("the plan has no target voxels".into()));
+        }
+        Ok(plan)
+    }
+
+    pub fn grid(&self) -> VoxelGrid {
+        VoxelGrid::new(self.resolution, Point3::from(self.origin))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn loads_and_validates() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("plan.json");
+        std::fs::write(
+            &path,
+            r#"{"frame_id":"map","resolution":0.5,"target_voxels":[[1,2,3]],
+               "viewpoints":[{"position":[0,0,5],"yaw":1.57,"gimbal_pitch":0.3}]}"#,
+        )
+        .unwrap();
+        let plan = InspectionPlan::load(&path).unwrap();
+        assert_eq!(plan.target_voxels, vec![VoxelIndex([1, 2, 3])]);
+        assert_eq!(plan.grid().center(VoxelIndex([0, 0, 0])).x, 0.25);
+        std::fs::write(
+            &path,
+            r#"{"frame_id":"map","resolution":0,"target_voxels":[[1,2,3]],"viewpoints":[]}"#,
+        )
+        .unwrap();
+        let err = InspectionPlan::load(&path).unwrap_err().to_string();
+        assert!(err.contains("resolution"), "{err}");
+    }
+}

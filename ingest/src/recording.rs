@@ -1,0 +1,556 @@
+//! Reading an MCAP recording record by record, tolerant of the damage real
+//! flights have: a file cut off mid-chunk (battery died, card pulled) and
+//! chunks whose bytes are corrupt.
+//!
+//! The file is memory-mapped and walked once, front to back. Uncompressed
+//! chunks are read in place, so metadata ingest touches only the bytes it
+//! decodes. Every message carries a [`MessageLocation`] so a later stage can
+//! fetch just that message again ([`Recording::read_message`]) without
+//! holding the flight in memory.
+
+use std::collections::HashMap;
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use mcap::records::op;
+use serde::{Deserialize, Serialize};
+
+use crate::error::IngestError;
+
+/// Where a message lives in the recording.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MessageLocation {
+    /// File offset of the chunk record holding the message, or `None` for a
+    /// message record outside any chunk.
+    pub chunk_offset: Option<u64>,
+    /// Offset of the message record: within the chunk's uncompressed records
+    /// when `chunk_offset` is set, else within the file.
+    pub record_offset: u64,
+}
+
+/// A channel (topic) of the recording with its schema.
+#[derive(Debug, Clone)]
+pub struct Channel {
+    pub id: u16,
+    pub topic: String,
+    /// Schema name, e.g. `sensor_msgs/msg/Image`; empty when the channel has none.
+    pub schema: String,
+    /// Schema encoding, e.g. `ros2msg`.
+    pub schema_encoding: String,
+    /// Message encoding, e.g. `cdr`.
+    pub message_encoding: String,
+}
+
+/// One message as met during a scan; `data` borrows the mapped file or the
+/// current chunk's decompressed buffer.
+#[derive(Debug, Clone, Copy)]
+pub struct RecordedMessage<'a> {
+    pub channel_id: u16,
+    pub sequence: u32,
+    pub log_time: u64,
+    pub publish_time: u64,
+    pub data: &'a [u8],
+    pub location: MessageLocation,
+}
+
+/// What a scan met, passed to the scan's visitor in file order.
+#[derive(Debug)]
+pub enum ScanEvent<'a> {
+    /// A channel became known (its schema is resolved if it was recorded).
+    Channel(&'a Channel),
+    Message(RecordedMessage<'a>),
+    /// `bytes` of the file have been walked so far.
+    Progress {
+        bytes: u64,
+    },
+}
+
+/// Damage and extent of a recording, as found by [`Recording::scan`].
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct ScanReport {
+    /// The file ends before its data-end record and closing magic.
+    pub truncated: bool,
+    /// File offset where readable data stopped, when truncated.
+    pub truncated_at: Option<u64>,
+    /// Messages recovered from a chunk cut off by the truncation.
+    pub salvaged_from_partial_chunk: u64,
+    /// Chunks skipped because their bytes are damaged.
+    pub corrupt_chunks: u64,
+    /// One line per damaged chunk or record: where and why.
+    pub problems: Vec<String>,
+}
+
+/// A memory-mapped MCAP recording.
+pub struct Recording {
+    path: PathBuf,
+    map: memmap2::Mmap,
+    /// The most recently decompressed chunk, for sequential `read_message` calls.
+    chunk_cache: Mutex<Option<(u64, Vec<u8>)>>,
+}
+
+const RECORD_PREFIX: usize = 9; // opcode u8 + length u64
+
+impl Recording {
+    /// Open and map `path`, checking it is an MCAP file.
+    pub fn open(path: &Path) -> Result<Self, IngestError> {
+        let file = File::open(path).map_err(|source| IngestError::Open {
+            path: path.to_owned(),
+            source,
+        })?;
+        if file.metadata().map(|m| m.is_dir()).unwrap_or(false) {
+            return Err(IngestError::NotMcap {
+                path: path.to_owned(),
+                why: "it is a directory".into(),
+            });
+        }
+        // SAFETY: the map is read-only; a file changed underneath us by another
+        // process is outside what a post-flight tool can defend against.
+        let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|source| IngestError::Open {
+            path: path.to_owned(),
+            source,
+        })?;
+        #[cfg(unix)]
+        let _ = map.advise(memmap2::Advice::Sequential);
+        if map.len() < mcap::MAGIC.len() || &map[..mcap::MAGIC.len()] != mcap::MAGIC {
+            let why = if map.is_empty() {
+                "it is empty".to_string()
+            } else {
+                "it does not start with the MCAP magic bytes".to_string()
+            };
+            return Err(IngestError::NotMcap {
+                path: path.to_owned(),
+                why,
+            });
+        }
+        Ok(Self {
+            path: path.to_owned(),
+            map,
+            chunk_cache: Mutex::new(None),
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// File size in bytes.
+    pub fn len(&self) -> u64 {
+        self.map.len() as u64
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.map.is_empty()
+    }
+
+    /// Walk the whole recording once, calling `visit` for every channel and
+    /// message in file order. Damage is recorded in the report, never fatal.
+    pub fn scan(&self, mut visit: impl FnMut(ScanEvent<'_>)) -> ScanReport {
+        let buf: &[u8] = &self.map;
+        let mut report = ScanReport::default();
+        let mut links = ChannelLinks::default();
+        let mut decompressed = Vec::new();
+        let mut pos = mcap::MAGIC.len();
+        let mut last_progress = 0usize;
+        let mut ended = false;
+        while pos < buf.len() {
+            if pos - last_progress >= 4 << 20 {
+                visit(ScanEvent::Progress { bytes: pos as u64 });
+                last_progress = pos;
+            }
+            let Some((opcode, body)) = record_at(buf, pos) else {
+                let partial = &buf[pos..];
+                if partial.first() == Some(&op::CHUNK) && partial.len() > RECORD_PREFIX {
+                    let salvaged = salvage_partial_chunk(
+                        pos as u64,
+                        &partial[RECORD_PREFIX..],
+                        &mut links,
+                        &mut visit,
+                        &mut report,
+                    );
+                    report.salvaged_from_partial_chunk += salvaged;
+                }
+                report.truncated = true;
+                report.truncated_at = Some(pos as u64);
+                break;
+            };
+            match opcode {
+                op::SCHEMA | op::CHANNEL => {
+                    if let Err(e) = links.add(opcode, body, &mut visit) {
+                        report
+                            .problems
+                            .push(format!("record at byte {pos}: {e}; skipped"));
+                    }
+                }
+                op::MESSAGE => {
+                    let location = MessageLocation {
+                        chunk_offset: None,
+                        record_offset: pos as u64,
+                    };
+                    if let Some(message) = parse_message(body, location) {
+                        visit(ScanEvent::Message(message));
+                    } else {
+                        report.problems.push(format!(
+                            "message record at byte {pos} is malformed; skipped"
+                        ));
+                    }
+                }
+                op::CHUNK => match open_chunk(body, &mut decompressed) {
+                    Ok(records) => {
+                        if let Err(e) = walk_records(records, pos as u64, &mut links, &mut visit) {
+                            report.corrupt_chunks += 1;
+                            report
+                                .problems
+                                .push(format!("chunk at byte {pos}: {e}; skipped"));
+                        }
+                    }
+                    Err(e) => {
+                        report.corrupt_chunks += 1;
+                        report
+                            .problems
+                            .push(format!("chunk at byte {pos}: {e}; skipped"));
+                    }
+                },
+                op::DATA_END => {
+                    // The summary section repeats what the data section held;
+                    // a complete file ends with the magic bytes.
+                    ended = true;
+                    break;
+                }
+                _ => {}
+            }
+            pos += RECORD_PREFIX + body.len();
+        }
+        if !report.truncated && !(ended && buf.ends_with(mcap::MAGIC)) {
+            report.truncated = true;
+            report.truncated_at = Some(pos.min(buf.len()) as u64);
+        }
+        visit(ScanEvent::Progress {
+            bytes: buf.len() as u64,
+        });
+        report
+    }
+
+    /// Fetch the payload of one message found by an earlier scan.
+    pub fn read_message(&self, location: MessageLocation) -> Result<Vec<u8>, IngestError> {
+        let bad = |why: &str| IngestError::BadLocation {
+            path: self.path.clone(),
+            location,
+            why: why.to_string(),
+        };
+        let buf: &[u8] = &self.map;
+        let Some(chunk_offset) = location.chunk_offset else {
+            let (opcode, body) = record_at(buf, location.record_offset as usize)
+                .ok_or_else(|| bad("past the end"))?;
+            if opcode != op::MESSAGE {
+                return Err(bad("not a message record"));
+            }
+            let m = parse_message(body, location).ok_or_else(|| bad("malformed message"))?;
+            return Ok(m.data.to_vec());
+        };
+        let (opcode, chunk) =
+            record_at(buf, chunk_offset as usize).ok_or_else(|| bad("chunk past the end"))?;
+        if opcode != op::CHUNK {
+            return Err(bad("not a chunk record"));
+        }
+        let mut cache = self.chunk_cache.lock().unwrap_or_else(|e| e.into_inner());
+        let fetch = |records: &[u8]| -> Result<Vec<u8>, IngestError> {
+            let (opcode, body) = record_at(records, location.record_offset as usize)
+                .ok_or_else(|| bad("record past the end of its chunk"))?;
+            if opcode != op::MESSAGE {
+                return Err(bad("not a message record"));
+            }
+            let m = parse_message(body, location).ok_or_else(|| bad("malformed message"))?;
+            Ok(m.data.to_vec())
+        };
+        if let Some((offset, records)) = cache.as_ref()
+            && *offset == chunk_offset
+        {
+            return fetch(records);
+        }
+        let compressed = chunk_header(chunk).is_some_and(|h| !h.compression.is_empty());
+        let mut decompressed = Vec::new();
+        let records = open_chunk(chunk, &mut decompressed).map_err(|e| bad(&e))?;
+        if !compressed {
+            // Uncompressed chunks are read in place; nothing to cache.
+            return fetch(records);
+        }
+        let result = fetch(records);
+        *cache = Some((chunk_offset, decompressed));
+        result
+    }
+}
+
+/// The record starting at `pos`, if it is complete.
+fn record_at(buf: &[u8], pos: usize) -> Option<(u8, &[u8])> {
+    let prefix = buf.get(pos..pos.checked_add(RECORD_PREFIX)?)?;
+    let len = usize::try_from(u64::from_le_bytes(prefix[1..9].try_into().ok()?)).ok()?;
+    let start = pos + RECORD_PREFIX;
+    let body = buf.get(start..start.checked_add(len)?)?;
+    Some((prefix[0], body))
+}
+
+fn parse_message(body: &[u8], location: MessageLocation) -> Option<RecordedMessage<'_>> {
+    if body.len() < 22 {
+        return None;
+    }
+    Some(RecordedMessage {
+        channel_id: u16::from_le_bytes(body[0..2].try_into().ok()?),
+        sequence: u32::from_le_bytes(body[2..6].try_into().ok()?),
+        log_time: u64::from_le_bytes(body[6..14].try_into().ok()?),
+        publish_time: u64::from_le_bytes(body[14..22].try_into().ok()?),
+        data: &body[22..],
+        location,
+    })
+}
+
+/// A chunk record's header fields, parsed by hand so a chunk cut short by
+/// truncation can still be read.
+struct ChunkHeader<'a> {
+    uncompressed_size: u64,
+    uncompressed_crc: u32,
+    compression: &'a str,
+    /// The compressed records, possibly shorter than declared when truncated.
+    data: &'a [u8],
+    declared_len: u64,
+}
+
+fn chunk_header(body: &[u8]) -> Option<ChunkHeader<'_>> {
+    let u64_at = |p: usize| Some(u64::from_le_bytes(body.get(p..p + 8)?.try_into().ok()?));
+    let u32_at = |p: usize| Some(u32::from_le_bytes(body.get(p..p + 4)?.try_into().ok()?));
+    // message_start_time u64, message_end_time u64, uncompressed_size u64,
+    // uncompressed_crc u32, compression string, compressed_size u64, records.
+    let uncompressed_size = u64_at(16)?;
+    let uncompressed_crc = u32_at(24)?;
+    let name_len = u32_at(28)? as usize;
+    let compression = std::str::from_utf8(body.get(32..32 + name_len)?).ok()?;
+    let declared_len = u64_at(32 + name_len)?;
+    let start = 40 + name_len;
+    let end = start.saturating_add(usize::try_from(declared_len).ok()?);
+    let data = body.get(start..end.min(body.len()))?;
+    Some(ChunkHeader {
+        uncompressed_size,
+        uncompressed_crc,
+        compression,
+        data,
+        declared_len,
+    })
+}
+
+/// Decompress and check a complete chunk, returning its records: borrowed
+/// from `body` when uncompressed, else from `out`.
+fn open_chunk<'a>(body: &'a [u8], out: &'a mut Vec<u8>) -> Result<&'a [u8], String> {
+    let header = chunk_header(body).ok_or("malformed chunk header")?;
+    if (header.data.len() as u64) < header.declared_len {
+        return Err("chunk records run past the chunk".into());
+    }
+    let expected = usize::try_from(header.uncompressed_size).map_err(|_| "chunk too large")?;
+    let records: &[u8] = match header.compression {
+        "" => header.data,
+        "zstd" => {
+            out.clear();
+            out.reserve(expected);
+            // The Vec's spare capacity is the destination (no zero-filling).
+            zstd::bulk::Decompressor::new()
+                .and_then(|mut d| d.decompress_to_buffer(header.data, out))
+                .map_err(|e| format!("zstd decompression failed: {e}"))?;
+            out
+        }
+        "lz4" => {
+            out.clear();
+            out.reserve(expected);
+            let mut decoder = lz4::Decoder::new(header.data)
+                .map_err(|e| format!("lz4 decompression failed: {e}"))?;
+            std::io::copy(&mut decoder, out)
+                .map_err(|e| format!("lz4 decompression failed: {e}"))?;
+            out
+        }
+        other => return Err(format!("unsupported chunk compression {other:?}")),
+    };
+    if records.len() != expected {
+        return Err(format!(
+            "decompressed to {} bytes, header says {expected}",
+            records.len()
+        ));
+    }
+    if header.uncompressed_crc != 0 {
+        let crc = crc32fast::hash(records);
+        if crc != header.uncompressed_crc {
+            return Err(format!(
+                "CRC mismatch (stored {:#010x}, computed {crc:#010x})",
+                header.uncompressed_crc
+            ));
+        }
+    }
+    Ok(records)
+}
+
+/// Emit the schemas, channels and messages of a chunk's records. The records
+/// are framed first, so a chunk with a broken record emits nothing.
+fn walk_records(
+    records: &[u8],
+    chunk_offset: u64,
+    links: &mut ChannelLinks,
+    visit: &mut impl FnMut(ScanEvent<'_>),
+) -> Result<(), String> {
+    let framed = frame_records(records);
+    if framed.end != records.len() {
+        return Err(format!(
+            "record at chunk offset {} is cut short",
+            framed.end
+        ));
+    }
+    emit_records(&framed.records, records, chunk_offset, links, visit);
+    Ok(())
+}
+
+struct Framed {
+    /// (opcode, record offset, body range)
+    records: Vec<(u8, usize, std::ops::Range<usize>)>,
+    /// Offset after the last complete record.
+    end: usize,
+}
+
+fn frame_records(records: &[u8]) -> Framed {
+    let mut framed = Framed {
+        records: Vec::new(),
+        end: 0,
+    };
+    let mut pos = 0;
+    while let Some((opcode, body)) = record_at(records, pos) {
+        let start = pos + RECORD_PREFIX;
+        framed
+            .records
+            .push((opcode, pos, start..start + body.len()));
+        pos = start + body.len();
+    }
+    framed.end = pos;
+    framed
+}
+
+/// Returns the number of messages emitted.
+fn emit_records(
+    framed: &[(u8, usize, std::ops::Range<usize>)],
+    records: &[u8],
+    chunk_offset: u64,
+    links: &mut ChannelLinks,
+    visit: &mut impl FnMut(ScanEvent<'_>),
+) -> u64 {
+    let mut messages = 0;
+    for (opcode, offset, range) in framed {
+        let body = &records[range.clone()];
+        match *opcode {
+            op::SCHEMA | op::CHANNEL => {
+                // A bad schema or channel record leaves its messages unlinked;
+                // they are then counted under an unknown channel.
+                let _ = links.add(*opcode, body, visit);
+            }
+            op::MESSAGE => {
+                let location = MessageLocation {
+                    chunk_offset: Some(chunk_offset),
+                    record_offset: *offset as u64,
+                };
+                if let Some(message) = parse_message(body, location) {
+                    visit(ScanEvent::Message(message));
+                    messages += 1;
+                }
+            }
+            _ => {}
+        }
+    }
+    messages
+}
+
+/// Recover the complete records at the front of a chunk that the end of the
+/// file cut off. Returns the number of messages recovered.
+fn salvage_partial_chunk(
+    chunk_offset: u64,
+    body: &[u8],
+    links: &mut ChannelLinks,
+    visit: &mut impl FnMut(ScanEvent<'_>),
+    report: &mut ScanReport,
+) -> u64 {
+    let Some(header) = chunk_header(body) else {
+        return 0;
+    };
+    let mut out = Vec::new();
+    let records: &[u8] = match header.compression {
+        "" => header.data,
+        // Streaming decoders give up at the cut; what came before is kept.
+        "zstd" => match zstd::stream::read::Decoder::with_buffer(header.data) {
+            Ok(mut d) => {
+                let _ = read_until_error(&mut d, &mut out);
+                &out
+            }
+            Err(_) => return 0,
+        },
+        "lz4" => match lz4::Decoder::new(header.data) {
+            Ok(mut d) => {
+                let _ = read_until_error(&mut d, &mut out);
+                &out
+            }
+            Err(_) => return 0,
+        },
+        _ => return 0,
+    };
+    let framed = frame_records(records);
+    let salvaged = emit_records(&framed.records, records, chunk_offset, links, visit);
+    if salvaged > 0 {
+        report.problems.push(format!(
+            "chunk at byte {chunk_offset} is cut off by the end of the file; {salvaged} complete messages recovered from it"
+        ));
+    }
+    salvaged
+}
+
+fn read_until_error(reader: &mut impl std::io::Read, out: &mut Vec<u8>) -> std::io::Result<()> {
+    let mut block = [0u8; 64 * 1024];
+    loop {
+        let n = reader.read(&mut block)?;
+        if n == 0 {
+            return Ok(());
+        }
+        out.extend_from_slice(&block[..n]);
+    }
+}
+
+/// Schemas and channels seen so far, linked by id.
+#[derive(Default)]
+struct ChannelLinks {
+    schemas: HashMap<u16, (String, String)>,
+    channels: HashMap<u16, Channel>,
+}
+
+impl ChannelLinks {
+    fn add(
+        &mut self,
+        opcode: u8,
+        body: &[u8],
+        visit: &mut impl FnMut(ScanEvent<'_>),
+    ) -> Result<(), String> {
+        match mcap::parse_record(opcode, body).map_err(|e| e.to_string())? {
+            mcap::records::Record::Schema { header, .. } => {
+                self.schemas
+                    .insert(header.id, (header.name, header.encoding));
+            }
+            mcap::records::Record::Channel(c) => {
+                if self.channels.contains_key(&c.id) {
+                    return Ok(()); // chunks repeat channel records
+                }
+                let (schema, schema_encoding) =
+                    self.schemas.get(&c.schema_id).cloned().unwrap_or_default();
+                let channel = Channel {
+                    id: c.id,
+                    topic: c.topic,
+                    schema,
+                    schema_encoding,
+                    message_encoding: c.message_encoding,
+                };
+                visit(ScanEvent::Channel(&channel));
+                self.channels.insert(channel.id, channel);
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+}

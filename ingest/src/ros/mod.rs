@@ -1,0 +1,16 @@
+//! ROS 2 wire formats: message structs and their CDR decoding.
+
+pub mod cdr;
+pub mod msg;
+
+/// ROS 2 schema names postflight understands, as they appear in MCAP schema records.
+pub mod schema {
+    pub const IMAGE: &str = "sensor_msgs/msg/Image";
+    pub const COMPRESSED_IMAGE: &str = "sensor_msgs/msg/CompressedImage";
+    pub const CAMERA_INFO: &str = "sensor_msgs/msg/CameraInfo";
+    pub const POINT_CLOUD2: &str = "sensor_msgs/msg/PointCloud2";
+    pub const POSE_STAMPED: &str = "geometry_msgs/msg/PoseStamped";
+    pub const POSE_WITH_COVARIANCE_STAMPED: &str = "geometry_msgs/msg/PoseWithCovarianceStamped";
+    pub const ODOMETRY: &str = "nav_msgs/msg/Odometry";
+    pub const TF_MESSAGE: &str = "tf2_msgs/msg/TFMessage";
+}

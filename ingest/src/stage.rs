@@ -1,0 +1,943 @@
+//! The ingest stage: one pass over a flight recording, then the frames,
+//! trajectory, cameras and a summary written into the run directory.
+
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Isometry3, Point3};
+use serde::{Deserialize, Serialize};
+
+use crate::camera::{Camera, Intrinsics};
+use crate::error::IngestError;
+use crate::frame::{Frame, ImageStatus, PoseStatus};
+use crate::image::{Compression, RAW_ENCODINGS, compressed_size};
+use crate::map::pointcloud2;
+use crate::pose::{self, StampedPose};
+use crate::recording::{
+    Channel, MessageLocation, RecordedMessage, Recording, ScanEvent, ScanReport,
+};
+use crate::ros::{cdr, msg, schema};
+use crate::run_dir::{RunDir, files};
+use crate::tables;
+use crate::tf::TransformTree;
+use crate::trajectory::{PoseAt, Trajectory};
+
+/// What to ingest and how.
+#[derive(Debug, Clone)]
+pub struct IngestOptions {
+    pub flight: PathBuf,
+    pub out: PathBuf,
+    /// Use only these image topics (default: every image topic).
+    pub image_topics: Vec<String>,
+    /// Pose topic (default: the pose topic with most messages, else `/tf`).
+    pub pose_topic: Option<String>,
+    /// CameraInfo topic (default: matched to each image topic by frame or namespace).
+    pub camera_info_topic: Option<String>,
+    /// ROS calibration YAML, used instead of recorded CameraInfo.
+    pub camera_info_file: Option<PathBuf>,
+    /// PointCloud2 topic holding the SLAM map (default: found by schema).
+    pub map_topic: Option<String>,
+    /// Body frame the pose describes (default: the odometry child frame,
+    /// else `base_link`, else the root of the camera's transform chain).
+    pub body_frame: Option<String>,
+    /// World frame, when poses come from `/tf` (default: the root of the tree).
+    pub world_frame: Option<String>,
+    /// Largest gap between poses that frames may be interpolated across, seconds.
+    pub max_pose_gap_s: f64,
+    /// Treat a truncated recording as an error.
+    pub strict: bool,
+}
+
+impl IngestOptions {
+    pub fn new(flight: PathBuf, out: PathBuf) -> Self {
+        Self {
+            flight,
+            out,
+            image_topics: Vec::new(),
+            pose_topic: None,
+            camera_info_topic: None,
+            camera_info_file: None,
+            map_topic: None,
+            body_frame: None,
+            world_frame: None,
+            max_pose_gap_s: 0.25,
+            strict: false,
+        }
+    }
+}
+
+/// Messages on one topic.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct TopicSummary {
+    pub schema: String,
+    pub count: u64,
+}
+
+/// Where the poses came from.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct PoseSource {
+    /// Topic, or `/tf`.
+    pub topic: String,
+    pub frame_id: String,
+    pub child_frame_id: String,
+}
+
+/// The SLAM map found in the recording.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct RecordedMap {
+    pub topic: String,
+    pub frame_id: String,
+    pub points: u64,
+    /// Axis-aligned bounds `[min, max]`.
+    pub bounds: [[f64; 3]; 2],
+    /// The (last) map message, for loading it again.
+    pub location: MessageLocation,
+}
+
+/// The flight recording ingested.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct FlightFile {
+    pub path: PathBuf,
+    pub size_bytes: u64,
+}
+
+/// `ingest.json`: what the recording held and what ingest made of it.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct IngestSummary {
+    pub postflight_version: String,
+    pub flight: FlightFile,
+    /// Messages per topic.
+    pub messages: BTreeMap<String, TopicSummary>,
+    pub frames: u64,
+    pub frames_with_pose: u64,
+    /// Frames per `pose_status`.
+    pub frames_by_pose_status: BTreeMap<String, u64>,
+    pub image_topics: Vec<String>,
+    pub poses: u64,
+    pub pose_source: PoseSource,
+    /// Span of the recorded messages (log time), seconds.
+    pub duration_s: f64,
+    pub start_time: String,
+    pub end_time: String,
+    pub start_time_ns: i64,
+    pub end_time_ns: i64,
+    pub truncated: bool,
+    pub truncated_at_byte: Option<u64>,
+    pub corrupt_chunks: u64,
+    pub map: Option<RecordedMap>,
+    pub max_pose_gap_s: f64,
+    pub warnings: Vec<String>,
+}
+
+/// Progress of an ingest, for progress bars.
+pub trait Progress {
+    /// `done` of `total` bytes of the recording read.
+    fn bytes(&mut self, done: u64, total: u64);
+}
+
+impl<F: FnMut(u64, u64)> Progress for F {
+    fn bytes(&mut self, done: u64, total: u64) {
+        self(done, total)
+    }
+}
+
+/// What a message of a channel is to ingest.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Image,
+    CompressedImage,
+    CameraInfo,
+    PoseStamped,
+    PoseWithCovariance,
+    Odometry,
+    Tf {
+        is_static: bool,
+    },
+    PointCloud,
+    /// Recognised but not used (e.g. an image topic not selected).
+    Ignored,
+    Unknown,
+}
+
+/// A decode failure on a topic: how many, and the first reason.
+#[derive(Default)]
+struct DecodeFailures {
+    count: u64,
+    first: String,
+}
+
+/// Everything gathered in the single pass over the recording.
+#[derive(Default)]
+struct Scan {
+    channels: HashMap<u16, (String, Kind)>,
+    all_topics: BTreeMap<String, String>,
+    messages: BTreeMap<String, TopicSummary>,
+    time_range: Option<(u64, u64)>,
+    frames: Vec<Frame>,
+    camera_infos: BTreeMap<String, msg::CameraInfo>,
+    poses: BTreeMap<String, Vec<(StampedPose, String, String)>>,
+    tf: TransformTree,
+    clouds: BTreeMap<String, MessageLocation>,
+    failures: BTreeMap<String, DecodeFailures>,
+    unknown: BTreeSet<(String, String)>,
+}
+
+impl Scan {
+    fn classify(&self, channel: &Channel, options: &IngestOptions) -> Kind {
+        if channel.message_encoding != "cdr" {
+            return Kind::Unknown;
+        }
+        let chosen = |flag: &Option<String>| flag.as_ref().is_none_or(|t| *t == channel.topic);
+        match channel.schema.as_str() {
+            schema::IMAGE | schema::COMPRESSED_IMAGE
+                if !options.image_topics.is_empty()
+                    && !options.image_topics.contains(&channel.topic) =>
+            {
+                Kind::Ignored
+            }
+            schema::IMAGE => Kind::Image,
+            schema::COMPRESSED_IMAGE => Kind::CompressedImage,
+            schema::CAMERA_INFO if chosen(&options.camera_info_topic) => Kind::CameraInfo,
+            schema::POSE_STAMPED if chosen(&options.pose_topic) => Kind::PoseStamped,
+            schema::POSE_WITH_COVARIANCE_STAMPED if chosen(&options.pose_topic) => {
+                Kind::PoseWithCovariance
+            }
+            schema::ODOMETRY if chosen(&options.pose_topic) => Kind::Odometry,
+            schema::TF_MESSAGE => Kind::Tf {
+                is_static: channel.topic == "/tf_static",
+            },
+            schema::POINT_CLOUD2 if chosen(&options.map_topic) => Kind::PointCloud,
+            schema::CAMERA_INFO
+            | schema::POSE_STAMPED
+            | schema::POSE_WITH_COVARIANCE_STAMPED
+            | schema::ODOMETRY
+            | schema::POINT_CLOUD2 => Kind::Ignored,
+            _ => Kind::Unknown,
+        }
+    }
+
+    fn channel(&mut self, channel: &Channel, options: &IngestOptions) {
+        let kind = self.classify(channel, options);
+        let schema = if channel.schema.is_empty() {
+            format!("(no schema, {})", channel.message_encoding)
+        } else {
+            channel.schema.clone()
+        };
+        if kind == Kind::Unknown {
+            self.unknown.insert((channel.topic.clone(), schema.clone()));
+        }
+        self.all_topics
+            .insert(channel.topic.clone(), schema.clone());
+        self.messages
+            .entry(channel.topic.clone())
+            .or_insert(TopicSummary { schema, count: 0 });
+        self.channels
+            .insert(channel.id, (channel.topic.clone(), kind));
+    }
+
+    fn message(&mut self, m: &RecordedMessage<'_>) {
+        let Some((topic, kind)) = self.channels.get(&m.channel_id).cloned() else {
+            self.unknown.insert((
+                format!("(channel {})", m.channel_id),
+                "(no channel record)".into(),
+            ));
+            return;
+        };
+        if let Some(t) = self.messages.get_mut(&topic) {
+            t.count += 1;
+        }
+        self.time_range = Some(match self.time_range {
+            None => (m.log_time, m.log_time),
+            Some((lo, hi)) => (lo.min(m.log_time), hi.max(m.log_time)),
+        });
+        if let Err(e) = self.decode(&topic, kind, m) {
+            let f = self.failures.entry(topic).or_default();
+            if f.count == 0 {
+                f.first = e.to_string();
+            }
+            f.count += 1;
+        }
+    }
+
+    fn decode(
+        &mut self,
+        topic: &str,
+        kind: Kind,
+        m: &RecordedMessage<'_>,
+    ) -> Result<(), cdr::CdrError> {
+        let log_time_ns = m.log_time as i64;
+        // Drivers without a clock leave the stamp at zero; the log time is then the best capture time.
+        let stamp_or_log = |h: &msg::Header| match h.stamp.nanos() {
+            0 => log_time_ns,
+            t => t,
+        };
+        match kind {
+            Kind::CompressedImage => {
+                let (head, mut tail) = cdr::decode_head::<msg::CompressedImageHead>(m.data)?;
+                let data = tail.byte_sequence()?;
+                let size = compressed_size(data);
+                self.frames.push(Frame {
+                    index: 0,
+                    time_ns: stamp_or_log(&head.header),
+                    log_time_ns,
+                    topic: topic.to_string(),
+                    frame_id: head.header.frame_id.clone(),
+                    width: size.map(|s| s.0),
+                    height: size.map(|s| s.1),
+                    encoding: Compression::sniff(data)
+                        .map(|c| c.as_str().to_string())
+                        .unwrap_or(head.format),
+                    camera_pose: None,
+                    pose_status: PoseStatus::Ok,
+                    image_status: if size.is_some() {
+                        ImageStatus::Ok
+                    } else {
+                        ImageStatus::Unreadable
+                    },
+                    location: m.location,
+                });
+            }
+            Kind::Image => {
+                let head: msg::ImageHead = cdr::decode_head(m.data)?.0;
+                let supported = RAW_ENCODINGS.contains(&head.encoding.as_str());
+                self.frames.push(Frame {
+                    index: 0,
+                    time_ns: stamp_or_log(&head.header),
+                    log_time_ns,
+                    topic: topic.to_string(),
+                    frame_id: head.header.frame_id.clone(),
+                    width: Some(head.width),
+                    height: Some(head.height),
+                    encoding: head.encoding,
+                    camera_pose: None,
+                    pose_status: PoseStatus::Ok,
+                    image_status: if supported {
+                        ImageStatus::Ok
+                    } else {
+                        ImageStatus::UnsupportedEncoding
+                    },
+                    location: m.location,
+                });
+            }
+            Kind::CameraInfo => {
+                if !self.camera_infos.contains_key(topic) {
+                    let info: msg::CameraInfo = cdr::decode(m.data)?;
+                    self.camera_infos.insert(topic.to_string(), info);
+                }
+            }
+            Kind::PoseStamped => {
+                let p: msg::PoseStamped = cdr::decode(m.data)?;
+                self.pose(
+                    topic,
+                    stamp_or_log(&p.header),
+                    &p.pose,
+                    p.header.frame_id,
+                    String::new(),
+                );
+            }
+            Kind::PoseWithCovariance => {
+                let p: msg::PoseWithCovarianceStamped = cdr::decode(m.data)?;
+                self.pose(
+                    topic,
+                    stamp_or_log(&p.header),
+                    &p.pose.pose,
+                    p.header.frame_id,
+                    String::new(),
+                );
+            }
+            Kind::Odometry => {
+                let o: msg::Odometry = cdr::decode(m.data)?;
+                self.pose(
+                    topic,
+                    stamp_or_log(&o.header),
+                    &o.pose.pose,
+                    o.header.frame_id,
+                    o.child_frame_id,
+                );
+            }
+            Kind::Tf { is_static } => {
+                let tf: msg::TfMessage = cdr::decode(m.data)?;
+                for t in &tf.transforms {
+                    self.tf.add(t, is_static);
+                }
+            }
+            Kind::PointCloud => {
+                // Maps are republished as they grow; the last one is the map.
+                self.clouds.insert(topic.to_string(), m.location);
+            }
+            Kind::Ignored | Kind::Unknown => {}
+        }
+        Ok(())
+    }
+
+    fn pose(&mut self, topic: &str, time_ns: i64, p: &msg::Pose, frame: String, child: String) {
+        if let Some(pose) = pose::from_ros(p.position, p.orientation) {
+            self.poses.entry(topic.to_string()).or_default().push((
+                StampedPose { time_ns, pose },
+                frame,
+                child,
+            ));
+        }
+    }
+}
+
+/// Ingest a flight recording into a run directory.
+pub fn ingest(
+    options: &IngestOptions,
+    progress: &mut dyn Progress,
+) -> Result<IngestSummary, IngestError> {
+    let recording = Recording::open(&options.flight)?;
+    let total = recording.len();
+    let mut scan = Scan::default();
+    let report = recording.scan(|event| match event {
+        ScanEvent::Channel(c) => scan.channel(c, options),
+        ScanEvent::Message(m) => scan.message(&m),
+        ScanEvent::Progress { bytes } => progress.bytes(bytes, total),
+    });
+    scan.tf.finish();
+    let path = options.flight.clone();
+    let salvaged: u64 = scan.messages.values().map(|t| t.count).sum();
+    if report.truncated && options.strict {
+        return Err(IngestError::Truncated {
+            path,
+            offset: report.truncated_at.unwrap_or(total),
+            salvaged,
+        });
+    }
+    check_topic_flags(options, &scan.all_topics)?;
+
+    let mut warnings = damage_warnings(&report, &scan);
+    if scan.frames.is_empty() {
+        return Err(IngestError::NoImages { path });
+    }
+    let max_gap_ns = (options.max_pose_gap_s * 1e9) as i64;
+    let camera_frames: BTreeSet<String> = scan.frames.iter().map(|f| f.frame_id.clone()).collect();
+    let trajectory = choose_trajectory(
+        options,
+        &mut scan,
+        &camera_frames,
+        max_gap_ns,
+        &mut warnings,
+    )?;
+    let cameras = cameras(options, &scan, &trajectory, &mut warnings)?;
+    let mut frames = std::mem::take(&mut scan.frames);
+    frames.sort_by(|a, b| (a.time_ns, &a.topic).cmp(&(b.time_ns, &b.topic)));
+    place_frames(&mut frames, &trajectory, &scan.tf, max_gap_ns);
+    let map = recorded_map(&recording, &scan, &mut warnings);
+
+    let mut by_status: BTreeMap<String, u64> = BTreeMap::new();
+    for f in &frames {
+        *by_status
+            .entry(f.pose_status.as_str().to_string())
+            .or_default() += 1;
+    }
+    let without_pose = frames.len() as u64 - by_status.get("ok").copied().unwrap_or(0);
+    if without_pose > 0 {
+        let detail: Vec<String> = by_status
+            .iter()
+            .filter(|(k, _)| *k != "ok")
+            .map(|(k, v)| format!("{v} {k}"))
+            .collect();
+        warnings.push(format!(
+            "{without_pose} of {} frames have no camera pose ({}); they are kept and flagged in frames.parquet",
+            frames.len(),
+            detail.join(", ")
+        ));
+    }
+    let unreadable = frames
+        .iter()
+        .filter(|f| f.image_status != ImageStatus::Ok)
+        .count();
+    if unreadable > 0 {
+        warnings.push(format!(
+            "{unreadable} frames have unreadable or unsupported images (see image_status)"
+        ));
+    }
+
+    let (start, end) = scan.time_range.unwrap_or((0, 0));
+    let summary = IngestSummary {
+        postflight_version: env!("CARGO_PKG_VERSION").to_string(),
+        flight: FlightFile {
+            path: std::path::absolute(&options.flight).unwrap_or_else(|_| options.flight.clone()),
+            size_bytes: total,
+        },
+        messages: scan.messages.clone(),
+        frames: frames.len() as u64,
+        frames_with_pose: frames.iter().filter(|f| f.camera_pose.is_some()).count() as u64,
+        frames_by_pose_status: by_status,
+        image_topics: frames
+            .iter()
+            .map(|f| f.topic.clone())
+            .collect::<BTreeSet<_>>()
+            .into_iter()
+            .collect(),
+        poses: trajectory.len() as u64,
+        pose_source: PoseSource {
+            topic: trajectory.source.clone(),
+            frame_id: trajectory.frame_id.clone(),
+            child_frame_id: trajectory.child_frame_id.clone(),
+        },
+        duration_s: (end - start) as f64 * 1e-9,
+        start_time: rfc3339(start as i64),
+        end_time: rfc3339(end as i64),
+        start_time_ns: start as i64,
+        end_time_ns: end as i64,
+        truncated: report.truncated,
+        truncated_at_byte: report.truncated_at,
+        corrupt_chunks: report.corrupt_chunks,
+        map,
+        max_pose_gap_s: options.max_pose_gap_s,
+        warnings,
+    };
+    write_outputs(&options.out, &frames, &trajectory, &cameras, &summary)?;
+    Ok(summary)
+}
+
+fn check_topic_flags(
+    options: &IngestOptions,
+    topics: &BTreeMap<String, String>,
+) -> Result<(), IngestError> {
+    let available = || topics.keys().cloned().collect::<Vec<_>>().join(", ");
+    let check =
+        |flag: &'static str, topic: &String, expected: &[&str]| -> Result<(), IngestError> {
+            let Some(schema) = topics.get(topic) else {
+                return Err(IngestError::TopicNotFound {
+                    flag,
+                    topic: topic.clone(),
+                    available: available(),
+                });
+            };
+            if !expected.contains(&schema.as_str()) {
+                return Err(IngestError::TopicSchema {
+                    flag,
+                    topic: topic.clone(),
+                    schema: schema.clone(),
+                    expected: expected.join(" or "),
+                });
+            }
+            Ok(())
+        };
+    for t in &options.image_topics {
+        check(
+            "--image-topic",
+            t,
+            &[schema::IMAGE, schema::COMPRESSED_IMAGE],
+        )?;
+    }
+    if let Some(t) = &options.pose_topic {
+        check(
+            "--pose-topic",
+            t,
+            &[
+                schema::POSE_STAMPED,
+                schema::POSE_WITH_COVARIANCE_STAMPED,
+                schema::ODOMETRY,
+            ],
+        )?;
+    }
+    if let Some(t) = &options.camera_info_topic {
+        check("--camera-info-topic", t, &[schema::CAMERA_INFO])?;
+    }
+    if let Some(t) = &options.map_topic {
+        check("--map-topic", t, &[schema::POINT_CLOUD2])?;
+    }
+    Ok(())
+}
+
+fn damage_warnings(report: &ScanReport, scan: &Scan) -> Vec<String> {
+    let mut warnings = Vec::new();
+    if report.truncated {
+        warnings.push(format!(
+            "the recording is truncated at byte {} (recording cut short?): every complete message before it was ingested",
+            report.truncated_at.unwrap_or_default()
+        ));
+    }
+    if report.corrupt_chunks > 0 {
+        warnings.push(format!(
+            "{} corrupt chunks were skipped",
+            report.corrupt_chunks
+        ));
+    }
+    warnings.extend(report.problems.iter().cloned());
+    for (topic, f) in &scan.failures {
+        warnings.push(format!(
+            "{topic}: {} messages could not be decoded (first: {})",
+            f.count, f.first
+        ));
+    }
+    if !scan.unknown.is_empty() {
+        let list: Vec<String> = scan
+            .unknown
+            .iter()
+            .map(|(t, s)| format!("{t} ({s})"))
+            .collect();
+        warnings.push(format!(
+            "topics with schemas postflight does not use: {}",
+            list.join(", ")
+        ));
+    }
+    warnings
+}
+
+/// The body trajectory: from the chosen pose topic, else the `/tf` chain.
+fn choose_trajectory(
+    options: &IngestOptions,
+    scan: &mut Scan,
+    camera_frames: &BTreeSet<String>,
+    max_gap_ns: i64,
+    warnings: &mut Vec<String>,
+) -> Result<Trajectory, IngestError> {
+    let best = scan
+        .poses
+        .iter()
+        .max_by_key(|(topic, poses)| (poses.len(), std::cmp::Reverse(topic.as_str())))
+        .map(|(t, _)| t.clone());
+    if let Some(topic) = best {
+        let others: Vec<&String> = scan.poses.keys().filter(|t| **t != topic).collect();
+        if !others.is_empty() {
+            warnings.push(format!(
+                "several pose topics; using {topic} (most messages), not {}; choose with --pose-topic",
+                others.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+            ));
+        }
+        let samples = scan.poses.remove(&topic).unwrap_or_default();
+        let world = samples
+            .iter()
+            .map(|s| s.1.clone())
+            .find(|f| !f.is_empty())
+            .unwrap_or_else(|| "map".into());
+        let odom_child = samples.iter().map(|s| s.2.clone()).find(|f| !f.is_empty());
+        let body = options
+            .body_frame
+            .clone()
+            .or(odom_child)
+            .or_else(|| infer_body_frame(&scan.tf, camera_frames))
+            .unwrap_or_else(|| "base_link".into());
+        let poses = samples.into_iter().map(|s| s.0).collect();
+        return Ok(Trajectory::new(world, body, topic, poses));
+    }
+    // No pose topic: the transform tree may carry the pose (map -> odom -> base_link).
+    let body = options
+        .body_frame
+        .clone()
+        .or_else(|| infer_body_frame(&scan.tf, camera_frames));
+    let roots = scan.tf.roots();
+    let world = options
+        .world_frame
+        .clone()
+        .or_else(|| {
+            ["map", "world", "odom"]
+                .iter()
+                .find(|f| roots.contains(**f))
+                .map(|s| s.to_string())
+        })
+        .or_else(|| roots.iter().next().map(|s| s.to_string()));
+    if let (Some(body), Some(world)) = (body, world)
+        && let Some(t) = scan.tf.trajectory(&world, &body, max_gap_ns)
+        && !t.is_empty()
+    {
+        return Ok(t);
+    }
+    let hint = if scan.tf.is_empty() {
+        String::new()
+    } else {
+        format!(
+            " (/tf has frames {} but no time-varying chain from the world frame to the body; set --world-frame and --body-frame)",
+            scan.tf.frames().into_iter().collect::<Vec<_>>().join(", ")
+        )
+    };
+    Err(IngestError::NoPoses {
+        path: options.flight.clone(),
+        hint,
+    })
+}
+
+/// `base_link` when the tree has it, else the top of the camera's static chain.
+fn infer_body_frame(tf: &TransformTree, camera_frames: &BTreeSet<String>) -> Option<String> {
+    if tf.frames().contains("base_link") {
+        return Some("base_link".into());
+    }
+    let camera = camera_frames.iter().next()?;
+    let mut frame = camera.clone();
+    // Climb while the link is fixed: the body is where the moving part starts.
+    while !tf.is_dynamic(&frame) {
+        match tf.parent(&frame) {
+            Some(p) => frame = p.to_string(),
+            None => break,
+        }
+    }
+    Some(frame)
+}
+
+fn cameras(
+    options: &IngestOptions,
+    scan: &Scan,
+    trajectory: &Trajectory,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Camera>, IngestError> {
+    let file_intrinsics = options
+        .camera_info_file
+        .as_deref()
+        .map(Intrinsics::from_calibration_file)
+        .transpose()?;
+    let mut first_frame: BTreeMap<&str, &Frame> = BTreeMap::new();
+    for f in &scan.frames {
+        first_frame.entry(f.topic.as_str()).or_insert(f);
+    }
+    let mut frame_topics: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+    for (topic, f) in &first_frame {
+        frame_topics
+            .entry(f.frame_id.as_str())
+            .or_default()
+            .push(topic);
+    }
+    for (frame, topics) in &frame_topics {
+        if topics.len() > 1 {
+            warnings.push(format!(
+                "image topics {} share the camera frame {frame:?} (raw and compressed copies?); select one with --image-topic",
+                topics.join(", ")
+            ));
+        }
+    }
+    let t0 = trajectory.time_span().map(|s| s.0).unwrap_or_default();
+    let mut cameras = Vec::new();
+    for (topic, frame) in first_frame {
+        let (intrinsics, source) = match (
+            &file_intrinsics,
+            match_camera_info(topic, &frame.frame_id, scan),
+        ) {
+            (Some(i), recorded) => {
+                if let Some((t, _)) = recorded {
+                    warnings.push(format!(
+                        "{topic}: using intrinsics from {} instead of the recorded {t}",
+                        options
+                            .camera_info_file
+                            .as_deref()
+                            .unwrap_or(Path::new(""))
+                            .display()
+                    ));
+                }
+                let source = format!(
+                    "file {}",
+                    options
+                        .camera_info_file
+                        .as_deref()
+                        .unwrap_or(Path::new(""))
+                        .display()
+                );
+                (i.clone(), source)
+            }
+            (None, Some((t, info))) => {
+                let i =
+                    Intrinsics::from_camera_info(info).map_err(|why| IngestError::Calibration {
+                        path: options.flight.clone(),
+                        why: format!(
+                            "CameraInfo on {t}: {why}; pass a calibration file with --camera-info"
+                        ),
+                    })?;
+                (i, format!("topic {t}"))
+            }
+            (None, None) => {
+                return Err(IngestError::NoIntrinsics {
+                    path: options.flight.clone(),
+                    topic: topic.to_string(),
+                    frame_id: frame.frame_id.clone(),
+                });
+            }
+        };
+        if let (Some(w), Some(h)) = (frame.width, frame.height)
+            && (w, h) != (intrinsics.width, intrinsics.height)
+        {
+            warnings.push(format!(
+                "{topic}: images are {w}x{h} but the intrinsics are for {}x{}",
+                intrinsics.width, intrinsics.height
+            ));
+        }
+        let extrinsic = extrinsic(&scan.tf, &trajectory.child_frame_id, &frame.frame_id, t0);
+        if extrinsic.is_none() {
+            warnings.push(format!(
+                "{topic}: no transform from body frame {:?} to camera frame {:?} in /tf_static or /tf; its frames have no pose",
+                trajectory.child_frame_id, frame.frame_id
+            ));
+        }
+        cameras.push(Camera {
+            topic: topic.to_string(),
+            frame_id: frame.frame_id.clone(),
+            intrinsics: Some(intrinsics),
+            intrinsics_source: Some(source),
+            extrinsic,
+            body_frame: trajectory.child_frame_id.clone(),
+        });
+    }
+    Ok(cameras)
+}
+
+/// The CameraInfo for an image topic: the same frame, else the same namespace,
+/// else the only one recorded.
+fn match_camera_info<'a>(
+    topic: &str,
+    frame_id: &str,
+    scan: &'a Scan,
+) -> Option<(&'a str, &'a msg::CameraInfo)> {
+    let infos = &scan.camera_infos;
+    let namespace = |t: &str| {
+        t.rsplit_once('/')
+            .map(|(ns, _)| ns.to_string())
+            .unwrap_or_default()
+    };
+    infos
+        .iter()
+        .find(|(_, i)| !frame_id.is_empty() && i.header.frame_id == frame_id)
+        .or_else(|| {
+            // /cam/image_raw/compressed and /cam/image_raw both live beside /cam/camera_info.
+            let ns = namespace(topic.trim_end_matches("/compressed"));
+            infos.iter().find(|(t, _)| namespace(t) == ns)
+        })
+        .or_else(|| (infos.len() == 1).then(|| infos.iter().next()).flatten())
+        .map(|(t, i)| (t.as_str(), i))
+}
+
+fn extrinsic(tf: &TransformTree, body: &str, camera: &str, time_ns: i64) -> Option<Isometry3<f64>> {
+    if body == camera {
+        return Some(Isometry3::identity());
+    }
+    tf.lookup(body, camera, time_ns, i64::MAX).ok()
+}
+
+/// Give each frame its index and its camera pose, or the reason it has none.
+fn place_frames(
+    frames: &mut [Frame],
+    trajectory: &Trajectory,
+    tf: &TransformTree,
+    max_gap_ns: i64,
+) {
+    let body = trajectory.child_frame_id.as_str();
+    for (i, f) in frames.iter_mut().enumerate() {
+        f.index = i as u32;
+        let body_pose = match trajectory.at(f.time_ns, max_gap_ns) {
+            PoseAt::Pose(p) => p,
+            PoseAt::BeforeStart => {
+                f.pose_status = PoseStatus::BeforeTrajectory;
+                continue;
+            }
+            PoseAt::AfterEnd => {
+                f.pose_status = PoseStatus::AfterTrajectory;
+                continue;
+            }
+            PoseAt::InGap { .. } => {
+                f.pose_status = PoseStatus::PoseGap;
+                continue;
+            }
+        };
+        // Looked up per frame so a moving gimbal on /tf is followed.
+        match if body == f.frame_id {
+            Some(Isometry3::identity())
+        } else {
+            tf.lookup(body, &f.frame_id, f.time_ns, max_gap_ns).ok()
+        } {
+            Some(e) => {
+                f.camera_pose = Some(body_pose * e);
+                f.pose_status = PoseStatus::Ok;
+            }
+            None => f.pose_status = PoseStatus::NoExtrinsic,
+        }
+    }
+}
+
+fn recorded_map(
+    recording: &Recording,
+    scan: &Scan,
+    warnings: &mut Vec<String>,
+) -> Option<RecordedMap> {
+    let mut candidates: Vec<(&String, &MessageLocation)> = scan.clouds.iter().collect();
+    // A topic named like a map wins over, say, a raw lidar scan.
+    candidates.sort_by_key(|(t, _)| !t.contains("map"));
+    let (topic, location) = candidates.first()?;
+    let decoded = recording
+        .read_message(**location)
+        .map_err(|e| e.to_string())
+        .and_then(|payload| cdr::decode::<msg::PointCloud2>(&payload).map_err(|e| e.to_string()))
+        .and_then(|m| pointcloud2::decode(&m));
+    match decoded {
+        Ok(cloud) => {
+            let (lo, hi) = cloud
+                .bounds()
+                .unwrap_or((Point3::origin(), Point3::origin()));
+            Some(RecordedMap {
+                topic: topic.to_string(),
+                frame_id: cloud.frame_id.clone(),
+                points: cloud.len() as u64,
+                bounds: [[lo.x, lo.y, lo.z], [hi.x, hi.y, hi.z]],
+                location: **location,
+            })
+        }
+        Err(e) => {
+            warnings.push(format!("map on {topic} could not be read: {e}"));
+            None
+        }
+    }
+}
+
+fn write_outputs(
+    out: &Path,
+    frames: &[Frame],
+    trajectory: &Trajectory,
+    cameras: &[Camera],
+    summary: &IngestSummary,
+) -> Result<(), IngestError> {
+    let run = RunDir::create(out)?;
+    run.remove(files::INGEST)?;
+    let table_error = |name: &str| {
+        let path = run.file(name);
+        move |source| IngestError::Table { path, source }
+    };
+    let mut frames_df = tables::frames_to_table(frames).map_err(table_error(files::FRAMES))?;
+    run.write_table(files::FRAMES, &mut frames_df)?;
+    let mut traj_df =
+        tables::trajectory_to_table(trajectory).map_err(table_error(files::TRAJECTORY))?;
+    run.write_table(files::TRAJECTORY, &mut traj_df)?;
+    run.write_json(files::CAMERAS, &cameras)?;
+    run.write_json(files::INGEST, summary)
+}
+
+/// UTC time as RFC 3339 with nanoseconds.
+fn rfc3339(ns: i64) -> String {
+    let secs = ns.div_euclid(1_000_000_000);
+    let nanos = ns.rem_euclid(1_000_000_000);
+    let days = secs.div_euclid(86_400);
+    let rem = secs.rem_euclid(86_400);
+    // Civil date from days since 1970-01-01 (H. Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}.{nanos:09}Z",
+        rem / 3600,
+        rem / 60 % 60,
+        rem % 60
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::rfc3339;
+
+    #[test]
+    fn formats_utc_times() {
+        assert_eq!(rfc3339(0), "1970-01-01T00:00:00.000000000Z");
+        assert_eq!(
+            rfc3339(1_700_000_000_123_456_789),
+            "2023-11-14T22:13:20.123456789Z"
+        );
+        assert_eq!(
+            rfc3339(951_782_400_000_000_000),
+            "2000-02-29T00:00:00.000000000Z"
+        );
+    }
+}
