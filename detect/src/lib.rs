@@ -1,1 +1,5 @@
-
+//! Crack detection: runs the inspector's open-vocabulary detector (YOLO-World
+//! exported to ONNX, prompt "crack") through ONNX Runtime over every frame of
+//! an ingested flight, and owns the detections table it writes into the run
+//! directory. It reads frames through `ingest` and knows nothing of maps or
+//! coverage.

@@ -149,7 +149,7 @@ impl Recording {
         let buf: &[u8] = &self.map;
         let mut report = ScanReport::default();
         let mut links = ChannelLinks::default();
-        let mut decompressed = Vec::new();
+        let mut chunks = ChunkBatch::new();
         let mut pos = mcap::MAGIC.len();
         let mut last_progress = 0usize;
         let mut ended = false;
@@ -159,6 +159,7 @@ impl Recording {
                 last_progress = pos;
             }
             let Some((opcode, body)) = record_at(buf, pos) else {
+                chunks.flush(&mut links, &mut visit, &mut report);
                 let partial = &buf[pos..];
                 if partial.first() == Some(&op::CHUNK) && partial.len() > RECORD_PREFIX {
                     let salvaged = salvage_partial_chunk(
@@ -174,6 +175,16 @@ impl Recording {
                 report.truncated_at = Some(pos as u64);
                 break;
             };
+            if opcode == op::CHUNK {
+                chunks.push(pos, body);
+                if chunks.is_full() {
+                    chunks.flush(&mut links, &mut visit, &mut report);
+                }
+                pos += RECORD_PREFIX + body.len();
+                continue;
+            }
+            // Records outside chunks come after the chunks before them.
+            chunks.flush(&mut links, &mut visit, &mut report);
             match opcode {
                 op::SCHEMA | op::CHANNEL => {
                     if let Err(e) = links.add(opcode, body, &mut visit) {
@@ -195,22 +206,6 @@ impl Recording {
                         ));
                     }
                 }
-                op::CHUNK => match open_chunk(body, &mut decompressed) {
-                    Ok(records) => {
-                        if let Err(e) = walk_records(records, pos as u64, &mut links, &mut visit) {
-                            report.corrupt_chunks += 1;
-                            report
-                                .problems
-                                .push(format!("chunk at byte {pos}: {e}; skipped"));
-                        }
-                    }
-                    Err(e) => {
-                        report.corrupt_chunks += 1;
-                        report
-                            .problems
-                            .push(format!("chunk at byte {pos}: {e}; skipped"));
-                    }
-                },
                 op::DATA_END => {
                     // The summary section repeats what the data section held;
                     // a complete file ends with the magic bytes.
@@ -221,6 +216,7 @@ impl Recording {
             }
             pos += RECORD_PREFIX + body.len();
         }
+        chunks.flush(&mut links, &mut visit, &mut report);
         if !report.truncated && !(ended && buf.ends_with(mcap::MAGIC)) {
             report.truncated = true;
             report.truncated_at = Some(pos.min(buf.len()) as u64);
@@ -239,14 +235,9 @@ impl Recording {
             why: why.to_string(),
         };
         let buf: &[u8] = &self.map;
+        let fetch = |records: &[u8]| message_payload(records, location).map_err(bad);
         let Some(chunk_offset) = location.chunk_offset else {
-            let (opcode, body) = record_at(buf, location.record_offset as usize)
-                .ok_or_else(|| bad("past the end"))?;
-            if opcode != op::MESSAGE {
-                return Err(bad("not a message record"));
-            }
-            let m = parse_message(body, location).ok_or_else(|| bad("malformed message"))?;
-            return Ok(m.data.to_vec());
+            return fetch(buf);
         };
         let (opcode, chunk) =
             record_at(buf, chunk_offset as usize).ok_or_else(|| bad("chunk past the end"))?;
@@ -254,31 +245,91 @@ impl Recording {
             return Err(bad("not a chunk record"));
         }
         let mut cache = self.chunk_cache.lock().unwrap_or_else(|e| e.into_inner());
-        let fetch = |records: &[u8]| -> Result<Vec<u8>, IngestError> {
-            let (opcode, body) = record_at(records, location.record_offset as usize)
-                .ok_or_else(|| bad("record past the end of its chunk"))?;
-            if opcode != op::MESSAGE {
-                return Err(bad("not a message record"));
-            }
-            let m = parse_message(body, location).ok_or_else(|| bad("malformed message"))?;
-            Ok(m.data.to_vec())
-        };
         if let Some((offset, records)) = cache.as_ref()
             && *offset == chunk_offset
         {
             return fetch(records);
         }
-        let compressed = chunk_header(chunk).is_some_and(|h| !h.compression.is_empty());
         let mut decompressed = Vec::new();
-        let records = open_chunk(chunk, &mut decompressed).map_err(|e| bad(&e))?;
-        if !compressed {
+        match open_chunk(chunk, &mut decompressed).map_err(|e| bad(&e))? {
             // Uncompressed chunks are read in place; nothing to cache.
-            return fetch(records);
+            Records::InPlace(range) => fetch(&chunk[range]),
+            Records::InBuffer => {
+                let result = fetch(&decompressed);
+                *cache = Some((chunk_offset, decompressed));
+                result
+            }
         }
-        let result = fetch(records);
-        *cache = Some((chunk_offset, decompressed));
-        result
     }
+}
+
+/// Complete chunks waiting to be decompressed and checked together, in
+/// parallel, then emitted in file order.
+struct ChunkBatch<'a> {
+    chunks: Vec<(usize, &'a [u8])>,
+    /// One decompression buffer per batch slot, reused across batches.
+    buffers: Vec<Vec<u8>>,
+}
+
+impl<'a> ChunkBatch<'a> {
+    const SIZE: usize = 16;
+
+    fn new() -> Self {
+        Self {
+            chunks: Vec::with_capacity(Self::SIZE),
+            buffers: (0..Self::SIZE).map(|_| Vec::new()).collect(),
+        }
+    }
+
+    fn push(&mut self, pos: usize, body: &'a [u8]) {
+        self.chunks.push((pos, body));
+    }
+
+    fn is_full(&self) -> bool {
+        self.chunks.len() == Self::SIZE
+    }
+
+    fn flush(
+        &mut self,
+        links: &mut ChannelLinks,
+        visit: &mut impl FnMut(ScanEvent<'_>),
+        report: &mut ScanReport,
+    ) {
+        use rayon::prelude::*;
+        let opened: Vec<Result<Records, String>> = self
+            .chunks
+            .par_iter()
+            .zip(self.buffers.par_iter_mut())
+            .map(|((_, body), out)| open_chunk(body, out))
+            .collect();
+        for (((pos, body), out), opened) in self.chunks.iter().zip(&self.buffers).zip(opened) {
+            let records = match &opened {
+                Ok(Records::InPlace(range)) => Ok(&body[range.clone()]),
+                Ok(Records::InBuffer) => Ok(out.as_slice()),
+                Err(e) => Err(e.clone()),
+            };
+            if let Err(e) =
+                records.and_then(|records| walk_records(records, *pos as u64, links, visit))
+            {
+                report.corrupt_chunks += 1;
+                report
+                    .problems
+                    .push(format!("chunk at byte {pos}: {e}; skipped"));
+            }
+        }
+        self.chunks.clear();
+    }
+}
+
+/// The payload of the message record at `location.record_offset` of `records`.
+fn message_payload(records: &[u8], location: MessageLocation) -> Result<Vec<u8>, &'static str> {
+    let (opcode, body) =
+        record_at(records, location.record_offset as usize).ok_or("record past the end")?;
+    if opcode != op::MESSAGE {
+        return Err("not a message record");
+    }
+    let m = parse_message(body, location).ok_or("malformed message")?;
+    Ok(m.data.to_vec())
 }
 
 /// The record starting at `pos`, if it is complete.
@@ -337,16 +388,29 @@ fn chunk_header(body: &[u8]) -> Option<ChunkHeader<'_>> {
     })
 }
 
-/// Decompress and check a complete chunk, returning its records: borrowed
-/// from `body` when uncompressed, else from `out`.
-fn open_chunk<'a>(body: &'a [u8], out: &'a mut Vec<u8>) -> Result<&'a [u8], String> {
+/// Where a checked chunk's records are.
+enum Records {
+    /// Uncompressed: this range of the chunk body.
+    InPlace(std::ops::Range<usize>),
+    /// Decompressed into the caller's buffer.
+    InBuffer,
+}
+
+/// Decompress and check a complete chunk: its size and, when recorded, its CRC.
+fn open_chunk(body: &[u8], out: &mut Vec<u8>) -> Result<Records, String> {
     let header = chunk_header(body).ok_or("malformed chunk header")?;
     if (header.data.len() as u64) < header.declared_len {
         return Err("chunk records run past the chunk".into());
     }
     let expected = usize::try_from(header.uncompressed_size).map_err(|_| "chunk too large")?;
-    let records: &[u8] = match header.compression {
-        "" => header.data,
+    let (records, located) = match header.compression {
+        "" => {
+            let start = header.data.as_ptr() as usize - body.as_ptr() as usize;
+            (
+                header.data,
+                Records::InPlace(start..start + header.data.len()),
+            )
+        }
         "zstd" => {
             out.clear();
             out.reserve(expected);
@@ -354,7 +418,7 @@ fn open_chunk<'a>(body: &'a [u8], out: &'a mut Vec<u8>) -> Result<&'a [u8], Stri
             zstd::bulk::Decompressor::new()
                 .and_then(|mut d| d.decompress_to_buffer(header.data, out))
                 .map_err(|e| format!("zstd decompression failed: {e}"))?;
-            out
+            (out.as_slice(), Records::InBuffer)
         }
         "lz4" => {
             out.clear();
@@ -363,7 +427,7 @@ fn open_chunk<'a>(body: &'a [u8], out: &'a mut Vec<u8>) -> Result<&'a [u8], Stri
                 .map_err(|e| format!("lz4 decompression failed: {e}"))?;
             std::io::copy(&mut decoder, out)
                 .map_err(|e| format!("lz4 decompression failed: {e}"))?;
-            out
+            (out.as_slice(), Records::InBuffer)
         }
         other => return Err(format!("unsupported chunk compression {other:?}")),
     };
@@ -382,7 +446,7 @@ fn open_chunk<'a>(body: &'a [u8], out: &'a mut Vec<u8>) -> Result<&'a [u8], Stri
             ));
         }
     }
-    Ok(records)
+    Ok(located)
 }
 
 /// Emit the schemas, channels and messages of a chunk's records. The records

@@ -3,6 +3,7 @@
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use nalgebra::{Isometry3, Point3};
 use serde::{Deserialize, Serialize};
@@ -166,12 +167,19 @@ struct DecodeFailures {
     first: String,
 }
 
+/// A channel as ingest sees it.
+struct ChannelState {
+    topic: Arc<str>,
+    /// Schema name, or a note of its absence.
+    schema: String,
+    kind: Kind,
+    count: u64,
+}
+
 /// Everything gathered in the single pass over the recording.
 #[derive(Default)]
 struct Scan {
-    channels: HashMap<u16, (String, Kind)>,
-    all_topics: BTreeMap<String, String>,
-    messages: BTreeMap<String, TopicSummary>,
+    channels: HashMap<u16, ChannelState>,
     time_range: Option<(u64, u64)>,
     frames: Vec<Frame>,
     camera_infos: BTreeMap<String, msg::CameraInfo>,
@@ -226,37 +234,53 @@ impl Scan {
         if kind == Kind::Unknown {
             self.unknown.insert((channel.topic.clone(), schema.clone()));
         }
-        self.all_topics
-            .insert(channel.topic.clone(), schema.clone());
-        self.messages
-            .entry(channel.topic.clone())
-            .or_insert(TopicSummary { schema, count: 0 });
-        self.channels
-            .insert(channel.id, (channel.topic.clone(), kind));
+        self.channels.insert(
+            channel.id,
+            ChannelState {
+                topic: channel.topic.as_str().into(),
+                schema,
+                kind,
+                count: 0,
+            },
+        );
     }
 
     fn message(&mut self, m: &RecordedMessage<'_>) {
-        let Some((topic, kind)) = self.channels.get(&m.channel_id).cloned() else {
+        let Some(channel) = self.channels.get_mut(&m.channel_id) else {
             self.unknown.insert((
                 format!("(channel {})", m.channel_id),
                 "(no channel record)".into(),
             ));
             return;
         };
-        if let Some(t) = self.messages.get_mut(&topic) {
-            t.count += 1;
-        }
+        channel.count += 1;
+        let (topic, kind) = (channel.topic.clone(), channel.kind);
         self.time_range = Some(match self.time_range {
             None => (m.log_time, m.log_time),
             Some((lo, hi)) => (lo.min(m.log_time), hi.max(m.log_time)),
         });
         if let Err(e) = self.decode(&topic, kind, m) {
-            let f = self.failures.entry(topic).or_default();
+            let f = self.failures.entry(topic.to_string()).or_default();
             if f.count == 0 {
                 f.first = e.to_string();
             }
             f.count += 1;
         }
+    }
+
+    /// Messages per topic (several channels may share a topic).
+    fn topics(&self) -> BTreeMap<String, TopicSummary> {
+        let mut topics: BTreeMap<String, TopicSummary> = BTreeMap::new();
+        for c in self.channels.values() {
+            topics
+                .entry(c.topic.to_string())
+                .or_insert_with(|| TopicSummary {
+                    schema: c.schema.clone(),
+                    count: 0,
+                })
+                .count += c.count;
+        }
+        topics
     }
 
     fn decode(
@@ -396,7 +420,8 @@ pub fn ingest(
     });
     scan.tf.finish();
     let path = options.flight.clone();
-    let salvaged: u64 = scan.messages.values().map(|t| t.count).sum();
+    let messages = scan.topics();
+    let salvaged: u64 = messages.values().map(|t| t.count).sum();
     if report.truncated && options.strict {
         return Err(IngestError::Truncated {
             path,
@@ -404,7 +429,7 @@ pub fn ingest(
             salvaged,
         });
     }
-    check_topic_flags(options, &scan.all_topics)?;
+    check_topic_flags(options, &messages)?;
 
     let mut warnings = damage_warnings(&report, &scan);
     if scan.frames.is_empty() {
@@ -461,7 +486,7 @@ pub fn ingest(
             path: std::path::absolute(&options.flight).unwrap_or_else(|_| options.flight.clone()),
             size_bytes: total,
         },
-        messages: scan.messages.clone(),
+        messages,
         frames: frames.len() as u64,
         frames_with_pose: frames.iter().filter(|f| f.camera_pose.is_some()).count() as u64,
         frames_by_pose_status: by_status,
@@ -495,12 +520,12 @@ pub fn ingest(
 
 fn check_topic_flags(
     options: &IngestOptions,
-    topics: &BTreeMap<String, String>,
+    topics: &BTreeMap<String, TopicSummary>,
 ) -> Result<(), IngestError> {
     let available = || topics.keys().cloned().collect::<Vec<_>>().join(", ");
     let check =
         |flag: &'static str, topic: &String, expected: &[&str]| -> Result<(), IngestError> {
-            let Some(schema) = topics.get(topic) else {
+            let Some(TopicSummary { schema, .. }) = topics.get(topic) else {
                 return Err(IngestError::TopicNotFound {
                     flag,
                     topic: topic.clone(),

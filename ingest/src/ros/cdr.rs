@@ -1,6 +1,7 @@
 //! Decoding of ROS 2 CDR payloads (the 4-byte encapsulation header, then
 //! XCDR1 plain data) into the structs of [`super::msg`].
 
+use serde::Serialize;
 use serde::de::DeserializeOwned;
 
 /// Why a CDR payload could not be decoded.
@@ -35,6 +36,12 @@ fn encapsulation(payload: &[u8]) -> Result<(Endian, &[u8]), CdrError> {
         other => return Err(CdrError::Encapsulation(other)),
     };
     Ok((endian, &payload[4..]))
+}
+
+/// Encode a message as ROS 2 does: little-endian plain CDR.
+pub fn encode<T: Serialize>(msg: &T) -> Vec<u8> {
+    cdr::serialize::<_, _, cdr::CdrLe>(msg, cdr::Infinite)
+        .expect("in-memory CDR encoding cannot fail")
 }
 
 /// Decode a whole message.
@@ -122,6 +129,24 @@ mod tests {
         assert_eq!(head.format, "jpeg");
         assert_eq!(tail.byte_sequence().unwrap(), &[0xff, 0xd8, 0xff]);
         assert!(tail.byte_sequence().is_err());
+    }
+
+    #[test]
+    fn encode_decode_round_trip() {
+        use crate::ros::msg::{CompressedImage, Time};
+        let msg = CompressedImage {
+            header: Header {
+                stamp: Time { sec: 3, nanosec: 4 },
+                frame_id: "camera_optical".into(),
+            },
+            format: "jpeg".into(),
+            data: vec![1, 2, 3, 4, 5],
+        };
+        let bytes = encode(&msg);
+        assert_eq!(&bytes[..4], &[0, 1, 0, 0]);
+        let back: CompressedImage = decode(&bytes).unwrap();
+        assert_eq!(back.data, msg.data);
+        assert_eq!(back.header.frame_id, "camera_optical");
     }
 
     #[test]

@@ -1,13 +1,14 @@
 //! ROS 2 message definitions postflight reads, as serde structs laid out
 //! field-for-field like their `.msg` files so the `cdr` crate can decode them.
 //!
-//! Image messages are split: [`ImageHead`] and [`CompressedImageHead`] stop
+//! Image messages come twice: whole ([`Image`], [`CompressedImage`]) for
+//! writing, and as heads ([`ImageHead`], [`CompressedImageHead`]) that stop
 //! before the pixel data, so metadata ingest never copies image bytes.
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// `builtin_interfaces/msg/Time`.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
 pub struct Time {
     pub sec: i32,
     pub nanosec: u32,
@@ -21,14 +22,14 @@ impl Time {
 }
 
 /// `std_msgs/msg/Header`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 pub struct Header {
     pub stamp: Time,
     pub frame_id: String,
 }
 
 /// `geometry_msgs/msg/Point` and `geometry_msgs/msg/Vector3` (same layout).
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
 pub struct Vector3 {
     pub x: f64,
     pub y: f64,
@@ -36,7 +37,7 @@ pub struct Vector3 {
 }
 
 /// `geometry_msgs/msg/Quaternion`.
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
 pub struct Quaternion {
     pub x: f64,
     pub y: f64,
@@ -45,21 +46,21 @@ pub struct Quaternion {
 }
 
 /// `geometry_msgs/msg/Pose`.
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
 pub struct Pose {
     pub position: Vector3,
     pub orientation: Quaternion,
 }
 
 /// `geometry_msgs/msg/PoseStamped`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 pub struct PoseStamped {
     pub header: Header,
     pub pose: Pose,
 }
 
 /// `geometry_msgs/msg/PoseWithCovariance`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 pub struct PoseWithCovariance {
     pub pose: Pose,
     /// Row-major 6x6 (CDR lays a fixed array out flat, as nested arrays).
@@ -67,21 +68,21 @@ pub struct PoseWithCovariance {
 }
 
 /// `geometry_msgs/msg/PoseWithCovarianceStamped`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 pub struct PoseWithCovarianceStamped {
     pub header: Header,
     pub pose: PoseWithCovariance,
 }
 
 /// `geometry_msgs/msg/Twist`.
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
 pub struct Twist {
     pub linear: Vector3,
     pub angular: Vector3,
 }
 
 /// `geometry_msgs/msg/TwistWithCovariance`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 pub struct TwistWithCovariance {
     pub twist: Twist,
     /// Row-major 6x6 (CDR lays a fixed array out flat, as nested arrays).
@@ -89,7 +90,7 @@ pub struct TwistWithCovariance {
 }
 
 /// `nav_msgs/msg/Odometry`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 pub struct Odometry {
     pub header: Header,
     pub child_frame_id: String,
@@ -98,14 +99,14 @@ pub struct Odometry {
 }
 
 /// `geometry_msgs/msg/Transform`.
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
 pub struct Transform {
     pub translation: Vector3,
     pub rotation: Quaternion,
 }
 
 /// `geometry_msgs/msg/TransformStamped`: pose of `child_frame_id` in `header.frame_id`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 pub struct TransformStamped {
     pub header: Header,
     pub child_frame_id: String,
@@ -113,13 +114,13 @@ pub struct TransformStamped {
 }
 
 /// `tf2_msgs/msg/TFMessage`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 pub struct TfMessage {
     pub transforms: Vec<TransformStamped>,
 }
 
 /// `sensor_msgs/msg/RegionOfInterest`.
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
 pub struct RegionOfInterest {
     pub x_offset: u32,
     pub y_offset: u32,
@@ -129,7 +130,7 @@ pub struct RegionOfInterest {
 }
 
 /// `sensor_msgs/msg/CameraInfo`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 pub struct CameraInfo {
     pub header: Header,
     pub height: u32,
@@ -145,7 +146,7 @@ pub struct CameraInfo {
 }
 
 /// `sensor_msgs/msg/Image` up to, not including, its `data` field.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 pub struct ImageHead {
     pub header: Header,
     pub height: u32,
@@ -156,14 +157,14 @@ pub struct ImageHead {
 }
 
 /// `sensor_msgs/msg/CompressedImage` up to, not including, its `data` field.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 pub struct CompressedImageHead {
     pub header: Header,
     pub format: String,
 }
 
 /// `sensor_msgs/msg/PointField`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 pub struct PointField {
     pub name: String,
     pub offset: u32,
@@ -172,7 +173,7 @@ pub struct PointField {
 }
 
 /// `sensor_msgs/msg/PointCloud2`, with its point buffer as bytes.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 pub struct PointCloud2 {
     pub header: Header,
     pub height: u32,
@@ -184,4 +185,26 @@ pub struct PointCloud2 {
     #[serde(with = "serde_bytes")]
     pub data: Vec<u8>,
     pub is_dense: bool,
+}
+
+/// `sensor_msgs/msg/Image`.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+pub struct Image {
+    pub header: Header,
+    pub height: u32,
+    pub width: u32,
+    pub encoding: String,
+    pub is_bigendian: u8,
+    pub step: u32,
+    #[serde(with = "serde_bytes")]
+    pub data: Vec<u8>,
+}
+
+/// `sensor_msgs/msg/CompressedImage`.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+pub struct CompressedImage {
+    pub header: Header,
+    pub format: String,
+    #[serde(with = "serde_bytes")]
+    pub data: Vec<u8>,
 }

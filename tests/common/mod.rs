@@ -1,0 +1,82 @@
+//! Shared helpers for the end-to-end tests: the project's Python (for the
+//! independent MCAP writer), fixture generation and running the binary.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The project virtualenv's Python; `scripts/setup` creates it.
+pub fn python() -> PathBuf {
+    if let Some(p) = std::env::var_os("POSTFLIGHT_PYTHON") {
+        return p.into();
+    }
+    let p = root().join(".venv/bin/python");
+    assert!(
+        p.is_file(),
+        "{} is missing: run scripts/setup (or scripts/test) to create the project virtualenv",
+        p.display()
+    );
+    p
+}
+
+/// Write a flight with tests/fixtures/write_flight.py; returns (mcap, expected).
+pub fn write_flight(dir: &Path, name: &str, args: &[&str]) -> (PathBuf, Value) {
+    let mcap = dir.join(format!("{name}.mcap"));
+    let expected = dir.join(format!("{name}.expected.json"));
+    let out = Command::new(python())
+        .arg(root().join("tests/fixtures/write_flight.py"))
+        .arg(&mcap)
+        .arg("--expected")
+        .arg(&expected)
+        .args(args)
+        .output()
+        .expect("run the fixture writer");
+    assert!(
+        out.status.success(),
+        "fixture writer failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let expected = serde_json::from_str(&std::fs::read_to_string(&expected).unwrap()).unwrap();
+    (mcap, expected)
+}
+
+/// Run `postflight` with isolated cache/config dirs.
+pub fn postflight(args: &[&str], home: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_postflight"))
+        .args(args)
+        .env("XDG_CACHE_HOME", home.join("cache"))
+        .env("XDG_CONFIG_HOME", home.join("config"))
+        .env("XDG_DATA_HOME", home.join("data"))
+        .env_remove("POSTFLIGHT_LOG")
+        .output()
+        .expect("run postflight")
+}
+
+pub fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+pub fn read_json(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+pub fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
+}
+
+pub fn vec3(v: &Value) -> [f64; 3] {
+    [f(&v[0]), f(&v[1]), f(&v[2])]
+}
+
+pub fn assert_close(a: f64, b: f64, tol: f64, what: &str) {
+    assert!(
+        (a - b).abs() <= tol,
+        "{what}: {a} vs expected {b} (tolerance {tol})"
+    );
+}

@@ -1,0 +1,509 @@
+//! End-to-end tests of `postflight ingest` against recordings written by the
+//! official Python MCAP + ROS 2 writers (tests/fixtures/write_flight.py),
+//! whose expected.json holds every value written.
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+use polars::prelude::*;
+use serde_json::Value;
+
+fn ingest_ok(mcap: &Path, run: &Path, extra: &[&str]) -> Value {
+    let mut args = vec![
+        "ingest",
+        "--flight",
+        mcap.to_str().unwrap(),
+        "--out",
+        run.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let out = postflight(&args, run.parent().unwrap());
+    assert!(out.status.success(), "ingest failed: {}", stderr(&out));
+    read_json(&run.join("ingest.json"))
+}
+
+fn frames_table(run: &Path) -> DataFrame {
+    let file = std::fs::File::open(run.join("frames.parquet")).unwrap();
+    ParquetReader::new(file).finish().unwrap()
+}
+
+/// Every frame's time, size, status and camera pose match what was written.
+fn check_frames(run: &Path, expected: &Value) {
+    let df = frames_table(run);
+    let frames = expected["frames"].as_array().unwrap();
+    assert_eq!(df.height(), frames.len());
+    let col = |n: &str| df.column(n).unwrap().clone();
+    let time = col("time_ns");
+    let time = time.i64().unwrap();
+    let (width, height) = (col("width"), col("height"));
+    let status = col("pose_status");
+    let status = status.str().unwrap();
+    let pose: Vec<Column> = ["x", "y", "z", "qx", "qy", "qz", "qw"]
+        .iter()
+        .map(|c| col(c))
+        .collect();
+    for (i, e) in frames.iter().enumerate() {
+        assert_eq!(time.get(i), e["time_ns"].as_i64(), "frame {i} time");
+        assert_eq!(
+            width.u32().unwrap().get(i),
+            e["width"].as_u64().map(|v| v as u32)
+        );
+        assert_eq!(
+            height.u32().unwrap().get(i),
+            e["height"].as_u64().map(|v| v as u32)
+        );
+        assert_eq!(status.get(i), e["pose_status"].as_str(), "frame {i} status");
+        let got: Vec<Option<f64>> = pose.iter().map(|c| c.f64().unwrap().get(i)).collect();
+        match e.get("camera_pose") {
+            None => assert!(
+                got.iter().all(Option::is_none),
+                "frame {i} should have no pose"
+            ),
+            Some(p) => {
+                let t = vec3(&p["translation"]);
+                for k in 0..3 {
+                    assert_close(
+                        got[k].unwrap(),
+                        t[k],
+                        1e-9,
+                        &format!("frame {i} position {k}"),
+                    );
+                }
+                let q = &p["rotation_xyzw"];
+                let dot: f64 = (0..4).map(|k| got[3 + k].unwrap() * f(&q[k])).sum();
+                assert_close(dot.abs(), 1.0, 1e-9, &format!("frame {i} rotation"));
+            }
+        }
+    }
+}
+
+fn check_summary(summary: &Value, expected: &Value) {
+    assert_eq!(summary["messages"], expected["messages"]);
+    assert_eq!(summary["poses"], expected["poses"]);
+    assert_eq!(
+        summary["frames"].as_u64().unwrap(),
+        expected["frames"].as_array().unwrap().len() as u64
+    );
+    let with_pose = expected["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| f["pose_status"] == "ok")
+        .count();
+    assert_eq!(
+        summary["frames_with_pose"].as_u64().unwrap(),
+        with_pose as u64
+    );
+    assert_eq!(summary["start_time_ns"], expected["start_time_ns"]);
+    assert_eq!(summary["end_time_ns"], expected["end_time_ns"]);
+    assert_close(
+        f(&summary["duration_s"]),
+        f(&expected["duration_s"]),
+        1e-9,
+        "duration",
+    );
+    assert_eq!(summary["truncated"], false);
+    assert_eq!(summary["corrupt_chunks"], 0);
+}
+
+#[test]
+fn odometry_jpeg_flight_decodes_every_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mcap, expected) = write_flight(dir.path(), "flight", &[]);
+    let run = dir.path().join("run");
+    let summary = ingest_ok(&mcap, &run, &[]);
+    check_summary(&summary, &expected);
+    check_frames(&run, &expected);
+    assert_eq!(summary["pose_source"]["topic"], "/odom");
+    assert_eq!(summary["pose_source"]["child_frame_id"], "base_link");
+    let warnings = summary["warnings"].to_string();
+    assert!(
+        warnings.contains("/imu (sensor_msgs/msg/Imu)"),
+        "{warnings}"
+    );
+
+    // Intrinsics and extrinsics.
+    let cameras = read_json(&run.join("cameras.json"));
+    let cam = &cameras[0];
+    let e = &expected["camera"];
+    let i = &cam["intrinsics"];
+    assert_eq!(i["width"], e["width"]);
+    assert_eq!(i["height"], e["height"]);
+    for (name, k) in [("fx", 0), ("cx", 2), ("fy", 4), ("cy", 5)] {
+        assert_close(f(&i[name]), f(&e["k"][k]), 1e-12, name);
+    }
+    assert_eq!(i["distortion"]["model"], "plumb_bob");
+    assert_eq!(i["distortion"]["coefficients"], e["d"]);
+    let t = vec3(&cam["extrinsic"]["translation"]);
+    let te = vec3(&expected["t_body_camera"]["translation"]);
+    for k in 0..3 {
+        assert_close(t[k], te[k], 1e-12, "extrinsic translation");
+    }
+
+    // The recorded map, read back lazily from the recording.
+    let flight = ingest::Flight::load(&run).unwrap();
+    let map = flight.recorded_map().unwrap().unwrap();
+    let em = &expected["map"];
+    assert_eq!(map.points.len() as u64, em["points"].as_u64().unwrap());
+    for (p, q) in map.points.iter().zip(em["first"].as_array().unwrap()) {
+        assert_eq!([p.x, p.y, p.z], vec3(q));
+    }
+    assert_eq!(summary["map"]["bounds"], em["bounds"]);
+
+    // JPEG pixels decode close to the pattern written (lossy, so loosely).
+    let img = flight.image(&flight.frames[0]).unwrap().to_rgb8();
+    let mut total_error = 0.0;
+    let pixels = expected["pixels"].as_array().unwrap();
+    for p in pixels {
+        let (x, y) = (p[0].as_u64().unwrap() as u32, p[1].as_u64().unwrap() as u32);
+        let got = img.get_pixel(x, y).0;
+        for c in 0..3 {
+            total_error += (f64::from(got[c]) - f(&p[2][c])).abs();
+        }
+    }
+    assert!(
+        total_error / (pixels.len() * 3) as f64 <= 24.0,
+        "JPEG too far from the pattern: {total_error}"
+    );
+}
+
+#[test]
+fn every_pose_message_type_gives_the_same_camera_poses() {
+    let dir = tempfile::tempdir().unwrap();
+    for (kind, topic) in [
+        ("pose", "/slam/pose"),
+        ("posecov", "/slam/pose_cov"),
+        ("tf", "/tf"),
+    ] {
+        let (mcap, expected) = write_flight(dir.path(), kind, &["--poses", kind]);
+        let run = dir.path().join(format!("run-{kind}"));
+        let summary = ingest_ok(&mcap, &run, &[]);
+        assert_eq!(summary["pose_source"]["topic"], topic, "{kind}");
+        assert_eq!(summary["pose_source"]["frame_id"], "map", "{kind}");
+        assert_eq!(
+            summary["pose_source"]["child_frame_id"], "base_link",
+            "{kind}"
+        );
+        check_summary(&summary, &expected);
+        check_frames(&run, &expected);
+    }
+}
+
+#[test]
+fn raw_and_png_images_decode_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    for (kind, extra) in [
+        ("png", &[][..]),
+        ("rgb8", &[][..]),
+        ("bgr8", &[][..]),
+        ("mono8", &[][..]),
+        ("mono16", &[][..]),
+        ("mono16", &["--big-endian-images"][..]),
+    ] {
+        let mut args = vec![
+            "--images",
+            kind,
+            "--width",
+            "33",
+            "--height",
+            "17",
+            "--duration",
+            "2",
+        ];
+        args.extend_from_slice(extra);
+        let (mcap, expected) = write_flight(dir.path(), kind, &args);
+        let run = dir.path().join(format!("run-{kind}-{}", extra.len()));
+        let summary = ingest_ok(&mcap, &run, &[]);
+        check_summary(&summary, &expected);
+        check_frames(&run, &expected);
+        let flight = ingest::Flight::load(&run).unwrap();
+        let frame = &flight.frames[3];
+        assert_eq!(frame.encoding, kind);
+        let img = flight.image(frame).unwrap();
+        for p in expected["pixels"].as_array().unwrap() {
+            let (x, y) = (p[0].as_u64().unwrap() as u32, p[1].as_u64().unwrap() as u32);
+            let want: Vec<u64> = p[2]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_u64().unwrap())
+                .collect();
+            let got: Vec<u64> = match kind {
+                "mono8" => vec![u64::from(img.to_luma8().get_pixel(x, y).0[0])],
+                "mono16" => vec![u64::from(img.to_luma16().get_pixel(x, y).0[0])],
+                _ => img
+                    .to_rgb8()
+                    .get_pixel(x, y)
+                    .0
+                    .iter()
+                    .map(|v| u64::from(*v))
+                    .collect(),
+            };
+            assert_eq!(got, want, "{kind} pixel ({x}, {y})");
+        }
+    }
+}
+
+#[test]
+fn equidistant_lz4_uncompressed_and_big_endian_float64_clouds() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, args) in [
+        (
+            "fisheye-lz4",
+            vec!["--distortion", "equidistant", "--compression", "lz4"],
+        ),
+        (
+            "f64be-none",
+            vec!["--cloud", "f64be", "--compression", "none"],
+        ),
+    ] {
+        let (mcap, expected) = write_flight(dir.path(), name, &args);
+        let run = dir.path().join(format!("run-{name}"));
+        let summary = ingest_ok(&mcap, &run, &[]);
+        check_summary(&summary, &expected);
+        check_frames(&run, &expected);
+        let cam = &read_json(&run.join("cameras.json"))[0]["intrinsics"];
+        assert_eq!(
+            cam["distortion"]["model"],
+            expected["camera"]["distortion_model"].as_str().unwrap()
+        );
+        assert_eq!(cam["distortion"]["coefficients"], expected["camera"]["d"]);
+        let flight = ingest::Flight::load(&run).unwrap();
+        let map = flight.recorded_map().unwrap().unwrap();
+        for (p, q) in map
+            .points
+            .iter()
+            .zip(expected["map"]["first"].as_array().unwrap())
+        {
+            assert_eq!([p.x, p.y, p.z], vec3(q), "{name}");
+        }
+    }
+}
+
+#[test]
+fn calibration_file_stands_in_for_missing_camera_info() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mcap, expected) = write_flight(dir.path(), "nocaminfo", &["--no-camera-info"]);
+    let run = dir.path().join("run");
+    let out = postflight(
+        &[
+            "ingest",
+            "--flight",
+            mcap.to_str().unwrap(),
+            "--out",
+            run.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(1));
+    let err = stderr(&out);
+    assert!(err.contains("--camera-info"), "{err}");
+    assert!(!run.join("ingest.json").exists());
+
+    let yaml = dir.path().join("camera.yaml");
+    std::fs::write(
+        &yaml,
+        "image_width: 64\nimage_height: 48\ncamera_name: narrow_stereo\ncamera_matrix:\n  rows: 3\n  cols: 3\n  data: [57.6, 0, 31.5, 0, 58.6, 24.25, 0, 0, 1]\ndistortion_model: plumb_bob\ndistortion_coefficients:\n  rows: 1\n  cols: 5\n  data: [-0.21, 0.045, 0.0012, -0.0007, 0]\nrectification_matrix:\n  rows: 3\n  cols: 3\n  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\nprojection_matrix:\n  rows: 3\n  cols: 4\n  data: [57.6, 0, 31.5, 0, 0, 58.6, 24.25, 0, 0, 0, 1, 0]\n",
+    )
+    .unwrap();
+    let summary = ingest_ok(&mcap, &run, &["--camera-info", yaml.to_str().unwrap()]);
+    check_summary(&summary, &expected);
+    let cam = &read_json(&run.join("cameras.json"))[0];
+    assert_close(f(&cam["intrinsics"]["fy"]), 58.6, 1e-12, "fy");
+    assert!(
+        cam["intrinsics_source"]
+            .as_str()
+            .unwrap()
+            .contains("camera.yaml")
+    );
+
+    let bad = dir.path().join("bad.yaml");
+    std::fs::write(&bad, "image_width: 64\n").unwrap();
+    let out = postflight(
+        &[
+            "ingest",
+            "--flight",
+            mcap.to_str().unwrap(),
+            "--out",
+            run.to_str().unwrap(),
+            "--camera-info",
+            bad.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stderr(&out).contains("camera calibration file"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn truncated_flight_is_salvaged_and_flagged() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mcap, expected) = write_flight(dir.path(), "full", &["--duration", "20"]);
+    let bytes = std::fs::read(&mcap).unwrap();
+    let cut = dir.path().join("cut.mcap");
+    std::fs::write(&cut, &bytes[..bytes.len() * 6 / 10]).unwrap();
+
+    let run = dir.path().join("run");
+    let out = postflight(
+        &[
+            "ingest",
+            "--flight",
+            cut.to_str().unwrap(),
+            "--out",
+            run.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("truncated"),
+        "no warning printed: {}",
+        stderr(&out)
+    );
+    let summary = read_json(&run.join("ingest.json"));
+    assert_eq!(summary["truncated"], true);
+
+    // The salvaged frames are exactly the first ones written, with their values.
+    let df = frames_table(&run);
+    let all = expected["frames"].as_array().unwrap();
+    let n = df.height();
+    assert!(
+        n >= all.len() / 2 && n < all.len(),
+        "salvaged {n} of {} frames",
+        all.len()
+    );
+    let mut prefix = expected.clone();
+    prefix["frames"] = Value::Array(all[..n].to_vec());
+    check_frames(&run, &prefix);
+    // Poses: all the complete ones up to the cut, which is past the last salvaged frame.
+    let poses = summary["poses"].as_u64().unwrap();
+    assert!(poses > 0 && poses < expected["poses"].as_u64().unwrap());
+    let last_frame_ns = all[n - 1]["time_ns"].as_i64().unwrap();
+    let traj = ParquetReader::new(std::fs::File::open(run.join("trajectory.parquet")).unwrap())
+        .finish()
+        .unwrap();
+    let last_pose_ns = traj
+        .column("time_ns")
+        .unwrap()
+        .i64()
+        .unwrap()
+        .max()
+        .unwrap();
+    assert!(last_pose_ns + 100_000_000 >= last_frame_ns);
+
+    let strict = postflight(
+        &[
+            "ingest",
+            "--flight",
+            cut.to_str().unwrap(),
+            "--out",
+            dir.path().join("strict").to_str().unwrap(),
+            "--strict",
+        ],
+        dir.path(),
+    );
+    assert_eq!(strict.status.code(), Some(1));
+    let err = stderr(&strict);
+    assert!(
+        err.contains("truncated") && err.contains("drop --strict"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!dir.path().join("strict/ingest.json").exists());
+}
+
+#[test]
+fn corrupt_chunk_is_skipped_and_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mcap, expected) = write_flight(dir.path(), "flight", &[]);
+    let chunks = expected["chunks"].as_array().unwrap();
+    let victim = &chunks[chunks.len() / 2];
+    let (offset, len, lost) = (
+        victim[0].as_u64().unwrap() as usize,
+        victim[1].as_u64().unwrap() as usize,
+        victim[2].as_u64().unwrap(),
+    );
+    let mut bytes = std::fs::read(&mcap).unwrap();
+    for b in &mut bytes[offset + len / 2..offset + len / 2 + 64] {
+        *b ^= 0x5a;
+    }
+    let bad = dir.path().join("corrupt.mcap");
+    std::fs::write(&bad, &bytes).unwrap();
+    let run = dir.path().join("run");
+    let summary = ingest_ok(&bad, &run, &[]);
+    assert_eq!(summary["corrupt_chunks"], 1);
+    assert_eq!(summary["truncated"], false);
+    let total = |v: &Value| -> u64 {
+        v.as_object()
+            .unwrap()
+            .values()
+            .map(|t| t["count"].as_u64().unwrap())
+            .sum()
+    };
+    assert_eq!(
+        total(&summary["messages"]),
+        total(&expected["messages"]) - lost
+    );
+}
+
+#[test]
+fn bad_input_fails_with_one_line_and_no_run_dir() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = dir.path().join("notes.txt");
+    std::fs::write(&text, "this is not a flight\n").unwrap();
+    let empty = dir.path().join("empty.mcap");
+    std::fs::write(&empty, "").unwrap();
+    let (no_poses, _) = write_flight(
+        dir.path(),
+        "noposes",
+        &["--poses", "none", "--duration", "2"],
+    );
+    let cases = [
+        (text.clone(), "not an MCAP recording"),
+        (empty, "it is empty"),
+        (dir.path().join("missing.mcap"), "cannot open"),
+        (no_poses.clone(), "no usable pose topic"),
+    ];
+    for (i, (flight, message)) in cases.iter().enumerate() {
+        let run = dir.path().join(format!("run{i}"));
+        let out = postflight(
+            &[
+                "ingest",
+                "--flight",
+                flight.to_str().unwrap(),
+                "--out",
+                run.to_str().unwrap(),
+            ],
+            dir.path(),
+        );
+        assert_eq!(out.status.code(), Some(1), "{message}");
+        let err = stderr(&out);
+        assert!(err.starts_with("error: ") && err.contains(message), "{err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(!run.join("ingest.json").exists());
+    }
+    let out = postflight(
+        &[
+            "ingest",
+            "--flight",
+            no_poses.to_str().unwrap(),
+            "--out",
+            dir.path().join("r").to_str().unwrap(),
+            "--image-topic",
+            "/nope",
+        ],
+        dir.path(),
+    );
+    let err = stderr(&out);
+    assert!(
+        err.contains("\"/nope\" is not in the recording")
+            && err.contains("/camera/image_raw/compressed"),
+        "{err}"
+    );
+}
