@@ -108,7 +108,7 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
 }
 
 fn ingest(args: &IngestArgs, quiet: bool) -> anyhow::Result<()> {
-    if !(args.max_pose_gap > 0.0) {
+    if !args.max_pose_gap.is_finite() || args.max_pose_gap <= 0.0 {
         anyhow::bail!("--max-pose-gap must be a positive number of seconds");
     }
     let options = ingest::IngestOptions {

@@ -344,78 +344,104 @@ fn calibration_file_stands_in_for_missing_camera_info() {
 #[test]
 fn truncated_flight_is_salvaged_and_flagged() {
     let dir = tempfile::tempdir().unwrap();
-    let (mcap, expected) = write_flight(dir.path(), "full", &["--duration", "20"]);
-    let bytes = std::fs::read(&mcap).unwrap();
-    let cut = dir.path().join("cut.mcap");
-    std::fs::write(&cut, &bytes[..bytes.len() * 6 / 10]).unwrap();
+    // zstd chunks of 64 KiB (the cut loses the chunk it falls in), and one
+    // large uncompressed chunk (rosbag2's default storage) whose front is salvaged.
+    for (name, args) in [
+        ("zstd", vec!["--duration", "20"]),
+        (
+            "uncompressed",
+            vec![
+                "--duration",
+                "20",
+                "--compression",
+                "none",
+                "--chunk-size",
+                "1000000",
+            ],
+        ),
+    ] {
+        let (mcap, expected) = write_flight(dir.path(), name, &args);
+        let bytes = std::fs::read(&mcap).unwrap();
+        let cut = dir.path().join(format!("{name}-cut.mcap"));
+        std::fs::write(&cut, &bytes[..bytes.len() * 6 / 10]).unwrap();
 
-    let run = dir.path().join("run");
-    let out = postflight(
-        &[
-            "ingest",
-            "--flight",
-            cut.to_str().unwrap(),
-            "--out",
-            run.to_str().unwrap(),
-        ],
-        dir.path(),
-    );
-    assert!(out.status.success(), "{}", stderr(&out));
-    assert!(
-        stderr(&out).contains("truncated"),
-        "no warning printed: {}",
-        stderr(&out)
-    );
-    let summary = read_json(&run.join("ingest.json"));
-    assert_eq!(summary["truncated"], true);
+        let run = dir.path().join(format!("run-{name}"));
+        let out = postflight(
+            &[
+                "ingest",
+                "--flight",
+                cut.to_str().unwrap(),
+                "--out",
+                run.to_str().unwrap(),
+            ],
+            dir.path(),
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+        assert!(
+            stderr(&out).contains("truncated"),
+            "no warning printed: {}",
+            stderr(&out)
+        );
+        let summary = read_json(&run.join("ingest.json"));
+        assert_eq!(summary["truncated"], true);
+        if name == "uncompressed" {
+            assert!(
+                summary["warnings"]
+                    .to_string()
+                    .contains("complete messages recovered from it"),
+                "{}",
+                summary["warnings"]
+            );
+        }
 
-    // The salvaged frames are exactly the first ones written, with their values.
-    let df = frames_table(&run);
-    let all = expected["frames"].as_array().unwrap();
-    let n = df.height();
-    assert!(
-        n >= all.len() / 2 && n < all.len(),
-        "salvaged {n} of {} frames",
-        all.len()
-    );
-    let mut prefix = expected.clone();
-    prefix["frames"] = Value::Array(all[..n].to_vec());
-    check_frames(&run, &prefix);
-    // Poses: all the complete ones up to the cut, which is past the last salvaged frame.
-    let poses = summary["poses"].as_u64().unwrap();
-    assert!(poses > 0 && poses < expected["poses"].as_u64().unwrap());
-    let last_frame_ns = all[n - 1]["time_ns"].as_i64().unwrap();
-    let traj = ParquetReader::new(std::fs::File::open(run.join("trajectory.parquet")).unwrap())
-        .finish()
-        .unwrap();
-    let last_pose_ns = traj
-        .column("time_ns")
-        .unwrap()
-        .i64()
-        .unwrap()
-        .max()
-        .unwrap();
-    assert!(last_pose_ns + 100_000_000 >= last_frame_ns);
+        // The salvaged frames are exactly the first ones written, with their values.
+        let df = frames_table(&run);
+        let all = expected["frames"].as_array().unwrap();
+        let n = df.height();
+        assert!(
+            n >= all.len() / 2 && n < all.len(),
+            "{name}: salvaged {n} of {} frames",
+            all.len()
+        );
+        let mut prefix = expected.clone();
+        prefix["frames"] = Value::Array(all[..n].to_vec());
+        check_frames(&run, &prefix);
+        // Poses: the complete ones up to the cut, reaching past the last salvaged frame.
+        let poses = summary["poses"].as_u64().unwrap();
+        assert!(poses > 0 && poses < expected["poses"].as_u64().unwrap());
+        let last_frame_ns = all[n - 1]["time_ns"].as_i64().unwrap();
+        let traj = ParquetReader::new(std::fs::File::open(run.join("trajectory.parquet")).unwrap())
+            .finish()
+            .unwrap();
+        let last_pose_ns = traj
+            .column("time_ns")
+            .unwrap()
+            .i64()
+            .unwrap()
+            .max()
+            .unwrap();
+        assert!(last_pose_ns + 100_000_000 >= last_frame_ns);
 
-    let strict = postflight(
-        &[
-            "ingest",
-            "--flight",
-            cut.to_str().unwrap(),
-            "--out",
-            dir.path().join("strict").to_str().unwrap(),
-            "--strict",
-        ],
-        dir.path(),
-    );
-    assert_eq!(strict.status.code(), Some(1));
-    let err = stderr(&strict);
-    assert!(
-        err.contains("truncated") && err.contains("drop --strict"),
-        "{err}"
-    );
-    assert_eq!(err.trim().lines().count(), 1, "{err}");
-    assert!(!dir.path().join("strict/ingest.json").exists());
+        let strict = postflight(
+            &[
+                "ingest",
+                "--flight",
+                cut.to_str().unwrap(),
+                "--out",
+                dir.path().join("strict").to_str().unwrap(),
+                "--strict",
+            ],
+            dir.path(),
+        );
+        assert_eq!(strict.status.code(), Some(1));
+        let err = stderr(&strict);
+        assert!(
+            err.contains("truncated") && err.contains("drop --strict"),
+            "{err}"
+        );
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(!dir.path().join("strict/ingest.json").exists());
+    }
 }
 
 #[test]

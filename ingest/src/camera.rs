@@ -161,7 +161,8 @@ impl Intrinsics {
                 k.len()
             ));
         };
-        if !(*fx > 0.0 && *fy > 0.0) || !cx.is_finite() || !cy.is_finite() {
+        let valid = *fx > 0.0 && *fy > 0.0 && cx.is_finite() && cy.is_finite();
+        if !valid {
             return Err("camera matrix K is unset (fx, fy must be positive)".into());
         }
         if width == 0 || height == 0 {

@@ -46,7 +46,8 @@ impl InspectionPlan {
             .map_err(|e| error(format!("{e}; check the path given to --plan")))?;
         let plan: Self = serde_json::from_str(&text)
             .map_err(|e| error(format!("not a postflight plan: {e}")))?;
-        if !(plan.resolution > 0.0) {
+        // Also rejects NaN.
+        if plan.resolution.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return Err(error(
                 "resolution must be a positive number of metres".into(),
             ));

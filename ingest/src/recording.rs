@@ -217,7 +217,8 @@ impl Recording {
             pos += RECORD_PREFIX + body.len();
         }
         chunks.flush(&mut links, &mut visit, &mut report);
-        if !report.truncated && !(ended && buf.ends_with(mcap::MAGIC)) {
+        let complete = ended && buf.ends_with(mcap::MAGIC);
+        if !report.truncated && !complete {
             report.truncated = true;
             report.truncated_at = Some(pos.min(buf.len()) as u64);
         }

@@ -431,7 +431,7 @@ pub fn ingest(
     }
     check_topic_flags(options, &messages)?;
 
-    let mut warnings = damage_warnings(&report, &scan);
+    let mut warnings = damage_warnings(&report, &scan, total);
     if scan.frames.is_empty() {
         return Err(IngestError::NoImages { path });
     }
@@ -569,12 +569,12 @@ fn check_topic_flags(
     Ok(())
 }
 
-fn damage_warnings(report: &ScanReport, scan: &Scan) -> Vec<String> {
+fn damage_warnings(report: &ScanReport, scan: &Scan, file_len: u64) -> Vec<String> {
     let mut warnings = Vec::new();
     if report.truncated {
         warnings.push(format!(
-            "the recording is truncated at byte {} (recording cut short?): every complete message before it was ingested",
-            report.truncated_at.unwrap_or_default()
+            "the recording is truncated (recording cut short?): it ends at byte {file_len} inside the record starting at byte {}; every complete message before the cut was ingested",
+            report.truncated_at.unwrap_or(file_len)
         ));
     }
     if report.corrupt_chunks > 0 {

@@ -103,7 +103,7 @@ mod tests {
     use crate::ros::msg::{CompressedImageHead, Header};
 
     fn le_string(out: &mut Vec<u8>, s: &str) {
-        while (out.len() - 4) % 4 != 0 {
+        while !(out.len() - 4).is_multiple_of(4) {
             out.push(0);
         }
         out.extend_from_slice(&(s.len() as u32 + 1).to_le_bytes());
@@ -118,7 +118,7 @@ mod tests {
         p.extend_from_slice(&9u32.to_le_bytes());
         le_string(&mut p, "cam");
         le_string(&mut p, "jpeg");
-        while (p.len() - 4) % 4 != 0 {
+        while !(p.len() - 4).is_multiple_of(4) {
             p.push(0);
         }
         p.extend_from_slice(&3u32.to_le_bytes());
