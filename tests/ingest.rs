@@ -10,16 +10,20 @@ use common::*;
 use polars::prelude::*;
 use serde_json::Value;
 
-fn ingest_ok(mcap: &Path, run: &Path, extra: &[&str]) -> Value {
+fn run_ingest(flight: &Path, run: &Path, extra: &[&str]) -> std::process::Output {
     let mut args = vec![
         "ingest",
         "--flight",
-        mcap.to_str().unwrap(),
+        flight.to_str().unwrap(),
         "--out",
         run.to_str().unwrap(),
     ];
     args.extend_from_slice(extra);
-    let out = postflight(&args, run.parent().unwrap());
+    postflight(&args, run.parent().unwrap())
+}
+
+fn ingest_ok(mcap: &Path, run: &Path, extra: &[&str]) -> Value {
+    let out = run_ingest(mcap, run, extra);
     assert!(out.status.success(), "ingest failed: {}", stderr(&out));
     read_json(&run.join("ingest.json"))
 }
@@ -287,16 +291,7 @@ fn calibration_file_stands_in_for_missing_camera_info() {
     let dir = tempfile::tempdir().unwrap();
     let (mcap, expected) = write_flight(dir.path(), "nocaminfo", &["--no-camera-info"]);
     let run = dir.path().join("run");
-    let out = postflight(
-        &[
-            "ingest",
-            "--flight",
-            mcap.to_str().unwrap(),
-            "--out",
-            run.to_str().unwrap(),
-        ],
-        dir.path(),
-    );
+    let out = run_ingest(&mcap, &run, &[]);
     assert_eq!(out.status.code(), Some(1));
     let err = stderr(&out);
     assert!(err.contains("--camera-info"), "{err}");
@@ -321,18 +316,7 @@ fn calibration_file_stands_in_for_missing_camera_info() {
 
     let bad = dir.path().join("bad.yaml");
     std::fs::write(&bad, "image_width: 64\n").unwrap();
-    let out = postflight(
-        &[
-            "ingest",
-            "--flight",
-            mcap.to_str().unwrap(),
-            "--out",
-            run.to_str().unwrap(),
-            "--camera-info",
-            bad.to_str().unwrap(),
-        ],
-        dir.path(),
-    );
+    let out = run_ingest(&mcap, &run, &["--camera-info", bad.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
     assert!(
         stderr(&out).contains("camera calibration file"),
@@ -366,16 +350,7 @@ fn truncated_flight_is_salvaged_and_flagged() {
         std::fs::write(&cut, &bytes[..bytes.len() * 6 / 10]).unwrap();
 
         let run = dir.path().join(format!("run-{name}"));
-        let out = postflight(
-            &[
-                "ingest",
-                "--flight",
-                cut.to_str().unwrap(),
-                "--out",
-                run.to_str().unwrap(),
-            ],
-            dir.path(),
-        );
+        let out = run_ingest(&cut, &run, &[]);
         assert!(out.status.success(), "{}", stderr(&out));
         assert!(
             stderr(&out).contains("truncated"),
@@ -422,17 +397,7 @@ fn truncated_flight_is_salvaged_and_flagged() {
             .unwrap();
         assert!(last_pose_ns + 100_000_000 >= last_frame_ns);
 
-        let strict = postflight(
-            &[
-                "ingest",
-                "--flight",
-                cut.to_str().unwrap(),
-                "--out",
-                dir.path().join("strict").to_str().unwrap(),
-                "--strict",
-            ],
-            dir.path(),
-        );
+        let strict = run_ingest(&cut, &dir.path().join("strict"), &["--strict"]);
         assert_eq!(strict.status.code(), Some(1));
         let err = stderr(&strict);
         assert!(
@@ -498,33 +463,17 @@ fn bad_input_fails_with_one_line_and_no_run_dir() {
     ];
     for (i, (flight, message)) in cases.iter().enumerate() {
         let run = dir.path().join(format!("run{i}"));
-        let out = postflight(
-            &[
-                "ingest",
-                "--flight",
-                flight.to_str().unwrap(),
-                "--out",
-                run.to_str().unwrap(),
-            ],
-            dir.path(),
-        );
+        let out = run_ingest(flight, &run, &[]);
         assert_eq!(out.status.code(), Some(1), "{message}");
         let err = stderr(&out);
         assert!(err.starts_with("error: ") && err.contains(message), "{err}");
         assert_eq!(err.trim().lines().count(), 1, "{err}");
         assert!(!run.join("ingest.json").exists());
     }
-    let out = postflight(
-        &[
-            "ingest",
-            "--flight",
-            no_poses.to_str().unwrap(),
-            "--out",
-            dir.path().join("r").to_str().unwrap(),
-            "--image-topic",
-            "/nope",
-        ],
-        dir.path(),
+    let out = run_ingest(
+        &no_poses,
+        &dir.path().join("r"),
+        &["--image-topic", "/nope"],
     );
     let err = stderr(&out);
     assert!(

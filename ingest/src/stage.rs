@@ -449,6 +449,15 @@ pub fn ingest(
     frames.sort_by(|a, b| (a.time_ns, &a.topic).cmp(&(b.time_ns, &b.topic)));
     place_frames(&mut frames, &trajectory, &scan.tf, max_gap_ns);
     let map = recorded_map(&recording, &scan, &mut warnings);
+    if let Some(m) = &map
+        && !m.frame_id.is_empty()
+        && m.frame_id != trajectory.frame_id
+    {
+        warnings.push(format!(
+            "the map on {} is in frame {:?} but the poses are in {:?}; later stages assume they are the same frame",
+            m.topic, m.frame_id, trajectory.frame_id
+        ));
+    }
 
     let mut by_status: BTreeMap<String, u64> = BTreeMap::new();
     for f in &frames {
