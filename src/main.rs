@@ -33,6 +33,44 @@ struct Cli {
 enum Command {
     /// Read a ROS 2 MCAP flight recording into a run directory.
     Ingest(IngestArgs),
+    /// Simulate an inspection flight with ground truth (flight.mcap, map.ply,
+    /// plan.json, truth.json).
+    Simulate(SimulateArgs),
+}
+
+#[derive(Args)]
+struct SimulateArgs {
+    /// Directory to write the flight into (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+    /// Built-in structure to fly around.
+    #[arg(long, value_enum, default_value_t = SceneArg::GirderBridge)]
+    scene: SceneArg,
+    /// Fly around this triangle mesh instead (Wavefront OBJ, z up, metres).
+    #[arg(long, value_name = "STRUCTURE.obj", conflicts_with = "scene")]
+    mesh: Option<PathBuf>,
+    /// Seed: the same seed gives byte-identical files.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Number of camera frames (a few are dropped, as recorders do).
+    #[arg(long, default_value_t = 300)]
+    frames: u32,
+    #[arg(long, default_value_t = 640)]
+    width: u32,
+    #[arg(long, default_value_t = 480)]
+    height: u32,
+    /// Number of cracks drawn on the structure.
+    #[arg(long, default_value_t = 40)]
+    cracks: usize,
+    /// Record an ideal lens instead of plumb_bob distortion.
+    #[arg(long)]
+    no_distortion: bool,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum SceneArg {
+    GirderBridge,
+    Tower,
 }
 
 #[derive(Args)]
@@ -104,6 +142,7 @@ fn init_logging(verbose: u8) {
 fn run(cli: &Cli) -> anyhow::Result<()> {
     match &cli.command {
         Command::Ingest(args) => ingest(args, cli.quiet),
+        Command::Simulate(args) => simulate(args, cli.quiet),
     }
 }
 
@@ -123,7 +162,7 @@ fn ingest(args: &IngestArgs, quiet: bool) -> anyhow::Result<()> {
         strict: args.strict,
         ..ingest::IngestOptions::new(args.flight.clone(), args.out.clone())
     };
-    let mut bar = progress::Bytes::new("ingest", quiet);
+    let mut bar = progress::Bar::bytes("ingest", quiet);
     let summary = ingest::ingest(&options, &mut bar)?;
     bar.finish();
     for w in &summary.warnings {
@@ -141,6 +180,39 @@ fn ingest(args: &IngestArgs, quiet: bool) -> anyhow::Result<()> {
             } else {
                 ""
             },
+            args.out.display()
+        );
+    }
+    Ok(())
+}
+
+fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
+    let scene = match (&args.mesh, args.scene) {
+        (Some(mesh), _) => sim::SceneChoice::Mesh(mesh.clone()),
+        (None, SceneArg::GirderBridge) => sim::SceneChoice::GirderBridge,
+        (None, SceneArg::Tower) => sim::SceneChoice::Tower,
+    };
+    let options = sim::SimOptions {
+        scene,
+        seed: args.seed,
+        frames: args.frames,
+        width: args.width,
+        height: args.height,
+        cracks: args.cracks,
+        distortion: !args.no_distortion,
+        ..sim::SimOptions::new(args.out.clone())
+    };
+    let bar = progress::Bar::count("simulate", quiet);
+    let summary = sim::simulate(&options, &mut |done, total| bar.set(done, total))
+        .map_err(|e| anyhow::anyhow!("simulate: {e}"))?;
+    bar.finish();
+    if !quiet {
+        println!(
+            "simulated {} frames ({} dropped), {} cracks, {:.0} s of flight into {}",
+            summary.frames,
+            summary.dropped_frames,
+            summary.cracks,
+            summary.duration_s,
             args.out.display()
         );
     }

@@ -2,28 +2,39 @@
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-/// A byte-count progress bar.
-pub struct Bytes(ProgressBar);
+pub struct Bar(ProgressBar);
 
-impl Bytes {
-    pub fn new(stage: &str, quiet: bool) -> Self {
-        let bar = ProgressBar::with_draw_target(
-            Some(0),
-            if quiet {
-                ProgressDrawTarget::hidden()
-            } else {
-                ProgressDrawTarget::stderr()
-            },
-        );
+impl Bar {
+    /// A bar counting bytes.
+    pub fn bytes(stage: &str, quiet: bool) -> Self {
+        Self::new(stage, quiet, "{bytes}/{total_bytes} {bytes_per_sec}")
+    }
+
+    /// A bar counting items (frames, detections, ...).
+    pub fn count(stage: &str, quiet: bool) -> Self {
+        Self::new(stage, quiet, "{pos}/{len} {per_sec}")
+    }
+
+    fn new(stage: &str, quiet: bool, counter: &str) -> Self {
+        let target = if quiet {
+            ProgressDrawTarget::hidden()
+        } else {
+            ProgressDrawTarget::stderr()
+        };
+        let bar = ProgressBar::with_draw_target(Some(0), target);
+        let template = format!("{{prefix:>8}} [{{bar:30}}] {counter} eta {{eta}}");
         bar.set_style(
-            ProgressStyle::with_template(
-                "{prefix:>8} [{bar:30}] {bytes}/{total_bytes} {bytes_per_sec} eta {eta}",
-            )
-            .expect("valid template")
-            .progress_chars("=> "),
+            ProgressStyle::with_template(&template)
+                .expect("valid template")
+                .progress_chars("=> "),
         );
         bar.set_prefix(stage.to_string());
         Self(bar)
+    }
+
+    pub fn set(&self, done: u64, total: u64) {
+        self.0.set_length(total);
+        self.0.set_position(done);
     }
 
     pub fn finish(&self) {
@@ -31,9 +42,8 @@ impl Bytes {
     }
 }
 
-impl ingest::Progress for Bytes {
+impl ingest::Progress for Bar {
     fn bytes(&mut self, done: u64, total: u64) {
-        self.0.set_length(total);
-        self.0.set_position(done);
+        self.set(done, total);
     }
 }

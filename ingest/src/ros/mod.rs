@@ -1,6 +1,7 @@
 //! ROS 2 wire formats: message structs and their CDR decoding.
 
 pub mod cdr;
+pub mod definitions;
 pub mod msg;
 
 /// ROS 2 schema names postflight understands, as they appear in MCAP schema records.

@@ -1,0 +1,377 @@
+//! Synthetic inspection flights with ground truth.
+//!
+//! This crate owns the simulator behind `postflight simulate` and
+//! `postflight demo`: a scene (a girder bridge, a tower, or any OBJ mesh)
+//! with seeded cracks drawn on its surfaces, an inspection plan for it, and a
+//! flight that flies the plan imperfectly (a skipped part, rushed and blurred
+//! legs, pose noise, dropped frames). It writes what a real flight leaves
+//! behind: a ROS 2 MCAP recording (rendered JPEG frames, CameraInfo, poses,
+//! `/tf_static`, the SLAM map), `map.ply` and `plan.json`, plus `truth.json`
+//! with where every crack really is and what every frame really saw. Nothing
+//! downstream can tell the recording was simulated; it depends only on
+//! `ingest`'s message and plan types.
+
+pub mod crack;
+pub mod flight;
+mod obj;
+pub mod planner;
+pub mod record;
+pub mod render;
+pub mod rng;
+pub mod scene;
+pub mod truth;
+
+use std::io::Cursor;
+use std::path::{Path, PathBuf};
+
+use ingest::ros::msg;
+use ingest::{Distortion, Intrinsics};
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+
+use crate::crack::Cracks;
+use crate::flight::Flight;
+use crate::record::{Recorder, header, ros_pose};
+use crate::render::RayTable;
+use crate::rng::Rng;
+use crate::scene::{Class, Scene, area};
+use crate::truth::{CrackTruth, FrameTruth, PoseJson, Truth};
+
+/// Which structure to fly around.
+#[derive(Debug, Clone)]
+pub enum SceneChoice {
+    GirderBridge,
+    Tower,
+    Mesh(PathBuf),
+}
+
+#[derive(Debug, Clone)]
+pub struct SimOptions {
+    pub out: PathBuf,
+    pub scene: SceneChoice,
+    pub seed: u64,
+    pub frames: u32,
+    pub width: u32,
+    pub height: u32,
+    pub cracks: usize,
+    /// Record plumb_bob lens distortion (and render with it).
+    pub distortion: bool,
+}
+
+impl SimOptions {
+    pub fn new(out: PathBuf) -> Self {
+        Self {
+            out,
+            scene: SceneChoice::GirderBridge,
+            seed: 1,
+            frames: 300,
+            width: 640,
+            height: 480,
+            cracks: 40,
+            distortion: true,
+        }
+    }
+}
+
+/// What a simulation wrote.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SimSummary {
+    pub frames: u32,
+    pub dropped_frames: u32,
+    pub cracks: usize,
+    pub duration_s: f64,
+    pub map_points: usize,
+    pub flight: PathBuf,
+}
+
+/// Camera mounting: ahead of and below the body origin, pitched down.
+pub const CAMERA_OFFSET: [f64; 3] = [0.25, 0.0, -0.12];
+pub const CAMERA_PITCH_DEG: f64 = 12.0;
+/// Exposure time of every frame, seconds.
+pub const EXPOSURE_S: f64 = 0.008;
+/// Share of frames the recorder dropped.
+const DROP_RATE: f64 = 0.02;
+/// Start of the simulated clock (2025-06-15T12:00:00Z), ns.
+const T0_NS: i64 = 1_749_988_800_000_000_000;
+
+/// `T_body_camera` (optical frame: x right, y down, z forward).
+pub fn body_to_camera() -> (Isometry3<f64>, Isometry3<f64>) {
+    let link = Isometry3::from_parts(
+        Translation3::from(Vector3::from(CAMERA_OFFSET)),
+        UnitQuaternion::from_axis_angle(&Vector3::y_axis(), CAMERA_PITCH_DEG.to_radians()),
+    );
+    let optical = Isometry3::from_parts(
+        Translation3::identity(),
+        UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(0.5, -0.5, 0.5, -0.5)),
+    );
+    (link, optical)
+}
+
+fn intrinsics(width: u32, height: u32, distortion: bool) -> Intrinsics {
+    // A narrow lens (37 degrees across), as inspection cameras use for mm detail.
+    let f = f64::from(width) * 1.5;
+    Intrinsics {
+        width,
+        height,
+        fx: f,
+        fy: f,
+        cx: f64::from(width) / 2.0,
+        cy: f64::from(height) / 2.0,
+        distortion: if distortion {
+            Distortion::PlumbBob([-0.08, 0.025, 0.0004, -0.0003, 0.0])
+        } else {
+            Distortion::None
+        },
+    }
+}
+
+fn ns(t: f64) -> i64 {
+    T0_NS + (t * 1e9).round() as i64
+}
+
+/// Simulate a flight into `options.out`; `progress(done, total)` per frame.
+pub fn simulate(
+    options: &SimOptions,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<SimSummary, String> {
+    if options.frames < 2 || options.width < 16 || options.height < 16 {
+        return Err("a flight needs at least 2 frames of at least 16x16 pixels".into());
+    }
+    let scene = match &options.scene {
+        SceneChoice::GirderBridge => Scene::girder_bridge(),
+        SceneChoice::Tower => Scene::tower(),
+        SceneChoice::Mesh(path) => {
+            Scene::from_obj(path).map_err(|e| format!("mesh {}: {e}", path.display()))?
+        }
+    };
+    std::fs::create_dir_all(&options.out)
+        .map_err(|e| format!("cannot create {}: {e}", options.out.display()))?;
+    let seed = options.seed;
+    let cracks = Cracks::generate(&scene, options.cracks, &mut Rng::stream(seed, "cracks"));
+    let plan = planner::plan(
+        &scene,
+        ingest::map::DEFAULT_RESOLUTION,
+        CAMERA_PITCH_DEG.to_radians(),
+    );
+    if plan.viewpoints.len() < 3 {
+        return Err("the structure is too small to plan a flight around".into());
+    }
+    let flight = Flight::fly(&plan, &mut Rng::stream(seed, "flight"));
+    let k = intrinsics(options.width, options.height, options.distortion);
+    let rays = RayTable::new(&k);
+    let (link, optical) = body_to_camera();
+    let body_camera = link * optical;
+
+    let mut rec = Recorder::create(&options.out.join("flight.mcap"))?;
+    let tf = |parent: &str, child: &str, p: &Isometry3<f64>| {
+        let pose = ros_pose(p);
+        msg::TransformStamped {
+            header: header(T0_NS, parent),
+            child_frame_id: child.into(),
+            transform: msg::Transform {
+                translation: pose.position,
+                rotation: pose.orientation,
+            },
+        }
+    };
+    rec.write(
+        "/tf_static",
+        T0_NS,
+        &msg::TfMessage {
+            transforms: vec![
+                tf("base_link", "camera_link", &link),
+                tf("camera_link", "camera_optical", &optical),
+            ],
+        },
+    )?;
+
+    let duration = flight.duration();
+    let pose_times: Vec<f64> = (0..=(duration * flight::POSE_RATE).ceil() as usize)
+        .map(|i| (i as f64 / flight::POSE_RATE).min(duration))
+        .collect();
+    let mut next_pose = 0;
+    let mut noise = Rng::stream(seed, "pose noise");
+    let mut drops = Rng::stream(seed, "dropped frames");
+    let mut frames = Vec::new();
+    let n = options.frames;
+    let mut dropped = 0;
+    for i in 0..n {
+        let t = duration * f64::from(i) / f64::from(n - 1);
+        // Poses stamped up to this frame go first, as a recorder would receive them.
+        while next_pose < pose_times.len() && pose_times[next_pose] <= t {
+            let pt = pose_times[next_pose];
+            let pose = flight::noisy(&flight.body_pose(pt), &mut noise);
+            let msg = msg::PoseStamped {
+                header: header(ns(pt), "map"),
+                pose: ros_pose(&pose),
+            };
+            rec.write(record::POSE_TOPIC, ns(pt) + 4_000_000, &msg)?;
+            next_pose += 1;
+        }
+        let camera = flight.body_pose(t) * body_camera;
+        let is_dropped = i > 0 && i + 1 < n && drops.uniform() < DROP_RATE;
+        let blur = blur_vector(&scene, &flight, &body_camera, &k, t);
+        let in_view = truth::cracks_in_view(&scene, &cracks.0, &k, &camera);
+        if is_dropped {
+            dropped += 1;
+        } else {
+            let img = render::motion_blur(
+                &render::render(&scene, &cracks, &rays, &camera, i),
+                blur.0,
+                blur.1,
+            );
+            let mut jpeg = Cursor::new(Vec::new());
+            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 92)
+                .encode_image(&img)
+                .map_err(|e| e.to_string())?;
+            let stamp = ns(t);
+            let log = stamp + 35_000_000;
+            rec.write(
+                record::IMAGE_TOPIC,
+                log,
+                &msg::CompressedImage {
+                    header: header(stamp, "camera_optical"),
+                    format: "jpeg".into(),
+                    data: jpeg.into_inner(),
+                },
+            )?;
+            rec.write(record::CAMERA_INFO_TOPIC, log, &camera_info(&k, stamp))?;
+        }
+        frames.push(FrameTruth {
+            index: i,
+            time_ns: ns(t),
+            dropped: is_dropped,
+            camera_pose: PoseJson::from(&camera),
+            fast: flight.is_fast(t),
+            blur_px: blur.0.hypot(blur.1),
+            cracks: in_view,
+        });
+        progress(u64::from(i) + 1, u64::from(n));
+    }
+    let map = map_points(&scene, &mut Rng::stream(seed, "map"));
+    rec.write(
+        record::MAP_TOPIC,
+        ns(duration) + 500_000_000,
+        &record::point_cloud(&map, ns(duration)),
+    )?;
+    rec.finish()?;
+    record::write_ply(&options.out.join("map.ply"), &map)?;
+
+    let grid = plan.grid();
+    let truth = Truth {
+        scene: scene.name.clone(),
+        seed,
+        exposure_s: EXPOSURE_S,
+        camera: k,
+        t_body_camera: PoseJson::from(&body_camera),
+        pose_noise: truth::PoseNoise {
+            position_m: flight::POSITION_NOISE,
+            yaw_rad: flight::YAW_NOISE,
+        },
+        skipped_viewpoints: flight.skipped.clone(),
+        cracks: cracks
+            .0
+            .iter()
+            .map(|c| CrackTruth::new(c, &scene, &grid))
+            .collect(),
+        frames,
+    };
+    write_json(&options.out.join("plan.json"), &plan)?;
+    write_json(&options.out.join("truth.json"), &truth)?;
+    Ok(SimSummary {
+        frames: n - dropped,
+        dropped_frames: dropped,
+        cracks: cracks.0.len(),
+        duration_s: duration,
+        map_points: map.len(),
+        flight: options.out.join("flight.mcap"),
+    })
+}
+
+fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<(), String> {
+    let text = serde_json::to_string_pretty(value).map_err(|e| e.to_string())?;
+    std::fs::write(path, text + "\n").map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+fn camera_info(k: &Intrinsics, stamp: i64) -> msg::CameraInfo {
+    let d = match k.distortion {
+        Distortion::PlumbBob(c) => c.to_vec(),
+        _ => vec![0.0; 5],
+    };
+    msg::CameraInfo {
+        header: header(stamp, "camera_optical"),
+        height: k.height,
+        width: k.width,
+        distortion_model: "plumb_bob".into(),
+        d,
+        k: [k.fx, 0.0, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0],
+        r: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+        p: [
+            k.fx, 0.0, k.cx, 0.0, 0.0, k.fy, k.cy, 0.0, 0.0, 0.0, 1.0, 0.0,
+        ],
+        binning_x: 0,
+        binning_y: 0,
+        roi: msg::RegionOfInterest {
+            x_offset: 0,
+            y_offset: 0,
+            height: 0,
+            width: 0,
+            do_rectify: false,
+        },
+    }
+}
+
+/// Image motion during the exposure, pixels: where the scene point at the
+/// image centre moves between the start and end of the exposure.
+fn blur_vector(
+    scene: &Scene,
+    flight: &Flight,
+    body_camera: &Isometry3<f64>,
+    k: &Intrinsics,
+    t: f64,
+) -> (f64, f64) {
+    let camera = flight.body_pose(t) * body_camera;
+    let origin = Point3::from(camera.translation.vector);
+    let axis = camera.rotation * Vector3::z();
+    let target = scene
+        .cast(&origin, &axis, 200.0)
+        .map_or(origin + axis * 20.0, |h| h.point);
+    let at = |time: f64| {
+        let cam = flight.body_pose(time.clamp(0.0, flight.duration())) * body_camera;
+        k.project(&(cam.inverse() * target).coords)
+    };
+    match (at(t - EXPOSURE_S / 2.0), at(t + EXPOSURE_S / 2.0)) {
+        (Some(a), Some(b)) => (b.x - a.x, b.y - a.y),
+        _ => (0.0, 0.0),
+    }
+}
+
+/// SLAM map points: samples of every surface near the structure, with 1.5 cm noise.
+fn map_points(scene: &Scene, rng: &mut Rng) -> Vec<Point3<f64>> {
+    let (lo, hi) = scene.infrastructure_bounds();
+    let near = |p: &Point3<f64>| {
+        p.x > lo.x - 12.0 && p.x < hi.x + 12.0 && p.y > lo.y - 12.0 && p.y < hi.y + 12.0
+    };
+    let mut points = Vec::new();
+    for (t, tri) in scene.triangles.iter().enumerate() {
+        let density = match scene.class(t as u32) {
+            Class::Infrastructure => 150.0,
+            Class::Obstacle => 60.0,
+            Class::Ground => 6.0,
+        };
+        let expected = area(tri) * density;
+        let count = expected.floor() as usize + usize::from(rng.uniform() < expected.fract());
+        for _ in 0..count {
+            let (mut s, mut r) = (rng.uniform(), rng.uniform());
+            if s + r > 1.0 {
+                (s, r) = (1.0 - s, 1.0 - r);
+            }
+            let p = tri[0] + (tri[1] - tri[0]) * s + (tri[2] - tri[0]) * r;
+            if !near(&p) {
+                continue;
+            }
+            let jitter = Vector3::new(rng.normal(), rng.normal(), rng.normal()) * 0.015;
+            points.push(p + jitter);
+        }
+    }
+    points
+}

@@ -1,0 +1,170 @@
+//! Writing the simulated flight as a ROS 2 MCAP recording, laid out as
+//! rosbag2 records one: schemas with their `.msg` text, CDR messages.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::Path;
+
+use ingest::ros::{cdr, definitions, msg};
+use nalgebra::{Isometry3, Point3};
+
+/// Topic names of the simulated recording.
+pub const IMAGE_TOPIC: &str = "/camera/image_raw/compressed";
+pub const CAMERA_INFO_TOPIC: &str = "/camera/camera_info";
+pub const POSE_TOPIC: &str = "/slam/pose";
+pub const MAP_TOPIC: &str = "/map";
+
+pub struct Recorder {
+    writer: mcap::Writer<BufWriter<File>>,
+    channels: BTreeMap<&'static str, u16>,
+    sequence: u32,
+}
+
+pub fn header(ns: i64, frame_id: &str) -> msg::Header {
+    msg::Header {
+        stamp: msg::Time {
+            sec: ns.div_euclid(1_000_000_000) as i32,
+            nanosec: ns.rem_euclid(1_000_000_000) as u32,
+        },
+        frame_id: frame_id.into(),
+    }
+}
+
+pub fn ros_pose(p: &Isometry3<f64>) -> msg::Pose {
+    let t = p.translation.vector;
+    let q = p.rotation.quaternion();
+    msg::Pose {
+        position: msg::Vector3 {
+            x: t.x,
+            y: t.y,
+            z: t.z,
+        },
+        orientation: msg::Quaternion {
+            x: q.i,
+            y: q.j,
+            z: q.k,
+            w: q.w,
+        },
+    }
+}
+
+impl Recorder {
+    pub fn create(path: &Path) -> Result<Self, String> {
+        let file =
+            File::create(path).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        let mut writer = mcap::WriteOptions::new()
+            .profile("ros2")
+            .library("postflight-sim")
+            .compression(Some(mcap::Compression::Zstd))
+            .chunk_size(Some(1 << 20))
+            .create(BufWriter::new(file))
+            .map_err(|e| e.to_string())?;
+        let mut channels = BTreeMap::new();
+        for (topic, schema, text) in [
+            (
+                "/tf_static",
+                "tf2_msgs/msg/TFMessage",
+                definitions::tf_message(),
+            ),
+            (
+                IMAGE_TOPIC,
+                "sensor_msgs/msg/CompressedImage",
+                definitions::compressed_image(),
+            ),
+            (
+                CAMERA_INFO_TOPIC,
+                "sensor_msgs/msg/CameraInfo",
+                definitions::camera_info(),
+            ),
+            (
+                POSE_TOPIC,
+                "geometry_msgs/msg/PoseStamped",
+                definitions::pose_stamped(),
+            ),
+            (
+                MAP_TOPIC,
+                "sensor_msgs/msg/PointCloud2",
+                definitions::point_cloud2(),
+            ),
+        ] {
+            let schema_id = writer
+                .add_schema(schema, "ros2msg", text.as_bytes())
+                .map_err(|e| e.to_string())?;
+            let id = writer
+                .add_channel(schema_id, topic, "cdr", &BTreeMap::new())
+                .map_err(|e| e.to_string())?;
+            channels.insert(topic, id);
+        }
+        Ok(Self {
+            writer,
+            channels,
+            sequence: 0,
+        })
+    }
+
+    pub fn write<T: serde::Serialize>(
+        &mut self,
+        topic: &'static str,
+        log_time_ns: i64,
+        message: &T,
+    ) -> Result<(), String> {
+        self.sequence += 1;
+        let header = mcap::records::MessageHeader {
+            channel_id: self.channels[topic],
+            sequence: self.sequence,
+            log_time: log_time_ns as u64,
+            publish_time: log_time_ns as u64,
+        };
+        self.writer
+            .write_to_known_channel(&header, &cdr::encode(message))
+            .map_err(|e| e.to_string())
+    }
+
+    pub fn finish(mut self) -> Result<(), String> {
+        self.writer.finish().map_err(|e| e.to_string())?;
+        Ok(())
+    }
+}
+
+/// The map as a `PointCloud2` of float32 x, y, z.
+pub fn point_cloud(points: &[Point3<f64>], stamp_ns: i64) -> msg::PointCloud2 {
+    let mut data = Vec::with_capacity(points.len() * 12);
+    for p in points {
+        for v in [p.x, p.y, p.z] {
+            data.extend_from_slice(&(v as f32).to_le_bytes());
+        }
+    }
+    let field = |name: &str, offset| msg::PointField {
+        name: name.into(),
+        offset,
+        datatype: 7,
+        count: 1,
+    };
+    msg::PointCloud2 {
+        header: header(stamp_ns, "map"),
+        height: 1,
+        width: points.len() as u32,
+        fields: vec![field("x", 0), field("y", 4), field("z", 8)],
+        is_bigendian: false,
+        point_step: 12,
+        row_step: 12 * points.len() as u32,
+        data,
+        is_dense: true,
+    }
+}
+
+/// The map as a binary little-endian PLY file.
+pub fn write_ply(path: &Path, points: &[Point3<f64>]) -> Result<(), String> {
+    let mut out = format!(
+        "ply\nformat binary_little_endian 1.0\ncomment postflight-sim SLAM map\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
+        points.len()
+    )
+    .into_bytes();
+    for p in points {
+        for v in [p.x, p.y, p.z] {
+            out.extend_from_slice(&(v as f32).to_le_bytes());
+        }
+    }
+    std::fs::write(path, out).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}

@@ -1,0 +1,166 @@
+//! Rendering a frame: one ray per pixel through the lens model into the
+//! scene, concrete shading with the cracks drawn at their true width (so a
+//! crack fades with distance), then motion blur along the image motion.
+
+use image::RgbImage;
+use ingest::Intrinsics;
+use nalgebra::{Isometry3, Point2, Point3, Vector3};
+use rayon::prelude::*;
+
+use crate::crack::Cracks;
+use crate::rng::hash3;
+use crate::scene::{Class, Scene};
+
+/// Farthest distance rendered, metres.
+const MAX_RANGE: f64 = 300.0;
+
+/// Unit rays of every pixel centre in the optical frame, distortion undone.
+pub struct RayTable {
+    pub width: u32,
+    pub height: u32,
+    rays: Vec<Vector3<f64>>,
+    /// Angle one pixel subtends at the image centre, radians.
+    pub pixel_angle: f64,
+}
+
+impl RayTable {
+    pub fn new(k: &Intrinsics) -> Self {
+        let rays = (0..k.height)
+            .into_par_iter()
+            .flat_map_iter(|y| {
+                (0..k.width)
+                    .map(move |x| k.ray(&Point2::new(f64::from(x) + 0.5, f64::from(y) + 0.5)))
+            })
+            .collect();
+        Self {
+            width: k.width,
+            height: k.height,
+            rays,
+            pixel_angle: 1.0 / k.fx,
+        }
+    }
+}
+
+/// Render the view of a camera at `camera` (`T_world_camera`, optical frame).
+pub fn render(
+    scene: &Scene,
+    cracks: &Cracks,
+    rays: &RayTable,
+    camera: &Isometry3<f64>,
+    frame: u32,
+) -> RgbImage {
+    let origin = Point3::from(camera.translation.vector);
+    let mut img = RgbImage::new(rays.width, rays.height);
+    let row_len = rays.width as usize * 3;
+    img.par_chunks_mut(row_len)
+        .enumerate()
+        .for_each(|(y, row)| {
+            for x in 0..rays.width as usize {
+                let dir = camera.rotation * rays.rays[y * rays.width as usize + x];
+                let rgb = shade(scene, cracks, &origin, &dir, rays.pixel_angle);
+                // Sensor noise, fixed per pixel and frame so output is deterministic.
+                let n = (hash3(x as i64, y as i64, i64::from(frame), 17) - 0.5) * 6.0;
+                for c in 0..3 {
+                    row[x * 3 + c] = (rgb[c] + n).clamp(0.0, 255.0) as u8;
+                }
+            }
+        });
+    img
+}
+
+fn shade(
+    scene: &Scene,
+    cracks: &Cracks,
+    origin: &Point3<f64>,
+    dir: &Vector3<f64>,
+    pixel_angle: f64,
+) -> [f64; 3] {
+    let Some(hit) = scene.cast(origin, dir, MAX_RANGE) else {
+        // Sky: brighter towards the horizon.
+        let up = dir.z.max(0.0);
+        return [150.0 + 60.0 * (1.0 - up), 185.0 + 40.0 * (1.0 - up), 235.0];
+    };
+    let sun = Vector3::new(0.35, -0.25, 0.9).normalize();
+    let light = 0.45 + 0.55 * hit.normal.dot(&sun).max(0.0);
+    let p = hit.point;
+    let base = match scene.class(hit.triangle) {
+        Class::Infrastructure => {
+            let g = concrete(&p);
+            let cos = hit.normal.dot(&-dir).abs().max(0.2);
+            let footprint = hit.distance * pixel_angle / cos;
+            let crack = cracks.coverage(&p, footprint);
+            let v = g * (1.0 - 0.85 * crack);
+            [v, v * 0.98, v * 0.94]
+        }
+        Class::Obstacle => {
+            let n = 0.8 + 0.4 * value_noise(&p, 4.0, 3);
+            [60.0 * n, 95.0 * n, 45.0 * n]
+        }
+        Class::Ground => {
+            let n = 0.85 + 0.3 * value_noise(&p, 1.5, 5);
+            [95.0 * n, 120.0 * n, 70.0 * n]
+        }
+    };
+    base.map(|c| c * light)
+}
+
+/// Grey concrete: blotches at several scales plus fine aggregate.
+fn concrete(p: &Point3<f64>) -> f64 {
+    let blotch =
+        0.5 * value_noise(p, 0.8, 1) + 0.3 * value_noise(p, 3.0, 2) + 0.2 * value_noise(p, 12.0, 4);
+    let grit = hash3(
+        (p.x * 400.0) as i64,
+        (p.y * 400.0) as i64,
+        (p.z * 400.0) as i64,
+        9,
+    );
+    150.0 + 60.0 * (blotch - 0.5) + 14.0 * (grit - 0.5)
+}
+
+/// Smooth 3D value noise in [0, 1] at `freq` cycles per metre.
+fn value_noise(p: &Point3<f64>, freq: f64, salt: u64) -> f64 {
+    let q = p.coords * freq;
+    let (ix, iy, iz) = (q.x.floor(), q.y.floor(), q.z.floor());
+    let f = |v: f64| v * v * (3.0 - 2.0 * v);
+    let (fx, fy, fz) = (f(q.x - ix), f(q.y - iy), f(q.z - iz));
+    let h = |dx: i64, dy: i64, dz: i64| hash3(ix as i64 + dx, iy as i64 + dy, iz as i64 + dz, salt);
+    let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+    let x00 = lerp(h(0, 0, 0), h(1, 0, 0), fx);
+    let x10 = lerp(h(0, 1, 0), h(1, 1, 0), fx);
+    let x01 = lerp(h(0, 0, 1), h(1, 0, 1), fx);
+    let x11 = lerp(h(0, 1, 1), h(1, 1, 1), fx);
+    lerp(lerp(x00, x10, fy), lerp(x01, x11, fy), fz)
+}
+
+/// Average the image along the motion vector `(dx, dy)` pixels (the image
+/// motion during the exposure), as a moving camera blurs.
+pub fn motion_blur(img: &RgbImage, dx: f64, dy: f64) -> RgbImage {
+    let len = dx.hypot(dy);
+    if len < 0.5 {
+        return img.clone();
+    }
+    let taps = len.ceil() as usize + 1;
+    let (w, h) = (img.width() as i64, img.height() as i64);
+    let mut out = RgbImage::new(img.width(), img.height());
+    let src = img.as_raw();
+    out.par_chunks_mut(w as usize * 3)
+        .enumerate()
+        .for_each(|(y, row)| {
+            for x in 0..w {
+                let mut acc = [0u32; 3];
+                for k in 0..taps {
+                    let s = k as f64 / (taps - 1) as f64 - 0.5;
+                    let sx = (x as f64 + dx * s).round().clamp(0.0, (w - 1) as f64) as usize;
+                    let sy = (y as f64 + dy * s).round().clamp(0.0, (h - 1) as f64) as usize;
+                    let i = (sy * w as usize + sx) * 3;
+                    for c in 0..3 {
+                        acc[c] += u32::from(src[i + c]);
+                    }
+                }
+                for c in 0..3 {
+                    row[x as usize * 3 + c] = (acc[c] / taps as u32) as u8;
+                }
+            }
+        });
+    out
+}

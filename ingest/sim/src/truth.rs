@@ -1,0 +1,198 @@
+//! Ground truth: what really is where, and what each frame really saw.
+
+use ingest::Intrinsics;
+use ingest::map::{VoxelGrid, VoxelIndex};
+use nalgebra::{Isometry3, Point3};
+use serde::Serialize;
+
+use crate::crack::Crack;
+use crate::scene::Scene;
+
+/// Fraction of a pixel a crack must cover to show as a dark line.
+pub const MIN_CRACK_CONTRAST: f64 = 0.2;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct PoseJson {
+    pub translation: [f64; 3],
+    pub rotation_xyzw: [f64; 4],
+}
+
+impl From<&Isometry3<f64>> for PoseJson {
+    fn from(p: &Isometry3<f64>) -> Self {
+        let t = p.translation.vector;
+        Self {
+            translation: [t.x, t.y, t.z],
+            rotation_xyzw: ingest::pose::quaternion_xyzw(p),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct CrackTruth {
+    pub id: u32,
+    /// Main line first, then branches; world coordinates, metres.
+    pub lines: Vec<Vec<[f64; 3]>>,
+    pub width_mm: f64,
+    pub length_m: f64,
+    pub part: String,
+    /// Outward normal of the surface.
+    pub normal: [f64; 3],
+    /// Voxel (plan grid) holding the crack's centroid, and the face it is on.
+    pub voxel: VoxelIndex,
+    pub face: String,
+}
+
+impl CrackTruth {
+    pub fn new(crack: &Crack, scene: &Scene, grid: &VoxelGrid) -> Self {
+        let n = crack.normal;
+        let axis = n.iamax();
+        let face = format!(
+            "{}{}",
+            if n[axis] >= 0.0 { '+' } else { '-' },
+            ['x', 'y', 'z'][axis]
+        );
+        // Just inside the surface, so the voxel is the structure's, not the air's.
+        let inside = crack.centroid() - n * (grid.resolution * 1e-3);
+        Self {
+            id: crack.id,
+            lines: crack
+                .lines
+                .iter()
+                .map(|l| l.iter().map(|p| [p.x, p.y, p.z]).collect())
+                .collect(),
+            width_mm: crack.width * 1000.0,
+            length_m: crack.length(),
+            part: scene.part_name(crack.triangle).to_string(),
+            normal: [n.x, n.y, n.z],
+            voxel: grid.voxel_of(&inside),
+            face,
+        }
+    }
+}
+
+/// A crack as one frame saw it.
+#[derive(Debug, Clone, Serialize)]
+pub struct CrackInFrame {
+    pub id: u32,
+    /// Visible crack points projected into the image, pixels.
+    pub polyline_px: Vec<[f64; 2]>,
+    /// `[x_min, y_min, x_max, y_max]` of the visible points, pixels.
+    pub bbox: [f64; 4],
+    /// Share of the crack's length in view, unoccluded and wide enough to show.
+    pub visible_fraction: f64,
+    /// Crack width over pixel footprint at the crack's centre (1 = fills a pixel).
+    pub contrast: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct FrameTruth {
+    /// Index among all simulated frames, dropped ones included.
+    pub index: u32,
+    pub time_ns: i64,
+    /// Not written to the recording (a dropped frame).
+    pub dropped: bool,
+    /// True pose of the camera optical frame in the world.
+    pub camera_pose: PoseJson,
+    /// Taken on a rushed leg of the flight.
+    pub fast: bool,
+    /// Length of the motion blur streak, pixels.
+    pub blur_px: f64,
+    pub cracks: Vec<CrackInFrame>,
+}
+
+/// Which cracks a camera sees and where, by projecting points 5 mm apart
+/// along each crack and casting a ray to each.
+pub fn cracks_in_view(
+    scene: &Scene,
+    cracks: &[Crack],
+    k: &Intrinsics,
+    camera: &Isometry3<f64>,
+) -> Vec<CrackInFrame> {
+    let origin = Point3::from(camera.translation.vector);
+    let world_to_camera = camera.inverse();
+    let margin = 2.0;
+    let mut seen = Vec::new();
+    for crack in cracks {
+        let to_camera = origin - crack.centroid();
+        let range = to_camera.norm();
+        if crack.normal.dot(&to_camera) <= 0.0 || range > 60.0 {
+            continue;
+        }
+        let samples = crack.samples(0.005);
+        let mut visible = Vec::new();
+        for p in &samples {
+            let Some(px) = k.project(&(world_to_camera * p).coords) else {
+                continue;
+            };
+            if px.x < margin
+                || px.y < margin
+                || px.x > f64::from(k.width) - margin
+                || px.y > f64::from(k.height) - margin
+            {
+                continue;
+            }
+            let d = origin - p;
+            let dist = d.norm();
+            let dir = -d / dist;
+            let cos = crack.normal.dot(&(d / dist));
+            if crack.width / (dist / k.fx / cos.max(0.2)) < MIN_CRACK_CONTRAST {
+                continue;
+            }
+            let unblocked = scene
+                .cast(&origin, &dir, dist + 0.05)
+                .is_none_or(|h| h.distance > dist - 0.01);
+            if unblocked {
+                visible.push([px.x, px.y]);
+            }
+        }
+        let fraction = visible.len() as f64 / samples.len().max(1) as f64;
+        if visible.len() < 6 || fraction < 0.25 {
+            continue;
+        }
+        let bbox = visible.iter().fold(
+            [
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+            ],
+            |b, p| {
+                [
+                    b[0].min(p[0]),
+                    b[1].min(p[1]),
+                    b[2].max(p[0]),
+                    b[3].max(p[1]),
+                ]
+            },
+        );
+        let cos = crack.normal.dot(&(to_camera / range)).max(0.2);
+        seen.push(CrackInFrame {
+            id: crack.id,
+            polyline_px: visible,
+            bbox,
+            visible_fraction: fraction,
+            contrast: crack.width / (range / k.fx / cos),
+        });
+    }
+    seen
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Truth {
+    pub scene: String,
+    pub seed: u64,
+    pub exposure_s: f64,
+    pub camera: Intrinsics,
+    /// `T_body_camera`: the camera optical frame in the body frame.
+    pub t_body_camera: PoseJson,
+    pub pose_noise: PoseNoise,
+    pub skipped_viewpoints: Vec<usize>,
+    pub cracks: Vec<CrackTruth>,
+    pub frames: Vec<FrameTruth>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct PoseNoise {
+    pub position_m: f64,
+    pub yaw_rad: f64,
+}

@@ -1,0 +1,326 @@
+//! End-to-end tests of `postflight simulate`: its flights read back through
+//! `postflight ingest` as any recording would, and agree with truth.json.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use common::*;
+use ingest::Flight;
+use nalgebra::{Point3, UnitQuaternion, Vector3};
+use serde_json::Value;
+
+/// One simulated bridge flight, ingested, shared by the tests of this file.
+fn bridge() -> &'static (PathBuf, Value) {
+    static RUN: OnceLock<(PathBuf, Value)> = OnceLock::new();
+    RUN.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap().keep();
+        let sim = dir.join("sim");
+        let out = postflight(
+            &[
+                "simulate",
+                "--out",
+                sim.to_str().unwrap(),
+                "--frames",
+                "150",
+                "--seed",
+                "3",
+            ],
+            &dir,
+        );
+        assert!(out.status.success(), "simulate failed: {}", stderr(&out));
+        let run = dir.join("run");
+        let out = postflight(
+            &[
+                "ingest",
+                "--flight",
+                sim.join("flight.mcap").to_str().unwrap(),
+                "--out",
+                run.to_str().unwrap(),
+            ],
+            &dir,
+        );
+        assert!(out.status.success(), "ingest failed: {}", stderr(&out));
+        (dir, read_json(&sim.join("truth.json")))
+    })
+}
+
+fn rotation(pose: &Value) -> UnitQuaternion<f64> {
+    let q = &pose["rotation_xyzw"];
+    UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+        f(&q[3]),
+        f(&q[0]),
+        f(&q[1]),
+        f(&q[2]),
+    ))
+}
+
+#[test]
+fn ingest_recovers_poses_intrinsics_and_extrinsics_of_the_truth() {
+    let (dir, truth) = bridge();
+    let run = dir.join("run");
+    let summary = read_json(&run.join("ingest.json"));
+    assert_eq!(
+        summary["warnings"],
+        Value::Array(vec![]),
+        "a simulated flight must ingest cleanly"
+    );
+    assert_eq!(summary["truncated"], false);
+
+    let flight = Flight::load(&run).unwrap();
+    let kept: Vec<&Value> = truth["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| f["dropped"] == false)
+        .collect();
+    assert!(
+        kept.len() < truth["frames"].as_array().unwrap().len(),
+        "some frames are dropped"
+    );
+    assert_eq!(flight.frames.len(), kept.len());
+    let (mut worst_position, mut worst_angle) = (0.0f64, 0.0f64);
+    for (frame, t) in flight.frames.iter().zip(&kept) {
+        assert_eq!(frame.time_ns, t["time_ns"].as_i64().unwrap());
+        let pose = frame.camera_pose.expect("every simulated frame has a pose");
+        let p = vec3(&t["camera_pose"]["translation"]);
+        worst_position = worst_position.max((pose.translation.vector - Vector3::from(p)).norm());
+        worst_angle = worst_angle.max(pose.rotation.angle_to(&rotation(&t["camera_pose"])));
+    }
+    // The recorded poses carry 2 cm / 0.003 rad of noise (truth.json pose_noise).
+    assert!(
+        worst_position < 0.12,
+        "camera position off by {worst_position} m"
+    );
+    assert!(
+        worst_angle < 0.015,
+        "camera rotation off by {worst_angle} rad"
+    );
+
+    let camera = &flight.cameras[0];
+    let k = camera.intrinsics.as_ref().unwrap();
+    let tk = &truth["camera"];
+    for (got, name) in [(k.fx, "fx"), (k.fy, "fy"), (k.cx, "cx"), (k.cy, "cy")] {
+        assert_close(got, f(&tk[name]), 1e-9, name);
+    }
+    assert_eq!(
+        serde_json::to_value(&k.distortion).unwrap(),
+        tk["distortion"]
+    );
+    let e = camera.extrinsic.unwrap();
+    let te = &truth["t_body_camera"];
+    assert!((e.translation.vector - Vector3::from(vec3(&te["translation"]))).norm() < 1e-9);
+    assert!(e.rotation.angle_to(&rotation(te)) < 1e-9);
+
+    // The plan and the map files load, and the map matches the recorded one.
+    let plan = ingest::InspectionPlan::load(&dir.join("sim/plan.json")).unwrap();
+    assert!(plan.target_voxels.len() > 100 && plan.viewpoints.len() > 50);
+    let ply = ingest::map::PointCloud::load(&dir.join("sim/map.ply")).unwrap();
+    assert_eq!(ply.len() as u64, summary["map"]["points"].as_u64().unwrap());
+    let recorded = flight.recorded_map().unwrap().unwrap();
+    assert_eq!(recorded.points[10], ply.points[10]);
+}
+
+/// Mean darkness of an image along `points` shifted by `(dx, dy)`: how much
+/// darker the pixels on the line are than the area around it.
+fn darkness(img: &image::GrayImage, points: &[(f64, f64)], dx: i32, dy: i32) -> Option<f64> {
+    let (w, h) = (img.width() as i32, img.height() as i32);
+    let px: Vec<(i32, i32)> = points
+        .iter()
+        .map(|(x, y)| (x.floor() as i32 + dx, y.floor() as i32 + dy))
+        .filter(|(x, y)| *x >= 0 && *y >= 0 && *x < w && *y < h)
+        .collect();
+    if px.len() < 10 {
+        return None;
+    }
+    let luma = |x: i32, y: i32| {
+        f64::from(
+            img.get_pixel(x.clamp(0, w - 1) as u32, y.clamp(0, h - 1) as u32)
+                .0[0],
+        )
+    };
+    // Darkest pixel next to each line point (the line is 1-2 px wide, blurred).
+    let line: f64 = px
+        .iter()
+        .map(|(x, y)| {
+            (-1..=1)
+                .flat_map(|a| (-1..=1).map(move |b| (a, b)))
+                .map(|(a, b)| luma(x + a, y + b))
+                .fold(f64::MAX, f64::min)
+        })
+        .sum::<f64>()
+        / px.len() as f64;
+    // Surroundings: 8 px either side.
+    let around: f64 = px
+        .iter()
+        .map(|(x, y)| (luma(x + 8, *y) + luma(x - 8, *y) + luma(*x, y + 8) + luma(*x, y - 8)) / 4.0)
+        .sum::<f64>()
+        / px.len() as f64;
+    Some(around - line)
+}
+
+#[test]
+fn truth_cracks_are_drawn_where_the_recovered_camera_projects_them() {
+    let (dir, truth) = bridge();
+    let flight = Flight::load(&dir.join("run")).unwrap();
+    let cracks = truth["cracks"].as_array().unwrap();
+    let mut checked = 0;
+    for t in truth["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| f["dropped"] == false)
+    {
+        let Some(frame) = flight
+            .frames
+            .iter()
+            .find(|fr| fr.time_ns == t["time_ns"].as_i64().unwrap())
+        else {
+            panic!("frame at {} not ingested", t["time_ns"]);
+        };
+        for seen in t["cracks"].as_array().unwrap() {
+            if f(&seen["contrast"]) < 0.4 || seen["polyline_px"].as_array().unwrap().len() < 30 {
+                continue;
+            }
+            let crack = &cracks[seen["id"].as_u64().unwrap() as usize];
+            // Project the 3D crack through the recovered camera model.
+            let camera = flight.camera(frame).unwrap();
+            let k = camera.intrinsics.as_ref().unwrap();
+            let world_to_camera = frame.camera_pose.unwrap().inverse();
+            let mut points = Vec::new();
+            for line in crack["lines"].as_array().unwrap() {
+                let line: Vec<Point3<f64>> = line
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|p| Point3::from(vec3(p)))
+                    .collect();
+                for w in line.windows(2) {
+                    for s in 0..5 {
+                        let p = w[0] + (w[1] - w[0]) * (f64::from(s) / 5.0);
+                        if let Some(px) = k.project(&(world_to_camera * p).coords) {
+                            points.push((px.x, px.y));
+                        }
+                    }
+                }
+            }
+            let img = flight.image(frame).unwrap().to_luma8();
+            // Pose noise moves the projection by a few pixels: search nearby.
+            let best = |ox: i32, oy: i32| {
+                (-12..=12)
+                    .flat_map(|dx| (-12..=12).map(move |dy| (dx, dy)))
+                    .filter_map(|(dx, dy)| darkness(&img, &points, ox + dx, oy + dy))
+                    .fold(f64::MIN, f64::max)
+            };
+            let on_crack = best(0, 0);
+            // The same shape elsewhere on the image: no crack there.
+            let control = [(60, 0), (-60, 0), (0, 60), (0, -60)]
+                .map(|(x, y)| best(x, y))
+                .into_iter()
+                .fold(f64::MIN, f64::max);
+            assert!(
+                on_crack > 20.0 && on_crack > control + 12.0,
+                "frame {} crack {}: darkness {on_crack:.1} on the projected crack, {control:.1} off it",
+                t["index"],
+                seen["id"]
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 3, "only {checked} crack views checked");
+}
+
+fn simulate_into(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
+    let out = dir.join(name);
+    let mut all = vec!["simulate", "--out", out.to_str().unwrap()];
+    all.extend_from_slice(args);
+    let result = postflight(&all, dir);
+    assert!(result.status.success(), "{}", stderr(&result));
+    out
+}
+
+#[test]
+fn the_same_seed_gives_byte_identical_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = [
+        "--frames", "12", "--width", "160", "--height", "120", "--scene", "tower",
+    ];
+    let a = simulate_into(dir.path(), "a", &[&small[..], &["--seed", "5"]].concat());
+    let b = simulate_into(dir.path(), "b", &[&small[..], &["--seed", "5"]].concat());
+    let c = simulate_into(dir.path(), "c", &[&small[..], &["--seed", "6"]].concat());
+    for file in ["flight.mcap", "map.ply", "plan.json", "truth.json"] {
+        let (x, y) = (
+            std::fs::read(a.join(file)).unwrap(),
+            std::fs::read(b.join(file)).unwrap(),
+        );
+        assert!(x == y, "{file} differs between two runs with one seed");
+    }
+    assert_ne!(
+        std::fs::read(a.join("flight.mcap")).unwrap(),
+        std::fs::read(c.join("flight.mcap")).unwrap()
+    );
+}
+
+#[test]
+fn a_mesh_from_an_obj_file_flies_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = root().join("tests/fixtures/footbridge.obj");
+    let sim = simulate_into(
+        dir.path(),
+        "sim",
+        &[
+            "--mesh",
+            mesh.to_str().unwrap(),
+            "--frames",
+            "40",
+            "--cracks",
+            "6",
+        ],
+    );
+    let truth = read_json(&sim.join("truth.json"));
+    assert_eq!(truth["scene"], "footbridge");
+    assert_eq!(truth["cracks"].as_array().unwrap().len(), 6);
+    assert!(
+        truth["cracks"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|c| c["part"] == "structure")
+    );
+    let run = dir.path().join("run");
+    let out = postflight(
+        &[
+            "ingest",
+            "--flight",
+            sim.join("flight.mcap").to_str().unwrap(),
+            "--out",
+            run.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let summary = read_json(&run.join("ingest.json"));
+    assert_eq!(summary["warnings"], Value::Array(vec![]));
+    assert_eq!(summary["frames_with_pose"], summary["frames"]);
+    let plan = ingest::InspectionPlan::load(&sim.join("plan.json")).unwrap();
+    // The footbridge's surface fits in a 13 x 2.5 x 4 m box: at most that many 0.5 m voxels.
+    assert!(!plan.target_voxels.is_empty() && plan.target_voxels.len() <= 26 * 5 * 8);
+
+    let missing = postflight(
+        &[
+            "simulate",
+            "--out",
+            dir.path().join("x").to_str().unwrap(),
+            "--mesh",
+            "/nonexistent.obj",
+        ],
+        dir.path(),
+    );
+    assert_eq!(missing.status.code(), Some(1));
+    let err = stderr(&missing);
+    assert!(
+        err.starts_with("error: ") && err.contains("--mesh") && err.trim().lines().count() == 1,
+        "{err}"
+    );
+}
