@@ -113,6 +113,26 @@ fn ingest_recovers_poses_intrinsics_and_extrinsics_of_the_truth() {
     assert!((e.translation.vector - Vector3::from(vec3(&te["translation"]))).norm() < 1e-9);
     assert!(e.rotation.angle_to(&rotation(te)) < 1e-9);
 
+    // Coverage truth covers every target voxel; the skipped part of the plan
+    // leaves voxels the plan would have inspected uninspected.
+    let coverage = &truth["coverage"];
+    let voxels = coverage["voxels"].as_array().unwrap();
+    assert_eq!(
+        voxels.len() as u64,
+        coverage["target_voxels"].as_u64().unwrap()
+    );
+    let count = |key: &str| voxels.iter().filter(|v| v[key] == true).count() as u64;
+    assert_eq!(
+        count("inspected"),
+        coverage["inspected_voxels"].as_u64().unwrap()
+    );
+    assert!(
+        count("inspected") > 0
+            && voxels
+                .iter()
+                .any(|v| v["planned"] == true && v["inspected"] == false)
+    );
+
     // The plan and the map files load, and the map matches the recorded one.
     let plan = ingest::InspectionPlan::load(&dir.join("sim/plan.json")).unwrap();
     assert!(plan.target_voxels.len() > 100 && plan.viewpoints.len() > 50);
@@ -259,6 +279,24 @@ fn the_same_seed_gives_byte_identical_files() {
     assert_ne!(
         std::fs::read(a.join("flight.mcap")).unwrap(),
         std::fs::read(c.join("flight.mcap")).unwrap()
+    );
+
+    // The tower flight ingests cleanly too.
+    let run = dir.path().join("run");
+    let out = postflight(
+        &[
+            "ingest",
+            "--flight",
+            a.join("flight.mcap").to_str().unwrap(),
+            "--out",
+            run.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(
+        read_json(&run.join("ingest.json"))["warnings"],
+        Value::Array(vec![])
     );
 }
 

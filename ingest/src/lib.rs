@@ -31,7 +31,7 @@ pub use camera::{Camera, Distortion, Intrinsics};
 pub use error::IngestError;
 pub use flight::Flight;
 pub use frame::{Frame, ImageStatus, PoseStatus};
-pub use plan::{InspectionPlan, Viewpoint};
+pub use plan::{InspectionPlan, ViewModel, Viewpoint};
 pub use run_dir::RunDir;
 pub use stage::{IngestOptions, IngestSummary, Progress, ingest};
 pub use trajectory::{PoseAt, Trajectory};

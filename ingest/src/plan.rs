@@ -20,6 +20,40 @@ pub struct Viewpoint {
     pub gimbal_pitch: f64,
 }
 
+/// When a voxel face counts as inspected by a frame (the GATSBI View model,
+/// with the Zhao et al. view count). Defaults are GATSBI's.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ViewModel {
+    /// Apex angle of the viewing cone around the optical axis, degrees.
+    pub cone_apex_deg: f64,
+    /// Distance band from the camera to the face centre, metres.
+    pub min_distance_m: f64,
+    pub max_distance_m: f64,
+    /// Largest angle between the face normal and the direction to the camera, degrees.
+    pub max_incidence_deg: f64,
+    /// Largest motion blur streak of a usable frame, pixels.
+    pub max_blur_px: f64,
+    /// Coarsest ground sampling distance of a usable view, millimetres per pixel.
+    pub max_gsd_mm: f64,
+    /// Views a face needs to count as inspected.
+    pub views_required: u32,
+}
+
+impl Default for ViewModel {
+    fn default() -> Self {
+        Self {
+            cone_apex_deg: 20.0,
+            min_distance_m: 2.0,
+            max_distance_m: 5.0,
+            max_incidence_deg: 60.0,
+            max_blur_px: 3.0,
+            max_gsd_mm: 6.0,
+            views_required: 1,
+        }
+    }
+}
+
 /// An inspection plan: which voxels must be seen, and from where.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct InspectionPlan {
@@ -34,6 +68,9 @@ pub struct InspectionPlan {
     pub target_voxels: Vec<VoxelIndex>,
     /// Viewpoints in flight order.
     pub viewpoints: Vec<Viewpoint>,
+    /// The View model the plan was made for.
+    #[serde(default)]
+    pub view: ViewModel,
 }
 
 impl InspectionPlan {

@@ -11,6 +11,7 @@
 //! downstream can tell the recording was simulated; it depends only on
 //! `ingest`'s message and plan types.
 
+pub mod coverage;
 pub mod crack;
 pub mod flight;
 mod obj;
@@ -192,6 +193,7 @@ pub fn simulate(
     let mut noise = Rng::stream(seed, "pose noise");
     let mut drops = Rng::stream(seed, "dropped frames");
     let mut frames = Vec::new();
+    let mut views = Vec::new();
     let n = options.frames;
     let mut dropped = 0;
     for i in 0..n {
@@ -236,6 +238,10 @@ pub fn simulate(
             )?;
             rec.write(record::CAMERA_INFO_TOPIC, log, &camera_info(&k, stamp))?;
         }
+        views.push(coverage::View {
+            camera,
+            usable: !is_dropped && blur.0.hypot(blur.1) <= plan.view.max_blur_px,
+        });
         frames.push(FrameTruth {
             index: i,
             time_ns: ns(t),
@@ -257,6 +263,25 @@ pub fn simulate(
     record::write_ply(&options.out.join("map.ply"), &map)?;
 
     let grid = plan.grid();
+    let planned: Vec<Isometry3<f64>> = plan
+        .viewpoints
+        .iter()
+        .map(|v| {
+            Isometry3::from_parts(
+                Translation3::from(Vector3::from(v.position)),
+                UnitQuaternion::from_axis_angle(&Vector3::z_axis(), v.yaw),
+            ) * body_camera
+        })
+        .collect();
+    let coverage = coverage::coverage(
+        &scene,
+        &grid,
+        &plan.target_voxels,
+        &plan.view,
+        &k,
+        &views,
+        &planned,
+    );
     let truth = Truth {
         scene: scene.name.clone(),
         seed,
@@ -274,6 +299,7 @@ pub fn simulate(
             .map(|c| CrackTruth::new(c, &scene, &grid))
             .collect(),
         frames,
+        coverage,
     };
     write_json(&options.out.join("plan.json"), &plan)?;
     write_json(&options.out.join("truth.json"), &truth)?;

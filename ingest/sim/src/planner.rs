@@ -86,5 +86,6 @@ pub fn plan(scene: &Scene, resolution: f64, camera_pitch: f64) -> InspectionPlan
         origin: [0.0; 3],
         target_voxels: target_voxels(scene, &grid),
         viewpoints,
+        view: ingest::ViewModel::default(),
     }
 }

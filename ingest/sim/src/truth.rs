@@ -189,6 +189,8 @@ pub struct Truth {
     pub skipped_viewpoints: Vec<usize>,
     pub cracks: Vec<CrackTruth>,
     pub frames: Vec<FrameTruth>,
+    /// Per-voxel coverage under the plan's View model, flown and planned.
+    pub coverage: crate::coverage::CoverageTruth,
 }
 
 #[derive(Debug, Clone, Serialize)]
