@@ -156,7 +156,7 @@ pub fn simulate(
     if plan.viewpoints.len() < 3 {
         return Err("the structure is too small to plan a flight around".into());
     }
-    let flight = Flight::fly(&plan, &mut Rng::stream(seed, "flight"));
+    let flight = Flight::fly(&plan, &scene, &mut Rng::stream(seed, "flight"));
     let k = intrinsics(options.width, options.height, options.distortion);
     let rays = RayTable::new(&k);
     let (link, optical) = body_to_camera();
@@ -189,26 +189,21 @@ pub fn simulate(
     let pose_times: Vec<f64> = (0..=(duration * flight::POSE_RATE).ceil() as usize)
         .map(|i| (i as f64 / flight::POSE_RATE).min(duration))
         .collect();
-    let mut next_pose = 0;
-    let mut noise = Rng::stream(seed, "pose noise");
+    let mut poses = PoseWriter {
+        flight: &flight,
+        times: pose_times,
+        next: 0,
+        noise: Rng::stream(seed, "pose noise"),
+    };
     let mut drops = Rng::stream(seed, "dropped frames");
     let mut frames = Vec::new();
     let mut views = Vec::new();
     let n = options.frames;
     let mut dropped = 0;
-    for i in 0..n {
-        let t = duration * f64::from(i) / f64::from(n - 1);
+    for (i, t) in flight.frame_times(n as usize).into_iter().enumerate() {
+        let i = i as u32;
         // Poses stamped up to this frame go first, as a recorder would receive them.
-        while next_pose < pose_times.len() && pose_times[next_pose] <= t {
-            let pt = pose_times[next_pose];
-            let pose = flight::noisy(&flight.body_pose(pt), &mut noise);
-            let msg = msg::PoseStamped {
-                header: header(ns(pt), "map"),
-                pose: ros_pose(&pose),
-            };
-            rec.write(record::POSE_TOPIC, ns(pt) + 4_000_000, &msg)?;
-            next_pose += 1;
-        }
+        poses.write_until(t, &mut rec)?;
         let camera = flight.body_pose(t) * body_camera;
         let is_dropped = i > 0 && i + 1 < n && drops.uniform() < DROP_RATE;
         let blur = blur_vector(&scene, &flight, &body_camera, &k, t);
@@ -253,6 +248,7 @@ pub fn simulate(
         });
         progress(u64::from(i) + 1, u64::from(n));
     }
+    poses.write_until(duration, &mut rec)?;
     let map = map_points(&scene, &mut Rng::stream(seed, "map"));
     rec.write(
         record::MAP_TOPIC,
@@ -311,6 +307,30 @@ pub fn simulate(
         map_points: map.len(),
         flight: options.out.join("flight.mcap"),
     })
+}
+
+/// The recorded SLAM poses: noisy samples of the true body pose at `POSE_RATE`.
+struct PoseWriter<'a> {
+    flight: &'a Flight,
+    times: Vec<f64>,
+    next: usize,
+    noise: Rng,
+}
+
+impl PoseWriter<'_> {
+    /// Write the poses stamped up to `t` not yet written.
+    fn write_until(&mut self, t: f64, rec: &mut Recorder) -> Result<(), String> {
+        while let Some(&pt) = self.times.get(self.next).filter(|pt| **pt <= t) {
+            let pose = flight::noisy(&self.flight.body_pose(pt), &mut self.noise);
+            let msg = msg::PoseStamped {
+                header: header(ns(pt), "map"),
+                pose: ros_pose(&pose),
+            };
+            rec.write(record::POSE_TOPIC, ns(pt) + 4_000_000, &msg)?;
+            self.next += 1;
+        }
+        Ok(())
+    }
 }
 
 fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<(), String> {

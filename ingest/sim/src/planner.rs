@@ -1,20 +1,27 @@
 //! The inspection plan the simulated flight was meant to fly: the
-//! structure's voxels, and viewpoint loops around it at a standoff distance.
+//! structure's voxels, and a viewpoint in front of each patch of vertical
+//! voxel faces at the standoff distance, ordered into a tour.
+//!
+//! The camera is fixed and pitched down (see `CAMERA_PITCH_DEG`), so faces
+//! pointing up or down cannot be seen within the View model's incidence
+//! limit: they are left to the coverage stage to report as uninspectable.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 
 use ingest::map::{VoxelGrid, VoxelIndex};
-use ingest::{InspectionPlan, Viewpoint};
-use nalgebra::Point3;
+use ingest::{InspectionPlan, ViewModel, Viewpoint};
+use nalgebra::{Point3, Vector3};
 
 use crate::scene::{Scene, area};
 
-/// Distance from the structure's bounding box to the viewpoints, metres.
+/// Distance from a face to its viewpoint, metres (mid View distance band).
 pub const STANDOFF: f64 = 3.5;
-/// Spacing of viewpoints along a loop and between loops, metres.
-const SPACING: f64 = 2.0;
+/// Viewpoints merge the faces of patches this wide, metres.
+const PATCH: f64 = 1.0;
+/// Closest a viewpoint may be to anything, metres.
+const CLEARANCE: f64 = 1.0;
 
-/// Voxels (of `resolution`) holding any of the structure's surface.
+/// Voxels (of `grid`) holding any of the structure's surface.
 pub fn target_voxels(scene: &Scene, grid: &VoxelGrid) -> Vec<VoxelIndex> {
     let step = grid.resolution / 4.0;
     let mut voxels = BTreeSet::new();
@@ -24,68 +31,117 @@ pub fn target_voxels(scene: &Scene, grid: &VoxelGrid) -> Vec<VoxelIndex> {
         for i in 0..=n {
             for j in 0..=(n - i) {
                 let (s, r) = (i as f64 / n as f64, j as f64 / n as f64);
-                voxels.insert(grid.voxel_of(&(a + (b - a) * s + (c - a) * r)));
+                // Just inside the surface, so the voxel is the structure's.
+                let p = a + (b - a) * s + (c - a) * r - scene.normal(t) * 1e-4;
+                voxels.insert(grid.voxel_of(&p));
             }
         }
     }
     voxels.into_iter().collect()
 }
 
-/// Loops of viewpoints around the structure's bounding box, bottom to top,
-/// each facing the nearest side, with the camera's fixed pitch.
+/// Whether a viewpoint is flyable: above ground, clear of everything, and
+/// with a clear line of sight to the face it is for.
+fn feasible(scene: &Scene, p: &Point3<f64>, face: &Point3<f64>) -> bool {
+    if p.z < CLEARANCE {
+        return false;
+    }
+    let directions = [
+        Vector3::x(),
+        -Vector3::x(),
+        Vector3::y(),
+        -Vector3::y(),
+        Vector3::z(),
+        -Vector3::z(),
+    ];
+    if directions
+        .iter()
+        .any(|d| scene.cast(p, d, CLEARANCE).is_some())
+    {
+        return false;
+    }
+    let to_face = face - p;
+    let dist = to_face.norm();
+    scene
+        .cast(p, &(to_face / dist), dist)
+        .is_none_or(|h| h.distance > dist - 0.3)
+}
+
 pub fn plan(scene: &Scene, resolution: f64, camera_pitch: f64) -> InspectionPlan {
     let grid = VoxelGrid::new(resolution, Point3::origin());
-    let (lo, hi) = scene.infrastructure_bounds();
-    let (x0, y0, x1, y1) = (
-        lo.x - STANDOFF,
-        lo.y - STANDOFF,
-        hi.x + STANDOFF,
-        hi.y + STANDOFF,
-    );
-    let mut viewpoints = Vec::new();
-    let mut z = lo.z.max(0.0) + 1.5;
-    let mut level = 0;
-    while z <= hi.z + 1.0 {
-        // Counter-clockwise around the box: south side facing north, and so on.
-        let sides = [
-            ((x0, y0), (x1, y0), std::f64::consts::FRAC_PI_2),
-            ((x1, y0), (x1, y1), std::f64::consts::PI),
-            ((x1, y1), (x0, y1), -std::f64::consts::FRAC_PI_2),
-            ((x0, y1), (x0, y0), 0.0),
-        ];
-        let mut ring = Vec::new();
-        for ((ax, ay), (bx, by), yaw) in sides {
-            let len = (bx - ax).hypot(by - ay);
-            let n = (len / SPACING).ceil() as usize;
-            for k in 0..n {
-                let s = k as f64 / n as f64;
-                // At a corner, look diagonally at the structure.
-                let yaw = if k == 0 {
-                    yaw - std::f64::consts::FRAC_PI_4
-                } else {
-                    yaw
-                };
-                ring.push(Viewpoint {
-                    position: [ax + (bx - ax) * s, ay + (by - ay) * s, z],
-                    yaw,
-                    gimbal_pitch: camera_pitch,
-                });
+    let targets = target_voxels(scene, &grid);
+    let set: BTreeSet<VoxelIndex> = targets.iter().copied().collect();
+    // Raise the viewpoint so the pitched optical axis meets the face.
+    let rise = STANDOFF * camera_pitch.tan();
+    // Faces grouped by (side, plane, patch along the plane, patch in height).
+    let mut patches: BTreeMap<(usize, i64, i64, i64), (Vector3<f64>, Vec<Point3<f64>>)> =
+        BTreeMap::new();
+    for v in &targets {
+        for (k, d) in [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]]
+            .iter()
+            .enumerate()
+        {
+            if set.contains(&VoxelIndex([v.0[0] + d[0], v.0[1] + d[1], v.0[2] + d[2]])) {
+                continue;
             }
+            let n = Vector3::new(f64::from(d[0]), f64::from(d[1]), 0.0);
+            let face = grid.center(*v) + n * (resolution / 2.0);
+            let key = |x: f64| (x / PATCH).floor() as i64;
+            let along = if d[0] != 0 { face.y } else { face.x };
+            let depth = if d[0] != 0 { face.x } else { face.y };
+            let entry = patches
+                .entry((
+                    k,
+                    (depth / resolution).round() as i64,
+                    key(along),
+                    key(face.z),
+                ))
+                .or_insert((n, Vec::new()));
+            entry.1.push(face);
         }
-        // Alternate direction per level so the path zig-zags up.
-        if level % 2 == 1 {
-            ring.reverse();
+    }
+    let mut viewpoints = Vec::new();
+    for (n, faces) in patches.values() {
+        let centre =
+            Point3::from(faces.iter().map(|p| p.coords).sum::<Vector3<f64>>() / faces.len() as f64);
+        let position = centre + n * STANDOFF + Vector3::z() * rise;
+        if feasible(scene, &position, &centre) {
+            viewpoints.push(Viewpoint {
+                position: [position.x, position.y, position.z],
+                yaw: (-n.y).atan2(-n.x),
+                gimbal_pitch: camera_pitch,
+            });
         }
-        viewpoints.extend(ring);
-        z += SPACING;
-        level += 1;
     }
     InspectionPlan {
         frame_id: "map".into(),
         resolution,
         origin: [0.0; 3],
-        target_voxels: target_voxels(scene, &grid),
-        viewpoints,
-        view: ingest::ViewModel::default(),
+        target_voxels: targets,
+        viewpoints: tour(viewpoints),
+        view: ViewModel::default(),
     }
+}
+
+/// Order viewpoints by nearest neighbour from the lowest south-west one
+/// (the follow-up planner solves this properly as a GTSP).
+fn tour(mut left: Vec<Viewpoint>) -> Vec<Viewpoint> {
+    let key = |v: &Viewpoint| v.position[0] + v.position[1] + v.position[2];
+    let Some(first) = (0..left.len()).min_by(|a, b| key(&left[*a]).total_cmp(&key(&left[*b])))
+    else {
+        return left;
+    };
+    let mut order = vec![left.swap_remove(first)];
+    while !left.is_empty() {
+        let here = Point3::from(order[order.len() - 1].position);
+        let next = (0..left.len())
+            .min_by(|a, b| {
+                let da = (Point3::from(left[*a].position) - here).norm();
+                let db = (Point3::from(left[*b].position) - here).norm();
+                da.total_cmp(&db)
+            })
+            .expect("not empty");
+        order.push(left.swap_remove(next));
+    }
+    order
 }
