@@ -93,7 +93,7 @@ impl Flight {
                     } else {
                         yaw_at
                     };
-                    flight.leg(at, to, yaw_at, yaw_to, speed, !(fast && k == last), fast);
+                    flight.leg(at, to, (yaw_at, yaw_to), speed, !(fast && k == last), fast);
                     (at, yaw_at) = (to, yaw_to);
                 }
             }
@@ -102,7 +102,7 @@ impl Flight {
                 flight.shots.push(flight.duration());
             } else {
                 let t = flight.duration();
-                flight.leg(p, p, yaw, yaw, SPEED, true, false);
+                flight.leg(p, p, (yaw, yaw), SPEED, true, false);
                 flight.legs.last_mut().expect("just pushed").t1 = t + HOVER;
                 flight.shots.push(t + HOVER / 2.0);
             }
@@ -115,8 +115,7 @@ impl Flight {
         &mut self,
         from: Point3<f64>,
         to: Point3<f64>,
-        yaw_from: f64,
-        yaw_to: f64,
+        (yaw_from, yaw_to): (f64, f64),
         speed: f64,
         ease: bool,
         fast: bool,

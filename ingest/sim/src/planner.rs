@@ -67,6 +67,9 @@ fn feasible(scene: &Scene, p: &Point3<f64>, face: &Point3<f64>) -> bool {
         .is_none_or(|h| h.distance > dist - 0.3)
 }
 
+/// A patch of faces: their common outward normal and their centres.
+type Patch = (Vector3<f64>, Vec<Point3<f64>>);
+
 pub fn plan(scene: &Scene, resolution: f64, camera_pitch: f64) -> InspectionPlan {
     let grid = VoxelGrid::new(resolution, Point3::origin());
     let targets = target_voxels(scene, &grid);
@@ -74,8 +77,7 @@ pub fn plan(scene: &Scene, resolution: f64, camera_pitch: f64) -> InspectionPlan
     // Raise the viewpoint so the pitched optical axis meets the face.
     let rise = STANDOFF * camera_pitch.tan();
     // Faces grouped by (side, plane, patch along the plane, patch in height).
-    let mut patches: BTreeMap<(usize, i64, i64, i64), (Vector3<f64>, Vec<Point3<f64>>)> =
-        BTreeMap::new();
+    let mut patches: BTreeMap<(usize, i64, i64, i64), Patch> = BTreeMap::new();
     for v in &targets {
         for (k, d) in [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]]
             .iter()
