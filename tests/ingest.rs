@@ -42,6 +42,8 @@ fn check_frames(run: &Path, expected: &Value) {
     let time = col("time_ns");
     let time = time.i64().unwrap();
     let (width, height) = (col("width"), col("height"));
+    let exposure = col("exposure_s");
+    let exposure = exposure.f64().unwrap();
     let status = col("pose_status");
     let status = status.str().unwrap();
     let pose: Vec<Column> = ["x", "y", "z", "qx", "qy", "qz", "qw"]
@@ -59,6 +61,11 @@ fn check_frames(run: &Path, expected: &Value) {
             e["height"].as_u64().map(|v| v as u32)
         );
         assert_eq!(status.get(i), e["pose_status"].as_str(), "frame {i} status");
+        assert_eq!(
+            exposure.get(i),
+            e["exposure_s"].as_f64(),
+            "frame {i} exposure"
+        );
         let got: Vec<Option<f64>> = pose.iter().map(|c| c.f64().unwrap().get(i)).collect();
         match e.get("camera_pose") {
             None => assert!(

@@ -83,6 +83,7 @@ fn ingest_recovers_poses_intrinsics_and_extrinsics_of_the_truth() {
     let (mut worst_position, mut worst_angle) = (0.0f64, 0.0f64);
     for (frame, t) in flight.frames.iter().zip(&kept) {
         assert_eq!(frame.time_ns, t["time_ns"].as_i64().unwrap());
+        assert_eq!(frame.exposure_s, truth["exposure_s"].as_f64());
         let pose = frame.camera_pose.expect("every simulated frame has a pose");
         let p = vec3(&t["camera_pose"]["translation"]);
         worst_position = worst_position.max((pose.translation.vector - Vector3::from(p)).norm());

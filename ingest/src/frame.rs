@@ -91,4 +91,19 @@ pub struct Frame {
     pub pose_status: PoseStatus,
     pub image_status: ImageStatus,
     pub location: MessageLocation,
+    /// Exposure time, seconds, when the recording has it (see [`EXPOSURE_TOPIC`]).
+    pub exposure_s: Option<f64>,
+}
+
+/// Name (last path element) of a `std_msgs/msg/Float64` topic carrying each
+/// image's exposure time in seconds, published beside the image topic (for
+/// `/camera/image_raw/compressed`: `/camera/exposure_time`), with the
+/// image's log time.
+pub const EXPOSURE_TOPIC: &str = "exposure_time";
+
+/// The namespace of a camera topic: `/cam/image_raw/compressed`,
+/// `/cam/image_raw` and `/cam/camera_info` all live in `/cam`.
+pub fn camera_namespace(topic: &str) -> &str {
+    let topic = topic.strip_suffix("/compressed").unwrap_or(topic);
+    topic.rsplit_once('/').map_or("", |(ns, _)| ns)
 }

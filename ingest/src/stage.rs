@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::camera::{Camera, Intrinsics};
 use crate::error::IngestError;
-use crate::frame::{Frame, ImageStatus, PoseStatus};
+use crate::frame::{EXPOSURE_TOPIC, Frame, ImageStatus, PoseStatus, camera_namespace};
 use crate::image::{Compression, RAW_ENCODINGS, compressed_size};
 use crate::map::pointcloud2;
 use crate::pose::{self, StampedPose};
@@ -155,6 +155,8 @@ enum Kind {
         is_static: bool,
     },
     PointCloud,
+    /// Exposure times of a camera's images.
+    Exposure,
     /// Recognised but not used (e.g. an image topic not selected).
     Ignored,
     Unknown,
@@ -186,6 +188,8 @@ struct Scan {
     poses: BTreeMap<String, Vec<(StampedPose, String, String)>>,
     tf: TransformTree,
     clouds: BTreeMap<String, MessageLocation>,
+    /// Exposure times by camera namespace and log time.
+    exposures: HashMap<(String, i64), f64>,
     failures: BTreeMap<String, DecodeFailures>,
     unknown: BTreeSet<(String, String)>,
 }
@@ -215,6 +219,9 @@ impl Scan {
                 is_static: channel.topic == "/tf_static",
             },
             schema::POINT_CLOUD2 if chosen(&options.map_topic) => Kind::PointCloud,
+            schema::FLOAT64 if channel.topic.rsplit('/').next() == Some(EXPOSURE_TOPIC) => {
+                Kind::Exposure
+            }
             schema::CAMERA_INFO
             | schema::POSE_STAMPED
             | schema::POSE_WITH_COVARIANCE_STAMPED
@@ -313,6 +320,7 @@ impl Scan {
                         .unwrap_or(head.format),
                     camera_pose: None,
                     pose_status: PoseStatus::Ok,
+                    exposure_s: None,
                     image_status: if size.is_some() {
                         ImageStatus::Ok
                     } else {
@@ -335,6 +343,7 @@ impl Scan {
                     encoding: head.encoding,
                     camera_pose: None,
                     pose_status: PoseStatus::Ok,
+                    exposure_s: None,
                     image_status: if supported {
                         ImageStatus::Ok
                     } else {
@@ -388,6 +397,11 @@ impl Scan {
             Kind::PointCloud => {
                 // Maps are republished as they grow; the last one is the map.
                 self.clouds.insert(topic.to_string(), m.location);
+            }
+            Kind::Exposure => {
+                let e: msg::Float64 = cdr::decode(m.data)?;
+                self.exposures
+                    .insert((camera_namespace(topic).to_string(), log_time_ns), e.data);
             }
             Kind::Ignored | Kind::Unknown => {}
         }
@@ -446,6 +460,10 @@ pub fn ingest(
     )?;
     let cameras = cameras(options, &scan, &trajectory, &mut warnings)?;
     let mut frames = std::mem::take(&mut scan.frames);
+    for f in &mut frames {
+        let key = (camera_namespace(&f.topic).to_string(), f.log_time_ns);
+        f.exposure_s = scan.exposures.get(&key).copied();
+    }
     frames.sort_by(|a, b| (a.time_ns, &a.topic).cmp(&(b.time_ns, &b.topic)));
     place_frames(&mut frames, &trajectory, &scan.tf, max_gap_ns);
     let map = recorded_map(&recording, &scan, &mut warnings);
@@ -814,18 +832,12 @@ fn match_camera_info<'a>(
     scan: &'a Scan,
 ) -> Option<(&'a str, &'a msg::CameraInfo)> {
     let infos = &scan.camera_infos;
-    let namespace = |t: &str| {
-        t.rsplit_once('/')
-            .map(|(ns, _)| ns.to_string())
-            .unwrap_or_default()
-    };
     infos
         .iter()
         .find(|(_, i)| !frame_id.is_empty() && i.header.frame_id == frame_id)
         .or_else(|| {
-            // /cam/image_raw/compressed and /cam/image_raw both live beside /cam/camera_info.
-            let ns = namespace(topic.trim_end_matches("/compressed"));
-            infos.iter().find(|(t, _)| namespace(t) == ns)
+            let ns = camera_namespace(topic);
+            infos.iter().find(|(t, _)| camera_namespace(t) == ns)
         })
         .or_else(|| (infos.len() == 1).then(|| infos.iter().next()).flatten())
         .map(|(t, i)| (t.as_str(), i))

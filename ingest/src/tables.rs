@@ -117,6 +117,13 @@ pub fn frames_to_table(frames: &[Frame]) -> PolarsResult<DataFrame> {
     ];
     columns.extend(pose_columns(frames.iter().map(|f| f.camera_pose.as_ref())));
     columns.push(Column::new(
+        "exposure_s".into(),
+        frames
+            .iter()
+            .map(|f| f.exposure_s)
+            .collect::<Vec<Option<f64>>>(),
+    ));
+    columns.push(Column::new(
         "chunk_offset".into(),
         frames
             .iter()
@@ -146,6 +153,7 @@ pub fn frames_from_table(df: &DataFrame) -> PolarsResult<Vec<Frame>> {
     let image_status = df.column("image_status")?.str()?;
     let chunk = df.column("chunk_offset")?.u64()?;
     let record = df.column("record_offset")?.u64()?;
+    let exposure = df.column("exposure_s")?.f64()?;
     let poses = read_poses(df)?;
     let missing = |c: &str| polars_err!(ComputeError: "frames table has a null {c}");
     (0..df.height())
@@ -172,6 +180,7 @@ pub fn frames_from_table(df: &DataFrame) -> PolarsResult<Vec<Frame>> {
                     chunk_offset: chunk.get(i),
                     record_offset: record.get(i).ok_or_else(|| missing("record_offset"))?,
                 },
+                exposure_s: exposure.get(i),
             })
         })
         .collect()

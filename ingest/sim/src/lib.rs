@@ -232,6 +232,11 @@ pub fn simulate(
                 },
             )?;
             rec.write(record::CAMERA_INFO_TOPIC, log, &camera_info(&k, stamp))?;
+            rec.write(
+                record::EXPOSURE_TOPIC,
+                log,
+                &msg::Float64 { data: EXPOSURE_S },
+            )?;
         }
         views.push(coverage::View {
             camera,

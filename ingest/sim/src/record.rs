@@ -12,6 +12,8 @@ use nalgebra::{Isometry3, Point3};
 /// Topic names of the simulated recording.
 pub const IMAGE_TOPIC: &str = "/camera/image_raw/compressed";
 pub const CAMERA_INFO_TOPIC: &str = "/camera/camera_info";
+/// Each image's exposure time (`std_msgs/msg/Float64`, seconds), logged with the image.
+pub const EXPOSURE_TOPIC: &str = "/camera/exposure_time";
 pub const POSE_TOPIC: &str = "/slam/pose";
 pub const MAP_TOPIC: &str = "/map";
 
@@ -76,6 +78,11 @@ impl Recorder {
                 CAMERA_INFO_TOPIC,
                 "sensor_msgs/msg/CameraInfo",
                 definitions::camera_info(),
+            ),
+            (
+                EXPOSURE_TOPIC,
+                "std_msgs/msg/Float64",
+                definitions::float64(),
             ),
             (
                 POSE_TOPIC,

@@ -45,6 +45,10 @@ fn with_dependencies(main: &str, deps: &[(&str, &str)]) -> String {
     text
 }
 
+pub fn float64() -> String {
+    "float64 data\n".to_string()
+}
+
 pub fn compressed_image() -> String {
     with_dependencies(
         "std_msgs/Header header\nstring format\nuint8[] data\n",

@@ -14,4 +14,5 @@ pub mod schema {
     pub const POSE_WITH_COVARIANCE_STAMPED: &str = "geometry_msgs/msg/PoseWithCovarianceStamped";
     pub const ODOMETRY: &str = "nav_msgs/msg/Odometry";
     pub const TF_MESSAGE: &str = "tf2_msgs/msg/TFMessage";
+    pub const FLOAT64: &str = "std_msgs/msg/Float64";
 }

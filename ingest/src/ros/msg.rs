@@ -187,6 +187,12 @@ pub struct PointCloud2 {
     pub is_dense: bool,
 }
 
+/// `std_msgs/msg/Float64`.
+#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
+pub struct Float64 {
+    pub data: f64,
+}
+
 /// `sensor_msgs/msg/Image`.
 #[derive(Debug, Clone, Deserialize, Serialize)]
 pub struct Image {
