@@ -10,24 +10,6 @@ use common::*;
 use polars::prelude::*;
 use serde_json::Value;
 
-fn run_ingest(flight: &Path, run: &Path, extra: &[&str]) -> std::process::Output {
-    let mut args = vec![
-        "ingest",
-        "--flight",
-        flight.to_str().unwrap(),
-        "--out",
-        run.to_str().unwrap(),
-    ];
-    args.extend_from_slice(extra);
-    postflight(&args, run.parent().unwrap())
-}
-
-fn ingest_ok(mcap: &Path, run: &Path, extra: &[&str]) -> Value {
-    let out = run_ingest(mcap, run, extra);
-    assert!(out.status.success(), "ingest failed: {}", stderr(&out));
-    read_json(&run.join("ingest.json"))
-}
-
 fn frames_table(run: &Path) -> DataFrame {
     let file = std::fs::File::open(run.join("frames.parquet")).unwrap();
     ParquetReader::new(file).finish().unwrap()

@@ -15,33 +15,12 @@ use serde_json::Value;
 fn bridge() -> &'static (PathBuf, Value) {
     static RUN: OnceLock<(PathBuf, Value)> = OnceLock::new();
     RUN.get_or_init(|| {
-        let dir = tempfile::tempdir().unwrap().keep();
-        let sim = dir.join("sim");
-        let out = postflight(
-            &[
-                "simulate",
-                "--out",
-                sim.to_str().unwrap(),
-                "--frames",
-                "150",
-                "--seed",
-                "3",
-            ],
-            &dir,
-        );
-        assert!(out.status.success(), "simulate failed: {}", stderr(&out));
-        let run = dir.join("run");
-        let out = postflight(
-            &[
-                "ingest",
-                "--flight",
-                sim.join("flight.mcap").to_str().unwrap(),
-                "--out",
-                run.to_str().unwrap(),
-            ],
-            &dir,
-        );
-        assert!(out.status.success(), "ingest failed: {}", stderr(&out));
+        // Cargo's per-target scratch dir: reused, not leaked, across runs.
+        let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("simulate-bridge");
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let sim = simulate_into(&dir, "sim", &["--frames", "150", "--seed", "3"]);
+        ingest_ok(&sim.join("flight.mcap"), &dir.join("run"), &[]);
         (dir, read_json(&sim.join("truth.json")))
     })
 }
@@ -284,21 +263,8 @@ fn the_same_seed_gives_byte_identical_files() {
 
     // The tower flight ingests cleanly too.
     let run = dir.path().join("run");
-    let out = postflight(
-        &[
-            "ingest",
-            "--flight",
-            a.join("flight.mcap").to_str().unwrap(),
-            "--out",
-            run.to_str().unwrap(),
-        ],
-        dir.path(),
-    );
-    assert!(out.status.success(), "{}", stderr(&out));
-    assert_eq!(
-        read_json(&run.join("ingest.json"))["warnings"],
-        Value::Array(vec![])
-    );
+    let summary = ingest_ok(&a.join("flight.mcap"), &run, &[]);
+    assert_eq!(summary["warnings"], Value::Array(vec![]));
 }
 
 #[test]
@@ -328,18 +294,7 @@ fn a_mesh_from_an_obj_file_flies_end_to_end() {
             .all(|c| c["part"] == "structure")
     );
     let run = dir.path().join("run");
-    let out = postflight(
-        &[
-            "ingest",
-            "--flight",
-            sim.join("flight.mcap").to_str().unwrap(),
-            "--out",
-            run.to_str().unwrap(),
-        ],
-        dir.path(),
-    );
-    assert!(out.status.success(), "{}", stderr(&out));
-    let summary = read_json(&run.join("ingest.json"));
+    let summary = ingest_ok(&sim.join("flight.mcap"), &run, &[]);
     assert_eq!(summary["warnings"], Value::Array(vec![]));
     assert_eq!(summary["frames_with_pose"], summary["frames"]);
     let plan = ingest::InspectionPlan::load(&sim.join("plan.json")).unwrap();

@@ -6,10 +6,11 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::pose::{from_parts_xyzw, quaternion_xyzw};
 
-#[derive(Serialize, Deserialize)]
-struct PoseJson {
-    translation: [f64; 3],
-    rotation_xyzw: [f64; 4],
+/// A pose as JSON writes it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct PoseJson {
+    pub translation: [f64; 3],
+    pub rotation_xyzw: [f64; 4],
 }
 
 impl From<&Isometry3<f64>> for PoseJson {

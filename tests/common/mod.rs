@@ -80,3 +80,23 @@ pub fn assert_close(a: f64, b: f64, tol: f64, what: &str) {
         "{what}: {a} vs expected {b} (tolerance {tol})"
     );
 }
+
+/// Run `postflight ingest` (XDG dirs beside the run directory).
+pub fn run_ingest(flight: &Path, run: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "ingest",
+        "--flight",
+        flight.to_str().unwrap(),
+        "--out",
+        run.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    postflight(&args, run.parent().unwrap())
+}
+
+/// Run `postflight ingest`, which must succeed; returns its ingest.json.
+pub fn ingest_ok(flight: &Path, run: &Path, extra: &[&str]) -> Value {
+    let out = run_ingest(flight, run, extra);
+    assert!(out.status.success(), "ingest failed: {}", stderr(&out));
+    read_json(&run.join("ingest.json"))
+}

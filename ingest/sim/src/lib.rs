@@ -35,7 +35,8 @@ use crate::record::{Recorder, header, ros_pose};
 use crate::render::RayTable;
 use crate::rng::Rng;
 use crate::scene::{Class, Scene, area};
-use crate::truth::{CrackTruth, FrameTruth, PoseJson, Truth};
+use crate::truth::{CrackTruth, FrameTruth, Truth};
+use ingest::serde_pose::PoseJson;
 
 /// Which structure to fly around.
 #[derive(Debug, Clone)]

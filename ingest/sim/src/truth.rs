@@ -2,6 +2,7 @@
 
 use ingest::Intrinsics;
 use ingest::map::{VoxelGrid, VoxelIndex};
+use ingest::serde_pose::PoseJson;
 use nalgebra::{Isometry3, Point3};
 use serde::Serialize;
 
@@ -10,22 +11,6 @@ use crate::scene::Scene;
 
 /// Fraction of a pixel a crack must cover to show as a dark line.
 pub const MIN_CRACK_CONTRAST: f64 = 0.2;
-
-#[derive(Debug, Clone, Serialize)]
-pub struct PoseJson {
-    pub translation: [f64; 3],
-    pub rotation_xyzw: [f64; 4],
-}
-
-impl From<&Isometry3<f64>> for PoseJson {
-    fn from(p: &Isometry3<f64>) -> Self {
-        let t = p.translation.vector;
-        Self {
-            translation: [t.x, t.y, t.z],
-            rotation_xyzw: ingest::pose::quaternion_xyzw(p),
-        }
-    }
-}
 
 #[derive(Debug, Clone, Serialize)]
 pub struct CrackTruth {
