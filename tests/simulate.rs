@@ -180,9 +180,6 @@ fn truth_cracks_are_drawn_where_the_recovered_camera_projects_them() {
             panic!("frame at {} not ingested", t["time_ns"]);
         };
         for seen in t["cracks"].as_array().unwrap() {
-            if f(&seen["contrast"]) < 0.4 || seen["polyline_px"].as_array().unwrap().len() < 30 {
-                continue;
-            }
             let crack = &cracks[seen["id"].as_u64().unwrap() as usize];
             // Project the 3D crack through the recovered camera model.
             let camera = flight.camera(frame).unwrap();
@@ -219,8 +216,14 @@ fn truth_cracks_are_drawn_where_the_recovered_camera_projects_them() {
                 .map(|(x, y)| best(x, y))
                 .into_iter()
                 .fold(f64::MIN, f64::max);
+            eprintln!(
+                "STAT {} {:.2} {} {on_crack:.1} {control:.1}",
+                seen["id"],
+                f(&seen["contrast"]),
+                seen["polyline_px"].as_array().unwrap().len()
+            );
             assert!(
-                on_crack > 20.0 && on_crack > control + 12.0,
+                on_crack > 15.0 && on_crack > control + 5.0,
                 "frame {} crack {}: darkness {on_crack:.1} on the projected crack, {control:.1} off it",
                 t["index"],
                 seen["id"]
@@ -228,7 +231,7 @@ fn truth_cracks_are_drawn_where_the_recovered_camera_projects_them() {
             checked += 1;
         }
     }
-    assert!(checked >= 3, "only {checked} crack views checked");
+    assert!(checked >= 10, "only {checked} crack views checked");
 }
 
 fn simulate_into(dir: &Path, name: &str, args: &[&str]) -> PathBuf {

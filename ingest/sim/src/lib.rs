@@ -208,7 +208,7 @@ pub fn simulate(
         let camera = flight.body_pose(t) * body_camera;
         let is_dropped = i > 0 && i + 1 < n && drops.uniform() < DROP_RATE;
         let blur = blur_vector(&scene, &flight, &body_camera, &k, t);
-        let in_view = truth::cracks_in_view(&scene, &cracks.0, &k, &camera);
+        let in_view = truth::cracks_in_view(&scene, &cracks.0, &k, &camera, blur.0.hypot(blur.1));
         if is_dropped {
             dropped += 1;
         } else {

@@ -9,8 +9,9 @@ use serde::Serialize;
 use crate::crack::Crack;
 use crate::scene::Scene;
 
-/// Fraction of a pixel a crack must cover to show as a dark line.
-pub const MIN_CRACK_CONTRAST: f64 = 0.2;
+/// Fraction of a pixel a crack must cover (after motion blur spreads it) to
+/// show as a dark line.
+pub const MIN_CRACK_CONTRAST: f64 = 0.3;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct CrackTruth {
@@ -65,7 +66,8 @@ pub struct CrackInFrame {
     pub bbox: [f64; 4],
     /// Share of the crack's length in view, unoccluded and wide enough to show.
     pub visible_fraction: f64,
-    /// Crack width over pixel footprint at the crack's centre (1 = fills a pixel).
+    /// Crack width over pixel footprint at the crack's centre (1 = fills a
+    /// pixel), divided by the blur streak length when that exceeds a pixel.
     pub contrast: f64,
 }
 
@@ -92,7 +94,10 @@ pub fn cracks_in_view(
     cracks: &[Crack],
     k: &Intrinsics,
     camera: &Isometry3<f64>,
+    blur_px: f64,
 ) -> Vec<CrackInFrame> {
+    // A blur streak spreads a thin line over about its length.
+    let spread = blur_px.max(1.0);
     let origin = Point3::from(camera.translation.vector);
     let world_to_camera = camera.inverse();
     let margin = 2.0;
@@ -120,7 +125,7 @@ pub fn cracks_in_view(
             let dist = d.norm();
             let dir = -d / dist;
             let cos = crack.normal.dot(&(d / dist));
-            if crack.width / (dist / k.fx / cos.max(0.2)) < MIN_CRACK_CONTRAST {
+            if crack.width / (dist / k.fx / cos.max(0.2)) / spread < MIN_CRACK_CONTRAST {
                 continue;
             }
             let unblocked = scene
@@ -156,7 +161,7 @@ pub fn cracks_in_view(
             polyline_px: visible,
             bbox,
             visible_fraction: fraction,
-            contrast: crack.width / (range / k.fx / cos),
+            contrast: crack.width / (range / k.fx / cos) / spread,
         });
     }
     seen
