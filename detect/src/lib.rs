@@ -3,3 +3,9 @@
 //! an ingested flight, and owns the detections table it writes into the run
 //! directory. It reads frames through `ingest` and knows nothing of maps or
 //! coverage.
+
+pub mod error;
+pub mod runtime;
+
+pub use error::DetectError;
+pub use runtime::{Library, Runtime, locate};

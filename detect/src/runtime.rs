@@ -1,0 +1,174 @@
+//! Finding and starting ONNX Runtime.
+//!
+//! postflight loads ONNX Runtime as a shared library at run time (`ort`'s
+//! `load-dynamic`), because prebuilt-binary downloads are impossible on
+//! air-gapped sites. The library comes from the `onnxruntime` Python wheel;
+//! [`locate`] looks for it in a fixed order and says exactly where it looked.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use crate::error::DetectError;
+
+/// Where the ONNX Runtime library was found.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Library {
+    pub path: PathBuf,
+    /// `--onnxruntime`, `ORT_DYLIB_PATH`, `project virtualenv` or `python3`.
+    pub found_by: &'static str,
+}
+
+/// Find the ONNX Runtime shared library, in order: `explicit` (the
+/// `--onnxruntime` flag), `ORT_DYLIB_PATH`, the project virtualenv (`.venv`
+/// beside or above the executable or the working directory), then the
+/// `onnxruntime` package of `python3` on PATH.
+pub fn locate(explicit: Option<&Path>) -> Result<Library, DetectError> {
+    if let Some(path) = explicit {
+        return if path.is_file() {
+            Ok(Library {
+                path: path.to_owned(),
+                found_by: "--onnxruntime",
+            })
+        } else {
+            Err(DetectError::Runtime(format!(
+                "--onnxruntime {} is not a file; give the path of libonnxruntime.so",
+                path.display()
+            )))
+        };
+    }
+    let mut tried = Vec::new();
+    if let Some(path) = std::env::var_os("ORT_DYLIB_PATH").map(PathBuf::from) {
+        if path.is_file() {
+            return Ok(Library {
+                path,
+                found_by: "ORT_DYLIB_PATH",
+            });
+        }
+        tried.push(format!("ORT_DYLIB_PATH={} (no such file)", path.display()));
+    }
+    let starts = [std::env::current_exe().ok(), std::env::current_dir().ok()];
+    for start in starts.iter().flatten() {
+        for dir in start.ancestors() {
+            let venv = dir.join(".venv");
+            if venv.is_dir() {
+                if let Some(path) = in_venv(&venv) {
+                    return Ok(Library {
+                        path,
+                        found_by: "project virtualenv",
+                    });
+                }
+                tried.push(format!("{} (no onnxruntime package)", venv.display()));
+            }
+        }
+    }
+    match python_package() {
+        Some(path) => {
+            return Ok(Library {
+                path,
+                found_by: "python3",
+            });
+        }
+        None => tried.push("python3 on PATH (no onnxruntime package)".into()),
+    }
+    Err(DetectError::Runtime(format!(
+        "ONNX Runtime not found (looked at --onnxruntime, {}); run scripts/setup, or `pip install onnxruntime==1.31.1`, or pass --onnxruntime /path/to/libonnxruntime.so",
+        tried.join(", ")
+    )))
+}
+
+/// `libonnxruntime.so*` in a virtualenv's `onnxruntime/capi`.
+fn in_venv(venv: &Path) -> Option<PathBuf> {
+    let lib = venv.join("lib");
+    let mut pythons: Vec<PathBuf> = std::fs::read_dir(&lib)
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("python"))
+        })
+        .collect();
+    pythons.sort();
+    pythons
+        .iter()
+        .find_map(|py| in_capi(&py.join("site-packages/onnxruntime/capi")))
+}
+
+/// The library in an `onnxruntime/capi` directory: the versioned file if
+/// there is one (`libonnxruntime.so.1.31.1`), else `libonnxruntime.so`.
+fn in_capi(capi: &Path) -> Option<PathBuf> {
+    let mut libs: Vec<PathBuf> = std::fs::read_dir(capi)
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name().and_then(|n| n.to_str()).is_some_and(|n| {
+                n.starts_with("libonnxruntime.so")
+                    || n == "libonnxruntime.dylib"
+                    || n == "onnxruntime.dll"
+            })
+        })
+        .collect();
+    // The longest name is the most specific version.
+    libs.sort_by_key(|p| std::cmp::Reverse(p.as_os_str().len()));
+    libs.into_iter().next()
+}
+
+fn python_package() -> Option<PathBuf> {
+    let out = Command::new("python3")
+        .args([
+            "-c",
+            "import onnxruntime, os; print(os.path.dirname(onnxruntime.__file__))",
+        ])
+        .output()
+        .ok()?;
+    if !out.status.success() {
+        return None;
+    }
+    let dir = PathBuf::from(String::from_utf8(out.stdout).ok()?.trim());
+    in_capi(&dir.join("capi"))
+}
+
+/// A started ONNX Runtime, ready to create sessions.
+pub struct Runtime {
+    pub library: Library,
+    pub environment: ort::environment::Environment,
+}
+
+impl Runtime {
+    /// Load the library and create the environment.
+    pub fn start(library: Library) -> Result<Self, DetectError> {
+        let builder = ort::init_from(&library.path).map_err(|e| {
+            DetectError::Runtime(format!(
+                "cannot load ONNX Runtime from {} (found by {}): {e}; reinstall it with scripts/setup",
+                library.path.display(),
+                library.found_by
+            ))
+        })?;
+        let environment = builder
+            .with_name("postflight")
+            .build()
+            .map_err(|e| DetectError::Runtime(format!("cannot start ONNX Runtime: {e}")))?;
+        Ok(Self {
+            library,
+            environment,
+        })
+    }
+
+    /// Open a model.
+    pub fn session(&self, model: &Path) -> Result<ort::session::Session, DetectError> {
+        let bad = |e: ort::Error| DetectError::Model {
+            path: model.to_owned(),
+            why: e.to_string(),
+        };
+        if !model.is_file() {
+            return Err(DetectError::Model {
+                path: model.to_owned(),
+                why: "no such file; check the path given to --model".into(),
+            });
+        }
+        ort::session::Session::builder(&self.environment)
+            .map_err(bad)?
+            .commit_from_file(model)
+            .map_err(bad)
+    }
+}
