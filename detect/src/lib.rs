@@ -9,3 +9,5 @@ pub mod runtime;
 
 pub use error::DetectError;
 pub use runtime::{Library, Runtime, locate};
+pub mod boxes;
+pub mod letterbox;

@@ -1,0 +1,132 @@
+//! Axis-aligned boxes and the detections they carry, with class-aware
+//! non-maximum suppression.
+
+/// A box in pixels: `x0, y0` top-left, `x1, y1` bottom-right (exclusive edges).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoxXyxy {
+    pub x0: f32,
+    pub y0: f32,
+    pub x1: f32,
+    pub y1: f32,
+}
+
+impl BoxXyxy {
+    /// From YOLO's centre and size.
+    pub fn from_cxcywh(cx: f32, cy: f32, w: f32, h: f32) -> Self {
+        Self {
+            x0: cx - w / 2.0,
+            y0: cy - h / 2.0,
+            x1: cx + w / 2.0,
+            y1: cy + h / 2.0,
+        }
+    }
+
+    pub fn width(&self) -> f32 {
+        (self.x1 - self.x0).max(0.0)
+    }
+
+    pub fn height(&self) -> f32 {
+        (self.y1 - self.y0).max(0.0)
+    }
+
+    pub fn area(&self) -> f32 {
+        self.width() * self.height()
+    }
+
+    /// Intersection over union; 0 for disjoint or empty boxes.
+    pub fn iou(&self, other: &Self) -> f32 {
+        let inter = Self {
+            x0: self.x0.max(other.x0),
+            y0: self.y0.max(other.y0),
+            x1: self.x1.min(other.x1),
+            y1: self.y1.min(other.y1),
+        }
+        .area();
+        let union = self.area() + other.area() - inter;
+        if union <= 0.0 { 0.0 } else { inter / union }
+    }
+
+    /// Clip to an image of `width` x `height` pixels.
+    pub fn clip(&self, width: f32, height: f32) -> Self {
+        Self {
+            x0: self.x0.clamp(0.0, width),
+            y0: self.y0.clamp(0.0, height),
+            x1: self.x1.clamp(0.0, width),
+            y1: self.y1.clamp(0.0, height),
+        }
+    }
+}
+
+/// One detection in one image.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Detection {
+    pub bbox: BoxXyxy,
+    pub score: f32,
+    pub class: u32,
+}
+
+/// Class-aware non-maximum suppression: keep the best-scoring boxes, dropping
+/// any that overlap a kept box of the same class by more than `iou`.
+/// Returns the kept detections, best first.
+pub fn nms(mut detections: Vec<Detection>, iou: f32) -> Vec<Detection> {
+    // Ties broken by position so the result does not depend on input order.
+    detections.sort_by(|a, b| {
+        b.score
+            .total_cmp(&a.score)
+            .then(a.bbox.x0.total_cmp(&b.bbox.x0))
+            .then(a.bbox.y0.total_cmp(&b.bbox.y0))
+    });
+    let mut kept: Vec<Detection> = Vec::new();
+    for d in detections {
+        if kept
+            .iter()
+            .all(|k| k.class != d.class || k.bbox.iou(&d.bbox) <= iou)
+        {
+            kept.push(d);
+        }
+    }
+    kept
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn det(x0: f32, score: f32, class: u32) -> Detection {
+        Detection {
+            bbox: BoxXyxy {
+                x0,
+                y0: 0.0,
+                x1: x0 + 10.0,
+                y1: 10.0,
+            },
+            score,
+            class,
+        }
+    }
+
+    #[test]
+    fn iou_of_known_overlaps() {
+        let a = det(0.0, 1.0, 0).bbox;
+        assert_eq!(a.iou(&a), 1.0);
+        assert!((a.iou(&det(5.0, 1.0, 0).bbox) - 50.0 / 150.0).abs() < 1e-6);
+        assert_eq!(a.iou(&det(20.0, 1.0, 0).bbox), 0.0);
+        let c = BoxXyxy::from_cxcywh(5.0, 5.0, 10.0, 10.0);
+        assert_eq!(c, a);
+    }
+
+    #[test]
+    fn nms_suppresses_within_a_class_only() {
+        let kept = nms(
+            vec![
+                det(0.0, 0.5, 0),
+                det(2.0, 0.9, 0),
+                det(1.0, 0.8, 1),
+                det(30.0, 0.1, 0),
+            ],
+            0.5,
+        );
+        let summary: Vec<(f32, u32)> = kept.iter().map(|d| (d.score, d.class)).collect();
+        assert_eq!(summary, vec![(0.9, 0), (0.8, 1), (0.1, 0)]);
+    }
+}
