@@ -10,4 +10,6 @@ pub mod runtime;
 pub use error::DetectError;
 pub use runtime::{Library, Runtime, locate};
 pub mod boxes;
+pub mod decode;
 pub mod letterbox;
+pub mod signature;

@@ -1,9 +1,10 @@
-//! ONNX Runtime is found in the project virtualenv, loaded, and runs a model
-//! built by the Python `onnx` package.
+//! ONNX Runtime is found in the project virtualenv, loaded, and runs models
+//! built by the Python `onnx` package; their interfaces are recognised.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use detect::signature::Signature;
 use ort::value::TensorRef;
 
 fn python() -> PathBuf {
@@ -12,23 +13,29 @@ fn python() -> PathBuf {
         .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../.venv/bin/python"))
 }
 
-/// `y = x + 1` over a [1, 3] float tensor.
-fn add_one_model(path: &Path) {
+/// Two small models: `add_one.onnx` (`y = x + 1` over [1, 3]) and
+/// `yolo_shaped.onnx` (images [1, 3, 4, 5] reshaped to output0 [1, 5, 12]).
+fn write_models(dir: &Path) {
     let script = r#"
-import sys, onnx
+import sys, os, onnx
 from onnx import helper, TensorProto
+def save(graph, name):
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
+    model.ir_version = 8
+    onnx.checker.check_model(model)
+    onnx.save(model, os.path.join(sys.argv[1], name))
 x = helper.make_tensor_value_info("x", TensorProto.FLOAT, [1, 3])
 y = helper.make_tensor_value_info("y", TensorProto.FLOAT, [1, 3])
 one = helper.make_tensor("one", TensorProto.FLOAT, [1], [1.0])
-graph = helper.make_graph([helper.make_node("Add", ["x", "one"], ["y"])], "add_one", [x], [y], [one])
-model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
-model.ir_version = 8
-onnx.checker.check_model(model)
-onnx.save(model, sys.argv[1])
+save(helper.make_graph([helper.make_node("Add", ["x", "one"], ["y"])], "add_one", [x], [y], [one]), "add_one.onnx")
+images = helper.make_tensor_value_info("images", TensorProto.FLOAT, [1, 3, 4, 5])
+output = helper.make_tensor_value_info("output0", TensorProto.FLOAT, [1, 5, 12])
+shape = helper.make_tensor("shape", TensorProto.INT64, [3], [1, 5, 12])
+save(helper.make_graph([helper.make_node("Reshape", ["images", "shape"], ["output0"])], "yolo_shaped", [images], [output], [shape]), "yolo_shaped.onnx")
 "#;
     let out = Command::new(python())
         .args(["-c", script])
-        .arg(path)
+        .arg(dir)
         .output()
         .expect("run the project Python (scripts/setup makes it)");
     assert!(
@@ -58,9 +65,8 @@ fn finds_loads_and_runs_onnx_runtime() {
     );
 
     let runtime = detect::Runtime::start(library).unwrap();
-    let model = dir.path().join("add_one.onnx");
-    add_one_model(&model);
-    let mut session = runtime.session(&model).unwrap();
+    write_models(dir.path());
+    let mut session = runtime.session(&dir.path().join("add_one.onnx")).unwrap();
     assert_eq!(session.inputs()[0].name(), "x");
     let input = ndarray::arr2(&[[1.0f32, 2.0, -3.5]]);
     let outputs = session
@@ -71,6 +77,21 @@ fn finds_loads_and_runs_onnx_runtime() {
         y.iter().copied().collect::<Vec<f32>>(),
         vec![2.0, 3.0, -2.5]
     );
+    drop(outputs);
+
+    // Not a detector: the error names what the model has.
+    let err = Signature::of_session(&session).unwrap_err();
+    assert!(
+        err.contains("x [1, 3]") && err.contains("y [1, 3]"),
+        "{err}"
+    );
+    let yolo = runtime
+        .session(&dir.path().join("yolo_shaped.onnx"))
+        .unwrap();
+    let signature = Signature::of_session(&yolo).unwrap();
+    assert_eq!(signature.classes, Some(1));
+    assert_eq!(signature.input_size, Some((4, 5)));
+    assert_eq!(signature.output, "output0");
 
     let err = runtime.session(&dir.path().join("nope.onnx")).unwrap_err();
     assert!(err.to_string().contains("--model"), "{err}");

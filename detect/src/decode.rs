@@ -1,0 +1,74 @@
+//! Decoding YOLO output `[batch, 4 + nc, anchors]` (centre, size, then class
+//! scores, in model input pixels) into detections.
+
+use crate::boxes::{BoxXyxy, Detection};
+
+/// Detections of image `b` of a `[batch, 4 + classes, anchors]` output laid
+/// out row-major in `data`, keeping each anchor's best class when its score
+/// is at least `confidence`.
+pub fn decode(
+    data: &[f32],
+    classes: usize,
+    anchors: usize,
+    b: usize,
+    confidence: f32,
+) -> Vec<Detection> {
+    let rows = 4 + classes;
+    let image = &data[b * rows * anchors..(b + 1) * rows * anchors];
+    let row = |r: usize| &image[r * anchors..(r + 1) * anchors];
+    let (cx, cy, w, h) = (row(0), row(1), row(2), row(3));
+    let mut out = Vec::new();
+    for a in 0..anchors {
+        let (class, score) =
+            (0..classes)
+                .map(|c| (c, row(4 + c)[a]))
+                .fold(
+                    (0, f32::NEG_INFINITY),
+                    |best, s| if s.1 > best.1 { s } else { best },
+                );
+        if score >= confidence {
+            out.push(Detection {
+                bbox: BoxXyxy::from_cxcywh(cx[a], cy[a], w[a], h[a]),
+                score,
+                class: class as u32,
+            });
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn best_class_per_anchor_above_threshold() {
+        // batch 2, 2 classes, 3 anchors; image 1 only.
+        let image0 = vec![0.0; 6 * 3];
+        #[rustfmt::skip]
+        let image1 = vec![
+            10.0, 50.0, 90.0, // cx
+            10.0, 50.0, 90.0, // cy
+            4.0, 8.0, 2.0,    // w
+            2.0, 8.0, 2.0,    // h
+            0.9, 0.1, 0.3,    // class 0
+            0.2, 0.6, 0.01,   // class 1
+        ];
+        let data = [image0, image1].concat();
+        let d = decode(&data, 2, 3, 1, 0.25);
+        assert_eq!(d.len(), 3);
+        assert_eq!((d[0].class, d[0].score), (0, 0.9));
+        assert_eq!(
+            d[0].bbox,
+            BoxXyxy {
+                x0: 8.0,
+                y0: 9.0,
+                x1: 12.0,
+                y1: 11.0
+            }
+        );
+        assert_eq!((d[1].class, d[1].score), (1, 0.6));
+        assert_eq!((d[2].class, d[2].score), (0, 0.3));
+        assert!(decode(&data, 2, 3, 0, 0.25).is_empty());
+    }
+}
