@@ -95,4 +95,23 @@ fn finds_loads_and_runs_onnx_runtime() {
 
     let err = runtime.session(&dir.path().join("nope.onnx")).unwrap_err();
     assert!(err.to_string().contains("--model"), "{err}");
+
+    // The shipped reference detectors have the two YOLO-World interfaces.
+    let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+    let baked =
+        Signature::of_session(&runtime.session(&models.join("crack-baked.onnx")).unwrap()).unwrap();
+    assert_eq!(baked.vocabulary, detect::signature::Vocabulary::Baked);
+    assert_eq!(
+        (baked.images.as_str(), baked.classes, baked.input_size),
+        ("images", Some(1), None)
+    );
+    let open =
+        Signature::of_session(&runtime.session(&models.join("crack-open.onnx")).unwrap()).unwrap();
+    assert_eq!(
+        open.vocabulary,
+        detect::signature::Vocabulary::Embeddings {
+            input: "txt_feats".into(),
+            dim: 512
+        }
+    );
 }
