@@ -36,6 +36,36 @@ enum Command {
     /// Simulate an inspection flight with ground truth (flight.mcap, map.ply,
     /// plan.json, truth.json).
     Simulate(SimulateArgs),
+    /// Run the crack detector (ONNX) over every frame of an ingested run.
+    Detect(DetectArgs),
+}
+
+#[derive(Args)]
+struct DetectArgs {
+    /// Run directory holding a completed ingest.
+    #[arg(long)]
+    run: PathBuf,
+    /// Detector exported to ONNX (YOLO-World, either interface).
+    #[arg(long)]
+    model: PathBuf,
+    /// Class prompt for open-vocabulary models (repeatable).
+    #[arg(long = "prompt", default_value = "crack")]
+    prompts: Vec<String>,
+    /// Prompt embeddings (JSON: prompt to vector) for open-vocabulary models.
+    #[arg(long, value_name = "FILE")]
+    embeddings: Option<PathBuf>,
+    /// Lowest score kept.
+    #[arg(long, default_value_t = 0.25)]
+    confidence: f32,
+    /// Overlap above which NMS drops the weaker box.
+    #[arg(long, default_value_t = 0.5)]
+    iou: f32,
+    /// Input size for models with dynamic input, pixels.
+    #[arg(long, default_value_t = 640)]
+    imgsz: u32,
+    /// ONNX Runtime library (default: ORT_DYLIB_PATH, the project .venv, python3's onnxruntime).
+    #[arg(long, value_name = "PATH")]
+    onnxruntime: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -143,6 +173,7 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
     match &cli.command {
         Command::Ingest(args) => ingest(args, cli.quiet),
         Command::Simulate(args) => simulate(args, cli.quiet),
+        Command::Detect(args) => detect(args, cli.quiet),
     }
 }
 
@@ -214,6 +245,34 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
             summary.cracks,
             summary.duration_s,
             args.out.display()
+        );
+    }
+    Ok(())
+}
+
+fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
+    let options = detect::DetectOptions {
+        prompts: args.prompts.clone(),
+        embeddings: args.embeddings.clone(),
+        confidence: args.confidence,
+        iou: args.iou,
+        image_size: args.imgsz,
+        onnxruntime: args.onnxruntime.clone(),
+        ..detect::DetectOptions::new(args.run.clone(), args.model.clone())
+    };
+    let bar = progress::Bar::count("detect", quiet);
+    let summary = detect::detect(&options, &mut |done, total| bar.set(done, total))?;
+    bar.finish();
+    for f in &summary.failed_frames {
+        tracing::warn!("frame {} skipped: {}", f.frame, f.why);
+    }
+    if !quiet {
+        println!(
+            "{} detections in {} frames ({:.1} frames/s) into {}",
+            summary.detections,
+            summary.frames_run,
+            summary.frames_per_s,
+            args.run.display()
         );
     }
     Ok(())

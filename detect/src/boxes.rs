@@ -88,6 +88,41 @@ pub fn nms(mut detections: Vec<Detection>, iou: f32) -> Vec<Detection> {
     kept
 }
 
+/// Merge same-class boxes that overlap or lie within `gap` pixels of each
+/// other into their union, keeping the best score: a long crack reported
+/// piecewise (by grid cells or by tiles) becomes one box.
+pub fn merge_touching(mut detections: Vec<Detection>, gap: f32) -> Vec<Detection> {
+    let near = |a: &BoxXyxy, b: &BoxXyxy| {
+        a.x0 <= b.x1 + gap && b.x0 <= a.x1 + gap && a.y0 <= b.y1 + gap && b.y0 <= a.y1 + gap
+    };
+    let mut merged = true;
+    while merged {
+        merged = false;
+        'search: for i in 0..detections.len() {
+            for j in i + 1..detections.len() {
+                let (a, b) = (detections[i], detections[j]);
+                if a.class == b.class && near(&a.bbox, &b.bbox) {
+                    detections[i] = Detection {
+                        bbox: BoxXyxy {
+                            x0: a.bbox.x0.min(b.bbox.x0),
+                            y0: a.bbox.y0.min(b.bbox.y0),
+                            x1: a.bbox.x1.max(b.bbox.x1),
+                            y1: a.bbox.y1.max(b.bbox.y1),
+                        },
+                        score: a.score.max(b.score),
+                        class: a.class,
+                    };
+                    detections.swap_remove(j);
+                    merged = true;
+                    break 'search;
+                }
+            }
+        }
+    }
+    detections.sort_by(|a, b| b.score.total_cmp(&a.score));
+    detections
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -113,6 +148,32 @@ mod tests {
         assert_eq!(a.iou(&det(20.0, 1.0, 0).bbox), 0.0);
         let c = BoxXyxy::from_cxcywh(5.0, 5.0, 10.0, 10.0);
         assert_eq!(c, a);
+    }
+
+    #[test]
+    fn touching_boxes_of_a_class_merge() {
+        // 0-10 and 12-22 are 2 px apart: merged with gap 4; 40-50 stays; class 1 stays.
+        let out = merge_touching(
+            vec![
+                det(0.0, 0.5, 0),
+                det(12.0, 0.9, 0),
+                det(40.0, 0.3, 0),
+                det(5.0, 0.8, 1),
+            ],
+            4.0,
+        );
+        let summary: Vec<(f32, f32, f32, u32)> = out
+            .iter()
+            .map(|d| (d.bbox.x0, d.bbox.x1, d.score, d.class))
+            .collect();
+        assert_eq!(
+            summary,
+            vec![
+                (0.0, 22.0, 0.9, 0),
+                (5.0, 15.0, 0.8, 1),
+                (40.0, 50.0, 0.3, 0)
+            ]
+        );
     }
 
     #[test]

@@ -8,4 +8,12 @@ pub enum DetectError {
     Runtime(String),
     #[error("model {}: {why}", path.display())]
     Model { path: PathBuf, why: String },
+    #[error("embeddings {}: {why}", path.display())]
+    Embeddings { path: PathBuf, why: String },
+    #[error(transparent)]
+    Flight(#[from] ingest::IngestError),
+    #[error("inference failed on frame {frame}: {why}")]
+    Inference { frame: u32, why: String },
+    #[error("cannot write {}: {why}", path.display())]
+    Write { path: PathBuf, why: String },
 }

@@ -4,12 +4,15 @@
 //! directory. It reads frames through `ingest` and knows nothing of maps or
 //! coverage.
 
+pub mod boxes;
+pub mod decode;
 pub mod error;
+pub mod letterbox;
+pub mod prompts;
 pub mod runtime;
+pub mod signature;
+pub mod stage;
 
 pub use error::DetectError;
 pub use runtime::{Library, Runtime, locate};
-pub mod boxes;
-pub mod decode;
-pub mod letterbox;
-pub mod signature;
+pub use stage::{DetectOptions, DetectSummary, detect};

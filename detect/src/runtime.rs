@@ -20,8 +20,8 @@ pub struct Library {
 
 /// Find the ONNX Runtime shared library, in order: `explicit` (the
 /// `--onnxruntime` flag), `ORT_DYLIB_PATH`, the project virtualenv (`.venv`
-/// beside or above the executable or the working directory), then the
-/// `onnxruntime` package of `python3` on PATH.
+/// of the checkout postflight was built from, or above the executable or the
+/// working directory), then the `onnxruntime` package of `python3` on PATH.
 pub fn locate(explicit: Option<&Path>) -> Result<Library, DetectError> {
     if let Some(path) = explicit {
         return if path.is_file() {
@@ -45,8 +45,18 @@ pub fn locate(explicit: Option<&Path>) -> Result<Library, DetectError> {
             });
         }
         tried.push(format!("ORT_DYLIB_PATH={} (no such file)", path.display()));
+    } else {
+        tried.push("ORT_DYLIB_PATH (unset)".into());
     }
-    let starts = [std::env::current_exe().ok(), std::env::current_dir().ok()];
+    // The checkout postflight was built from, then wherever it runs from.
+    let checkout = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(Path::to_path_buf);
+    let starts = [
+        checkout,
+        std::env::current_exe().ok(),
+        std::env::current_dir().ok(),
+    ];
     for start in starts.iter().flatten() {
         for dir in start.ancestors() {
             let venv = dir.join(".venv");
@@ -71,7 +81,7 @@ pub fn locate(explicit: Option<&Path>) -> Result<Library, DetectError> {
         None => tried.push("python3 on PATH (no onnxruntime package)".into()),
     }
     Err(DetectError::Runtime(format!(
-        "ONNX Runtime not found (looked at --onnxruntime, {}); run scripts/setup, or `pip install onnxruntime==1.31.1`, or pass --onnxruntime /path/to/libonnxruntime.so",
+        "ONNX Runtime not found (no --onnxruntime; {}); run scripts/setup, or `pip install onnxruntime==1.31.1`, or pass --onnxruntime /path/to/libonnxruntime.so",
         tried.join(", ")
     )))
 }

@@ -1,0 +1,440 @@
+//! The detect stage: every frame of an ingested flight through the detector,
+//! decoding and letterboxing on worker threads while ONNX Runtime infers,
+//! into `detections.parquet`, `detections.coco.json` and `detect.json`.
+
+use std::borrow::Cow;
+use std::path::PathBuf;
+use std::sync::mpsc::sync_channel;
+use std::time::Instant;
+
+use ingest::{Flight, Frame, ImageStatus, RunDir};
+use ort::session::SessionInputValue;
+use ort::value::Tensor;
+use polars::prelude::*;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::boxes::{Detection, merge_touching, nms};
+
+/// Same-class boxes closer than this, pixels, are one finding.
+const MERGE_GAP: f32 = 4.0;
+use crate::decode::decode;
+use crate::error::DetectError;
+use crate::letterbox::{Placement, letterbox};
+use crate::prompts::Embeddings;
+use crate::runtime::{Runtime, locate};
+use crate::signature::{Signature, Vocabulary};
+
+/// Files of the detect stage.
+pub mod files {
+    pub const DETECTIONS: &str = "detections.parquet";
+    pub const COCO: &str = "detections.coco.json";
+    pub const SUMMARY: &str = "detect.json";
+}
+
+#[derive(Debug, Clone)]
+pub struct DetectOptions {
+    pub run: PathBuf,
+    pub model: PathBuf,
+    /// Class prompts for open-vocabulary models (default: `crack`).
+    pub prompts: Vec<String>,
+    /// Prompt embeddings for open-vocabulary models (JSON: name to vector).
+    pub embeddings: Option<PathBuf>,
+    /// Lowest score kept.
+    pub confidence: f32,
+    /// Overlap above which NMS drops the weaker box of a class.
+    pub iou: f32,
+    /// Input size for models with dynamic input, pixels (square).
+    pub image_size: u32,
+    /// ONNX Runtime library (default: found by [`locate`]).
+    pub onnxruntime: Option<PathBuf>,
+}
+
+impl DetectOptions {
+    pub fn new(run: PathBuf, model: PathBuf) -> Self {
+        Self {
+            run,
+            model,
+            prompts: vec!["crack".into()],
+            embeddings: None,
+            confidence: 0.25,
+            iou: 0.5,
+            image_size: 640,
+            onnxruntime: None,
+        }
+    }
+}
+
+/// A frame that could not be run, and why.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct FailedFrame {
+    pub frame: u32,
+    pub why: String,
+}
+
+/// `detect.json`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct DetectSummary {
+    pub model: PathBuf,
+    pub model_bytes: u64,
+    pub onnxruntime: PathBuf,
+    /// `baked` or `embeddings`.
+    pub vocabulary: String,
+    pub classes: Vec<String>,
+    pub input_size: [u32; 2],
+    pub confidence: f32,
+    pub iou: f32,
+    pub frames: u64,
+    pub frames_run: u64,
+    pub detections: u64,
+    pub failed_frames: Vec<FailedFrame>,
+    pub seconds: f64,
+    pub frames_per_s: f64,
+}
+
+/// One detection of one frame, in the frame's pixels.
+#[derive(Debug, Clone)]
+struct FrameDetection {
+    frame: u32,
+    time_ns: i64,
+    detection: Detection,
+}
+
+/// A frame ready for the model.
+struct Prepared {
+    frame: u32,
+    time_ns: i64,
+    input: Vec<f32>,
+    placement: Placement,
+    width: u32,
+    height: u32,
+}
+
+fn prepare(flight: &Flight, frame: &Frame, w: u32, h: u32) -> Result<Prepared, FailedFrame> {
+    let img = flight
+        .image(frame)
+        .map_err(|e| FailedFrame {
+            frame: frame.index,
+            why: e.to_string(),
+        })?
+        .to_rgb8();
+    let mut input = vec![0.0f32; 3 * (w * h) as usize];
+    let placement = letterbox(&img, w, h, &mut input);
+    Ok(Prepared {
+        frame: frame.index,
+        time_ns: frame.time_ns,
+        input,
+        placement,
+        width: img.width(),
+        height: img.height(),
+    })
+}
+
+/// Class names of a model with a baked vocabulary, from its `names` metadata
+/// (Ultralytics writes `{0: 'crack', 1: 'spalling'}`).
+fn baked_names(session: &ort::session::Session) -> Option<Vec<String>> {
+    let names = session.metadata().ok()?.custom("names")?;
+    let mut out = Vec::new();
+    for entry in names
+        .trim()
+        .trim_start_matches('{')
+        .trim_end_matches('}')
+        .split(',')
+    {
+        let (_, name) = entry.split_once(':')?;
+        out.push(
+            name.trim()
+                .trim_matches(|c| c == '\'' || c == '"')
+                .to_string(),
+        );
+    }
+    Some(out)
+}
+
+/// Run the detector over every frame of the run's flight.
+pub fn detect(
+    options: &DetectOptions,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<DetectSummary, DetectError> {
+    let start = Instant::now();
+    let flight = Flight::load(&options.run)?;
+    let library = locate(options.onnxruntime.as_deref())?;
+    let runtime = Runtime::start(library)?;
+    let mut session = runtime.session(&options.model)?;
+    let model_error = |why: String| DetectError::Model {
+        path: options.model.clone(),
+        why,
+    };
+    let signature = Signature::of_session(&session).map_err(model_error)?;
+    let (h, w) = signature
+        .input_size
+        .unwrap_or((options.image_size, options.image_size));
+    let (text, classes) = match &signature.vocabulary {
+        Vocabulary::Baked => {
+            let names = baked_names(&session).unwrap_or_else(|| options.prompts.clone());
+            (None, names)
+        }
+        Vocabulary::Embeddings { input, dim } => {
+            let path = options.embeddings.as_deref().ok_or_else(|| {
+                model_error(
+                    "takes text embeddings; give them with --embeddings prompts.json".into(),
+                )
+            })?;
+            let (rows, n) = Embeddings::load(path)?
+                .input(&options.prompts, signature.classes, *dim)
+                .map_err(|why| DetectError::Embeddings {
+                    path: path.to_owned(),
+                    why,
+                })?;
+            (
+                Some((input.clone(), rows, n, *dim)),
+                options.prompts.clone(),
+            )
+        }
+    };
+    let nc = signature
+        .classes
+        .or(text.as_ref().map(|t| t.2))
+        .unwrap_or(classes.len());
+
+    let frames: Vec<&Frame> = flight.frames.iter().collect();
+    let total = frames.len() as u64;
+    let mut failed: Vec<FailedFrame> = frames
+        .iter()
+        .filter(|f| f.image_status != ImageStatus::Ok)
+        .map(|f| FailedFrame {
+            frame: f.index,
+            why: format!("image {}", f.image_status.as_str()),
+        })
+        .collect();
+    let runnable: Vec<&Frame> = frames
+        .into_iter()
+        .filter(|f| f.image_status == ImageStatus::Ok)
+        .collect();
+    let mut found: Vec<FrameDetection> = Vec::new();
+    let mut done = failed.len() as u64;
+    let mut ran = 0u64;
+    let mut run_error = None;
+    std::thread::scope(|scope| {
+        // Workers decode and letterbox the next frames while the runtime infers.
+        let (tx, rx) = sync_channel::<Result<Prepared, FailedFrame>>(8);
+        let flight = &flight;
+        let runnable = &runnable;
+        scope.spawn(move || {
+            for chunk in runnable.chunks(8) {
+                let prepared: Vec<_> = chunk.par_iter().map(|f| prepare(flight, f, w, h)).collect();
+                for p in prepared {
+                    if tx.send(p).is_err() {
+                        return;
+                    }
+                }
+            }
+        });
+        for prepared in rx {
+            done += 1;
+            progress(done, total);
+            let p = match prepared {
+                Ok(p) => p,
+                Err(f) => {
+                    failed.push(f);
+                    continue;
+                }
+            };
+            match infer(
+                &mut session,
+                &signature,
+                text.as_ref(),
+                &p,
+                (w, h),
+                nc,
+                options,
+            ) {
+                Ok(dets) => {
+                    ran += 1;
+                    found.extend(dets.into_iter().map(|detection| FrameDetection {
+                        frame: p.frame,
+                        time_ns: p.time_ns,
+                        detection,
+                    }));
+                }
+                Err(why) => {
+                    run_error = Some(DetectError::Inference {
+                        frame: p.frame,
+                        why,
+                    });
+                    break;
+                }
+            }
+        }
+    });
+    if let Some(e) = run_error {
+        return Err(e);
+    }
+    failed.sort_by_key(|f| f.frame);
+    let seconds = start.elapsed().as_secs_f64();
+    let summary = DetectSummary {
+        model: std::path::absolute(&options.model).unwrap_or_else(|_| options.model.clone()),
+        model_bytes: std::fs::metadata(&options.model)
+            .map(|m| m.len())
+            .unwrap_or(0),
+        onnxruntime: runtime.library.path.clone(),
+        vocabulary: match signature.vocabulary {
+            Vocabulary::Baked => "baked".into(),
+            Vocabulary::Embeddings { .. } => "embeddings".into(),
+        },
+        classes: classes.clone(),
+        input_size: [w, h],
+        confidence: options.confidence,
+        iou: options.iou,
+        frames: total,
+        frames_run: ran,
+        detections: found.len() as u64,
+        failed_frames: failed,
+        seconds,
+        frames_per_s: ran as f64 / seconds.max(1e-9),
+    };
+    write_outputs(&flight.run, &flight.frames, &found, &classes, &summary)?;
+    Ok(summary)
+}
+
+fn infer(
+    session: &mut ort::session::Session,
+    signature: &Signature,
+    text: Option<&(String, Vec<f32>, usize, usize)>,
+    p: &Prepared,
+    (w, h): (u32, u32),
+    nc: usize,
+    options: &DetectOptions,
+) -> Result<Vec<Detection>, String> {
+    let image = Tensor::from_array((vec![1i64, 3, i64::from(h), i64::from(w)], p.input.clone()))
+        .map_err(|e| e.to_string())?;
+    let mut inputs: Vec<(Cow<str>, SessionInputValue)> =
+        vec![(signature.images.clone().into(), image.into())];
+    if let Some((name, rows, n, dim)) = text {
+        let t = Tensor::from_array((vec![1i64, *n as i64, *dim as i64], rows.clone()))
+            .map_err(|e| e.to_string())?;
+        inputs.push((name.clone().into(), t.into()));
+    }
+    let outputs = session.run(inputs).map_err(|e| e.to_string())?;
+    let (shape, data) = outputs[signature.output.as_str()]
+        .try_extract_tensor::<f32>()
+        .map_err(|e| e.to_string())?;
+    let rows = usize::try_from(shape[1]).map_err(|_| "bad output shape")?;
+    if rows != 4 + nc {
+        return Err(format!("output has {rows} rows, expected 4 + {nc} classes"));
+    }
+    let anchors = usize::try_from(shape[2]).map_err(|_| "bad output shape")?;
+    let detections = decode(data, nc, anchors, 0, options.confidence)
+        .into_iter()
+        .map(|d| Detection {
+            bbox: p
+                .placement
+                .to_image(&d.bbox)
+                .clip(p.width as f32, p.height as f32),
+            ..d
+        })
+        .filter(|d| d.bbox.area() > 0.0)
+        .collect();
+    // Grid cells report a long crack piecewise: join the pieces.
+    Ok(merge_touching(nms(detections, options.iou), MERGE_GAP))
+}
+
+fn write_outputs(
+    run: &RunDir,
+    frames: &[Frame],
+    found: &[FrameDetection],
+    classes: &[String],
+    summary: &DetectSummary,
+) -> Result<(), DetectError> {
+    run.remove(files::SUMMARY)?;
+    let class_name = |c: u32| {
+        classes
+            .get(c as usize)
+            .cloned()
+            .unwrap_or_else(|| format!("class{c}"))
+    };
+    let col_f32 = |f: &dyn Fn(&FrameDetection) -> f32| found.iter().map(f).collect::<Vec<f32>>();
+    let mut df = DataFrame::new(
+        found.len(),
+        vec![
+            Column::new(
+                "frame".into(),
+                found.iter().map(|d| d.frame).collect::<Vec<u32>>(),
+            ),
+            Column::new(
+                "time_ns".into(),
+                found.iter().map(|d| d.time_ns).collect::<Vec<i64>>(),
+            ),
+            Column::new("x0".into(), col_f32(&|d| d.detection.bbox.x0)),
+            Column::new("y0".into(), col_f32(&|d| d.detection.bbox.y0)),
+            Column::new("x1".into(), col_f32(&|d| d.detection.bbox.x1)),
+            Column::new("y1".into(), col_f32(&|d| d.detection.bbox.y1)),
+            Column::new("score".into(), col_f32(&|d| d.detection.score)),
+            Column::new(
+                "class".into(),
+                found
+                    .iter()
+                    .map(|d| d.detection.class)
+                    .collect::<Vec<u32>>(),
+            ),
+            Column::new(
+                "prompt".into(),
+                found
+                    .iter()
+                    .map(|d| class_name(d.detection.class))
+                    .collect::<Vec<String>>(),
+            ),
+        ],
+    )
+    .map_err(|e| DetectError::Write {
+        path: run.file(files::DETECTIONS),
+        why: e.to_string(),
+    })?;
+    run.write_table(files::DETECTIONS, &mut df)?;
+    run.write_json(files::COCO, &coco(frames, found, classes))?;
+    run.write_json(files::SUMMARY, summary)?;
+    Ok(())
+}
+
+/// COCO detection results with their images and categories (ids from 1).
+fn coco(frames: &[Frame], found: &[FrameDetection], classes: &[String]) -> serde_json::Value {
+    let images: Vec<serde_json::Value> = frames
+        .iter()
+        .map(|f| {
+            serde_json::json!({
+                "id": f.index + 1,
+                "file_name": format!("frame_{:06}.jpg", f.index),
+                "width": f.width,
+                "height": f.height,
+                "time_ns": f.time_ns,
+            })
+        })
+        .collect();
+    let annotations: Vec<serde_json::Value> = found
+        .iter()
+        .enumerate()
+        .map(|(i, d)| {
+            let b = d.detection.bbox;
+            serde_json::json!({
+                "id": i + 1,
+                "image_id": d.frame + 1,
+                "category_id": d.detection.class + 1,
+                "bbox": [b.x0, b.y0, b.width(), b.height()],
+                "area": b.area(),
+                "score": d.detection.score,
+                "iscrowd": 0,
+            })
+        })
+        .collect();
+    let categories: Vec<serde_json::Value> = classes
+        .iter()
+        .enumerate()
+        .map(|(i, c)| serde_json::json!({"id": i + 1, "name": c, "supercategory": "defect"}))
+        .collect();
+    serde_json::json!({
+        "info": {"description": "postflight detections", "version": env!("CARGO_PKG_VERSION")},
+        "images": images,
+        "annotations": annotations,
+        "categories": categories,
+    })
+}
