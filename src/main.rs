@@ -66,6 +66,12 @@ struct DetectArgs {
     /// ONNX Runtime library (default: ORT_DYLIB_PATH, the project .venv, python3's onnxruntime).
     #[arg(long, value_name = "PATH")]
     onnxruntime: Option<PathBuf>,
+    /// Also run square tiles of this many pixels at full resolution (thin cracks vanish when large frames shrink).
+    #[arg(long, value_name = "PIXELS")]
+    tile: Option<u32>,
+    /// Overlap of neighbouring tiles, as a share of the tile size.
+    #[arg(long, default_value_t = 0.2)]
+    tile_overlap: f32,
 }
 
 #[derive(Args)]
@@ -251,6 +257,12 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
 }
 
 fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
+    if !(0.0..0.9).contains(&args.tile_overlap) {
+        anyhow::bail!("--tile-overlap must be at least 0 and below 0.9");
+    }
+    if args.tile.is_some_and(|t| t < 32) {
+        anyhow::bail!("--tile must be at least 32 pixels");
+    }
     let options = detect::DetectOptions {
         prompts: args.prompts.clone(),
         embeddings: args.embeddings.clone(),
@@ -258,6 +270,8 @@ fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
         iou: args.iou,
         image_size: args.imgsz,
         onnxruntime: args.onnxruntime.clone(),
+        tile: args.tile,
+        tile_overlap: args.tile_overlap,
         ..detect::DetectOptions::new(args.run.clone(), args.model.clone())
     };
     let bar = progress::Bar::count("detect", quiet);

@@ -43,6 +43,35 @@ fn iou(a: &[f64; 4], b: &[f64; 4]) -> f64 {
     if union > 0.0 { inter / union } else { 0.0 }
 }
 
+/// Truth crack views at least 20 px long found by a box with IoU >= 0.3:
+/// (found, views).
+fn score(truth: &serde_json::Value, found: &[(i64, [f64; 4], String)]) -> (u32, u32) {
+    let (mut views, mut hit) = (0, 0);
+    for frame in truth["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| f["dropped"] == false)
+    {
+        let t = frame["time_ns"].as_i64().unwrap();
+        for c in frame["cracks"].as_array().unwrap() {
+            let b: Vec<f64> = c["bbox"].as_array().unwrap().iter().map(f).collect();
+            let b = [b[0], b[1], b[2], b[3]];
+            if (b[2] - b[0]).max(b[3] - b[1]) < 20.0 {
+                continue;
+            }
+            views += 1;
+            if found
+                .iter()
+                .any(|(ft, fb, _)| *ft == t && iou(fb, &b) >= 0.3)
+            {
+                hit += 1;
+            }
+        }
+    }
+    (hit, views)
+}
+
 #[test]
 fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
     let dir = tempfile::tempdir().unwrap();
@@ -84,29 +113,7 @@ fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
 
     // Scored against truth: crack views at least 20 px long.
     let truth = read_json(&sim.join("truth.json"));
-    let (mut views, mut hit) = (0, 0);
-    for frame in truth["frames"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter(|f| f["dropped"] == false)
-    {
-        let t = frame["time_ns"].as_i64().unwrap();
-        for c in frame["cracks"].as_array().unwrap() {
-            let b: Vec<f64> = c["bbox"].as_array().unwrap().iter().map(f).collect();
-            let b = [b[0], b[1], b[2], b[3]];
-            if (b[2] - b[0]).max(b[3] - b[1]) < 20.0 {
-                continue;
-            }
-            views += 1;
-            if found
-                .iter()
-                .any(|(ft, fb, _)| *ft == t && iou(fb, &b) >= 0.3)
-            {
-                hit += 1;
-            }
-        }
-    }
+    let (hit, views) = score(&truth, &found);
     let recall = f64::from(hit) / f64::from(views.max(1));
     eprintln!(
         "reference detector: {hit} of {views} crack views found (recall {recall:.2}), {} boxes",
@@ -144,4 +151,57 @@ fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
     let out = detect(&run, &[&args[..], &["--prompt", "pothole"]].concat());
     assert_eq!(out.status.code(), Some(1));
     assert!(stderr(&out).contains("\"pothole\""), "{}", stderr(&out));
+}
+
+#[test]
+fn tiles_find_cracks_that_a_shrunk_frame_loses() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    let out = postflight(
+        &[
+            "simulate",
+            "--out",
+            sim.to_str().unwrap(),
+            "--frames",
+            "20",
+            "--width",
+            "1920",
+            "--height",
+            "1080",
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let run = dir.path().join("run");
+    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
+    let truth = read_json(&sim.join("truth.json"));
+    let baked = models().join("crack-baked.onnx");
+
+    // Shrunk 3x to the 640 px input, mm-wide cracks mostly vanish.
+    let out = detect(&run, &["--model", baked.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let (whole, views) = score(&truth, &detections(&run));
+
+    let out = detect(&run, &["--model", baked.to_str().unwrap(), "--tile", "640"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(read_json(&run.join("detect.json"))["tile"], 640);
+    let tiled = detections(&run);
+    let (with_tiles, _) = score(&truth, &tiled);
+    eprintln!(
+        "1920x1080: {whole} of {views} crack views found whole, {with_tiles} with 640 px tiles"
+    );
+    assert!(
+        views >= 3 && with_tiles > whole,
+        "tiles found {with_tiles}, the whole frame {whole}, of {views}"
+    );
+    let df = ParquetReader::new(std::fs::File::open(run.join("detections.parquet")).unwrap())
+        .finish()
+        .unwrap();
+    let tiles = df.column("tile").unwrap().i32().unwrap().clone();
+    assert!((0..tiles.len()).any(|i| tiles.get(i).is_some_and(|t| t >= 0)));
+    assert!(
+        tiled
+            .iter()
+            .all(|(_, b, _)| b[0] >= 0.0 && b[1] >= 0.0 && b[2] <= 1920.0 && b[3] <= 1080.0)
+    );
 }

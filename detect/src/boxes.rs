@@ -63,6 +63,8 @@ pub struct Detection {
     pub bbox: BoxXyxy,
     pub score: f32,
     pub class: u32,
+    /// Tile that found it (see [`crate::tiles::Window`]), -1 for the whole frame.
+    pub tile: i32,
 }
 
 /// Class-aware non-maximum suppression: keep the best-scoring boxes, dropping
@@ -111,6 +113,7 @@ pub fn merge_touching(mut detections: Vec<Detection>, gap: f32) -> Vec<Detection
                         },
                         score: a.score.max(b.score),
                         class: a.class,
+                        tile: if a.score >= b.score { a.tile } else { b.tile },
                     };
                     detections.swap_remove(j);
                     merged = true;
@@ -137,6 +140,7 @@ mod tests {
             },
             score,
             class,
+            tile: -1,
         }
     }
 

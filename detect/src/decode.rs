@@ -31,6 +31,7 @@ pub fn decode(
                 bbox: BoxXyxy::from_cxcywh(cx[a], cy[a], w[a], h[a]),
                 score,
                 class: class as u32,
+                tile: -1,
             });
         }
     }

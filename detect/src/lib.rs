@@ -12,6 +12,7 @@ pub mod prompts;
 pub mod runtime;
 pub mod signature;
 pub mod stage;
+pub mod tiles;
 
 pub use error::DetectError;
 pub use runtime::{Library, Runtime, locate};

@@ -14,7 +14,7 @@ use polars::prelude::*;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::boxes::{Detection, merge_touching, nms};
+use crate::boxes::{BoxXyxy, Detection, merge_touching, nms};
 
 /// Same-class boxes closer than this, pixels, are one finding.
 const MERGE_GAP: f32 = 4.0;
@@ -24,6 +24,7 @@ use crate::letterbox::{Placement, letterbox};
 use crate::prompts::Embeddings;
 use crate::runtime::{Runtime, locate};
 use crate::signature::{Signature, Vocabulary};
+use crate::tiles::{Window, windows};
 
 /// Files of the detect stage.
 pub mod files {
@@ -48,6 +49,10 @@ pub struct DetectOptions {
     pub image_size: u32,
     /// ONNX Runtime library (default: found by [`locate`]).
     pub onnxruntime: Option<PathBuf>,
+    /// Also run square tiles of this size at full resolution.
+    pub tile: Option<u32>,
+    /// Overlap of neighbouring tiles, as a share of the tile size.
+    pub tile_overlap: f32,
 }
 
 impl DetectOptions {
@@ -61,6 +66,8 @@ impl DetectOptions {
             iou: 0.5,
             image_size: 640,
             onnxruntime: None,
+            tile: None,
+            tile_overlap: 0.2,
         }
     }
 }
@@ -82,6 +89,8 @@ pub struct DetectSummary {
     pub vocabulary: String,
     pub classes: Vec<String>,
     pub input_size: [u32; 2],
+    /// Tile size, when tiles were run besides the whole frame.
+    pub tile: Option<u32>,
     pub confidence: f32,
     pub iou: f32,
     pub frames: u64,
@@ -104,13 +113,25 @@ struct FrameDetection {
 struct Prepared {
     frame: u32,
     time_ns: i64,
-    input: Vec<f32>,
-    placement: Placement,
+    /// One model input per window (the whole frame, then tiles).
+    views: Vec<View>,
     width: u32,
     height: u32,
 }
 
-fn prepare(flight: &Flight, frame: &Frame, w: u32, h: u32) -> Result<Prepared, FailedFrame> {
+/// A window of a frame, letterboxed for the model.
+struct View {
+    window: Window,
+    input: Vec<f32>,
+    placement: Placement,
+}
+
+fn prepare(
+    flight: &Flight,
+    frame: &Frame,
+    (w, h): (u32, u32),
+    options: &DetectOptions,
+) -> Result<Prepared, FailedFrame> {
     let img = flight
         .image(frame)
         .map_err(|e| FailedFrame {
@@ -118,13 +139,34 @@ fn prepare(flight: &Flight, frame: &Frame, w: u32, h: u32) -> Result<Prepared, F
             why: e.to_string(),
         })?
         .to_rgb8();
-    let mut input = vec![0.0f32; 3 * (w * h) as usize];
-    let placement = letterbox(&img, w, h, &mut input);
+    let views = windows(
+        img.width(),
+        img.height(),
+        options.tile,
+        options.tile_overlap,
+    )
+    .into_iter()
+    .map(|window| {
+        let mut input = vec![0.0f32; 3 * (w * h) as usize];
+        let placement = if window.tile < 0 {
+            letterbox(&img, w, h, &mut input)
+        } else {
+            let crop =
+                image::imageops::crop_imm(&img, window.x, window.y, window.width, window.height)
+                    .to_image();
+            letterbox(&crop, w, h, &mut input)
+        };
+        View {
+            window,
+            input,
+            placement,
+        }
+    })
+    .collect();
     Ok(Prepared {
         frame: frame.index,
         time_ns: frame.time_ns,
-        input,
-        placement,
+        views,
         width: img.width(),
         height: img.height(),
     })
@@ -222,7 +264,10 @@ pub fn detect(
         let runnable = &runnable;
         scope.spawn(move || {
             for chunk in runnable.chunks(8) {
-                let prepared: Vec<_> = chunk.par_iter().map(|f| prepare(flight, f, w, h)).collect();
+                let prepared: Vec<_> = chunk
+                    .par_iter()
+                    .map(|f| prepare(flight, f, (w, h), options))
+                    .collect();
                 for p in prepared {
                     if tx.send(p).is_err() {
                         return;
@@ -284,6 +329,7 @@ pub fn detect(
         },
         classes: classes.clone(),
         input_size: [w, h],
+        tile: options.tile,
         confidence: options.confidence,
         iou: options.iou,
         frames: total,
@@ -306,36 +352,51 @@ fn infer(
     nc: usize,
     options: &DetectOptions,
 ) -> Result<Vec<Detection>, String> {
-    let image = Tensor::from_array((vec![1i64, 3, i64::from(h), i64::from(w)], p.input.clone()))
+    let mut detections = Vec::new();
+    for view in &p.views {
+        let image = Tensor::from_array((
+            vec![1i64, 3, i64::from(h), i64::from(w)],
+            view.input.clone(),
+        ))
         .map_err(|e| e.to_string())?;
-    let mut inputs: Vec<(Cow<str>, SessionInputValue)> =
-        vec![(signature.images.clone().into(), image.into())];
-    if let Some((name, rows, n, dim)) = text {
-        let t = Tensor::from_array((vec![1i64, *n as i64, *dim as i64], rows.clone()))
+        let mut inputs: Vec<(Cow<str>, SessionInputValue)> =
+            vec![(signature.images.clone().into(), image.into())];
+        if let Some((name, rows, n, dim)) = text {
+            let t = Tensor::from_array((vec![1i64, *n as i64, *dim as i64], rows.clone()))
+                .map_err(|e| e.to_string())?;
+            inputs.push((name.clone().into(), t.into()));
+        }
+        let outputs = session.run(inputs).map_err(|e| e.to_string())?;
+        let (shape, data) = outputs[signature.output.as_str()]
+            .try_extract_tensor::<f32>()
             .map_err(|e| e.to_string())?;
-        inputs.push((name.clone().into(), t.into()));
+        let rows = usize::try_from(shape[1]).map_err(|_| "bad output shape")?;
+        if rows != 4 + nc {
+            return Err(format!("output has {rows} rows, expected 4 + {nc} classes"));
+        }
+        let anchors = usize::try_from(shape[2]).map_err(|_| "bad output shape")?;
+        let Window { x, y, tile, .. } = view.window;
+        detections.extend(
+            decode(data, nc, anchors, 0, options.confidence)
+                .into_iter()
+                .map(|d| {
+                    let b = view.placement.to_image(&d.bbox);
+                    Detection {
+                        bbox: BoxXyxy {
+                            x0: b.x0 + x as f32,
+                            y0: b.y0 + y as f32,
+                            x1: b.x1 + x as f32,
+                            y1: b.y1 + y as f32,
+                        }
+                        .clip(p.width as f32, p.height as f32),
+                        tile,
+                        ..d
+                    }
+                }),
+        );
     }
-    let outputs = session.run(inputs).map_err(|e| e.to_string())?;
-    let (shape, data) = outputs[signature.output.as_str()]
-        .try_extract_tensor::<f32>()
-        .map_err(|e| e.to_string())?;
-    let rows = usize::try_from(shape[1]).map_err(|_| "bad output shape")?;
-    if rows != 4 + nc {
-        return Err(format!("output has {rows} rows, expected 4 + {nc} classes"));
-    }
-    let anchors = usize::try_from(shape[2]).map_err(|_| "bad output shape")?;
-    let detections = decode(data, nc, anchors, 0, options.confidence)
-        .into_iter()
-        .map(|d| Detection {
-            bbox: p
-                .placement
-                .to_image(&d.bbox)
-                .clip(p.width as f32, p.height as f32),
-            ..d
-        })
-        .filter(|d| d.bbox.area() > 0.0)
-        .collect();
-    // Grid cells report a long crack piecewise: join the pieces.
+    detections.retain(|d| d.bbox.area() > 0.0);
+    // Grid cells and tiles report a long crack piecewise: join the pieces.
     Ok(merge_touching(nms(detections, options.iou), MERGE_GAP))
 }
 
@@ -376,6 +437,10 @@ fn write_outputs(
                     .iter()
                     .map(|d| d.detection.class)
                     .collect::<Vec<u32>>(),
+            ),
+            Column::new(
+                "tile".into(),
+                found.iter().map(|d| d.detection.tile).collect::<Vec<i32>>(),
             ),
             Column::new(
                 "prompt".into(),
