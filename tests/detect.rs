@@ -75,20 +75,7 @@ fn score(truth: &serde_json::Value, found: &[(i64, [f64; 4], String)]) -> (u32, 
 #[test]
 fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = dir.path().join("sim");
-    let out = postflight(
-        &[
-            "simulate",
-            "--out",
-            sim.to_str().unwrap(),
-            "--frames",
-            "120",
-            "--seed",
-            "4",
-        ],
-        dir.path(),
-    );
-    assert!(out.status.success(), "{}", stderr(&out));
+    let sim = simulate_into(dir.path(), "sim", &["--frames", "120", "--seed", "4"]);
     let run = dir.path().join("run");
     ingest_ok(&sim.join("flight.mcap"), &run, &[]);
 
@@ -156,22 +143,11 @@ fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
 #[test]
 fn tiles_find_cracks_that_a_shrunk_frame_loses() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = dir.path().join("sim");
-    let out = postflight(
-        &[
-            "simulate",
-            "--out",
-            sim.to_str().unwrap(),
-            "--frames",
-            "20",
-            "--width",
-            "1920",
-            "--height",
-            "1080",
-        ],
+    let sim = simulate_into(
         dir.path(),
+        "sim",
+        &["--frames", "20", "--width", "1920", "--height", "1080"],
     );
-    assert!(out.status.success(), "{}", stderr(&out));
     let run = dir.path().join("run");
     ingest_ok(&sim.join("flight.mcap"), &run, &[]);
     let truth = read_json(&sim.join("truth.json"));

@@ -3,7 +3,7 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use common::*;
@@ -232,15 +232,6 @@ fn truth_cracks_are_drawn_where_the_recovered_camera_projects_them() {
         }
     }
     assert!(checked >= 10, "only {checked} crack views checked");
-}
-
-fn simulate_into(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
-    let out = dir.join(name);
-    let mut all = vec!["simulate", "--out", out.to_str().unwrap()];
-    all.extend_from_slice(args);
-    let result = postflight(&all, dir);
-    assert!(result.status.success(), "{}", stderr(&result));
-    out
 }
 
 #[test]

@@ -100,3 +100,13 @@ pub fn ingest_ok(flight: &Path, run: &Path, extra: &[&str]) -> Value {
     assert!(out.status.success(), "ingest failed: {}", stderr(&out));
     read_json(&run.join("ingest.json"))
 }
+
+/// Run `postflight simulate` into `dir/name`, which must succeed.
+pub fn simulate_into(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
+    let out = dir.join(name);
+    let mut all = vec!["simulate", "--out", out.to_str().unwrap()];
+    all.extend_from_slice(args);
+    let result = postflight(&all, dir);
+    assert!(result.status.success(), "{}", stderr(&result));
+    out
+}
