@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use ingest::{Flight, Frame, ImageStatus, RunDir};
 use ort::session::SessionInputValue;
-use ort::value::Tensor;
+use ort::value::{Tensor, TensorRef};
 use polars::prelude::*;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -202,56 +202,21 @@ pub fn detect(
     let flight = Flight::load(&options.run)?;
     let library = locate(options.onnxruntime.as_deref())?;
     let runtime = Runtime::start(library)?;
-    let mut session = runtime.session(&options.model)?;
-    let model_error = |why: String| DetectError::Model {
-        path: options.model.clone(),
-        why,
-    };
-    let signature = Signature::of_session(&session).map_err(model_error)?;
-    let (h, w) = signature
-        .input_size
-        .unwrap_or((options.image_size, options.image_size));
-    let (text, classes) = match &signature.vocabulary {
-        Vocabulary::Baked => {
-            let names = baked_names(&session).unwrap_or_else(|| options.prompts.clone());
-            (None, names)
-        }
-        Vocabulary::Embeddings { input, dim } => {
-            let path = options.embeddings.as_deref().ok_or_else(|| {
-                model_error(
-                    "takes text embeddings; give them with --embeddings prompts.json".into(),
-                )
-            })?;
-            let (rows, n) = Embeddings::load(path)?
-                .input(&options.prompts, signature.classes, *dim)
-                .map_err(|why| DetectError::Embeddings {
-                    path: path.to_owned(),
-                    why,
-                })?;
-            (
-                Some((input.clone(), rows, n, *dim)),
-                options.prompts.clone(),
-            )
-        }
-    };
-    let nc = signature
-        .classes
-        .or(text.as_ref().map(|t| t.2))
-        .unwrap_or(classes.len());
+    let session = runtime.session(&options.model)?;
+    let (mut detector, classes) = Detector::new(session, options)?;
+    let (w, h) = detector.size;
 
-    let frames: Vec<&Frame> = flight.frames.iter().collect();
-    let total = frames.len() as u64;
-    let mut failed: Vec<FailedFrame> = frames
+    let total = flight.frames.len() as u64;
+    let (runnable, unreadable): (Vec<&Frame>, Vec<&Frame>) = flight
+        .frames
         .iter()
-        .filter(|f| f.image_status != ImageStatus::Ok)
+        .partition(|f| f.image_status == ImageStatus::Ok);
+    let mut failed: Vec<FailedFrame> = unreadable
+        .iter()
         .map(|f| FailedFrame {
             frame: f.index,
             why: format!("image {}", f.image_status.as_str()),
         })
-        .collect();
-    let runnable: Vec<&Frame> = frames
-        .into_iter()
-        .filter(|f| f.image_status == ImageStatus::Ok)
         .collect();
     let mut found: Vec<FrameDetection> = Vec::new();
     let mut done = failed.len() as u64;
@@ -285,15 +250,7 @@ pub fn detect(
                     continue;
                 }
             };
-            match infer(
-                &mut session,
-                &signature,
-                text.as_ref(),
-                &p,
-                (w, h),
-                nc,
-                options,
-            ) {
+            match detector.frame(&p, options) {
                 Ok(dets) => {
                     ran += 1;
                     found.extend(dets.into_iter().map(|detection| FrameDetection {
@@ -323,7 +280,7 @@ pub fn detect(
             .map(|m| m.len())
             .unwrap_or(0),
         onnxruntime: runtime.library.path.clone(),
-        vocabulary: match signature.vocabulary {
+        vocabulary: match detector.signature.vocabulary {
             Vocabulary::Baked => "baked".into(),
             Vocabulary::Embeddings { .. } => "embeddings".into(),
         },
@@ -343,61 +300,120 @@ pub fn detect(
     Ok(summary)
 }
 
-fn infer(
-    session: &mut ort::session::Session,
-    signature: &Signature,
-    text: Option<&(String, Vec<f32>, usize, usize)>,
-    p: &Prepared,
-    (w, h): (u32, u32),
-    nc: usize,
-    options: &DetectOptions,
-) -> Result<Vec<Detection>, String> {
-    let mut detections = Vec::new();
-    for view in &p.views {
-        let image = Tensor::from_array((
-            vec![1i64, 3, i64::from(h), i64::from(w)],
-            view.input.clone(),
-        ))
-        .map_err(|e| e.to_string())?;
-        let mut inputs: Vec<(Cow<str>, SessionInputValue)> =
-            vec![(signature.images.clone().into(), image.into())];
-        if let Some((name, rows, n, dim)) = text {
-            let t = Tensor::from_array((vec![1i64, *n as i64, *dim as i64], rows.clone()))
-                .map_err(|e| e.to_string())?;
-            inputs.push((name.clone().into(), t.into()));
-        }
-        let outputs = session.run(inputs).map_err(|e| e.to_string())?;
-        let (shape, data) = outputs[signature.output.as_str()]
-            .try_extract_tensor::<f32>()
-            .map_err(|e| e.to_string())?;
-        let rows = usize::try_from(shape[1]).map_err(|_| "bad output shape")?;
-        if rows != 4 + nc {
-            return Err(format!("output has {rows} rows, expected 4 + {nc} classes"));
-        }
-        let anchors = usize::try_from(shape[2]).map_err(|_| "bad output shape")?;
-        let Window { x, y, tile, .. } = view.window;
-        detections.extend(
-            decode(data, nc, anchors, 0, options.confidence)
-                .into_iter()
-                .map(|d| {
-                    let b = view.placement.to_image(&d.bbox);
-                    Detection {
-                        bbox: BoxXyxy {
-                            x0: b.x0 + x as f32,
-                            y0: b.y0 + y as f32,
-                            x1: b.x1 + x as f32,
-                            y1: b.y1 + y as f32,
-                        }
-                        .clip(p.width as f32, p.height as f32),
-                        tile,
-                        ..d
-                    }
-                }),
-        );
+/// A model ready to run: its session, its interface, and for
+/// open-vocabulary models the text input, built once.
+struct Detector {
+    session: ort::session::Session,
+    signature: Signature,
+    /// Model input `(width, height)`.
+    size: (u32, u32),
+    /// Classes the output scores.
+    classes: usize,
+    /// Text embeddings input: its name and value.
+    text: Option<(String, Tensor<f32>)>,
+}
+
+impl Detector {
+    /// Recognise the model's interface and prepare its inputs; also returns
+    /// the class names.
+    fn new(
+        session: ort::session::Session,
+        options: &DetectOptions,
+    ) -> Result<(Self, Vec<String>), DetectError> {
+        let model_error = |why: String| DetectError::Model {
+            path: options.model.clone(),
+            why,
+        };
+        let signature = Signature::of_session(&session).map_err(model_error)?;
+        let (h, w) = signature
+            .input_size
+            .unwrap_or((options.image_size, options.image_size));
+        let (text, names) = match &signature.vocabulary {
+            Vocabulary::Baked => (
+                None,
+                baked_names(&session).unwrap_or_else(|| options.prompts.clone()),
+            ),
+            Vocabulary::Embeddings { input, dim } => {
+                let path = options.embeddings.as_deref().ok_or_else(|| {
+                    model_error(
+                        "takes text embeddings; give them with --embeddings prompts.json".into(),
+                    )
+                })?;
+                let (rows, n) = Embeddings::load(path)?
+                    .input(&options.prompts, signature.classes, *dim)
+                    .map_err(|why| DetectError::Embeddings {
+                        path: path.to_owned(),
+                        why,
+                    })?;
+                let tensor = Tensor::from_array((vec![1i64, n as i64, *dim as i64], rows))
+                    .map_err(|e| model_error(e.to_string()))?;
+                (Some((input.clone(), n, tensor)), options.prompts.clone())
+            }
+        };
+        let classes = signature
+            .classes
+            .or(text.as_ref().map(|t| t.1))
+            .unwrap_or(names.len());
+        let detector = Self {
+            session,
+            signature,
+            size: (w, h),
+            classes,
+            text: text.map(|(name, _, tensor)| (name, tensor)),
+        };
+        Ok((detector, names))
     }
-    detections.retain(|d| d.bbox.area() > 0.0);
-    // Grid cells and tiles report a long crack piecewise: join the pieces.
-    Ok(merge_touching(nms(detections, options.iou), MERGE_GAP))
+
+    /// Detections of one frame: every view run, mapped to frame pixels, then
+    /// NMS'd and merged.
+    fn frame(&mut self, p: &Prepared, options: &DetectOptions) -> Result<Vec<Detection>, String> {
+        let (w, h) = self.size;
+        let mut detections = Vec::new();
+        for view in &p.views {
+            let shape = vec![1i64, 3, i64::from(h), i64::from(w)];
+            let image = TensorRef::from_array_view((shape, view.input.as_slice()))
+                .map_err(|e| e.to_string())?;
+            let mut inputs: Vec<(Cow<str>, SessionInputValue)> =
+                vec![(self.signature.images.as_str().into(), image.into())];
+            if let Some((name, tensor)) = &self.text {
+                inputs.push((name.as_str().into(), tensor.into()));
+            }
+            let outputs = self.session.run(inputs).map_err(|e| e.to_string())?;
+            let (shape, data) = outputs[self.signature.output.as_str()]
+                .try_extract_tensor::<f32>()
+                .map_err(|e| e.to_string())?;
+            let rows = usize::try_from(shape[1]).map_err(|_| "bad output shape")?;
+            if rows != 4 + self.classes {
+                return Err(format!(
+                    "output has {rows} rows, expected 4 + {} classes",
+                    self.classes
+                ));
+            }
+            let anchors = usize::try_from(shape[2]).map_err(|_| "bad output shape")?;
+            let Window { x, y, tile, .. } = view.window;
+            detections.extend(
+                decode(data, self.classes, anchors, 0, options.confidence)
+                    .into_iter()
+                    .map(|d| {
+                        let b = view.placement.to_image(&d.bbox);
+                        Detection {
+                            bbox: BoxXyxy {
+                                x0: b.x0 + x as f32,
+                                y0: b.y0 + y as f32,
+                                x1: b.x1 + x as f32,
+                                y1: b.y1 + y as f32,
+                            }
+                            .clip(p.width as f32, p.height as f32),
+                            tile,
+                            ..d
+                        }
+                    }),
+            );
+        }
+        detections.retain(|d| d.bbox.area() > 0.0);
+        // Grid cells and tiles report a long crack piecewise: join the pieces.
+        Ok(merge_touching(nms(detections, options.iou), MERGE_GAP))
+    }
 }
 
 fn write_outputs(
