@@ -49,19 +49,19 @@ struct DetectArgs {
     #[arg(long)]
     model: PathBuf,
     /// Class prompt for open-vocabulary models (repeatable).
-    #[arg(long = "prompt", default_value = "crack")]
+    #[arg(long = "prompt", default_value = detect::DetectOptions::DEFAULT_PROMPT)]
     prompts: Vec<String>,
     /// Prompt embeddings (JSON: prompt to vector) for open-vocabulary models.
     #[arg(long, value_name = "FILE")]
     embeddings: Option<PathBuf>,
     /// Lowest score kept.
-    #[arg(long, default_value_t = 0.25)]
+    #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_CONFIDENCE)]
     confidence: f32,
     /// Overlap above which NMS drops the weaker box.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_IOU)]
     iou: f32,
     /// Input size for models with dynamic input, pixels.
-    #[arg(long, default_value_t = 640)]
+    #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_IMAGE_SIZE)]
     imgsz: u32,
     /// ONNX Runtime library (default: ORT_DYLIB_PATH, the project .venv, python3's onnxruntime).
     #[arg(long, value_name = "PATH")]
@@ -70,7 +70,7 @@ struct DetectArgs {
     #[arg(long, value_name = "PIXELS")]
     tile: Option<u32>,
     /// Overlap of neighbouring tiles, as a share of the tile size.
-    #[arg(long, default_value_t = 0.2)]
+    #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_TILE_OVERLAP)]
     tile_overlap: f32,
 }
 
@@ -86,17 +86,17 @@ struct SimulateArgs {
     #[arg(long, value_name = "STRUCTURE.obj", conflicts_with = "scene")]
     mesh: Option<PathBuf>,
     /// Seed: the same seed gives byte-identical files.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = sim::SimOptions::DEFAULT_SEED)]
     seed: u64,
     /// Number of camera frames (a few are dropped, as recorders do).
-    #[arg(long, default_value_t = 300)]
+    #[arg(long, default_value_t = sim::SimOptions::DEFAULT_FRAMES)]
     frames: u32,
-    #[arg(long, default_value_t = 640)]
+    #[arg(long, default_value_t = sim::SimOptions::DEFAULT_WIDTH)]
     width: u32,
-    #[arg(long, default_value_t = 480)]
+    #[arg(long, default_value_t = sim::SimOptions::DEFAULT_HEIGHT)]
     height: u32,
     /// Number of cracks drawn on the structure.
-    #[arg(long, default_value_t = 40)]
+    #[arg(long, default_value_t = sim::SimOptions::DEFAULT_CRACKS)]
     cracks: usize,
     /// Record an ideal lens instead of plumb_bob distortion.
     #[arg(long)]
@@ -139,7 +139,7 @@ struct IngestArgs {
     #[arg(long, value_name = "FRAME")]
     world_frame: Option<String>,
     /// Largest pose gap frames are interpolated across, seconds.
-    #[arg(long, default_value_t = 0.25, value_name = "SECONDS")]
+    #[arg(long, default_value_t = ingest::IngestOptions::DEFAULT_MAX_POSE_GAP_S, value_name = "SECONDS")]
     max_pose_gap: f64,
     /// Fail on a truncated recording instead of salvaging it.
     #[arg(long)]
@@ -184,9 +184,6 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
 }
 
 fn ingest(args: &IngestArgs, quiet: bool) -> anyhow::Result<()> {
-    if !args.max_pose_gap.is_finite() || args.max_pose_gap <= 0.0 {
-        anyhow::bail!("--max-pose-gap must be a positive number of seconds");
-    }
     let options = ingest::IngestOptions {
         image_topics: args.image_topics.clone(),
         pose_topic: args.pose_topic.clone(),
@@ -257,12 +254,6 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
 }
 
 fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
-    if !(0.0..0.9).contains(&args.tile_overlap) {
-        anyhow::bail!("--tile-overlap must be at least 0 and below 0.9");
-    }
-    if args.tile.is_some_and(|t| t < 32) {
-        anyhow::bail!("--tile must be at least 32 pixels");
-    }
     let options = detect::DetectOptions {
         prompts: args.prompts.clone(),
         embeddings: args.embeddings.clone(),

@@ -135,6 +135,9 @@ fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
     let out = detect(&run, &["--model", open.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
     assert!(stderr(&out).contains("--embeddings"), "{}", stderr(&out));
+    let out = detect(&run, &["--model", baked.to_str().unwrap(), "--tile", "8"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr(&out).contains("--tile must be"), "{}", stderr(&out));
     let out = detect(&run, &[&args[..], &["--prompt", "pothole"]].concat());
     assert_eq!(out.status.code(), Some(1));
     assert!(stderr(&out).contains("\"pothole\""), "{}", stderr(&out));

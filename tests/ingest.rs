@@ -452,6 +452,13 @@ fn bad_input_fails_with_one_line_and_no_run_dir() {
     ];
     for (i, (flight, message)) in cases.iter().enumerate() {
         let run = dir.path().join(format!("run{i}"));
+        let out = run_ingest(&no_poses, &dir.path().join("gap"), &["--max-pose-gap=0"]);
+        assert_eq!(out.status.code(), Some(1));
+        assert!(
+            stderr(&out).contains("--max-pose-gap must be"),
+            "{}",
+            stderr(&out)
+        );
         let out = run_ingest(flight, &run, &[]);
         assert_eq!(out.status.code(), Some(1), "{message}");
         let err = stderr(&out);

@@ -5,6 +5,8 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum DetectError {
     #[error("{0}")]
+    Option(String),
+    #[error("{0}")]
     Runtime(String),
     #[error("model {}: {why}", path.display())]
     Model { path: PathBuf, why: String },

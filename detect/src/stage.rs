@@ -56,19 +56,43 @@ pub struct DetectOptions {
 }
 
 impl DetectOptions {
+    pub const DEFAULT_PROMPT: &str = "crack";
+    pub const DEFAULT_CONFIDENCE: f32 = 0.25;
+    pub const DEFAULT_IOU: f32 = 0.5;
+    pub const DEFAULT_IMAGE_SIZE: u32 = 640;
+    pub const DEFAULT_TILE_OVERLAP: f32 = 0.2;
+
     pub fn new(run: PathBuf, model: PathBuf) -> Self {
         Self {
             run,
             model,
-            prompts: vec!["crack".into()],
+            prompts: vec![Self::DEFAULT_PROMPT.into()],
             embeddings: None,
-            confidence: 0.25,
-            iou: 0.5,
-            image_size: 640,
+            confidence: Self::DEFAULT_CONFIDENCE,
+            iou: Self::DEFAULT_IOU,
+            image_size: Self::DEFAULT_IMAGE_SIZE,
             onnxruntime: None,
             tile: None,
-            tile_overlap: 0.2,
+            tile_overlap: Self::DEFAULT_TILE_OVERLAP,
         }
+    }
+
+    /// Refuse settings that cannot work, naming the flag.
+    fn check(&self) -> Result<(), DetectError> {
+        let bad = |why: &str| Err(DetectError::Option(why.into()));
+        if !(0.0..0.9).contains(&self.tile_overlap) {
+            return bad("--tile-overlap must be at least 0 and below 0.9");
+        }
+        if self.tile.is_some_and(|t| t < 32) {
+            return bad("--tile must be at least 32 pixels");
+        }
+        if !(0.0..=1.0).contains(&self.confidence) || !(0.0..=1.0).contains(&self.iou) {
+            return bad("--confidence and --iou must be between 0 and 1");
+        }
+        if self.image_size < 32 || !self.image_size.is_multiple_of(32) {
+            return bad("--imgsz must be a multiple of 32");
+        }
+        Ok(())
     }
 }
 
@@ -198,6 +222,7 @@ pub fn detect(
     options: &DetectOptions,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<DetectSummary, DetectError> {
+    options.check()?;
     let start = Instant::now();
     let flight = Flight::load(&options.run)?;
     let library = locate(options.onnxruntime.as_deref())?;

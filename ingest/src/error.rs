@@ -7,6 +7,9 @@ use crate::recording::MessageLocation;
 
 #[derive(Debug, thiserror::Error)]
 pub enum IngestError {
+    #[error("{0}")]
+    Option(String),
+
     #[error("cannot open {}: {source}; check the path", path.display())]
     Open {
         path: PathBuf,

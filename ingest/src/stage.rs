@@ -50,6 +50,8 @@ pub struct IngestOptions {
 }
 
 impl IngestOptions {
+    pub const DEFAULT_MAX_POSE_GAP_S: f64 = 0.25;
+
     pub fn new(flight: PathBuf, out: PathBuf) -> Self {
         Self {
             flight,
@@ -61,7 +63,7 @@ impl IngestOptions {
             map_topic: None,
             body_frame: None,
             world_frame: None,
-            max_pose_gap_s: 0.25,
+            max_pose_gap_s: Self::DEFAULT_MAX_POSE_GAP_S,
             strict: false,
         }
     }
@@ -424,6 +426,11 @@ pub fn ingest(
     options: &IngestOptions,
     progress: &mut dyn Progress,
 ) -> Result<IngestSummary, IngestError> {
+    if !options.max_pose_gap_s.is_finite() || options.max_pose_gap_s <= 0.0 {
+        return Err(IngestError::Option(
+            "--max-pose-gap must be a positive number of seconds".into(),
+        ));
+    }
     let recording = Recording::open(&options.flight)?;
     let total = recording.len();
     let mut scan = Scan::default();

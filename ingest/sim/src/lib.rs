@@ -60,15 +60,21 @@ pub struct SimOptions {
 }
 
 impl SimOptions {
+    pub const DEFAULT_SEED: u64 = 1;
+    pub const DEFAULT_FRAMES: u32 = 300;
+    pub const DEFAULT_WIDTH: u32 = 640;
+    pub const DEFAULT_HEIGHT: u32 = 480;
+    pub const DEFAULT_CRACKS: usize = 40;
+
     pub fn new(out: PathBuf) -> Self {
         Self {
             out,
             scene: SceneChoice::GirderBridge,
-            seed: 1,
-            frames: 300,
-            width: 640,
-            height: 480,
-            cracks: 40,
+            seed: Self::DEFAULT_SEED,
+            frames: Self::DEFAULT_FRAMES,
+            width: Self::DEFAULT_WIDTH,
+            height: Self::DEFAULT_HEIGHT,
+            cracks: Self::DEFAULT_CRACKS,
             distortion: true,
         }
     }
