@@ -67,14 +67,12 @@ pub enum ScanEvent<'a> {
 }
 
 /// Damage and extent of a recording, as found by [`Recording::scan`].
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default)]
 pub struct ScanReport {
     /// The file ends before its data-end record and closing magic.
     pub truncated: bool,
     /// File offset where readable data stopped, when truncated.
     pub truncated_at: Option<u64>,
-    /// Messages recovered from a chunk cut off by the truncation.
-    pub salvaged_from_partial_chunk: u64,
     /// Chunks skipped because their bytes are damaged.
     pub corrupt_chunks: u64,
     /// One line per damaged chunk or record: where and why.
@@ -162,14 +160,13 @@ impl Recording {
                 chunks.flush(&mut links, &mut visit, &mut report);
                 let partial = &buf[pos..];
                 if partial.first() == Some(&op::CHUNK) && partial.len() > RECORD_PREFIX {
-                    let salvaged = salvage_partial_chunk(
+                    salvage_partial_chunk(
                         pos as u64,
                         &partial[RECORD_PREFIX..],
                         &mut links,
                         &mut visit,
                         &mut report,
                     );
-                    report.salvaged_from_partial_chunk += salvaged;
                 }
                 report.truncated = true;
                 report.truncated_at = Some(pos as u64);
@@ -527,16 +524,16 @@ fn emit_records(
 }
 
 /// Recover the complete records at the front of a chunk that the end of the
-/// file cut off. Returns the number of messages recovered.
+/// file cut off, noting how many in the report.
 fn salvage_partial_chunk(
     chunk_offset: u64,
     body: &[u8],
     links: &mut ChannelLinks,
     visit: &mut impl FnMut(ScanEvent<'_>),
     report: &mut ScanReport,
-) -> u64 {
+) {
     let Some(header) = chunk_header(body) else {
-        return 0;
+        return;
     };
     let mut out = Vec::new();
     let records: &[u8] = match header.compression {
@@ -547,16 +544,16 @@ fn salvage_partial_chunk(
                 let _ = read_until_error(&mut d, &mut out);
                 &out
             }
-            Err(_) => return 0,
+            Err(_) => return,
         },
         "lz4" => match lz4::Decoder::new(header.data) {
             Ok(mut d) => {
                 let _ = read_until_error(&mut d, &mut out);
                 &out
             }
-            Err(_) => return 0,
+            Err(_) => return,
         },
-        _ => return 0,
+        _ => return,
     };
     let framed = frame_records(records);
     let salvaged = emit_records(&framed.records, records, chunk_offset, links, visit);
@@ -565,7 +562,6 @@ fn salvage_partial_chunk(
             "chunk at byte {chunk_offset} is cut off by the end of the file; {salvaged} complete messages recovered from it"
         ));
     }
-    salvaged
 }
 
 fn read_until_error(reader: &mut impl std::io::Read, out: &mut Vec<u8>) -> std::io::Result<()> {
