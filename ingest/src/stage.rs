@@ -180,6 +180,16 @@ struct ChannelState {
     count: u64,
 }
 
+/// The poses of one pose topic, with the frames its messages name.
+#[derive(Default)]
+struct PoseTopic {
+    /// `header.frame_id`: the world frame.
+    frame_id: String,
+    /// Odometry's `child_frame_id`: the body frame (empty for PoseStamped).
+    child_frame_id: String,
+    poses: Vec<StampedPose>,
+}
+
 /// Everything gathered in the single pass over the recording.
 #[derive(Default)]
 struct Scan {
@@ -187,7 +197,7 @@ struct Scan {
     time_range: Option<(u64, u64)>,
     frames: Vec<Frame>,
     camera_infos: BTreeMap<String, msg::CameraInfo>,
-    poses: BTreeMap<String, Vec<(StampedPose, String, String)>>,
+    poses: BTreeMap<String, PoseTopic>,
     tf: TransformTree,
     clouds: BTreeMap<String, MessageLocation>,
     /// Exposure times by camera namespace and log time.
@@ -411,13 +421,17 @@ impl Scan {
     }
 
     fn pose(&mut self, topic: &str, time_ns: i64, p: &msg::Pose, frame: String, child: String) {
-        if let Some(pose) = pose::from_ros(p.position, p.orientation) {
-            self.poses.entry(topic.to_string()).or_default().push((
-                StampedPose { time_ns, pose },
-                frame,
-                child,
-            ));
+        let Some(pose) = pose::from_ros(p.position, p.orientation) else {
+            return;
+        };
+        let entry = self.poses.entry(topic.to_string()).or_default();
+        if entry.frame_id.is_empty() {
+            entry.frame_id = frame;
         }
+        if entry.child_frame_id.is_empty() {
+            entry.child_frame_id = child;
+        }
+        entry.poses.push(StampedPose { time_ns, pose });
     }
 }
 
@@ -649,7 +663,7 @@ fn choose_trajectory(
     let best = scan
         .poses
         .iter()
-        .max_by_key(|(topic, poses)| (poses.len(), std::cmp::Reverse(topic.as_str())))
+        .max_by_key(|(topic, t)| (t.poses.len(), std::cmp::Reverse(topic.as_str())))
         .map(|(t, _)| t.clone());
     if let Some(topic) = best {
         let others: Vec<&String> = scan.poses.keys().filter(|t| **t != topic).collect();
@@ -659,20 +673,20 @@ fn choose_trajectory(
                 others.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
             ));
         }
-        let samples = scan.poses.remove(&topic).unwrap_or_default();
-        let world = samples
-            .iter()
-            .map(|s| s.1.clone())
-            .find(|f| !f.is_empty())
+        let PoseTopic {
+            frame_id,
+            child_frame_id,
+            poses,
+        } = scan.poses.remove(&topic).unwrap_or_default();
+        let world = Some(frame_id)
+            .filter(|f| !f.is_empty())
             .unwrap_or_else(|| "map".into());
-        let odom_child = samples.iter().map(|s| s.2.clone()).find(|f| !f.is_empty());
         let body = options
             .body_frame
             .clone()
-            .or(odom_child)
+            .or(Some(child_frame_id).filter(|f| !f.is_empty()))
             .or_else(|| infer_body_frame(&scan.tf, camera_frames))
             .unwrap_or_else(|| "base_link".into());
-        let poses = samples.into_iter().map(|s| s.0).collect();
         return Ok(Trajectory::new(world, body, topic, poses));
     }
     // No pose topic: the transform tree may carry the pose (map -> odom -> base_link).
