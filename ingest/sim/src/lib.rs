@@ -214,12 +214,13 @@ pub fn simulate(
         let camera = flight.body_pose(t) * body_camera;
         let is_dropped = i > 0 && i + 1 < n && drops.uniform() < DROP_RATE;
         let blur = blur_vector(&scene, &flight, &body_camera, &k, t);
-        let in_view = truth::cracks_in_view(&scene, &cracks.0, &k, &camera, blur.0.hypot(blur.1));
+        let blur_px = blur.0.hypot(blur.1);
+        let in_view = truth::cracks_in_view(&scene, &cracks.0, &k, &camera, blur_px);
         if is_dropped {
             dropped += 1;
         } else {
             let img = render::motion_blur(
-                &render::render(&scene, &cracks, &rays, &camera, i),
+                render::render(&scene, &cracks, &rays, &camera, i),
                 blur.0,
                 blur.1,
             );
@@ -247,7 +248,7 @@ pub fn simulate(
         }
         views.push(coverage::View {
             camera,
-            usable: !is_dropped && blur.0.hypot(blur.1) <= plan.view.max_blur_px,
+            usable: !is_dropped && blur_px <= plan.view.max_blur_px,
         });
         frames.push(FrameTruth {
             index: i,
@@ -255,7 +256,7 @@ pub fn simulate(
             dropped: is_dropped,
             camera_pose: PoseJson::from(&camera),
             fast: flight.is_fast(t),
-            blur_px: blur.0.hypot(blur.1),
+            blur_px,
             cracks: in_view,
         });
         progress(u64::from(i) + 1, u64::from(n));

@@ -134,10 +134,10 @@ fn value_noise(p: &Point3<f64>, freq: f64, salt: u64) -> f64 {
 
 /// Average the image along the motion vector `(dx, dy)` pixels (the image
 /// motion during the exposure), as a moving camera blurs.
-pub fn motion_blur(img: &RgbImage, dx: f64, dy: f64) -> RgbImage {
+pub fn motion_blur(img: RgbImage, dx: f64, dy: f64) -> RgbImage {
     let len = dx.hypot(dy);
     if len < 0.5 {
-        return img.clone();
+        return img;
     }
     let taps = len.ceil() as usize + 1;
     let (w, h) = (img.width() as i64, img.height() as i64);
