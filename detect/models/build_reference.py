@@ -14,13 +14,15 @@ YOLO-World's interfaces exactly, so the same pipeline runs either:
   embedding's similarity to this model's own "crack" direction (see
   prompts.json; these are not CLIP features).
 
-The network: grey = luma of the image; for 4 orientations, how much darker a
-3-pixel stroke is than both of its sides 2-3 pixels away, less how much the
-sides differ (so thin dark lines on one surface respond, and edges and dark
-lines between different surfaces do not); the strongest
-orientation, through a sigmoid, is a per-pixel crack score. Each 16-pixel
-cell reports its best score and the box of the crack pixels in the 48-pixel
-window around it.
+The network: grey = luma of the image; for 8 orientations, how much darker a
+7-pixel stroke is than both of its sides 2-3 pixels away, less how much the
+sides differ, taking the weakest third of the stroke (so thin dark lines on
+one surface respond, and edges, corners and specks do not), relative to the
+surface's local brightness, less a penalty for colour (cracks are grey);
+the strongest orientation, through a sigmoid, is a per-pixel crack score.
+Each 16-pixel cell reports its best score and the box of the crack pixels in
+the 48-pixel window around it; cells in texture (dense dark specks) and
+cells whose box is shorter than MIN_EXTENT score 0.
 
 Run: .venv/bin/python detect/models/build_reference.py detect/models
 """
@@ -36,30 +38,50 @@ from onnx import TensorProto, helper, numpy_helper
 
 STRIDE = 16
 WINDOW = 3 * STRIDE
-THRESHOLD = 0.09  # stroke darkness (0..1 image units) at which the score is 0.5
-MIN_EXTENT = 8.0  # pixels: shorter dark specks are noise, not cracks
+ORIENTATIONS = 8
+HALF_LENGTH = 3  # the stroke is 7 pixels long: corners and specks are shorter
+SIDES = (2.0, 3.0)  # pixels across the stroke where its sides are sampled
+KERNEL = 11
+THRESHOLD = 0.11  # stroke darkness, relative to the surface's brightness, at which the score is 0.5
+SURROUND = 15  # pixels: the window the surface's brightness is averaged over
+BOX_LEVEL = 0.5  # pixel score from which a pixel is part of a crack's box
+SATURATION = 0.2  # cracks in concrete and steel are grey: colour above this saturation
+CHROMA = 2.0  # is weighed against the stroke
+DENSITY = 0.12  # share of crack pixels above which a window is texture
+MIN_EXTENT = 20.0  # pixels: shorter dark marks are specks and edge ends, not cracks worth a finding
 GAIN = 80.0
 EMBED_DIM = 512
 PROMPTS = ["crack", "spalling", "corrosion", "stain", "vegetation", "graffiti"]
 
 
+def splat(k, x, y, w):
+    """Add weight `w` at the sub-pixel point (x, y) of kernel `k`, bilinearly."""
+    x0, y0 = math.floor(x), math.floor(y)
+    fx, fy = x - x0, y - y0
+    for dx, dy, f in ((0, 0, (1 - fx) * (1 - fy)), (1, 0, fx * (1 - fy)), (0, 1, (1 - fx) * fy), (1, 1, fx * fy)):
+        k[y0 + dy, x0 + dx] += w * f
+
+
 def line_kernels():
-    """[8, 1, 7, 7]: for each orientation, (side A mean - stroke mean) and (side B mean - stroke mean)."""
+    """[ORIENTATIONS * 3 * 2, 1, K, K]: for each orientation and each third of a
+    stroke 2 * HALF_LENGTH + 1 pixels long (back, middle, front), the mean of
+    side A less the stroke's mean, then the same for side B."""
+    c = KERNEL // 2
+    thirds = (range(-HALF_LENGTH, -1), range(-1, 2), range(2, HALF_LENGTH + 1))
     kernels = []
-    for angle in (0, 45, 90, 135):
-        a = math.radians(angle)
+    for i in range(ORIENTATIONS):
+        a = math.pi * i / ORIENTATIONS
         d = (math.cos(a), math.sin(a))  # along the stroke (x right, y down)
         n = (-d[1], d[0])  # across it
-        for side in (1, -1):
-            k = np.zeros((7, 7), dtype=np.float32)
-            for t in (-1, 0, 1):
-                cx, cy = round(3 + t * d[0]), round(3 + t * d[1])
-                k[cy, cx] -= 1.0 / 3.0
-                for s in (2, 3):
-                    x = round(3 + t * d[0] + side * s * n[0])
-                    y = round(3 + t * d[1] + side * s * n[1])
-                    k[y, x] += 1.0 / 6.0
-            kernels.append(k)
+        for ts in thirds:
+            for side in (1, -1):
+                k = np.zeros((KERNEL, KERNEL), dtype=np.float64)
+                for t in ts:
+                    splat(k, c + t * d[0], c + t * d[1], -1.0 / len(ts))
+                    for s in SIDES:
+                        splat(k, c + t * d[0] + side * s * n[0], c + t * d[1] + side * s * n[1],
+                              1.0 / (len(ts) * len(SIDES)))
+                kernels.append(k.astype(np.float32))
     return np.stack(kernels)[:, None, :, :]
 
 
@@ -96,7 +118,14 @@ def backbone(nodes, inits):
         const("w_line", line_kernels()),
         const("c0", np.array([0], dtype=np.int64)),
         const("c1", np.array([1], dtype=np.int64)),
-        const("c8", np.array([8], dtype=np.int64)),
+        const("c_end", np.array([6 * ORIENTATIONS], dtype=np.int64)),
+        const("line_pads", np.array([0, 0, KERNEL // 2, KERNEL // 2, 0, 0, KERNEL // 2, KERNEL // 2], dtype=np.int64)),
+        const("thirds_shape", np.array([0, ORIENTATIONS, 3, -1], dtype=np.int64)),
+        const("chroma_w", np.array(CHROMA, dtype=np.float32)),
+        const("density_max", np.array(DENSITY, dtype=np.float32)),
+        const("saturation_max", np.array(SATURATION, dtype=np.float32)),
+        const("dark_floor", np.array(0.05, dtype=np.float32)),
+        const("box_level", np.array(BOX_LEVEL, dtype=np.float32)),
         const("c2", np.array([2], dtype=np.int64)),
         const("threshold", np.array(THRESHOLD, dtype=np.float32)),
         const("gain", np.array(GAIN, dtype=np.float32)),
@@ -117,21 +146,56 @@ def backbone(nodes, inits):
     n = helper.make_node
     nodes += [
         n("Conv", ["images", "w_gray"], ["gray"]),
-        n("Conv", ["gray", "w_line"], ["sides"], pads=[3, 3, 3, 3]),
+        # Edge padding: a crack at the frame's border is not darker than the
+        # zeros beyond it.
+        n("Pad", ["gray", "line_pads"], ["gray_padded"], mode="edge"),
+        n("Conv", ["gray_padded", "w_line"], ["sides"]),
+        n("ReduceMax", ["images", "i1_axes"], ["rgb_max"], keepdims=1),
+        n("ReduceMin", ["images", "i1_axes"], ["rgb_min"], keepdims=1),
+        n("Sub", ["rgb_max", "rgb_min"], ["chroma_px"]),
+        n("Add", ["rgb_max", "dark_floor"], ["value_f"]),
+        n("Div", ["chroma_px", "value_f"], ["saturation_px"]),
+        n("MaxPool", ["saturation_px"], ["saturation"], kernel_shape=[9, 9], pads=[4, 4, 4, 4]),
+        n("Sub", ["saturation", "saturation_max"], ["saturation_over"]),
+        n("Relu", ["saturation_over"], ["saturation_excess"]),
+        n("Mul", ["saturation_excess", "chroma_w"], ["chroma_penalty"]),
         # Even channels are side A, odd side B. A crack is darker than both
         # sides, and its sides are alike (one surface): 2 min - max penalises
         # a dark line between different surfaces (a pole against the sky).
-        n("Slice", ["sides", "c0", "c8", "c1", "c2"], ["side_a"]),
-        n("Slice", ["sides", "c1", "c8", "c1", "c2"], ["side_b"]),
+        n("Slice", ["sides", "c0", "c_end", "c1", "c2"], ["side_a"]),
+        n("Slice", ["sides", "c1", "c_end", "c1", "c2"], ["side_b"]),
         n("Min", ["side_a", "side_b"], ["side_min"]),
         n("Max", ["side_a", "side_b"], ["side_max"]),
         n("Mul", ["side_min", "two"], ["side_min2"]),
         n("Sub", ["side_min2", "side_max"], ["stroke"]),
-        n("ReduceMax", ["stroke", "i1_axes"], ["line"], keepdims=1),
+        # A line is dark along its whole length: the weakest third counts
+        # (the corner of a dark object is dark along one third only).
+        n("Reshape", ["stroke", "thirds_shape"], ["stroke_thirds"]),
+        n("ReduceMin", ["stroke_thirds", "i2"], ["stroke_whole"], keepdims=0),
+        n("ReduceMax", ["stroke_whole", "i1_axes"], ["line_flat"], keepdims=1),
+        n("Shape", ["gray"], ["gray_shape"]),
+        n("Reshape", ["line_flat", "gray_shape"], ["line_raw"]),
+        n("Sub", ["line_raw", "chroma_penalty"], ["line_abs"]),
+        # Darkness relative to the surface: a crack is as visible on dark
+        # steel as on bright concrete.
+        n("AveragePool", ["gray"], ["surround_x"], kernel_shape=[1, SURROUND], pads=[0, SURROUND // 2, 0, SURROUND // 2], count_include_pad=0),
+        n("AveragePool", ["surround_x"], ["surround"], kernel_shape=[SURROUND, 1], pads=[SURROUND // 2, 0, SURROUND // 2, 0], count_include_pad=0),
+        n("Add", ["surround", "dark_floor"], ["surround_f"]),
+        n("Div", ["line_abs", "surround_f"], ["line"]),
         n("Sub", ["line", "threshold"], ["line_t"]),
         n("Mul", ["line_t", "gain"], ["line_g"]),
-        n("Sigmoid", ["line_g"], ["pixel_score"]),
-        n("MaxPool", ["pixel_score"], ["cell_score"], kernel_shape=[STRIDE, STRIDE], strides=[STRIDE, STRIDE]),
+        n("Sigmoid", ["line_g"], ["raw_score"]),
+        # Texture (grass, gravel) is dark specks everywhere; a crack is a thin
+        # curve through mostly clean surface.
+        n("Greater", ["raw_score", "half"], ["raw_active_b"]),
+        n("Cast", ["raw_active_b"], ["raw_active"], to=TensorProto.FLOAT),
+        n("AveragePool", ["raw_active"], ["cell_density"], kernel_shape=[STRIDE, STRIDE], strides=[STRIDE, STRIDE]),
+        n("AveragePool", ["cell_density"], ["density"], kernel_shape=[3, 3], pads=[1, 1, 1, 1], count_include_pad=0),
+        n("Less", ["density", "density_max"], ["sparse_b"]),
+        n("Cast", ["sparse_b"], ["sparse"], to=TensorProto.FLOAT),
+        n("Identity", ["raw_score"], ["pixel_score"]),
+        n("MaxPool", ["pixel_score"], ["cell_score_raw"], kernel_shape=[STRIDE, STRIDE], strides=[STRIDE, STRIDE]),
+        n("Mul", ["cell_score_raw", "sparse"], ["cell_score"]),
         # Pixel coordinates (centres) as [1, 1, 1, W] and [1, 1, H, 1].
         n("Shape", ["gray"], ["shape"]),
         n("Gather", ["shape", "i2"], ["h1"]),
@@ -145,7 +209,7 @@ def backbone(nodes, inits):
         n("Reshape", ["xs_f", "row_shape"], ["xs"]),
         n("Reshape", ["ys_f", "col_shape"], ["ys"]),
         # Crack pixels: score above one half.
-        n("Greater", ["pixel_score", "half"], ["active_b"]),
+        n("Greater", ["pixel_score", "box_level"], ["active_b"]),
         n("Cast", ["active_b"], ["active"], to=TensorProto.FLOAT),
         n("Sub", ["one", "active"], ["inactive"]),
         n("Mul", ["inactive", "big"], ["far"]),

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use crate::boxes::{BoxXyxy, Detection, merge_touching, nms};
 
 /// Same-class boxes closer than this, pixels, are one finding.
-const MERGE_GAP: f32 = 4.0;
+const MERGE_GAP: f32 = 8.0;
 use crate::decode::decode;
 use crate::error::DetectError;
 use crate::letterbox::{Placement, letterbox};

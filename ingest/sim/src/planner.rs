@@ -41,7 +41,7 @@ pub fn target_voxels(scene: &Scene, grid: &VoxelGrid) -> Vec<VoxelIndex> {
 }
 
 /// Whether a viewpoint is flyable: above ground, clear of everything, and
-/// with a clear line of sight to the face it is for.
+/// with a clear line of sight to the outside of the face it is for.
 fn feasible(scene: &Scene, p: &Point3<f64>, face: &Point3<f64>) -> bool {
     if p.z < CLEARANCE {
         return false;
@@ -62,9 +62,12 @@ fn feasible(scene: &Scene, p: &Point3<f64>, face: &Point3<f64>) -> bool {
     }
     let to_face = face - p;
     let dist = to_face.norm();
+    let dir = to_face / dist;
+    // The face must be seen from outside: a voxel face inside a closed
+    // structure (a tower's hollow core) is seen from within its walls.
     scene
-        .cast(p, &(to_face / dist), dist)
-        .is_none_or(|h| h.distance > dist - 0.3)
+        .cast(p, &dir, dist + 1.0)
+        .is_none_or(|h| h.distance > dist - 0.3 && scene.normal(h.triangle).dot(&dir) < 0.0)
 }
 
 /// A patch of faces: their common outward normal and their centres.
