@@ -44,9 +44,8 @@ SIDES = (2.0, 3.0)  # pixels across the stroke where its sides are sampled
 KERNEL = 11
 THRESHOLD = 0.11  # stroke darkness, relative to the surface's brightness, at which the score is 0.5
 SURROUND = 15  # pixels: the window the surface's brightness is averaged over
-BOX_LEVEL = 0.5  # pixel score from which a pixel is part of a crack's box
-SATURATION = 0.2  # cracks in concrete and steel are grey: colour above this saturation
-CHROMA = 2.0  # is weighed against the stroke
+SATURATION = 0.2  # cracks in concrete and steel are grey: saturation above this
+SATURATION_WEIGHT = 2.0  # counts against the stroke's darkness, times this
 DENSITY = 0.12  # share of crack pixels above which a window is texture
 MIN_EXTENT = 20.0  # pixels: shorter dark marks are specks and edge ends, not cracks worth a finding
 GAIN = 80.0
@@ -121,11 +120,11 @@ def backbone(nodes, inits):
         const("c_end", np.array([6 * ORIENTATIONS], dtype=np.int64)),
         const("line_pads", np.array([0, 0, KERNEL // 2, KERNEL // 2, 0, 0, KERNEL // 2, KERNEL // 2], dtype=np.int64)),
         const("thirds_shape", np.array([0, ORIENTATIONS, 3, -1], dtype=np.int64)),
-        const("chroma_w", np.array(CHROMA, dtype=np.float32)),
+        const("saturation_w", np.array(SATURATION_WEIGHT, dtype=np.float32)),
         const("density_max", np.array(DENSITY, dtype=np.float32)),
         const("saturation_max", np.array(SATURATION, dtype=np.float32)),
+        # Added to brightness before dividing by it, so black stays finite.
         const("dark_floor", np.array(0.05, dtype=np.float32)),
-        const("box_level", np.array(BOX_LEVEL, dtype=np.float32)),
         const("c2", np.array([2], dtype=np.int64)),
         const("threshold", np.array(THRESHOLD, dtype=np.float32)),
         const("gain", np.array(GAIN, dtype=np.float32)),
@@ -158,7 +157,7 @@ def backbone(nodes, inits):
         n("MaxPool", ["saturation_px"], ["saturation"], kernel_shape=[9, 9], pads=[4, 4, 4, 4]),
         n("Sub", ["saturation", "saturation_max"], ["saturation_over"]),
         n("Relu", ["saturation_over"], ["saturation_excess"]),
-        n("Mul", ["saturation_excess", "chroma_w"], ["chroma_penalty"]),
+        n("Mul", ["saturation_excess", "saturation_w"], ["colour_penalty"]),
         # Even channels are side A, odd side B. A crack is darker than both
         # sides, and its sides are alike (one surface): 2 min - max penalises
         # a dark line between different surfaces (a pole against the sky).
@@ -173,9 +172,9 @@ def backbone(nodes, inits):
         n("Reshape", ["stroke", "thirds_shape"], ["stroke_thirds"]),
         n("ReduceMin", ["stroke_thirds", "i2"], ["stroke_whole"], keepdims=0),
         n("ReduceMax", ["stroke_whole", "i1_axes"], ["line_flat"], keepdims=1),
-        n("Shape", ["gray"], ["gray_shape"]),
-        n("Reshape", ["line_flat", "gray_shape"], ["line_raw"]),
-        n("Sub", ["line_raw", "chroma_penalty"], ["line_abs"]),
+        n("Shape", ["gray"], ["shape"]),
+        n("Reshape", ["line_flat", "shape"], ["line_raw"]),
+        n("Sub", ["line_raw", "colour_penalty"], ["line_abs"]),
         # Darkness relative to the surface: a crack is as visible on dark
         # steel as on bright concrete.
         n("AveragePool", ["gray"], ["surround_x"], kernel_shape=[1, SURROUND], pads=[0, SURROUND // 2, 0, SURROUND // 2], count_include_pad=0),
@@ -184,20 +183,19 @@ def backbone(nodes, inits):
         n("Div", ["line_abs", "surround_f"], ["line"]),
         n("Sub", ["line", "threshold"], ["line_t"]),
         n("Mul", ["line_t", "gain"], ["line_g"]),
-        n("Sigmoid", ["line_g"], ["raw_score"]),
+        n("Sigmoid", ["line_g"], ["pixel_score"]),
+        # Crack pixels: score above one half.
+        n("Greater", ["pixel_score", "half"], ["active_b"]),
+        n("Cast", ["active_b"], ["active"], to=TensorProto.FLOAT),
         # Texture (grass, gravel) is dark specks everywhere; a crack is a thin
         # curve through mostly clean surface.
-        n("Greater", ["raw_score", "half"], ["raw_active_b"]),
-        n("Cast", ["raw_active_b"], ["raw_active"], to=TensorProto.FLOAT),
-        n("AveragePool", ["raw_active"], ["cell_density"], kernel_shape=[STRIDE, STRIDE], strides=[STRIDE, STRIDE]),
+        n("AveragePool", ["active"], ["cell_density"], kernel_shape=[STRIDE, STRIDE], strides=[STRIDE, STRIDE]),
         n("AveragePool", ["cell_density"], ["density"], kernel_shape=[3, 3], pads=[1, 1, 1, 1], count_include_pad=0),
         n("Less", ["density", "density_max"], ["sparse_b"]),
         n("Cast", ["sparse_b"], ["sparse"], to=TensorProto.FLOAT),
-        n("Identity", ["raw_score"], ["pixel_score"]),
-        n("MaxPool", ["pixel_score"], ["cell_score_raw"], kernel_shape=[STRIDE, STRIDE], strides=[STRIDE, STRIDE]),
-        n("Mul", ["cell_score_raw", "sparse"], ["cell_score"]),
+        n("MaxPool", ["pixel_score"], ["cell_best"], kernel_shape=[STRIDE, STRIDE], strides=[STRIDE, STRIDE]),
+        n("Mul", ["cell_best", "sparse"], ["cell_score"]),
         # Pixel coordinates (centres) as [1, 1, 1, W] and [1, 1, H, 1].
-        n("Shape", ["gray"], ["shape"]),
         n("Gather", ["shape", "i2"], ["h1"]),
         n("Gather", ["shape", "i3"], ["w1"]),
         n("Squeeze", ["h1"], ["h"]),
@@ -208,9 +206,6 @@ def backbone(nodes, inits):
         n("Cast", ["ys_i"], ["ys_f"], to=TensorProto.FLOAT),
         n("Reshape", ["xs_f", "row_shape"], ["xs"]),
         n("Reshape", ["ys_f", "col_shape"], ["ys"]),
-        # Crack pixels: score above one half.
-        n("Greater", ["pixel_score", "box_level"], ["active_b"]),
-        n("Cast", ["active_b"], ["active"], to=TensorProto.FLOAT),
         n("Sub", ["one", "active"], ["inactive"]),
         n("Mul", ["inactive", "big"], ["far"]),
     ]

@@ -15,9 +15,6 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::boxes::{BoxXyxy, Detection, merge_touching, nms};
-
-/// Same-class boxes closer than this, pixels, are one finding.
-const MERGE_GAP: f32 = 8.0;
 use crate::decode::decode;
 use crate::error::DetectError;
 use crate::letterbox::{Placement, letterbox};
@@ -25,6 +22,10 @@ use crate::prompts::Embeddings;
 use crate::runtime::{Runtime, locate};
 use crate::signature::{Signature, Vocabulary};
 use crate::tiles::{Window, windows};
+
+/// Same-class boxes closer than this, pixels, are one finding: a faint
+/// stretch of a crack splits it into pieces a few pixels apart.
+const MERGE_GAP: f32 = 8.0;
 
 /// Files of the detect stage.
 pub mod files {
