@@ -72,6 +72,19 @@ struct DetectArgs {
     /// Overlap of neighbouring tiles, as a share of the tile size.
     #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_TILE_OVERLAP)]
     tile_overlap: f32,
+    /// Where inference runs; without the provider in the ONNX Runtime library, a warning and the CPU.
+    #[arg(long, value_enum, default_value_t = DeviceArg::Cpu)]
+    device: DeviceArg,
+    /// Images per inference call, for models with a dynamic batch size.
+    #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_BATCH)]
+    batch: usize,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum DeviceArg {
+    Cpu,
+    Cuda,
+    Tensorrt,
 }
 
 #[derive(Args)]
@@ -101,6 +114,15 @@ struct SimulateArgs {
     /// Record an ideal lens instead of plumb_bob distortion.
     #[arg(long)]
     no_distortion: bool,
+    /// Compression of the camera frames.
+    #[arg(long, value_enum, default_value_t = ImageFormatArg::Jpeg)]
+    image_format: ImageFormatArg,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum ImageFormatArg {
+    Jpeg,
+    Png,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -234,6 +256,10 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
         height: args.height,
         cracks: args.cracks,
         distortion: !args.no_distortion,
+        image_format: match args.image_format {
+            ImageFormatArg::Jpeg => sim::ImageFormat::Jpeg,
+            ImageFormatArg::Png => sim::ImageFormat::Png,
+        },
         ..sim::SimOptions::new(args.out.clone())
     };
     let bar = progress::Bar::count("simulate", quiet);
@@ -263,20 +289,31 @@ fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
         onnxruntime: args.onnxruntime.clone(),
         tile: args.tile,
         tile_overlap: args.tile_overlap,
+        device: match args.device {
+            DeviceArg::Cpu => detect::Device::Cpu,
+            DeviceArg::Cuda => detect::Device::Cuda,
+            DeviceArg::Tensorrt => detect::Device::TensorRt,
+        },
+        batch: args.batch,
         ..detect::DetectOptions::new(args.run.clone(), args.model.clone())
     };
     let bar = progress::Bar::count("detect", quiet);
     let summary = detect::detect(&options, &mut |done, total| bar.set(done, total))?;
     bar.finish();
+    for w in &summary.warnings {
+        tracing::warn!("{w}");
+    }
     for f in &summary.failed_frames {
         tracing::warn!("frame {} skipped: {}", f.frame, f.why);
     }
     if !quiet {
         println!(
-            "{} detections in {} frames ({:.1} frames/s) into {}",
+            "{} detections in {} frames ({:.1} frames/s on {}, {:.0}% of the time in ONNX Runtime) into {}",
             summary.detections,
             summary.frames_run,
             summary.frames_per_s,
+            summary.device,
+            100.0 * summary.inference_share,
             args.run.display()
         );
     }

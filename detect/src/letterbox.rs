@@ -1,9 +1,13 @@
 //! Letterboxing as Ultralytics does it: scale the image to fit the model
-//! input keeping its aspect ratio, centre it on gray (114) padding, and map
-//! boxes back to the original pixels afterwards.
+//! input keeping its aspect ratio (bilinear, with OpenCV's `INTER_LINEAR`
+//! pixel-centre alignment, rounded back to 8 bits), centre it on gray (114)
+//! padding, and map boxes back to the original pixels afterwards.
+//!
+//! The arithmetic is spelled out (f32, horizontal then vertical) so that a
+//! NumPy reimplementation gives bit-identical inputs: see
+//! `detect/python/pipeline.py`.
 
 use image::RgbImage;
-use image::imageops::FilterType;
 
 use crate::boxes::BoxXyxy;
 
@@ -61,23 +65,66 @@ pub fn letterbox(img: &RgbImage, size_w: u32, size_h: u32, out: &mut [f32]) -> P
     );
     let placement = Placement::fit(img.width(), img.height(), size_w, size_h);
     let (new_w, new_h) = scaled(img.width(), img.height(), placement.scale);
-    let resized;
-    let src = if (new_w, new_h) == img.dimensions() {
-        img
-    } else {
-        resized = image::imageops::resize(img, new_w, new_h, FilterType::Triangle);
-        &resized
-    };
     out.fill(f32::from(PAD) / 255.0);
     let plane = (size_w * size_h) as usize;
-    let (px, py) = (placement.pad_x as u32, placement.pad_y as u32);
-    for (x, y, p) in src.enumerate_pixels() {
-        let i = ((y + py) * size_w + (x + px)) as usize;
-        for c in 0..3 {
-            out[c * plane + i] = f32::from(p.0[c]) / 255.0;
+    let (px, py) = (placement.pad_x as usize, placement.pad_y as usize);
+    let mut put = |x: usize, y: usize, rgb: [u8; 3]| {
+        let i = (y + py) * size_w as usize + x + px;
+        for (c, v) in rgb.into_iter().enumerate() {
+            out[c * plane + i] = f32::from(v) / 255.0;
+        }
+    };
+    if (new_w, new_h) == img.dimensions() {
+        for (x, y, p) in img.enumerate_pixels() {
+            put(x as usize, y as usize, p.0);
+        }
+    } else {
+        let (w, h) = (img.width() as usize, img.height() as usize);
+        let columns = taps(w, new_w as usize);
+        let rows = taps(h, new_h as usize);
+        let src = img.as_raw();
+        // One source row resized horizontally, as f32 RGB.
+        let horizontal = |y: usize, row: &mut [f32]| {
+            let line = &src[y * w * 3..(y + 1) * w * 3];
+            for (x, &(x0, x1, f)) in columns.iter().enumerate() {
+                for c in 0..3 {
+                    let (a, b) = (f32::from(line[x0 * 3 + c]), f32::from(line[x1 * 3 + c]));
+                    row[x * 3 + c] = a * (1.0 - f) + b * f;
+                }
+            }
+        };
+        let mut top = vec![0.0f32; new_w as usize * 3];
+        let mut bottom = top.clone();
+        for (y, &(y0, y1, f)) in rows.iter().enumerate() {
+            horizontal(y0, &mut top);
+            horizontal(y1, &mut bottom);
+            for x in 0..new_w as usize {
+                let v = |c: usize| {
+                    let v = top[x * 3 + c] * (1.0 - f) + bottom[x * 3 + c] * f;
+                    (v + 0.5).floor().clamp(0.0, 255.0) as u8
+                };
+                put(x, y, [v(0), v(1), v(2)]);
+            }
         }
     }
     placement
+}
+
+/// Bilinear taps resizing `from` pixels to `to`: for each output pixel, the
+/// two source pixels and the weight of the second. Pixel centres align as in
+/// OpenCV's `INTER_LINEAR`: `src = (dst + 0.5) * from / to - 0.5`, clamped
+/// to the image.
+fn taps(from: usize, to: usize) -> Vec<(usize, usize, f32)> {
+    let scale = from as f32 / to as f32;
+    let last = (from - 1) as f32;
+    (0..to)
+        .map(|d| {
+            let s = ((d as f32 + 0.5) * scale - 0.5).clamp(0.0, last);
+            let i = s.floor();
+            let i0 = i as usize;
+            (i0, (i0 + 1).min(from - 1), s - i)
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -116,6 +163,25 @@ mod tests {
                 y1: 20.0
             }
         );
+    }
+
+    #[test]
+    fn resizing_interpolates_between_pixel_centres() {
+        // Two columns, 0 and 200, stretched to four: OpenCV gives 0, 50, 150, 200.
+        let img = RgbImage::from_fn(2, 1, |x, _| image::Rgb([(x * 200) as u8; 3]));
+        let mut input = vec![0.0; 3 * 4 * 4];
+        let p = letterbox(&img, 4, 4, &mut input);
+        assert_eq!((p.scale, p.pad_y), (2.0, 1.0));
+        let row: Vec<f32> = input[4..8].iter().map(|v| v * 255.0).collect();
+        for (got, want) in row.iter().zip([0.0, 50.0, 150.0, 200.0]) {
+            assert!((got - want).abs() < 1e-3, "{row:?}");
+        }
+        // Halving averages neighbours: 10 and 30 give 20.
+        let img = RgbImage::from_fn(4, 2, |x, _| image::Rgb([[10, 30, 50, 70][x as usize]; 3]));
+        let mut input = vec![0.0; 3 * 2 * 2];
+        letterbox(&img, 2, 2, &mut input);
+        let row: Vec<f32> = input[0..2].iter().map(|v| (v * 255.0).round()).collect();
+        assert_eq!(row, [20.0, 60.0]);
     }
 
     #[test]

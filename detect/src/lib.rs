@@ -15,5 +15,5 @@ pub mod stage;
 pub mod tiles;
 
 pub use error::DetectError;
-pub use runtime::{Library, Runtime, locate};
+pub use runtime::{Device, Library, Runtime, locate};
 pub use stage::{DetectOptions, DetectSummary, detect};

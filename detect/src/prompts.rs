@@ -1,5 +1,9 @@
-//! Text prompts for open-vocabulary models: prompt names to text embeddings
-//! (`{"crack": [0.01, ...], ...}`), assembled into the `[1, nc, dim]` input.
+//! Text prompts for open-vocabulary models: prompt names to text embeddings,
+//! assembled into the `[1, nc, dim]` input. Two file forms:
+//! - JSON, `{"crack": [0.01, ...], ...}`;
+//! - NumPy `.npy`, a `[n, dim]` float32/float64 array (what `np.save` writes
+//!   from YOLO-World's `get_text_pe`), with the `n` prompt names one per line
+//!   in a `.txt` file of the same stem beside it.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -10,16 +14,47 @@ use crate::error::DetectError;
 pub struct Embeddings(BTreeMap<String, Vec<f32>>);
 
 impl Embeddings {
-    /// Read a JSON object of prompt name to embedding vector.
+    /// Read embeddings from JSON or `.npy` (with its `.txt` of names).
     pub fn load(path: &Path) -> Result<Self, DetectError> {
         let bad = |why: String| DetectError::Embeddings {
             path: path.to_owned(),
             why,
         };
-        let text = std::fs::read_to_string(path)
+        let bytes = std::fs::read(path)
             .map_err(|e| bad(format!("{e}; check the path given to --embeddings")))?;
-        let map: BTreeMap<String, Vec<f32>> = serde_json::from_str(&text)
-            .map_err(|e| bad(format!("expected {{\"prompt\": [numbers, ...]}}: {e}")))?;
+        let map = if path.extension().is_some_and(|e| e == "npy") {
+            let names_path = path.with_extension("txt");
+            let names = std::fs::read_to_string(&names_path).map_err(|e| {
+                bad(format!(
+                    "cannot read the prompt names {} ({e}); write one name per line, in the order of the array's rows",
+                    names_path.display()
+                ))
+            })?;
+            let names: Vec<&str> = names
+                .lines()
+                .map(str::trim)
+                .filter(|l| !l.is_empty())
+                .collect();
+            let (rows, dim, values) = read_npy(&bytes).map_err(bad)?;
+            if rows != names.len() {
+                return Err(bad(format!(
+                    "{rows} embeddings but {} names in {}",
+                    names.len(),
+                    names_path.display()
+                )));
+            }
+            names
+                .iter()
+                .zip(values.chunks(dim))
+                .map(|(n, v)| (n.to_string(), v.to_vec()))
+                .collect()
+        } else {
+            serde_json::from_slice::<BTreeMap<String, Vec<f32>>>(&bytes).map_err(|e| {
+                bad(format!(
+                    "expected JSON {{\"prompt\": [numbers, ...]}} or a .npy array: {e}"
+                ))
+            })?
+        };
         let mut out = BTreeMap::new();
         for (name, v) in map {
             let norm = v.iter().map(|x| x * x).sum::<f32>().sqrt();
@@ -68,4 +103,74 @@ impl Embeddings {
         rows.resize(n * dim, 0.0);
         Ok((rows, n))
     }
+}
+
+/// A 2-D little-endian float array from `.npy` bytes: `(rows, columns, values)`.
+fn read_npy(bytes: &[u8]) -> Result<(usize, usize, Vec<f32>), String> {
+    let bad = || {
+        "not a NumPy .npy file (expected the \\x93NUMPY magic); save it with np.save".to_string()
+    };
+    if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
+        return Err(bad());
+    }
+    let (header_len, start) = match bytes[6] {
+        1 => (usize::from(u16::from_le_bytes([bytes[8], bytes[9]])), 10),
+        2 | 3 if bytes.len() >= 12 => (
+            u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize,
+            12,
+        ),
+        _ => return Err(bad()),
+    };
+    let header = bytes
+        .get(start..start + header_len)
+        .and_then(|h| std::str::from_utf8(h).ok())
+        .ok_or_else(bad)?;
+    let field = |key: &str| -> Option<&str> {
+        let at = header.find(&format!("'{key}':"))? + key.len() + 3;
+        Some(header[at..].trim_start())
+    };
+    let descr = field("descr").ok_or_else(bad)?;
+    let width = if descr.starts_with("'<f4'") {
+        4
+    } else if descr.starts_with("'<f8'") {
+        8
+    } else {
+        return Err(format!(
+            "the array holds {}, expected float32 or float64 ('<f4' or '<f8')",
+            descr.split(',').next().unwrap_or(descr)
+        ));
+    };
+    if field("fortran_order").is_some_and(|v| v.starts_with("True")) {
+        return Err("the array is in Fortran order; save np.ascontiguousarray(a)".into());
+    }
+    let shape = field("shape").ok_or_else(bad)?;
+    let dims: Vec<usize> = shape[1..shape.find(')').ok_or_else(bad)?]
+        .split(',')
+        .map(str::trim)
+        .filter(|d| !d.is_empty())
+        .map(|d| d.parse().map_err(|_| bad()))
+        .collect::<Result<_, _>>()?;
+    let [rows, columns] = dims[..] else {
+        return Err(format!(
+            "the array has shape {dims:?}, expected [prompts, dim]"
+        ));
+    };
+    let data = &bytes[start + header_len..];
+    if data.len() != rows * columns * width {
+        return Err(format!(
+            "the array's data is {} bytes, its shape [{rows}, {columns}] needs {}",
+            data.len(),
+            rows * columns * width
+        ));
+    }
+    let values = if width == 4 {
+        data.chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect()
+    } else {
+        data.chunks_exact(8)
+            .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")) as f32)
+            .collect()
+    };
+    Ok((rows, columns, values))
 }

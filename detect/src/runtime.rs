@@ -8,6 +8,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use ort::ep::{self, ExecutionProvider};
+use ort::session::builder::SessionBuilder;
+
 use crate::error::DetectError;
 
 /// Where the ONNX Runtime library was found.
@@ -164,8 +167,9 @@ impl Runtime {
         })
     }
 
-    /// Open a model.
-    pub fn session(&self, model: &Path) -> Result<ort::session::Session, DetectError> {
+    /// Open a model on `device`, falling back to the CPU (with a warning in
+    /// the returned [`Session`]) when the library or machine cannot run it there.
+    pub fn session(&self, model: &Path, device: Device) -> Result<Session, DetectError> {
         let bad = |e: ort::Error| DetectError::Model {
             path: model.to_owned(),
             why: e.to_string(),
@@ -176,9 +180,78 @@ impl Runtime {
                 why: "no such file; check the path given to --model".into(),
             });
         }
-        ort::session::Session::builder(&self.environment)
-            .map_err(bad)?
-            .commit_from_file(model)
-            .map_err(bad)
+        let builder = ort::session::Session::builder(&self.environment).map_err(bad)?;
+        let cpu = |mut builder: SessionBuilder, warning: Option<String>| {
+            Ok(Session {
+                session: builder.commit_from_file(model).map_err(bad)?,
+                device: Device::Cpu,
+                warning,
+            })
+        };
+        let (name, available, provider) = match device {
+            Device::Cpu => return cpu(builder, None),
+            Device::Cuda => (
+                "CUDA",
+                ep::CUDA::is_available(),
+                ep::CUDA::default().build().error_on_failure(),
+            ),
+            Device::TensorRt => (
+                "TensorRT",
+                ep::TensorRT::is_available(),
+                ep::TensorRT::default().build().error_on_failure(),
+            ),
+        };
+        let fallback = |why: String| {
+            Some(format!(
+                "--device {}: {why}; running on the CPU (install the onnxruntime-gpu wheel with CUDA and cuDNN for GPU inference)",
+                device.as_str()
+            ))
+        };
+        if !available.unwrap_or(false) {
+            let why = format!(
+                "the ONNX Runtime library {} has no {name} execution provider",
+                self.library.path.display()
+            );
+            return cpu(builder, fallback(why));
+        }
+        match builder.with_execution_providers([provider]) {
+            Ok(mut builder) => Ok(Session {
+                session: builder.commit_from_file(model).map_err(bad)?,
+                device,
+                warning: None,
+            }),
+            Err(e) => {
+                let why = format!("{name} could not start: {e}");
+                let builder = e.recover();
+                cpu(builder, fallback(why))
+            }
+        }
     }
+}
+
+/// Where inference runs (`--device`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Device {
+    #[default]
+    Cpu,
+    Cuda,
+    TensorRt,
+}
+
+impl Device {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Device::Cpu => "cpu",
+            Device::Cuda => "cuda",
+            Device::TensorRt => "tensorrt",
+        }
+    }
+}
+
+/// An opened model and the device it actually runs on.
+pub struct Session {
+    pub session: ort::session::Session,
+    pub device: Device,
+    /// Why it runs on the CPU although another device was asked for.
+    pub warning: Option<String>,
 }

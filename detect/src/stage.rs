@@ -17,9 +17,9 @@ use serde::{Deserialize, Serialize};
 use crate::boxes::{BoxXyxy, Detection, merge_touching, nms};
 use crate::decode::decode;
 use crate::error::DetectError;
-use crate::letterbox::{Placement, letterbox};
+use crate::letterbox::{PAD, Placement, letterbox};
 use crate::prompts::Embeddings;
-use crate::runtime::{Runtime, locate};
+use crate::runtime::{Device, Runtime, locate};
 use crate::signature::{Signature, Vocabulary};
 use crate::tiles::{Window, windows};
 
@@ -54,6 +54,11 @@ pub struct DetectOptions {
     pub tile: Option<u32>,
     /// Overlap of neighbouring tiles, as a share of the tile size.
     pub tile_overlap: f32,
+    /// Where inference runs; falls back to the CPU with a warning.
+    pub device: Device,
+    /// Views per inference call, for models whose batch size is dynamic
+    /// (a fixed batch size is the model's).
+    pub batch: usize,
 }
 
 impl DetectOptions {
@@ -62,6 +67,7 @@ impl DetectOptions {
     pub const DEFAULT_IOU: f32 = 0.5;
     pub const DEFAULT_IMAGE_SIZE: u32 = 640;
     pub const DEFAULT_TILE_OVERLAP: f32 = 0.2;
+    pub const DEFAULT_BATCH: usize = 4;
 
     pub fn new(run: PathBuf, model: PathBuf) -> Self {
         Self {
@@ -75,6 +81,8 @@ impl DetectOptions {
             onnxruntime: None,
             tile: None,
             tile_overlap: Self::DEFAULT_TILE_OVERLAP,
+            device: Device::Cpu,
+            batch: Self::DEFAULT_BATCH,
         }
     }
 
@@ -93,6 +101,9 @@ impl DetectOptions {
         if self.image_size < 32 || !self.image_size.is_multiple_of(32) {
             return bad("--imgsz must be a multiple of 32");
         }
+        if !(1..=256).contains(&self.batch) {
+            return bad("--batch must be between 1 and 256");
+        }
         Ok(())
     }
 }
@@ -110,6 +121,10 @@ pub struct DetectSummary {
     pub model: PathBuf,
     pub model_bytes: u64,
     pub onnxruntime: PathBuf,
+    /// Device inference ran on (`cpu` when a GPU was asked for but unavailable).
+    pub device: String,
+    /// Views per inference call.
+    pub batch: usize,
     /// `baked` or `embeddings`.
     pub vocabulary: String,
     pub classes: Vec<String>,
@@ -124,6 +139,9 @@ pub struct DetectSummary {
     pub failed_frames: Vec<FailedFrame>,
     pub seconds: f64,
     pub frames_per_s: f64,
+    /// Share of `seconds` spent inside ONNX Runtime's `run`.
+    pub inference_share: f64,
+    pub warnings: Vec<String>,
 }
 
 /// One detection of one frame, in the frame's pixels.
@@ -228,8 +246,10 @@ pub fn detect(
     let flight = Flight::load(&options.run)?;
     let library = locate(options.onnxruntime.as_deref())?;
     let runtime = Runtime::start(library)?;
-    let session = runtime.session(&options.model)?;
-    let (mut detector, classes) = Detector::new(session, options)?;
+    let session = runtime.session(&options.model, options.device)?;
+    let warnings: Vec<String> = session.warning.iter().cloned().collect();
+    let device = session.device;
+    let (mut detector, classes) = Detector::new(session.session, options)?;
     let (w, h) = detector.size;
 
     let total = flight.frames.len() as u64;
@@ -245,7 +265,6 @@ pub fn detect(
         })
         .collect();
     let mut found: Vec<FrameDetection> = Vec::new();
-    let mut done = failed.len() as u64;
     let mut ran = 0u64;
     let mut run_error = None;
     std::thread::scope(|scope| {
@@ -266,32 +285,39 @@ pub fn detect(
                 }
             }
         });
-        for prepared in rx {
-            done += 1;
-            progress(done, total);
-            let p = match prepared {
-                Ok(p) => p,
-                Err(f) => {
-                    failed.push(f);
-                    continue;
+        // Frames wait until their views fill a batch.
+        let mut pending: Vec<Prepared> = Vec::new();
+        let mut frames = rx.into_iter();
+        loop {
+            let next = frames.next();
+            let end = next.is_none();
+            match next {
+                Some(Ok(p)) => pending.push(p),
+                Some(Err(f)) => failed.push(f),
+                None => {}
+            }
+            let views: usize = pending.iter().map(|p| p.views.len()).sum();
+            if views > 0 && (end || views >= detector.batch) {
+                match detector.frames(&pending, options) {
+                    Ok(per_frame) => {
+                        for (p, dets) in pending.drain(..).zip(per_frame) {
+                            ran += 1;
+                            found.extend(dets.into_iter().map(|detection| FrameDetection {
+                                frame: p.frame,
+                                time_ns: p.time_ns,
+                                detection,
+                            }));
+                        }
+                    }
+                    Err(e) => {
+                        run_error = Some(e);
+                        break;
+                    }
                 }
-            };
-            match detector.frame(&p, options) {
-                Ok(dets) => {
-                    ran += 1;
-                    found.extend(dets.into_iter().map(|detection| FrameDetection {
-                        frame: p.frame,
-                        time_ns: p.time_ns,
-                        detection,
-                    }));
-                }
-                Err(why) => {
-                    run_error = Some(DetectError::Inference {
-                        frame: p.frame,
-                        why,
-                    });
-                    break;
-                }
+            }
+            progress(ran + failed.len() as u64, total);
+            if end {
+                break;
             }
         }
     });
@@ -321,6 +347,10 @@ pub fn detect(
         failed_frames: failed,
         seconds,
         frames_per_s: ran as f64 / seconds.max(1e-9),
+        inference_share: detector.run_seconds / seconds.max(1e-9),
+        device: device.as_str().into(),
+        batch: detector.batch,
+        warnings,
     };
     write_outputs(&flight.run, &flight.frames, &found, &classes, &summary)?;
     Ok(summary)
@@ -335,8 +365,12 @@ struct Detector {
     size: (u32, u32),
     /// Classes the output scores.
     classes: usize,
+    /// Views per `run`.
+    batch: usize,
     /// Text embeddings input: its name and value.
     text: Option<(String, Tensor<f32>)>,
+    /// Wall time spent inside `run`, seconds.
+    run_seconds: f64,
 }
 
 impl Detector {
@@ -382,63 +416,111 @@ impl Detector {
             .unwrap_or(names.len());
         let detector = Self {
             session,
-            signature,
             size: (w, h),
             classes,
+            batch: signature.batch.unwrap_or(options.batch),
             text: text.map(|(name, _, tensor)| (name, tensor)),
+            run_seconds: 0.0,
+            signature,
         };
         Ok((detector, names))
     }
 
-    /// Detections of one frame: every view run, mapped to frame pixels, then
-    /// NMS'd and merged.
-    fn frame(&mut self, p: &Prepared, options: &DetectOptions) -> Result<Vec<Detection>, String> {
+    /// Detections of each of `frames`: every view run (in batches), mapped
+    /// to frame pixels, then NMS'd and merged per frame.
+    fn frames(
+        &mut self,
+        frames: &[Prepared],
+        options: &DetectOptions,
+    ) -> Result<Vec<Vec<Detection>>, DetectError> {
         let (w, h) = self.size;
-        let mut detections = Vec::new();
-        for view in &p.views {
-            let shape = vec![1i64, 3, i64::from(h), i64::from(w)];
-            let image = TensorRef::from_array_view((shape, view.input.as_slice()))
-                .map_err(|e| e.to_string())?;
+        let plane = 3 * (w * h) as usize;
+        let views: Vec<(usize, &View)> = frames
+            .iter()
+            .enumerate()
+            .flat_map(|(i, p)| p.views.iter().map(move |v| (i, v)))
+            .collect();
+        let mut per_frame = vec![Vec::new(); frames.len()];
+        let mut stacked = Vec::new();
+        for chunk in views.chunks(self.batch) {
+            let failed = |why: String| DetectError::Inference {
+                frame: frames[chunk[0].0].frame,
+                why,
+            };
+            let input = if let [(_, view)] = chunk
+                && self.batch == 1
+            {
+                view.input.as_slice()
+            } else {
+                // A fixed batch size is filled up with padding images.
+                stacked.clear();
+                stacked.resize(self.batch * plane, f32::from(PAD) / 255.0);
+                for (k, (_, view)) in chunk.iter().enumerate() {
+                    stacked[k * plane..(k + 1) * plane].copy_from_slice(&view.input);
+                }
+                let images = if self.signature.batch.is_some() {
+                    self.batch
+                } else {
+                    chunk.len()
+                };
+                &stacked[..images * plane]
+            };
+            let images = input.len() / plane;
+            let shape = vec![images as i64, 3, i64::from(h), i64::from(w)];
+            let image =
+                TensorRef::from_array_view((shape, input)).map_err(|e| failed(e.to_string()))?;
             let mut inputs: Vec<(Cow<str>, SessionInputValue)> =
                 vec![(self.signature.images.as_str().into(), image.into())];
             if let Some((name, tensor)) = &self.text {
                 inputs.push((name.as_str().into(), tensor.into()));
             }
-            let outputs = self.session.run(inputs).map_err(|e| e.to_string())?;
+            let started = Instant::now();
+            let outputs = self
+                .session
+                .run(inputs)
+                .map_err(|e| failed(e.to_string()))?;
+            self.run_seconds += started.elapsed().as_secs_f64();
             let (shape, data) = outputs[self.signature.output.as_str()]
                 .try_extract_tensor::<f32>()
-                .map_err(|e| e.to_string())?;
-            let rows = usize::try_from(shape[1]).map_err(|_| "bad output shape")?;
-            if rows != 4 + self.classes {
-                return Err(format!(
-                    "output has {rows} rows, expected 4 + {} classes",
+                .map_err(|e| failed(e.to_string()))?;
+            let dim = |i: usize| usize::try_from(shape[i]).unwrap_or(0);
+            if shape.len() != 3 || dim(0) != images || dim(1) != 4 + self.classes {
+                return Err(failed(format!(
+                    "output shape {shape:?}, expected [{images}, 4 + {} classes, anchors]",
                     self.classes
-                ));
+                )));
             }
-            let anchors = usize::try_from(shape[2]).map_err(|_| "bad output shape")?;
-            let Window { x, y, tile, .. } = view.window;
-            detections.extend(
-                decode(data, self.classes, anchors, 0, options.confidence)
-                    .into_iter()
-                    .map(|d| {
-                        let b = view.placement.to_image(&d.bbox);
-                        Detection {
-                            bbox: BoxXyxy {
-                                x0: b.x0 + x as f32,
-                                y0: b.y0 + y as f32,
-                                x1: b.x1 + x as f32,
-                                y1: b.y1 + y as f32,
+            for (b, &(i, view)) in chunk.iter().enumerate() {
+                let Window { x, y, tile, .. } = view.window;
+                let (width, height) = (frames[i].width as f32, frames[i].height as f32);
+                per_frame[i].extend(
+                    decode(data, self.classes, dim(2), b, options.confidence)
+                        .into_iter()
+                        .map(|d| {
+                            let b = view.placement.to_image(&d.bbox);
+                            Detection {
+                                bbox: BoxXyxy {
+                                    x0: b.x0 + x as f32,
+                                    y0: b.y0 + y as f32,
+                                    x1: b.x1 + x as f32,
+                                    y1: b.y1 + y as f32,
+                                }
+                                .clip(width, height),
+                                tile,
+                                ..d
                             }
-                            .clip(p.width as f32, p.height as f32),
-                            tile,
-                            ..d
-                        }
-                    }),
-            );
+                        }),
+                );
+            }
         }
-        detections.retain(|d| d.bbox.area() > 0.0);
-        // Grid cells and tiles report a long crack piecewise: join the pieces.
-        Ok(merge_touching(nms(detections, options.iou), MERGE_GAP))
+        Ok(per_frame
+            .into_iter()
+            .map(|mut detections| {
+                detections.retain(|d| d.bbox.area() > 0.0);
+                // Grid cells and tiles report a long crack piecewise: join the pieces.
+                merge_touching(nms(detections, options.iou), MERGE_GAP)
+            })
+            .collect())
     }
 }
 

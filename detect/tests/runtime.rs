@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use detect::Device;
 use detect::signature::Signature;
 use ort::value::TensorRef;
 
@@ -66,7 +67,10 @@ fn finds_loads_and_runs_onnx_runtime() {
 
     let runtime = detect::Runtime::start(library).unwrap();
     write_models(dir.path());
-    let mut session = runtime.session(&dir.path().join("add_one.onnx")).unwrap();
+    let mut session = runtime
+        .session(&dir.path().join("add_one.onnx"), Device::Cpu)
+        .unwrap()
+        .session;
     assert_eq!(session.inputs()[0].name(), "x");
     let input = ndarray::arr2(&[[1.0f32, 2.0, -3.5]]);
     let outputs = session
@@ -86,27 +90,40 @@ fn finds_loads_and_runs_onnx_runtime() {
         "{err}"
     );
     let yolo = runtime
-        .session(&dir.path().join("yolo_shaped.onnx"))
-        .unwrap();
+        .session(&dir.path().join("yolo_shaped.onnx"), Device::Cpu)
+        .unwrap()
+        .session;
     let signature = Signature::of_session(&yolo).unwrap();
     assert_eq!(signature.classes, Some(1));
     assert_eq!(signature.input_size, Some((4, 5)));
     assert_eq!(signature.output, "output0");
 
-    let err = runtime.session(&dir.path().join("nope.onnx")).unwrap_err();
+    let Err(err) = runtime.session(&dir.path().join("nope.onnx"), Device::Cpu) else {
+        panic!("a missing model opened");
+    };
     assert!(err.to_string().contains("--model"), "{err}");
 
     // The shipped reference detectors have the two YOLO-World interfaces.
     let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
-    let baked =
-        Signature::of_session(&runtime.session(&models.join("crack-baked.onnx")).unwrap()).unwrap();
+    let baked = Signature::of_session(
+        &runtime
+            .session(&models.join("crack-baked.onnx"), Device::Cpu)
+            .unwrap()
+            .session,
+    )
+    .unwrap();
     assert_eq!(baked.vocabulary, detect::signature::Vocabulary::Baked);
     assert_eq!(
         (baked.images.as_str(), baked.classes, baked.input_size),
         ("images", Some(1), None)
     );
-    let open =
-        Signature::of_session(&runtime.session(&models.join("crack-open.onnx")).unwrap()).unwrap();
+    let open = Signature::of_session(
+        &runtime
+            .session(&models.join("crack-open.onnx"), Device::Cpu)
+            .unwrap()
+            .session,
+    )
+    .unwrap();
     assert_eq!(
         open.vocabulary,
         detect::signature::Vocabulary::Embeddings {

@@ -57,6 +57,17 @@ pub struct SimOptions {
     pub cracks: usize,
     /// Record plumb_bob lens distortion (and render with it).
     pub distortion: bool,
+    /// How camera frames are compressed.
+    pub image_format: ImageFormat,
+}
+
+/// Compression of recorded camera frames (`sensor_msgs/CompressedImage` format).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ImageFormat {
+    /// JPEG quality 92, as camera drivers record.
+    Jpeg,
+    /// Lossless PNG, so a frame decodes to the same pixels in every decoder.
+    Png,
 }
 
 impl SimOptions {
@@ -76,6 +87,7 @@ impl SimOptions {
             height: Self::DEFAULT_HEIGHT,
             cracks: Self::DEFAULT_CRACKS,
             distortion: true,
+            image_format: ImageFormat::Jpeg,
         }
     }
 }
@@ -224,10 +236,20 @@ pub fn simulate(
                 blur.0,
                 blur.1,
             );
-            let mut jpeg = Cursor::new(Vec::new());
-            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 92)
-                .encode_image(&img)
-                .map_err(|e| e.to_string())?;
+            let mut data = Cursor::new(Vec::new());
+            let format = match options.image_format {
+                ImageFormat::Jpeg => {
+                    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut data, 92)
+                        .encode_image(&img)
+                        .map_err(|e| e.to_string())?;
+                    "jpeg"
+                }
+                ImageFormat::Png => {
+                    img.write_to(&mut data, image::ImageFormat::Png)
+                        .map_err(|e| e.to_string())?;
+                    "png"
+                }
+            };
             let stamp = ns(t);
             let log = stamp + 35_000_000;
             rec.write(
@@ -235,8 +257,8 @@ pub fn simulate(
                 log,
                 &msg::CompressedImage {
                     header: header(stamp, "camera_optical"),
-                    format: "jpeg".into(),
-                    data: jpeg.into_inner(),
+                    format: format.into(),
+                    data: data.into_inner(),
                 },
             )?;
             rec.write(record::CAMERA_INFO_TOPIC, log, &camera_info(&k, stamp))?;
