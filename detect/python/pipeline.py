@@ -8,7 +8,7 @@ It reads camera frames straight from the flight MCAP, and mirrors the Rust
 pre- and post-processing step by step in float32: Ultralytics letterbox with
 OpenCV INTER_LINEAR pixel-centre bilinear resizing rounded to 8 bits, gray
 114 padding, optional tiles, best class per anchor, class-aware NMS (ties
-broken by position), then merging same-class boxes within 8 px.
+broken by position), then merging same-class boxes within --merge-gap px.
 
 Writes JSON: {"frames": n, "seconds": s, "run_seconds": s,
 "detections": [{"time_ns", "x0", "y0", "x1", "y1", "score", "class", "tile"}]}.
@@ -31,7 +31,6 @@ from PIL import Image
 
 F = np.float32
 PAD = 114
-MERGE_GAP = F(8.0)
 
 
 def decode_image(msg):
@@ -170,6 +169,7 @@ def main():
     ap.add_argument("--prompt", action="append")
     ap.add_argument("--confidence", type=float, default=0.25)
     ap.add_argument("--iou", type=float, default=0.5)
+    ap.add_argument("--merge-gap", type=float, default=20.0)
     ap.add_argument("--imgsz", type=int, default=640)
     ap.add_argument("--tile", type=int)
     ap.add_argument("--tile-overlap", type=float, default=0.2)
@@ -214,7 +214,7 @@ def main():
                     )
                     dets.append({"box": box, "score": score[a], "class": int(cls[a]), "tile": tile})
             dets = [d for d in dets if area(d["box"]) > 0]
-            for d in merge_touching(nms(dets, iou_threshold), MERGE_GAP):
+            for d in merge_touching(nms(dets, iou_threshold), F(args.merge_gap)):
                 x0, y0, x1, y1 = (float(v) for v in d["box"])
                 found.append(
                     {

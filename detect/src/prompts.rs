@@ -1,9 +1,9 @@
 //! Text prompts for open-vocabulary models: prompt names to text embeddings,
 //! assembled into the `[1, nc, dim]` input. Two file forms:
 //! - JSON, `{"crack": [0.01, ...], ...}`;
-//! - NumPy `.npy`, a `[n, dim]` float32/float64 array (what `np.save` writes
-//!   from YOLO-World's `get_text_pe`), with the `n` prompt names one per line
-//!   in a `.txt` file of the same stem beside it.
+//! - NumPy `.npy`, a `[n, dim]` float32/float64 array (CLIP text features
+//!   saved with `np.save`), with the `n` prompt names one per line in a
+//!   `.txt` file of the same stem beside it.
 
 use std::collections::BTreeMap;
 use std::path::Path;

@@ -7,6 +7,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::Mutex;
 
 use ort::ep::{self, ExecutionProvider};
 use ort::session::builder::SessionBuilder;
@@ -147,9 +148,25 @@ pub struct Runtime {
     pub environment: ort::environment::Environment,
 }
 
+/// ONNX Runtime allows one environment per process: the first start keeps it.
+static STARTED: Mutex<Option<&'static Runtime>> = Mutex::new(None);
+
 impl Runtime {
-    /// Load the library and create the environment.
-    pub fn start(library: Library) -> Result<Self, DetectError> {
+    /// Load the library and create the environment, once per process; later
+    /// calls with the same library get the same runtime.
+    pub fn start(library: Library) -> Result<&'static Self, DetectError> {
+        let mut started = STARTED.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(runtime) = *started {
+            return if runtime.library.path == library.path {
+                Ok(runtime)
+            } else {
+                Err(DetectError::Runtime(format!(
+                    "ONNX Runtime is already loaded from {} in this process; it cannot also load {}",
+                    runtime.library.path.display(),
+                    library.path.display()
+                )))
+            };
+        }
         let builder = ort::init_from(&library.path).map_err(|e| {
             DetectError::Runtime(format!(
                 "cannot load ONNX Runtime from {} (found by {}): {e}; reinstall it with scripts/setup",
@@ -161,10 +178,12 @@ impl Runtime {
             .with_name("postflight")
             .build()
             .map_err(|e| DetectError::Runtime(format!("cannot start ONNX Runtime: {e}")))?;
-        Ok(Self {
+        let runtime = Box::leak(Box::new(Self {
             library,
             environment,
-        })
+        }));
+        *started = Some(runtime);
+        Ok(runtime)
     }
 
     /// Open a model on `device`, falling back to the CPU (with a warning in

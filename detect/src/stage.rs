@@ -23,10 +23,6 @@ use crate::runtime::{Device, Runtime, locate};
 use crate::signature::{Signature, Vocabulary};
 use crate::tiles::{Window, windows};
 
-/// Same-class boxes closer than this, pixels, are one finding: a faint
-/// stretch of a crack splits it into pieces a few pixels apart.
-const MERGE_GAP: f32 = 8.0;
-
 /// Files of the detect stage.
 pub mod files {
     pub const DETECTIONS: &str = "detections.parquet";
@@ -46,6 +42,9 @@ pub struct DetectOptions {
     pub confidence: f32,
     /// Overlap above which NMS drops the weaker box of a class.
     pub iou: f32,
+    /// Same-class boxes this close, frame pixels, merge into one finding: a
+    /// faint stretch of a crack splits the detector's response into pieces.
+    pub merge_gap: f32,
     /// Input size for models with dynamic input, pixels (square).
     pub image_size: u32,
     /// ONNX Runtime library (default: found by [`locate`]).
@@ -65,6 +64,7 @@ impl DetectOptions {
     pub const DEFAULT_PROMPT: &str = "crack";
     pub const DEFAULT_CONFIDENCE: f32 = 0.25;
     pub const DEFAULT_IOU: f32 = 0.5;
+    pub const DEFAULT_MERGE_GAP: f32 = 20.0;
     pub const DEFAULT_IMAGE_SIZE: u32 = 640;
     pub const DEFAULT_TILE_OVERLAP: f32 = 0.2;
     pub const DEFAULT_BATCH: usize = 4;
@@ -77,6 +77,7 @@ impl DetectOptions {
             embeddings: None,
             confidence: Self::DEFAULT_CONFIDENCE,
             iou: Self::DEFAULT_IOU,
+            merge_gap: Self::DEFAULT_MERGE_GAP,
             image_size: Self::DEFAULT_IMAGE_SIZE,
             onnxruntime: None,
             tile: None,
@@ -100,6 +101,9 @@ impl DetectOptions {
         }
         if self.image_size < 32 || !self.image_size.is_multiple_of(32) {
             return bad("--imgsz must be a multiple of 32");
+        }
+        if !(0.0..=10_000.0).contains(&self.merge_gap) {
+            return bad("--merge-gap must be 0 or more pixels");
         }
         if !(1..=256).contains(&self.batch) {
             return bad("--batch must be between 1 and 256");
@@ -133,6 +137,7 @@ pub struct DetectSummary {
     pub tile: Option<u32>,
     pub confidence: f32,
     pub iou: f32,
+    pub merge_gap: f32,
     pub frames: u64,
     pub frames_run: u64,
     pub detections: u64,
@@ -341,6 +346,7 @@ pub fn detect(
         tile: options.tile,
         confidence: options.confidence,
         iou: options.iou,
+        merge_gap: options.merge_gap,
         frames: total,
         frames_run: ran,
         detections: found.len() as u64,
@@ -518,7 +524,7 @@ impl Detector {
             .map(|mut detections| {
                 detections.retain(|d| d.bbox.area() > 0.0);
                 // Grid cells and tiles report a long crack piecewise: join the pieces.
-                merge_touching(nms(detections, options.iou), MERGE_GAP)
+                merge_touching(nms(detections, options.iou), options.merge_gap)
             })
             .collect())
     }
