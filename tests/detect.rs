@@ -402,3 +402,59 @@ fn detections_with_scores(run: &Path) -> Vec<(i64, [f64; 5], i64)> {
         })
         .collect()
 }
+
+/// Frames whose image cannot be decoded are counted, listed and skipped; the
+/// rest are still run.
+#[test]
+fn undecodable_frames_are_listed_and_skipped() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mcap, expected) = write_flight(
+        dir.path(),
+        "cut",
+        &["--width", "160", "--height", "120", "--cut-images", "5"],
+    );
+    let run = dir.path().join("run");
+    ingest_ok(&mcap, &run, &[]);
+    let baked = models().join("crack-baked.onnx");
+    let out = detect(&run, &["--model", baked.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let frames = expected["frames"].as_array().unwrap();
+    let cut: Vec<u64> = (0..frames.len() as u64)
+        .filter(|i| frames[*i as usize]["cut"] == true)
+        .collect();
+    assert!(cut.len() >= 5);
+    let summary = read_json(&run.join("detect.json"));
+    let failed: Vec<u64> = summary["failed_frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["frame"].as_u64().unwrap())
+        .collect();
+    assert_eq!(failed, cut);
+    assert_eq!(
+        summary["frames_run"].as_u64().unwrap(),
+        frames.len() as u64 - cut.len() as u64
+    );
+    assert!(
+        stderr(&out).contains(&format!("frame {} skipped", cut[0])),
+        "{}",
+        stderr(&out)
+    );
+
+    // Not one frame decodes: an error, not an empty result.
+    let (mcap, _) = write_flight(
+        dir.path(),
+        "all-cut",
+        &["--width", "160", "--height", "120", "--cut-images", "1"],
+    );
+    let run = dir.path().join("all-cut-run");
+    ingest_ok(&mcap, &run, &[]);
+    let out = detect(&run, &["--model", baked.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stderr(&out).contains("none of the") && stderr(&out).contains("cut off"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!run.join("detect.json").exists());
+}

@@ -14,6 +14,14 @@ pub enum DetectError {
     Embeddings { path: PathBuf, why: String },
     #[error(transparent)]
     Flight(#[from] ingest::IngestError),
+    #[error(
+        "none of the {frames} frames could be decoded (frame {first}: {why}); check the recording's images with `postflight ingest`"
+    )]
+    NoFrames {
+        frames: u64,
+        first: u32,
+        why: String,
+    },
     #[error("inference failed on frame {frame}: {why}")]
     Inference { frame: u32, why: String },
     #[error("cannot write {}: {why}", path.display())]

@@ -330,6 +330,15 @@ pub fn detect(
         return Err(e);
     }
     failed.sort_by_key(|f| f.frame);
+    if ran == 0
+        && let Some(first) = failed.first()
+    {
+        return Err(DetectError::NoFrames {
+            frames: total,
+            first: first.frame,
+            why: first.why.clone(),
+        });
+    }
     let seconds = start.elapsed().as_secs_f64();
     let summary = DetectSummary {
         model: std::path::absolute(&options.model).unwrap_or_else(|_| options.model.clone()),

@@ -153,7 +153,19 @@ pub fn decode_compressed(data: &[u8]) -> Result<DynamicImage, String> {
         Some(Compression::Png) => image::ImageFormat::Png,
         None => return Err("compressed image is neither JPEG nor PNG".into()),
     };
+    // The JPEG decoder fills a cut-off scan with gray rather than failing; a
+    // frame that lost its pixels must not pass for a blank surface.
+    if format == image::ImageFormat::Jpeg && !ends_with_eoi(data) {
+        return Err("JPEG is cut off (no end-of-image marker)".into());
+    }
     image::load_from_memory_with_format(data, format).map_err(|e| e.to_string())
+}
+
+/// Whether a JPEG ends with its end-of-image marker (`FF D9`), allowing the
+/// few padding bytes some encoders append.
+fn ends_with_eoi(data: &[u8]) -> bool {
+    let tail = &data[data.len().saturating_sub(16)..];
+    tail.windows(2).any(|w| w == [0xff, 0xd9])
 }
 
 #[cfg(test)]
@@ -166,6 +178,14 @@ mod tests {
         let mut out = Cursor::new(Vec::new());
         img.write_to(&mut out, format).unwrap();
         out.into_inner()
+    }
+
+    #[test]
+    fn a_cut_off_jpeg_is_an_error_not_a_gray_image() {
+        let data = encoded(image::ImageFormat::Jpeg);
+        assert!(decode_compressed(&data).is_ok());
+        let err = decode_compressed(&data[..data.len() - 40]).unwrap_err();
+        assert!(err.contains("cut off"), "{err}");
     }
 
     #[test]
