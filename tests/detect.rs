@@ -138,6 +138,25 @@ fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
     assert!(s.views >= 5, "the test flight should show cracks");
     assert!(s.recall() >= 0.5, "{s:?}");
 
+    // The same model exported with a fixed batch of 3: views are sent three
+    // at a time, the last call padded, and the boxes are the same.
+    let fixed = dir.path().join("crack-batch3.onnx");
+    let out = std::process::Command::new(python())
+        .args(["-c", "import onnx, sys\nm = onnx.load(sys.argv[1])\nfor t in (m.graph.input[0], m.graph.output[0]):\n    t.type.tensor_type.shape.dim[0].dim_value = 3\nonnx.save(m, sys.argv[2])"])
+        .args([baked.as_path(), fixed.as_path()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = detect(&run, &["--model", fixed.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(read_json(&run.join("detect.json"))["batch"], 3);
+    let via_fixed = detections(&run);
+    assert_eq!(via_fixed.len(), found.len());
+    for ((t0, b0, _), (t1, b1, _)) in found.iter().zip(&via_fixed) {
+        assert_eq!(t0, t1);
+        assert!(b0.iter().zip(b1).all(|(a, b)| (a - b).abs() < 1e-3));
+    }
+
     // The open-vocabulary export with the "crack" prompt finds the same boxes;
     // a prompt unrelated to cracks finds none.
     let open = models().join("crack-open.onnx");

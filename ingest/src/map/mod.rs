@@ -5,12 +5,14 @@ pub mod cloud;
 mod pcd;
 mod ply;
 pub mod pointcloud2;
+pub mod raycast;
 pub mod voxel;
 
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::Point3;
 
 pub use cloud::PointCloud;
+pub use raycast::VoxelHit;
 pub use voxel::{VoxelGrid, VoxelIndex, VoxelMap};
 
 /// Default voxel edge, metres (the resolution of the GATSBI work).
