@@ -234,15 +234,23 @@ impl Runtime {
             return cpu(builder, fallback(why));
         }
         match builder.with_execution_providers([provider]) {
-            Ok(mut builder) => Ok(Session {
-                session: builder.commit_from_file(model).map_err(bad)?,
-                device,
-                warning: None,
-            }),
+            Ok(mut builder) => match builder.commit_from_file(model) {
+                Ok(session) => Ok(Session {
+                    session,
+                    device,
+                    warning: None,
+                }),
+                // The provider registered but could not load this model
+                // (missing cuDNN, unsupported operators): a fresh CPU session.
+                Err(e) => {
+                    let why = format!("{name} could not run the model: {e}");
+                    let builder = ort::session::Session::builder(&self.environment).map_err(bad)?;
+                    cpu(builder, fallback(why))
+                }
+            },
             Err(e) => {
                 let why = format!("{name} could not start: {e}");
-                let builder = e.recover();
-                cpu(builder, fallback(why))
+                cpu(e.recover(), fallback(why))
             }
         }
     }
