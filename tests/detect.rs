@@ -20,19 +20,58 @@ fn detect(run: &Path, args: &[&str]) -> std::process::Output {
 
 /// Detections per frame time: boxes `[x0, y0, x1, y1]` and prompts.
 fn detections(run: &Path) -> Vec<(i64, [f64; 4], String)> {
+    table(run)
+        .into_iter()
+        .map(|d| (d.time_ns, [d.x0, d.y0, d.x1, d.y1], d.prompt))
+        .collect()
+}
+
+/// A row of detections.parquet.
+struct Row {
+    time_ns: i64,
+    x0: f64,
+    y0: f64,
+    x1: f64,
+    y1: f64,
+    score: f64,
+    tile: i64,
+    prompt: String,
+}
+
+fn table(run: &Path) -> Vec<Row> {
     let df = ParquetReader::new(std::fs::File::open(run.join("detections.parquet")).unwrap())
         .finish()
         .unwrap();
     let time = df.column("time_ns").unwrap().i64().unwrap().clone();
-    let coord = |c: &str| df.column(c).unwrap().f32().unwrap().clone();
-    let (x0, y0, x1, y1) = (coord("x0"), coord("y0"), coord("x1"), coord("y1"));
+    let tile = df.column("tile").unwrap().i32().unwrap().clone();
     let prompt = df.column("prompt").unwrap().str().unwrap().clone();
+    let col = |c: &str| df.column(c).unwrap().f32().unwrap().clone();
+    let [x0, y0, x1, y1, score] = ["x0", "y0", "x1", "y1", "score"].map(col);
+    let at = |c: &Float32Chunked, i: usize| f64::from(c.get(i).unwrap());
     (0..df.height())
-        .map(|i| {
-            let b = [x0.get(i), y0.get(i), x1.get(i), y1.get(i)].map(|v| f64::from(v.unwrap()));
-            (time.get(i).unwrap(), b, prompt.get(i).unwrap().to_string())
+        .map(|i| Row {
+            time_ns: time.get(i).unwrap(),
+            x0: at(&x0, i),
+            y0: at(&y0, i),
+            x1: at(&x1, i),
+            y1: at(&y1, i),
+            score: at(&score, i),
+            tile: i64::from(tile.get(i).unwrap()),
+            prompt: prompt.get(i).unwrap().to_string(),
         })
         .collect()
+}
+
+/// Two runs found the same boxes in the same frames.
+fn assert_same_boxes(a: &[(i64, [f64; 4], String)], b: &[(i64, [f64; 4], String)]) {
+    assert_eq!(a.len(), b.len());
+    for ((t0, b0, _), (t1, b1, _)) in a.iter().zip(b) {
+        assert_eq!(t0, t1);
+        assert!(
+            b0.iter().zip(b1).all(|(x, y)| (x - y).abs() < 1e-3),
+            "{b0:?} vs {b1:?}"
+        );
+    }
 }
 
 fn iou(a: &[f64; 4], b: &[f64; 4]) -> f64 {
@@ -150,12 +189,7 @@ fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
     let out = detect(&run, &["--model", fixed.to_str().unwrap()]);
     assert!(out.status.success(), "{}", stderr(&out));
     assert_eq!(read_json(&run.join("detect.json"))["batch"], 3);
-    let via_fixed = detections(&run);
-    assert_eq!(via_fixed.len(), found.len());
-    for ((t0, b0, _), (t1, b1, _)) in found.iter().zip(&via_fixed) {
-        assert_eq!(t0, t1);
-        assert!(b0.iter().zip(b1).all(|(a, b)| (a - b).abs() < 1e-3));
-    }
+    assert_same_boxes(&found, &detections(&run));
 
     // The open-vocabulary export with the "crack" prompt finds the same boxes;
     // a prompt unrelated to cracks finds none.
@@ -170,11 +204,8 @@ fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
     let out = detect(&run, &[&args[..], &["--prompt", "crack"]].concat());
     assert!(out.status.success(), "{}", stderr(&out));
     let via_open = detections(&run);
-    assert_eq!(via_open.len(), found.len());
-    for ((t0, b0, _), (t1, b1, p1)) in found.iter().zip(&via_open) {
-        assert_eq!((t0, p1.as_str()), (t1, "crack"));
-        assert!(b0.iter().zip(b1).all(|(a, b)| (a - b).abs() < 1e-3));
-    }
+    assert_same_boxes(&found, &via_open);
+    assert!(via_open.iter().all(|(_, _, prompt)| prompt == "crack"));
     // The same embeddings as NumPy writes them (float64 here), names beside.
     let npy = dir.path().join("text.npy");
     let out = std::process::Command::new(python())
@@ -198,12 +229,7 @@ fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
         stderr(&out)
     );
     assert_eq!(read_json(&run.join("detect.json"))["device"], "cpu");
-    let via_npy = detections(&run);
-    assert_eq!(via_npy.len(), found.len());
-    for ((t0, b0, _), (t1, b1, _)) in found.iter().zip(&via_npy) {
-        assert_eq!(t0, t1);
-        assert!(b0.iter().zip(b1).all(|(a, b)| (a - b).abs() < 1e-3));
-    }
+    assert_same_boxes(&found, &detections(&run));
     std::fs::remove_file(dir.path().join("text.txt")).unwrap();
     let out = detect(&run, &npy_args);
     assert_eq!(out.status.code(), Some(1));
@@ -259,11 +285,7 @@ fn tiles_find_cracks_that_a_shrunk_frame_loses() {
         views >= 3 && with_tiles > whole,
         "tiles found {with_tiles}, the whole frame {whole}, of {views}"
     );
-    let df = ParquetReader::new(std::fs::File::open(run.join("detections.parquet")).unwrap())
-        .finish()
-        .unwrap();
-    let tiles = df.column("tile").unwrap().i32().unwrap().clone();
-    assert!((0..tiles.len()).any(|i| tiles.get(i).is_some_and(|t| t >= 0)));
+    assert!(table(&run).iter().any(|d| d.tile >= 0));
     assert!(
         tiled
             .iter()
@@ -407,18 +429,9 @@ fn rust_matches_python_onnxruntime_on_the_same_frames() {
 
 /// Detections with scores and tiles: (time, [x0, y0, x1, y1, score], tile).
 fn detections_with_scores(run: &Path) -> Vec<(i64, [f64; 5], i64)> {
-    let df = ParquetReader::new(std::fs::File::open(run.join("detections.parquet")).unwrap())
-        .finish()
-        .unwrap();
-    let time = df.column("time_ns").unwrap().i64().unwrap().clone();
-    let tile = df.column("tile").unwrap().i32().unwrap().clone();
-    let col = |c: &str| df.column(c).unwrap().f32().unwrap().clone();
-    let cols = ["x0", "y0", "x1", "y1", "score"].map(col);
-    (0..df.height())
-        .map(|i| {
-            let v = [0, 1, 2, 3, 4].map(|k| f64::from(cols[k].get(i).unwrap()));
-            (time.get(i).unwrap(), v, i64::from(tile.get(i).unwrap()))
-        })
+    table(run)
+        .into_iter()
+        .map(|d| (d.time_ns, [d.x0, d.y0, d.x1, d.y1, d.score], d.tile))
         .collect()
 }
 

@@ -23,31 +23,7 @@ impl Embeddings {
         let bytes = std::fs::read(path)
             .map_err(|e| bad(format!("{e}; check the path given to --embeddings")))?;
         let map = if path.extension().is_some_and(|e| e == "npy") {
-            let names_path = path.with_extension("txt");
-            let names = std::fs::read_to_string(&names_path).map_err(|e| {
-                bad(format!(
-                    "cannot read the prompt names {} ({e}); write one name per line, in the order of the array's rows",
-                    names_path.display()
-                ))
-            })?;
-            let names: Vec<&str> = names
-                .lines()
-                .map(str::trim)
-                .filter(|l| !l.is_empty())
-                .collect();
-            let (rows, dim, values) = read_npy(&bytes).map_err(bad)?;
-            if rows != names.len() {
-                return Err(bad(format!(
-                    "{rows} embeddings but {} names in {}",
-                    names.len(),
-                    names_path.display()
-                )));
-            }
-            names
-                .iter()
-                .zip(values.chunks(dim))
-                .map(|(n, v)| (n.to_string(), v.to_vec()))
-                .collect()
+            named_rows(path, &bytes).map_err(bad)?
         } else {
             serde_json::from_slice::<BTreeMap<String, Vec<f32>>>(&bytes).map_err(|e| {
                 bad(format!(
@@ -103,6 +79,35 @@ impl Embeddings {
         rows.resize(n * dim, 0.0);
         Ok((rows, n))
     }
+}
+
+/// The rows of a `.npy` array named by the lines of the `.txt` beside it.
+fn named_rows(path: &Path, bytes: &[u8]) -> Result<BTreeMap<String, Vec<f32>>, String> {
+    let names_path = path.with_extension("txt");
+    let names = std::fs::read_to_string(&names_path).map_err(|e| {
+        format!(
+            "cannot read the prompt names {} ({e}); write one name per line, in the order of the array's rows",
+            names_path.display()
+        )
+    })?;
+    let names: Vec<&str> = names
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect();
+    let (rows, dim, values) = read_npy(bytes)?;
+    if rows != names.len() || dim == 0 {
+        return Err(format!(
+            "{rows} embeddings of {dim} values but {} names in {}",
+            names.len(),
+            names_path.display()
+        ));
+    }
+    Ok(names
+        .iter()
+        .zip(values.chunks(dim))
+        .map(|(n, v)| (n.to_string(), v.to_vec()))
+        .collect())
 }
 
 /// A 2-D little-endian float array from `.npy` bytes: `(rows, columns, values)`.

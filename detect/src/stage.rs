@@ -292,39 +292,32 @@ pub fn detect(
         });
         // Frames wait until their views fill a batch.
         let mut pending: Vec<Prepared> = Vec::new();
-        let mut frames = rx.into_iter();
-        loop {
-            let next = frames.next();
-            let end = next.is_none();
-            match next {
-                Some(Ok(p)) => pending.push(p),
-                Some(Err(f)) => failed.push(f),
-                None => {}
+        let mut pending_views = 0;
+        for prepared in rx {
+            match prepared {
+                Ok(p) => {
+                    pending_views += p.views.len();
+                    pending.push(p);
+                }
+                Err(f) => failed.push(f),
             }
-            let views: usize = pending.iter().map(|p| p.views.len()).sum();
-            if views > 0 && (end || views >= detector.batch) {
-                match detector.frames(&pending, options) {
-                    Ok(per_frame) => {
-                        for (p, dets) in pending.drain(..).zip(per_frame) {
-                            ran += 1;
-                            found.extend(dets.into_iter().map(|detection| FrameDetection {
-                                frame: p.frame,
-                                time_ns: p.time_ns,
-                                detection,
-                            }));
-                        }
-                    }
+            if pending_views >= detector.batch {
+                match detector.run_frames(&mut pending, options, &mut found) {
+                    Ok(n) => ran += n,
                     Err(e) => {
                         run_error = Some(e);
-                        break;
+                        return;
                     }
                 }
+                pending_views = 0;
             }
             progress(ran + failed.len() as u64, total);
-            if end {
-                break;
-            }
         }
+        match detector.run_frames(&mut pending, options, &mut found) {
+            Ok(n) => ran += n,
+            Err(e) => run_error = Some(e),
+        }
+        progress(ran + failed.len() as u64, total);
     });
     if let Some(e) = run_error {
         return Err(e);
@@ -441,6 +434,26 @@ impl Detector {
         Ok((detector, names))
     }
 
+    /// Run the `pending` frames, moving their detections into `found`;
+    /// returns how many frames ran.
+    fn run_frames(
+        &mut self,
+        pending: &mut Vec<Prepared>,
+        options: &DetectOptions,
+        found: &mut Vec<FrameDetection>,
+    ) -> Result<u64, DetectError> {
+        let per_frame = self.frames(pending, options)?;
+        let ran = pending.len() as u64;
+        for (p, dets) in pending.drain(..).zip(per_frame) {
+            found.extend(dets.into_iter().map(|detection| FrameDetection {
+                frame: p.frame,
+                time_ns: p.time_ns,
+                detection,
+            }));
+        }
+        Ok(ran)
+    }
+
     /// Detections of each of `frames`: every view run (in batches), mapped
     /// to frame pixels, then NMS'd and merged per frame.
     fn frames(
@@ -462,25 +475,22 @@ impl Detector {
                 frame: frames[chunk[0].0].frame,
                 why,
             };
-            let input = if let [(_, view)] = chunk
-                && self.batch == 1
-            {
-                view.input.as_slice()
+            // A fixed batch size is filled up with padding images.
+            let images = if self.signature.batch.is_some() {
+                self.batch
             } else {
-                // A fixed batch size is filled up with padding images.
+                chunk.len()
+            };
+            let input = if images == 1 {
+                chunk[0].1.input.as_slice()
+            } else {
                 stacked.clear();
-                stacked.resize(self.batch * plane, f32::from(PAD) / 255.0);
+                stacked.resize(images * plane, f32::from(PAD) / 255.0);
                 for (k, (_, view)) in chunk.iter().enumerate() {
                     stacked[k * plane..(k + 1) * plane].copy_from_slice(&view.input);
                 }
-                let images = if self.signature.batch.is_some() {
-                    self.batch
-                } else {
-                    chunk.len()
-                };
-                &stacked[..images * plane]
+                stacked.as_slice()
             };
-            let images = input.len() / plane;
             let shape = vec![images as i64, 3, i64::from(h), i64::from(w)];
             let image =
                 TensorRef::from_array_view((shape, input)).map_err(|e| failed(e.to_string()))?;

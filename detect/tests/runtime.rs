@@ -105,25 +105,17 @@ fn finds_loads_and_runs_onnx_runtime() {
 
     // The shipped reference detectors have the two YOLO-World interfaces.
     let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
-    let baked = Signature::of_session(
-        &runtime
-            .session(&models.join("crack-baked.onnx"), Device::Cpu)
-            .unwrap()
-            .session,
-    )
-    .unwrap();
+    let signature = |name: &str| {
+        let opened = runtime.session(&models.join(name), Device::Cpu).unwrap();
+        Signature::of_session(&opened.session).unwrap()
+    };
+    let baked = signature("crack-baked.onnx");
     assert_eq!(baked.vocabulary, detect::signature::Vocabulary::Baked);
     assert_eq!(
         (baked.images.as_str(), baked.classes, baked.input_size),
         ("images", Some(1), None)
     );
-    let open = Signature::of_session(
-        &runtime
-            .session(&models.join("crack-open.onnx"), Device::Cpu)
-            .unwrap()
-            .session,
-    )
-    .unwrap();
+    let open = signature("crack-open.onnx");
     assert_eq!(
         open.vocabulary,
         detect::signature::Vocabulary::Embeddings {
