@@ -38,6 +38,30 @@ enum Command {
     Simulate(SimulateArgs),
     /// Run the crack detector (ONNX) over every frame of an ingested run.
     Detect(DetectArgs),
+    /// Place each detection on the SLAM map and fuse views into defect candidates.
+    Localise(LocaliseArgs),
+}
+
+#[derive(Args)]
+struct LocaliseArgs {
+    /// Run directory holding a completed detect.
+    #[arg(long)]
+    run: PathBuf,
+    /// SLAM map (PLY or PCD, world frame, metres) instead of the one recorded in the flight.
+    #[arg(long, value_name = "FILE")]
+    map: Option<PathBuf>,
+    /// Inspection plan: its target voxels are the structure (hits elsewhere are obstacles).
+    #[arg(long, value_name = "plan.json")]
+    plan: Option<PathBuf>,
+    /// Rays end this far from the camera, metres.
+    #[arg(long, default_value_t = localise::LocaliseOptions::DEFAULT_MAX_RANGE_M, value_name = "METRES")]
+    max_range: f64,
+    /// Views of one crack may be this far apart on the surface (covers pose error), metres.
+    #[arg(long, default_value_t = localise::FusionOptions::default().link_distance, value_name = "METRES")]
+    link_distance: f64,
+    /// Largest angle between the surfaces of two views of one crack, degrees.
+    #[arg(long, default_value_t = localise::FusionOptions::default().max_normal_angle_deg, value_name = "DEGREES")]
+    max_normal_angle: f64,
 }
 
 #[derive(Args)]
@@ -120,6 +144,12 @@ struct SimulateArgs {
     /// Compression of the camera frames.
     #[arg(long, value_enum, default_value_t = ImageFormatArg::Jpeg)]
     image_format: ImageFormatArg,
+    /// Position noise of the recorded poses, metres (1 sigma, per pose).
+    #[arg(long, default_value_t = sim::flight::POSITION_NOISE, value_name = "METRES")]
+    pose_noise: f64,
+    /// Yaw noise of the recorded poses, degrees (1 sigma, per pose).
+    #[arg(long, default_value_t = sim::flight::YAW_NOISE.to_degrees(), value_name = "DEGREES")]
+    yaw_noise: f64,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -205,6 +235,7 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
         Command::Ingest(args) => ingest(args, cli.quiet),
         Command::Simulate(args) => simulate(args, cli.quiet),
         Command::Detect(args) => detect(args, cli.quiet),
+        Command::Localise(args) => localise(args, cli.quiet),
     }
 }
 
@@ -259,6 +290,10 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
         height: args.height,
         cracks: args.cracks,
         distortion: !args.no_distortion,
+        pose_noise: sim::truth::PoseNoise {
+            position_m: args.pose_noise,
+            yaw_rad: args.yaw_noise.to_radians(),
+        },
         image_format: match args.image_format {
             ImageFormatArg::Jpeg => sim::ImageFormat::Jpeg,
             ImageFormatArg::Png => sim::ImageFormat::Png,
@@ -318,6 +353,39 @@ fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
             summary.frames_per_s,
             summary.device,
             100.0 * summary.inference_share,
+            args.run.display()
+        );
+    }
+    Ok(())
+}
+
+fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
+    let options = localise::LocaliseOptions {
+        map: args.map.clone(),
+        plan: args.plan.clone(),
+        max_range_m: args.max_range,
+        fusion: localise::FusionOptions {
+            link_distance: args.link_distance,
+            max_normal_angle_deg: args.max_normal_angle,
+        },
+        ..localise::LocaliseOptions::new(args.run.clone())
+    };
+    let bar = progress::Bar::count("localise", quiet);
+    let summary = localise::localise(&options, &mut |done, total| bar.set(done, total))?;
+    bar.finish();
+    for w in &summary.warnings {
+        tracing::warn!("{w}");
+    }
+    if !quiet {
+        let o = &summary.outcomes;
+        println!(
+            "{} defect candidates from {} detections ({} placed, {} without pose, {} on no surface, {} on obstacles) into {}",
+            summary.defects,
+            summary.detections,
+            o.placed,
+            o.no_pose,
+            o.no_surface,
+            o.obstacle,
             args.run.display()
         );
     }

@@ -6,7 +6,6 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use common::*;
-use polars::prelude::*;
 
 fn models() -> PathBuf {
     root().join("detect/models")
@@ -20,45 +19,9 @@ fn detect(run: &Path, args: &[&str]) -> std::process::Output {
 
 /// Detections per frame time: boxes `[x0, y0, x1, y1]` and prompts.
 fn detections(run: &Path) -> Vec<(i64, [f64; 4], String)> {
-    table(run)
+    detection_rows(run)
         .into_iter()
         .map(|d| (d.time_ns, [d.x0, d.y0, d.x1, d.y1], d.prompt))
-        .collect()
-}
-
-/// A row of detections.parquet.
-struct Row {
-    time_ns: i64,
-    x0: f64,
-    y0: f64,
-    x1: f64,
-    y1: f64,
-    score: f64,
-    tile: i64,
-    prompt: String,
-}
-
-fn table(run: &Path) -> Vec<Row> {
-    let df = ParquetReader::new(std::fs::File::open(run.join("detections.parquet")).unwrap())
-        .finish()
-        .unwrap();
-    let time = df.column("time_ns").unwrap().i64().unwrap().clone();
-    let tile = df.column("tile").unwrap().i32().unwrap().clone();
-    let prompt = df.column("prompt").unwrap().str().unwrap().clone();
-    let col = |c: &str| df.column(c).unwrap().f32().unwrap().clone();
-    let [x0, y0, x1, y1, score] = ["x0", "y0", "x1", "y1", "score"].map(col);
-    let at = |c: &Float32Chunked, i: usize| f64::from(c.get(i).unwrap());
-    (0..df.height())
-        .map(|i| Row {
-            time_ns: time.get(i).unwrap(),
-            x0: at(&x0, i),
-            y0: at(&y0, i),
-            x1: at(&x1, i),
-            y1: at(&y1, i),
-            score: at(&score, i),
-            tile: i64::from(tile.get(i).unwrap()),
-            prompt: prompt.get(i).unwrap().to_string(),
-        })
         .collect()
 }
 
@@ -72,14 +35,6 @@ fn assert_same_boxes(a: &[(i64, [f64; 4], String)], b: &[(i64, [f64; 4], String)
             "{b0:?} vs {b1:?}"
         );
     }
-}
-
-fn iou(a: &[f64; 4], b: &[f64; 4]) -> f64 {
-    let ix = (a[2].min(b[2]) - a[0].max(b[0])).max(0.0);
-    let iy = (a[3].min(b[3]) - a[1].max(b[1])).max(0.0);
-    let inter = ix * iy;
-    let union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter;
-    if union > 0.0 { inter / union } else { 0.0 }
 }
 
 /// Detections scored against truth.json at box IoU >= 0.3.
@@ -285,7 +240,7 @@ fn tiles_find_cracks_that_a_shrunk_frame_loses() {
         views >= 3 && with_tiles > whole,
         "tiles found {with_tiles}, the whole frame {whole}, of {views}"
     );
-    assert!(table(&run).iter().any(|d| d.tile >= 0));
+    assert!(detection_rows(&run).iter().any(|d| d.tile >= 0));
     assert!(
         tiled
             .iter()
@@ -429,7 +384,7 @@ fn rust_matches_python_onnxruntime_on_the_same_frames() {
 
 /// Detections with scores and tiles: (time, [x0, y0, x1, y1, score], tile).
 fn detections_with_scores(run: &Path) -> Vec<(i64, [f64; 5], i64)> {
-    table(run)
+    detection_rows(run)
         .into_iter()
         .map(|d| (d.time_ns, [d.x0, d.y0, d.x1, d.y1, d.score], d.tile))
         .collect()

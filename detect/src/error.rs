@@ -24,6 +24,8 @@ pub enum DetectError {
     },
     #[error("inference failed on frame {frame}: {why}")]
     Inference { frame: u32, why: String },
+    #[error("cannot read {}: {why}; rerun `postflight detect`", path.display())]
+    Table { path: PathBuf, why: String },
     #[error("cannot write {}: {why}", path.display())]
     Write { path: PathBuf, why: String },
 }

@@ -10,7 +10,6 @@ use std::time::Instant;
 use ingest::{Flight, Frame, ImageStatus, RunDir};
 use ort::session::SessionInputValue;
 use ort::value::{Tensor, TensorRef};
-use polars::prelude::*;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -21,6 +20,7 @@ use crate::letterbox::{PAD, Placement, letterbox};
 use crate::prompts::Embeddings;
 use crate::runtime::{Device, Runtime, locate};
 use crate::signature::{Signature, Vocabulary};
+use crate::table::{self, FrameDetection};
 use crate::tiles::{Window, windows};
 
 /// Files of the detect stage.
@@ -147,14 +147,6 @@ pub struct DetectSummary {
     /// Share of `seconds` spent inside ONNX Runtime's `run`.
     pub inference_share: f64,
     pub warnings: Vec<String>,
-}
-
-/// One detection of one frame, in the frame's pixels.
-#[derive(Debug, Clone)]
-struct FrameDetection {
-    frame: u32,
-    time_ns: i64,
-    detection: Detection,
 }
 
 /// A frame ready for the model.
@@ -557,50 +549,7 @@ fn write_outputs(
     summary: &DetectSummary,
 ) -> Result<(), DetectError> {
     run.remove(files::SUMMARY)?;
-    let class_name = |c: u32| {
-        classes
-            .get(c as usize)
-            .cloned()
-            .unwrap_or_else(|| format!("class{c}"))
-    };
-    let col_f32 = |f: &dyn Fn(&FrameDetection) -> f32| found.iter().map(f).collect::<Vec<f32>>();
-    let mut df = DataFrame::new(
-        found.len(),
-        vec![
-            Column::new(
-                "frame".into(),
-                found.iter().map(|d| d.frame).collect::<Vec<u32>>(),
-            ),
-            Column::new(
-                "time_ns".into(),
-                found.iter().map(|d| d.time_ns).collect::<Vec<i64>>(),
-            ),
-            Column::new("x0".into(), col_f32(&|d| d.detection.bbox.x0)),
-            Column::new("y0".into(), col_f32(&|d| d.detection.bbox.y0)),
-            Column::new("x1".into(), col_f32(&|d| d.detection.bbox.x1)),
-            Column::new("y1".into(), col_f32(&|d| d.detection.bbox.y1)),
-            Column::new("score".into(), col_f32(&|d| d.detection.score)),
-            Column::new(
-                "class".into(),
-                found
-                    .iter()
-                    .map(|d| d.detection.class)
-                    .collect::<Vec<u32>>(),
-            ),
-            Column::new(
-                "tile".into(),
-                found.iter().map(|d| d.detection.tile).collect::<Vec<i32>>(),
-            ),
-            Column::new(
-                "prompt".into(),
-                found
-                    .iter()
-                    .map(|d| class_name(d.detection.class))
-                    .collect::<Vec<String>>(),
-            ),
-        ],
-    )
-    .map_err(|e| DetectError::Write {
+    let mut df = table::detections_to_table(found, classes).map_err(|e| DetectError::Write {
         path: run.file(files::DETECTIONS),
         why: e.to_string(),
     })?;

@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use polars::prelude::*;
 use serde_json::Value;
 
 pub fn root() -> PathBuf {
@@ -109,4 +110,49 @@ pub fn simulate_into(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
     let result = postflight(&all, dir);
     assert!(result.status.success(), "{}", stderr(&result));
     out
+}
+
+/// A row of detections.parquet.
+pub struct DetectionRow {
+    pub time_ns: i64,
+    pub x0: f64,
+    pub y0: f64,
+    pub x1: f64,
+    pub y1: f64,
+    pub score: f64,
+    pub tile: i64,
+    pub prompt: String,
+}
+
+pub fn detection_rows(run: &Path) -> Vec<DetectionRow> {
+    let df = ParquetReader::new(std::fs::File::open(run.join("detections.parquet")).unwrap())
+        .finish()
+        .unwrap();
+    let time = df.column("time_ns").unwrap().i64().unwrap().clone();
+    let tile = df.column("tile").unwrap().i32().unwrap().clone();
+    let prompt = df.column("prompt").unwrap().str().unwrap().clone();
+    let col = |c: &str| df.column(c).unwrap().f32().unwrap().clone();
+    let [x0, y0, x1, y1, score] = ["x0", "y0", "x1", "y1", "score"].map(col);
+    let at = |c: &Float32Chunked, i: usize| f64::from(c.get(i).unwrap());
+    (0..df.height())
+        .map(|i| DetectionRow {
+            time_ns: time.get(i).unwrap(),
+            x0: at(&x0, i),
+            y0: at(&y0, i),
+            x1: at(&x1, i),
+            y1: at(&y1, i),
+            score: at(&score, i),
+            tile: i64::from(tile.get(i).unwrap()),
+            prompt: prompt.get(i).unwrap().to_string(),
+        })
+        .collect()
+}
+
+/// Intersection over union of two `[x0, y0, x1, y1]` boxes.
+pub fn iou(a: &[f64; 4], b: &[f64; 4]) -> f64 {
+    let ix = (a[2].min(b[2]) - a[0].max(b[0])).max(0.0);
+    let iy = (a[3].min(b[3]) - a[1].max(b[1])).max(0.0);
+    let inter = ix * iy;
+    let union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter;
+    if union > 0.0 { inter / union } else { 0.0 }
 }

@@ -9,6 +9,7 @@ use ingest::InspectionPlan;
 
 use crate::rng::Rng;
 use crate::scene::Scene;
+use crate::truth::PoseNoise;
 
 /// Cruise speed between viewpoints, m/s.
 pub const SPEED: f64 = 1.5;
@@ -16,7 +17,7 @@ pub const SPEED: f64 = 1.5;
 pub const FAST_SPEED: f64 = 3.5;
 /// Hover at each viewpoint, seconds; the shot is taken mid-hover.
 const HOVER: f64 = 1.0;
-/// Pose noise of the recorded SLAM poses: position (m) and yaw (rad), 1 sigma.
+/// Default pose noise of the recorded SLAM poses: position (m) and yaw (rad), 1 sigma.
 pub const POSITION_NOISE: f64 = 0.02;
 pub const YAW_NOISE: f64 = 0.003;
 /// Pose rate of the recording, Hz.
@@ -191,9 +192,9 @@ fn clear(scene: &Scene, a: &Point3<f64>, b: &Point3<f64>) -> bool {
 }
 
 /// A recorded (noisy) pose: the SLAM estimate of the true pose.
-pub fn noisy(pose: &Isometry3<f64>, rng: &mut Rng) -> Isometry3<f64> {
-    let dp = Vector3::new(rng.normal(), rng.normal(), rng.normal()) * POSITION_NOISE;
-    let dyaw = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), rng.normal() * YAW_NOISE);
+pub fn noisy(pose: &Isometry3<f64>, noise: &PoseNoise, rng: &mut Rng) -> Isometry3<f64> {
+    let dp = Vector3::new(rng.normal(), rng.normal(), rng.normal()) * noise.position_m;
+    let dyaw = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), rng.normal() * noise.yaw_rad);
     Isometry3::from_parts(
         Translation3::from(pose.translation.vector + dp),
         dyaw * pose.rotation,

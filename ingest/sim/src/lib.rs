@@ -59,6 +59,8 @@ pub struct SimOptions {
     pub distortion: bool,
     /// How camera frames are compressed.
     pub image_format: ImageFormat,
+    /// Noise of the recorded SLAM poses.
+    pub pose_noise: truth::PoseNoise,
 }
 
 /// Compression of recorded camera frames (`sensor_msgs/CompressedImage` format).
@@ -88,6 +90,10 @@ impl SimOptions {
             cracks: Self::DEFAULT_CRACKS,
             distortion: true,
             image_format: ImageFormat::Jpeg,
+            pose_noise: truth::PoseNoise {
+                position_m: flight::POSITION_NOISE,
+                yaw_rad: flight::YAW_NOISE,
+            },
         }
     }
 }
@@ -156,6 +162,14 @@ pub fn simulate(
     if options.frames < 2 || options.width < 16 || options.height < 16 {
         return Err("a flight needs at least 2 frames of at least 16x16 pixels".into());
     }
+    let noise = options.pose_noise;
+    if !(noise.position_m >= 0.0
+        && noise.position_m < 10.0
+        && noise.yaw_rad >= 0.0
+        && noise.yaw_rad < 1.0)
+    {
+        return Err("pose noise must be at least 0 (and below 10 m, 57 degrees)".into());
+    }
     let scene = match &options.scene {
         SceneChoice::GirderBridge => Scene::girder_bridge(),
         SceneChoice::Tower => Scene::tower(),
@@ -213,6 +227,7 @@ pub fn simulate(
         times: pose_times,
         next: 0,
         noise: Rng::stream(seed, "pose noise"),
+        sigma: options.pose_noise,
     };
     let mut drops = Rng::stream(seed, "dropped frames");
     let mut frames = Vec::new();
@@ -319,10 +334,7 @@ pub fn simulate(
         exposure_s: EXPOSURE_S,
         camera: k,
         t_body_camera: PoseJson::from(&body_camera),
-        pose_noise: truth::PoseNoise {
-            position_m: flight::POSITION_NOISE,
-            yaw_rad: flight::YAW_NOISE,
-        },
+        pose_noise: options.pose_noise,
         skipped_viewpoints: flight.skipped.clone(),
         cracks: cracks
             .0
@@ -350,13 +362,14 @@ struct PoseWriter<'a> {
     times: Vec<f64>,
     next: usize,
     noise: Rng,
+    sigma: truth::PoseNoise,
 }
 
 impl PoseWriter<'_> {
     /// Write the poses stamped up to `t` not yet written.
     fn write_until(&mut self, t: f64, rec: &mut Recorder) -> Result<(), String> {
         while let Some(&pt) = self.times.get(self.next).filter(|pt| **pt <= t) {
-            let pose = flight::noisy(&self.flight.body_pose(pt), &mut self.noise);
+            let pose = flight::noisy(&self.flight.body_pose(pt), &self.sigma, &mut self.noise);
             let msg = msg::PoseStamped {
                 header: header(ns(pt), "map"),
                 pose: ros_pose(&pose),

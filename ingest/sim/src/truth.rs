@@ -185,7 +185,8 @@ pub struct Truth {
     pub coverage: crate::coverage::CoverageTruth,
 }
 
-#[derive(Debug, Clone, Serialize)]
+/// White noise added to each recorded pose, 1 sigma.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PoseNoise {
     pub position_m: f64,
     pub yaw_rad: f64,

@@ -38,10 +38,15 @@ impl SlamMap {
     /// Voxelise the cloud at `resolution` (grid anchored at the world origin)
     /// and index its points. `None` for an empty cloud.
     pub fn new(cloud: PointCloud, resolution: f64) -> Option<Self> {
+        Self::on_grid(cloud, VoxelGrid::new(resolution, Point3::origin()))
+    }
+
+    /// Voxelise the cloud on a given grid (a plan's, so voxel indices agree
+    /// with it) and index its points. `None` for an empty cloud.
+    pub fn on_grid(cloud: PointCloud, grid: VoxelGrid) -> Option<Self> {
         if cloud.is_empty() {
             return None;
         }
-        let grid = VoxelGrid::new(resolution, Point3::origin());
         let voxels = VoxelMap::from_points(grid, &cloud.points, 1);
         let coords: Vec<[f64; 3]> = cloud.points.iter().map(|p| [p.x, p.y, p.z]).collect();
         let tree = ImmutableKdTree::new_from_slice(&coords).ok()?;

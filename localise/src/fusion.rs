@@ -1,0 +1,365 @@
+//! Multi-view fusion: observations of one crack from many frames become one
+//! defect candidate. Two placed observations belong together when they lie
+//! on the same surface (normals agree, planes coincide) and their extents on
+//! it overlap or nearly touch; candidates are the connected groups.
+
+use std::collections::BTreeMap;
+
+use ingest::map::VoxelIndex;
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use nalgebra::{Point3, Vector3};
+
+use crate::observation::{Observation, Outcome};
+use crate::surface::face_name;
+
+/// How far apart observations of one crack may be.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FusionOptions {
+    /// Gap allowed between two observations' extents, metres: covers the
+    /// pose error (the simulator's 2 cm and 0.003 rad put a crack seen from
+    /// 5 m about 3 cm off; the default allows three times that).
+    pub link_distance: f64,
+    /// Largest angle between two observations' surface normals, degrees.
+    pub max_normal_angle_deg: f64,
+}
+
+impl Default for FusionOptions {
+    fn default() -> Self {
+        Self {
+            link_distance: 0.1,
+            max_normal_angle_deg: 30.0,
+        }
+    }
+}
+
+/// One physical crack, as the views of it agree.
+#[derive(Debug, Clone)]
+pub struct DefectCandidate {
+    /// Stable name: the surface voxel and face, then a number when one face
+    /// of a voxel holds several (`12_-3_4+x`, `12_-3_4+x.2`).
+    pub id: String,
+    pub position: Point3<f64>,
+    /// Outward normal of the surface it is on.
+    pub normal: Vector3<f64>,
+    /// Corners of the axis-aligned box around its observed extent.
+    pub extent: [Point3<f64>; 2],
+    pub voxel: VoxelIndex,
+    pub face: &'static str,
+    /// Estimated length, metres: the longest of its complete views (not cut
+    /// by the image border) from [`LENGTH_RANGE_M`] or closer, else of all
+    /// its complete views; `None` with no complete view that could measure
+    /// it (traced, not too oblique). A view shows at most the whole crack:
+    /// faint or hidden stretches only shorten it.
+    pub length_m: Option<f64>,
+    /// Views the length was chosen from.
+    pub length_views: u32,
+    /// Distinct frames that saw it.
+    pub frames: u32,
+    /// Noisy-OR of the scores of its three best frames: views of one crack
+    /// are not independent, so more views than that add no evidence.
+    pub confidence: f64,
+    pub max_score: f64,
+    /// The observation (index) to show a reviewer: complete, then the
+    /// finest ground sampling distance (closest and most frontal).
+    pub best: usize,
+    /// Indices of its observations, in frame order.
+    pub observations: Vec<usize>,
+}
+
+/// Views farther than this measure length too coarsely to count, metres.
+pub const LENGTH_RANGE_M: f64 = 5.0;
+/// A crack's extent larger than this is an error, metres (caps the search).
+const MAX_RADIUS: f64 = 3.0;
+
+/// Fuse the placed observations into candidates, in order of priority
+/// (confidence, then length).
+pub fn fuse(observations: &[Observation], options: &FusionOptions) -> Vec<DefectCandidate> {
+    let placed: Vec<usize> = (0..observations.len())
+        .filter(|i| observations[*i].outcome == Outcome::Placed)
+        .collect();
+    let placement = |i: usize| observations[i].placement.as_ref().expect("placed");
+    let radius = |i: usize| placement(i).radius.min(MAX_RADIUS);
+    let centres: Vec<[f64; 3]> = placed
+        .iter()
+        .map(|i| placement(*i).centre.coords.into())
+        .collect();
+    let mut groups = UnionFind::new(placed.len());
+    if !placed.is_empty() {
+        let tree: ImmutableKdTree<f64, 3> =
+            ImmutableKdTree::new_from_slice(&centres).expect("finite observation centres");
+        let largest = placed.iter().map(|i| radius(*i)).fold(0.0, f64::max);
+        let min_cos = options.max_normal_angle_deg.to_radians().cos();
+        for (a, &i) in placed.iter().enumerate() {
+            let pa = placement(i);
+            let reach = radius(i) + largest + options.link_distance;
+            for near in tree
+                .query(&centres[a])
+                .within::<SquaredEuclidean<f64>>(reach * reach)
+                .execute()
+            {
+                let b = near.item as usize;
+                if b <= a {
+                    continue;
+                }
+                let pb = placement(placed[b]);
+                let apart = (pb.centre - pa.centre).norm();
+                let same_surface = pa.hit.normal.dot(&pb.hit.normal) >= min_cos
+                    && (pb.centre - pa.centre).dot(&pa.hit.normal).abs() < options.link_distance;
+                if same_surface && apart <= radius(i) + radius(placed[b]) + options.link_distance {
+                    groups.join(a, b);
+                }
+            }
+        }
+    }
+    let mut members: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for (a, &i) in placed.iter().enumerate() {
+        members.entry(groups.root(a)).or_default().push(i);
+    }
+    let mut candidates: Vec<DefectCandidate> = members
+        .into_values()
+        .map(|mut group| {
+            group.sort_by_key(|i| (observations[*i].detection.frame, *i));
+            candidate(observations, group)
+        })
+        .collect();
+    name(&mut candidates);
+    candidates.sort_by(|a, b| {
+        b.confidence
+            .total_cmp(&a.confidence)
+            .then(
+                b.length_m
+                    .unwrap_or(0.0)
+                    .total_cmp(&a.length_m.unwrap_or(0.0)),
+            )
+            .then(a.id.cmp(&b.id))
+    });
+    candidates
+}
+
+fn candidate(observations: &[Observation], group: Vec<usize>) -> DefectCandidate {
+    let placement = |i: usize| observations[i].placement.as_ref().expect("placed");
+    let complete: Vec<usize> = group
+        .iter()
+        .copied()
+        .filter(|i| !observations[*i].clipped)
+        .collect();
+    let basis = if complete.is_empty() {
+        &group
+    } else {
+        &complete
+    };
+    // Component-wise medians: one view with a bad pose does not move it.
+    let position = Point3::from(Vector3::from_fn(|a, _| {
+        median(basis.iter().map(|i| placement(*i).centre[a]).collect()).expect("a member")
+    }));
+    let normal = basis
+        .iter()
+        .map(|i| placement(*i).hit.normal)
+        .sum::<Vector3<f64>>()
+        .normalize();
+    let extent = basis
+        .iter()
+        .fold(placement(basis[0]).extent, |[lo, hi], i| {
+            let e = placement(*i).extent;
+            [lo.inf(&e[0]), hi.sup(&e[1])]
+        });
+    let lengths = |max_range: f64| -> Vec<f64> {
+        complete
+            .iter()
+            .map(|i| placement(*i))
+            .filter(|p| p.hit.range <= max_range)
+            .filter_map(|p| p.length_m)
+            .collect()
+    };
+    let mut measured = lengths(LENGTH_RANGE_M);
+    if measured.is_empty() {
+        measured = lengths(f64::INFINITY);
+    }
+    let length_views = measured.len() as u32;
+    let best = *basis
+        .iter()
+        .min_by(|a, b| placement(**a).gsd_mm.total_cmp(&placement(**b).gsd_mm))
+        .expect("a member");
+    // Best score per frame.
+    let mut per_frame: BTreeMap<u32, f64> = BTreeMap::new();
+    for i in &group {
+        let d = &observations[*i].detection;
+        let s = per_frame.entry(d.frame).or_default();
+        *s = s.max(f64::from(d.detection.score));
+    }
+    let mut scores: Vec<f64> = per_frame.values().copied().collect();
+    scores.sort_by(|a, b| b.total_cmp(a));
+    let confidence = 1.0 - scores.iter().take(3).map(|s| 1.0 - s).product::<f64>();
+    let voxel = placement(best).hit.voxel;
+    DefectCandidate {
+        id: String::new(),
+        position,
+        normal,
+        extent,
+        voxel,
+        face: face_name(&normal),
+        length_m: measured.iter().copied().reduce(f64::max),
+        length_views,
+        frames: per_frame.len() as u32,
+        confidence,
+        max_score: scores[0],
+        best,
+        observations: group,
+    }
+}
+
+/// Ids from the voxel and face, numbered in position order within one.
+fn name(candidates: &mut [DefectCandidate]) {
+    let mut order: Vec<usize> = (0..candidates.len()).collect();
+    let key = |c: &DefectCandidate| (c.voxel.0, c.face);
+    order.sort_by(|a, b| {
+        let (ca, cb) = (&candidates[*a], &candidates[*b]);
+        key(ca).cmp(&key(cb)).then(
+            ca.position
+                .coords
+                .as_slice()
+                .partial_cmp(cb.position.coords.as_slice())
+                .unwrap_or(std::cmp::Ordering::Equal),
+        )
+    });
+    let mut previous: Option<(([i32; 3], &str), u32)> = None;
+    for i in order {
+        let c = &mut candidates[i];
+        let n = match previous {
+            Some((k, n)) if k == key(c) => n + 1,
+            _ => 1,
+        };
+        let [x, y, z] = c.voxel.0;
+        c.id = if n == 1 {
+            format!("{x}_{y}_{z}{}", c.face)
+        } else {
+            format!("{x}_{y}_{z}{}.{n}", c.face)
+        };
+        previous = Some((key(c), n));
+    }
+}
+
+fn median(mut values: Vec<f64>) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    Some(if n % 2 == 1 {
+        values[n / 2]
+    } else {
+        (values[n / 2 - 1] + values[n / 2]) / 2.0
+    })
+}
+
+struct UnionFind(Vec<usize>);
+
+impl UnionFind {
+    fn new(n: usize) -> Self {
+        Self((0..n).collect())
+    }
+
+    fn root(&mut self, mut i: usize) -> usize {
+        while self.0[i] != i {
+            self.0[i] = self.0[self.0[i]];
+            i = self.0[i];
+        }
+        i
+    }
+
+    fn join(&mut self, a: usize, b: usize) {
+        let (ra, rb) = (self.root(a), self.root(b));
+        self.0[ra.max(rb)] = ra.min(rb);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::observation::Placement;
+    use crate::surface::SurfaceHit;
+    use detect::FrameDetection;
+    use detect::boxes::{BoxXyxy, Detection};
+
+    fn observation(frame: u32, centre: [f64; 3], normal: [f64; 3], radius: f64) -> Observation {
+        let centre = Point3::from(centre);
+        let normal = Vector3::from(normal).normalize();
+        let r = Vector3::repeat(radius);
+        Observation {
+            detection: FrameDetection {
+                frame,
+                time_ns: i64::from(frame),
+                detection: Detection {
+                    bbox: BoxXyxy {
+                        x0: 10.0,
+                        y0: 10.0,
+                        x1: 50.0,
+                        y1: 50.0,
+                    },
+                    score: 0.5,
+                    class: 0,
+                    tile: -1,
+                },
+            },
+            outcome: Outcome::Placed,
+            placement: Some(Placement {
+                hit: SurfaceHit {
+                    point: centre,
+                    normal,
+                    voxel: VoxelIndex([0, 0, 0]),
+                    range: 4.0 + f64::from(frame),
+                    incidence: 0.0,
+                },
+                centre,
+                extent: [centre - r, centre + r],
+                radius,
+                length_m: Some(2.0 * radius),
+                gsd_mm: 4.0 + f64::from(frame),
+            }),
+            traced_px: 30,
+            clipped: false,
+        }
+    }
+
+    #[test]
+    fn views_of_one_crack_fuse_and_neighbours_stay_apart() {
+        let obs = vec![
+            // One crack seen three times, a few centimetres apart (pose noise).
+            observation(0, [3.0, 1.0, 2.0], [-1.0, 0.0, 0.0], 0.3),
+            observation(1, [3.0, 1.05, 2.03], [-1.0, 0.05, 0.0], 0.28),
+            observation(2, [3.01, 0.97, 1.98], [-1.0, 0.0, 0.02], 0.31),
+            // Another crack 0.8 m along the same wall.
+            observation(1, [3.0, 1.0, 3.5], [-1.0, 0.0, 0.0], 0.2),
+            // Same place, the other side of a 0.3 m thick web: another surface.
+            observation(2, [3.3, 1.0, 2.0], [1.0, 0.0, 0.0], 0.3),
+        ];
+        let c = fuse(&obs, &FusionOptions::default());
+        assert_eq!(c.len(), 3);
+        let big = c.iter().find(|c| c.frames == 3).unwrap();
+        assert_eq!(big.observations, vec![0, 1, 2]);
+        assert!((big.position - Point3::new(3.0, 1.0, 2.0)).norm() < 0.01);
+        assert_eq!(big.best, 0);
+        assert!((big.confidence - 0.875).abs() < 1e-9);
+        // Views from beyond 5 m (frame 2) do not count towards length.
+        assert_eq!(big.length_views, 2);
+        assert_eq!(big.length_m, Some(0.6));
+        // Stable names from voxel and face, numbered within one.
+        let mut ids: Vec<&str> = c.iter().map(|c| c.id.as_str()).collect();
+        ids.sort();
+        assert_eq!(ids, ["0_0_0+x", "0_0_0-x", "0_0_0-x.2"]);
+    }
+
+    #[test]
+    fn a_long_crack_seen_in_parts_becomes_one_candidate() {
+        // Three overlapping stretches of a 2 m crack, then a gap of 0.5 m.
+        let obs = vec![
+            observation(0, [3.0, 0.0, 2.0], [-1.0, 0.0, 0.0], 0.4),
+            observation(1, [3.0, 0.7, 2.0], [-1.0, 0.0, 0.0], 0.4),
+            observation(2, [3.0, 1.4, 2.0], [-1.0, 0.0, 0.0], 0.4),
+            observation(3, [3.0, 2.7, 2.0], [-1.0, 0.0, 0.0], 0.4),
+        ];
+        let c = fuse(&obs, &FusionOptions::default());
+        assert_eq!(c.len(), 2);
+        assert!(c.iter().any(|c| c.observations == [0, 1, 2]));
+    }
+}

@@ -1,0 +1,449 @@
+//! One detection placed on the structure: rays from the camera through the
+//! crack (its traced centre line, or the box when nothing could be traced)
+//! onto the mapped surface, with the crack's extent and length measured on
+//! that surface.
+
+use std::collections::HashSet;
+
+use detect::FrameDetection;
+use image::GrayImage;
+use ingest::Intrinsics;
+use ingest::map::{SlamMap, VoxelIndex};
+use nalgebra::{Isometry3, Point2, Point3, Vector3};
+
+use crate::surface::{self, SurfaceHit};
+use crate::trace::CrackTrace;
+
+/// What became of a detection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Outcome {
+    /// Placed on the structure.
+    Placed,
+    /// Its frame has no pose (none recorded near the frame time).
+    NoPose,
+    /// Its camera has no intrinsics.
+    NoIntrinsics,
+    /// Its rays met no mapped surface within range.
+    NoSurface,
+    /// Its rays met a mapped surface that is not the structure to inspect.
+    Obstacle,
+}
+
+impl Outcome {
+    pub const ALL: [Outcome; 5] = [
+        Outcome::Placed,
+        Outcome::NoPose,
+        Outcome::NoIntrinsics,
+        Outcome::NoSurface,
+        Outcome::Obstacle,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Outcome::Placed => "placed",
+            Outcome::NoPose => "no_pose",
+            Outcome::NoIntrinsics => "no_intrinsics",
+            Outcome::NoSurface => "no_surface",
+            Outcome::Obstacle => "obstacle",
+        }
+    }
+}
+
+/// A detection and where it lies on the structure.
+#[derive(Debug, Clone)]
+pub struct Observation {
+    pub detection: FrameDetection,
+    pub outcome: Outcome,
+    /// Where the crack's centre line meets the surface (for a placed detection).
+    pub placement: Option<Placement>,
+    /// Centre-line pixels traced in the image (0: placed by its box).
+    pub traced_px: u32,
+    /// The box touches the image border: the crack may go on out of view.
+    pub clipped: bool,
+}
+
+/// A detection's crack on the surface.
+#[derive(Debug, Clone)]
+pub struct Placement {
+    /// The surface the crack lies on, hit at the crack's centre.
+    pub hit: SurfaceHit,
+    /// Centroid of the crack's centre line on the surface.
+    pub centre: Point3<f64>,
+    /// Corners of the axis-aligned box around the crack on the surface.
+    pub extent: [Point3<f64>; 2],
+    /// Farthest crack point from `centre`, metres.
+    pub radius: f64,
+    /// Length of the traced centre line on the surface, metres.
+    pub length_m: Option<f64>,
+    /// Ground sampling distance of the view, millimetres per pixel.
+    pub gsd_mm: f64,
+}
+
+/// What a detection is placed against.
+pub struct Scene<'a> {
+    pub map: &'a SlamMap,
+    /// The structure's voxels (a plan's targets); `None`: every surface is.
+    pub structure: Option<&'a HashSet<VoxelIndex>>,
+    /// Rays end here, metres.
+    pub max_range: f64,
+}
+
+/// Pixels from the image border within which a box counts as clipped.
+const BORDER_PX: f32 = 3.0;
+/// Views more oblique than this do not measure length, degrees (the View
+/// model's default largest incidence for an inspection view).
+pub const MAX_MEASURED_INCIDENCE_DEG: f64 = 60.0;
+/// Rays cast per detection, spread along the crack.
+const RAYS: usize = 7;
+/// Rays whose hit lies this far off the crack's surface met something else
+/// (an edge, a background surface), metres.
+const OFF_SURFACE: f64 = 0.25;
+
+impl Scene<'_> {
+    /// Place a detection seen by a camera at `pose` (`T_world_camera`, optical frame).
+    pub fn place(
+        &self,
+        detection: FrameDetection,
+        pose: &Isometry3<f64>,
+        k: &Intrinsics,
+        trace: Option<&CrackTrace>,
+    ) -> Observation {
+        let b = detection.detection.bbox;
+        let clipped = b.x0 <= BORDER_PX
+            || b.y0 <= BORDER_PX
+            || b.x1 >= k.width as f32 - BORDER_PX
+            || b.y1 >= k.height as f32 - BORDER_PX;
+        let mut observation = Observation {
+            detection,
+            outcome: Outcome::NoSurface,
+            placement: None,
+            traced_px: trace.map_or(0, |t| t.pixels.len() as u32),
+            clipped,
+        };
+        // The crack's pixels: its centre line, or the box's centre and diagonals.
+        let box_pixels: Vec<Point2<f64>>;
+        let pixels: &[Point2<f64>] = match trace {
+            Some(t) => &t.pixels,
+            None => {
+                let (x0, y0, x1, y1) = (
+                    f64::from(b.x0),
+                    f64::from(b.y0),
+                    f64::from(b.x1),
+                    f64::from(b.y1),
+                );
+                box_pixels = [0.0, 0.25, 0.5, 0.75, 1.0]
+                    .iter()
+                    .flat_map(|s| {
+                        [
+                            Point2::new(x0 + (x1 - x0) * s, y0 + (y1 - y0) * s),
+                            Point2::new(x1 - (x1 - x0) * s, y0 + (y1 - y0) * s),
+                        ]
+                    })
+                    .collect();
+                &box_pixels
+            }
+        };
+        let origin = Point3::from(pose.translation.vector);
+        let ray = |px: &Point2<f64>| pose.rotation * k.ray(px);
+        let hits: Vec<SurfaceHit> = spread(pixels, RAYS)
+            .iter()
+            .filter_map(|px| surface::cast(self.map, &origin, &ray(px), self.max_range))
+            .collect();
+        let Some(surface) = consensus(&hits) else {
+            return observation;
+        };
+        // Every crack pixel onto the surface's plane.
+        let on_surface: Vec<Option<Point3<f64>>> = pixels
+            .iter()
+            .map(|px| {
+                intersect(&origin, &ray(px), &surface.point, &surface.normal)
+                    .filter(|p| (p - origin).norm() <= self.max_range)
+            })
+            .collect();
+        let points: Vec<Point3<f64>> = on_surface.iter().flatten().copied().collect();
+        if points.is_empty() {
+            return observation;
+        }
+        let centre = Point3::from(
+            points.iter().map(|p| p.coords).sum::<Vector3<f64>>() / points.len() as f64,
+        );
+        let radius = points
+            .iter()
+            .map(|p| (p - centre).norm())
+            .fold(0.0, f64::max);
+        let extent = points
+            .iter()
+            .fold([points[0], points[0]], |[lo, hi], p| [lo.inf(p), hi.sup(p)]);
+        // At grazing angles a pixel spans too much surface to measure on.
+        let measurable = surface.incidence.to_degrees() <= MAX_MEASURED_INCIDENCE_DEG;
+        let length_m = trace.filter(|_| measurable).map(|t| {
+            crate::trace::CHAIN_CORRECTION
+                * t.edges
+                    .iter()
+                    .filter_map(|&(a, b)| {
+                        Some((on_surface[a as usize]? - on_surface[b as usize]?).norm())
+                    })
+                    .sum::<f64>()
+        });
+        // The hit at the crack's centre, for its voxel, face, range and angle.
+        let to_centre = (centre - origin).normalize();
+        let hit =
+            SurfaceHit {
+                point: centre,
+                range: (centre - origin).norm(),
+                incidence: (-to_centre).dot(&surface.normal).clamp(-1.0, 1.0).acos(),
+                voxel: self.map.voxels.grid.voxel_of(
+                    &(centre - surface.normal * (self.map.voxels.grid.resolution * 0.02)),
+                ),
+                ..surface
+            };
+        observation.outcome = match self.structure {
+            Some(structure) if !near_structure(structure, hit.voxel) => Outcome::Obstacle,
+            _ => Outcome::Placed,
+        };
+        observation.placement = Some(Placement {
+            gsd_mm: hit.gsd_mm(k.fx.min(k.fy)),
+            hit,
+            centre,
+            extent,
+            radius,
+            length_m,
+        });
+        observation
+    }
+}
+
+/// A voxel of the structure, or touching one: map noise and a surface on a
+/// voxel boundary put a hit one voxel off.
+fn near_structure(structure: &HashSet<VoxelIndex>, v: VoxelIndex) -> bool {
+    structure.contains(&v) || v.neighbours().any(|n| structure.contains(&n))
+}
+
+/// Up to `n` pixels spread along a pixel set: its extremes along its main
+/// direction and evenly between.
+fn spread(pixels: &[Point2<f64>], n: usize) -> Vec<Point2<f64>> {
+    if pixels.len() <= n {
+        return pixels.to_vec();
+    }
+    let count = pixels.len() as f64;
+    let mean = pixels
+        .iter()
+        .map(|p| p.coords)
+        .sum::<nalgebra::Vector2<f64>>()
+        / count;
+    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+    for p in pixels {
+        let d = p.coords - mean;
+        sxx += d.x * d.x;
+        sxy += d.x * d.y;
+        syy += d.y * d.y;
+    }
+    let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+    let axis = nalgebra::Vector2::new(angle.cos(), angle.sin());
+    let mut order: Vec<(f64, usize)> = pixels
+        .iter()
+        .enumerate()
+        .map(|(i, p)| ((p.coords - mean).dot(&axis), i))
+        .collect();
+    order.sort_by(|a, b| a.0.total_cmp(&b.0));
+    (0..n)
+        .map(|k| pixels[order[k * (order.len() - 1) / (n - 1)].1])
+        .collect()
+}
+
+/// The surface most rays agree on: the hit at the median range, provided
+/// the hits on its plane are at least half of all hits.
+fn consensus(hits: &[SurfaceHit]) -> Option<SurfaceHit> {
+    let mut by_range: Vec<&SurfaceHit> = hits.iter().collect();
+    by_range.sort_by(|a, b| a.range.total_cmp(&b.range));
+    let median = **by_range.get(by_range.len() / 2)?;
+    let agree = hits
+        .iter()
+        .filter(|h| (h.point - median.point).dot(&median.normal).abs() < OFF_SURFACE)
+        .count();
+    (2 * agree >= hits.len()).then_some(median)
+}
+
+/// Where the ray from `origin` along `dir` meets the plane through `p` with normal `n`.
+fn intersect(
+    origin: &Point3<f64>,
+    dir: &Vector3<f64>,
+    p: &Point3<f64>,
+    n: &Vector3<f64>,
+) -> Option<Point3<f64>> {
+    let denom = dir.dot(n);
+    if denom.abs() < 1e-6 {
+        return None;
+    }
+    let t = (p - origin).dot(n) / denom;
+    (t > 0.0).then(|| origin + dir * t)
+}
+
+/// A detection's rays need the image only for its trace.
+pub fn trace_in(gray: Option<&GrayImage>, detection: &FrameDetection) -> Option<CrackTrace> {
+    let b = detection.detection.bbox;
+    crate::trace::trace(gray?, [b.x0, b.y0, b.x1, b.y1])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::surface::tests::wall;
+    use detect::boxes::{BoxXyxy, Detection};
+    use ingest::Distortion;
+    use nalgebra::{Translation3, UnitQuaternion};
+
+    fn detection(bbox: [f32; 4]) -> FrameDetection {
+        FrameDetection {
+            frame: 0,
+            time_ns: 0,
+            detection: Detection {
+                bbox: BoxXyxy {
+                    x0: bbox[0],
+                    y0: bbox[1],
+                    x1: bbox[2],
+                    y1: bbox[3],
+                },
+                score: 0.8,
+                class: 0,
+                tile: -1,
+            },
+        }
+    }
+
+    /// A strongly distorted camera, mounted on a body with a lever arm and
+    /// a pitch (not an identity extrinsic), looking at the wall x = 3.
+    fn camera() -> (Isometry3<f64>, Intrinsics) {
+        let body = Isometry3::from_parts(
+            Translation3::new(0.0, 0.2, 2.5),
+            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.15),
+        );
+        let body_camera = Isometry3::from_parts(
+            Translation3::new(0.25, 0.0, -0.12),
+            UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.2),
+        ) * Isometry3::from_parts(
+            Translation3::identity(),
+            UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(0.5, -0.5, 0.5, -0.5)),
+        );
+        let k = Intrinsics {
+            width: 640,
+            height: 480,
+            fx: 600.0,
+            fy: 600.0,
+            cx: 320.0,
+            cy: 240.0,
+            distortion: Distortion::PlumbBob([-0.25, 0.08, 0.001, -0.001, 0.0]),
+        };
+        (body * body_camera, k)
+    }
+
+    /// A crack on the wall from `a` to `b`, as the camera images it: its
+    /// pixels (through the lens distortion) and their spanning chain.
+    fn imaged_crack(
+        pose: &Isometry3<f64>,
+        k: &Intrinsics,
+        a: Point3<f64>,
+        b: Point3<f64>,
+    ) -> CrackTrace {
+        let pixels: Vec<Point2<f64>> = (0..=100)
+            .map(|i| {
+                let p = a + (b - a) * (f64::from(i) / 100.0);
+                k.project(&(pose.inverse() * p).coords).unwrap()
+            })
+            .collect();
+        let edges = (0..100).map(|i| (i, i + 1)).collect();
+        CrackTrace { pixels, edges }
+    }
+
+    fn bounds(t: &CrackTrace) -> [f32; 4] {
+        t.pixels
+            .iter()
+            .fold([f32::MAX, f32::MAX, f32::MIN, f32::MIN], |b, p| {
+                [
+                    b[0].min(p.x as f32),
+                    b[1].min(p.y as f32),
+                    b[2].max(p.x as f32),
+                    b[3].max(p.y as f32),
+                ]
+            })
+    }
+
+    #[test]
+    fn a_crack_seen_through_a_distorted_lens_and_a_mounted_camera_lands_where_it_is() {
+        let map = wall();
+        let scene = Scene {
+            map: &map,
+            structure: None,
+            max_range: 30.0,
+        };
+        let (pose, k) = camera();
+        // A diagonal crack near the image corner, where distortion is strongest.
+        let (a, b) = (Point3::new(3.0, 1.5, 2.2), Point3::new(3.0, 1.9, 2.7));
+        let t = imaged_crack(&pose, &k, a, b);
+        let corner = bounds(&t);
+        assert!(
+            corner[0] < 120.0 && corner[1] < 120.0,
+            "crack not in a corner: {corner:?}"
+        );
+        let o = scene.place(detection(corner), &pose, &k, Some(&t));
+        assert_eq!(o.outcome, Outcome::Placed);
+        let p = o.placement.unwrap();
+        let mid = Point3::from((a.coords + b.coords) / 2.0);
+        assert!((p.centre - mid).norm() < 0.02, "{:?} vs {mid:?}", p.centre);
+        // The synthetic trace is continuous, not pixel steps: no chain bias to undo.
+        let length = (b - a).norm();
+        let measured = p.length_m.unwrap() / crate::trace::CHAIN_CORRECTION;
+        assert!((measured - length).abs() / length < 0.03);
+        assert!((p.radius - length / 2.0).abs() < 0.02);
+        assert_eq!(p.hit.face(), "-x");
+        // Ignoring the distortion would put it centimetres off: the test can fail.
+        let pinhole = Intrinsics {
+            distortion: Distortion::None,
+            ..k.clone()
+        };
+        let wrong = scene.place(detection(corner), &pose, &pinhole, Some(&t));
+        assert!((wrong.placement.unwrap().centre - mid).norm() > 0.05);
+        // So would ignoring the mounting.
+        let body_only = pose * Isometry3::translation(0.0, 0.12, -0.25);
+        let wrong = scene.place(detection(corner), &body_only, &k, Some(&t));
+        assert!((wrong.placement.unwrap().centre - mid).norm() > 0.1);
+    }
+
+    #[test]
+    fn detections_that_meet_no_structure_say_why() {
+        let map = wall();
+        let (pose, k) = camera();
+        let t = imaged_crack(
+            &pose,
+            &k,
+            Point3::new(3.0, 0.2, 2.4),
+            Point3::new(3.0, 0.4, 2.6),
+        );
+        let b = bounds(&t);
+        // Out of range.
+        let near = Scene {
+            map: &map,
+            structure: None,
+            max_range: 1.0,
+        };
+        assert_eq!(
+            near.place(detection(b), &pose, &k, Some(&t)).outcome,
+            Outcome::NoSurface
+        );
+        // On a surface that is not the structure.
+        let elsewhere: HashSet<VoxelIndex> = [VoxelIndex([40, 40, 40])].into();
+        let scene = Scene {
+            map: &map,
+            structure: Some(&elsewhere),
+            max_range: 30.0,
+        };
+        assert_eq!(
+            scene.place(detection(b), &pose, &k, Some(&t)).outcome,
+            Outcome::Obstacle
+        );
+        // Without a trace the box's centre and diagonals place it.
+        let o = scene.place(detection(b), &pose, &k, None);
+        assert_eq!(o.traced_px, 0);
+        assert!(o.placement.unwrap().length_m.is_none());
+    }
+}

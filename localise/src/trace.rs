@@ -1,0 +1,387 @@
+//! The crack inside a detection box, traced in the image: pixels clearly
+//! darker than the surface around them, thinned to a one-pixel centre line
+//! and joined into a minimum spanning forest. A box says only roughly where
+//! a crack is; the trace gives its shape, so a long diagonal, curved or
+//! branching crack is measured along its length and placed at its centre,
+//! not at the centre of its box.
+
+use image::GrayImage;
+use nalgebra::Point2;
+
+/// A crack's centre line in one image.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CrackTrace {
+    /// Centre-line pixels, as pixel-centre coordinates of the whole frame.
+    pub pixels: Vec<Point2<f64>>,
+    /// Edges between neighbouring pixels (indices into `pixels`) that join
+    /// them into a spanning forest: summed, they are the crack's length.
+    pub edges: Vec<(u32, u32)>,
+}
+
+impl CrackTrace {
+    /// Length of the centre line, pixels.
+    pub fn length_px(&self) -> f64 {
+        CHAIN_CORRECTION
+            * self
+                .edges
+                .iter()
+                .map(|&(a, b)| (self.pixels[a as usize] - self.pixels[b as usize]).norm())
+                .sum::<f64>()
+    }
+}
+
+/// Steps of 1 and sqrt 2 between pixel centres overstate a line's length by
+/// up to 8% depending on its direction; this factor (Kulpa 1977) makes the
+/// sum unbiased over directions. Apply it to any sum of trace edges.
+pub const CHAIN_CORRECTION: f64 = 0.9481;
+
+/// Pixels around the box searched too, since boxes are drawn tight.
+const MARGIN: u32 = 3;
+/// Least darkening that counts as a crack, as a share of the surface's
+/// brightness (a crack in shade is dark by fewer grey levels), and in grey
+/// levels (below that, JPEG noise).
+const MIN_CONTRAST: f64 = 0.06;
+const MIN_CONTRAST_LEVELS: f64 = 3.0;
+/// Darkening, in robust standard deviations of the surface, that counts.
+const NOISE_SIGMAS: f64 = 4.0;
+/// Dark blobs smaller than this are texture, not crack, pixels.
+const MIN_COMPONENT: usize = 6;
+
+/// Trace the crack in the box `[x0, y0, x1, y1]` (frame pixels) of `gray`,
+/// following it past the box's edges (a detector often boxes only part of a
+/// crack); `None` when nothing in the box stands out from the surface.
+pub fn trace(gray: &GrayImage, bbox: [f32; 4]) -> Option<CrackTrace> {
+    let (w, h) = gray.dimensions();
+    let clip = |v: f32, max: u32| (v.max(0.0) as u32).min(max);
+    let inner = [
+        clip(bbox[0].floor(), w).saturating_sub(MARGIN),
+        clip(bbox[1].floor(), h).saturating_sub(MARGIN),
+        (clip(bbox[2].ceil(), w) + MARGIN).min(w),
+        (clip(bbox[3].ceil(), h) + MARGIN).min(h),
+    ];
+    if inner[2] <= inner[0] + 2 || inner[3] <= inner[1] + 2 {
+        return None;
+    }
+    let reach = (0.5 * (bbox[2] - bbox[0]).max(bbox[3] - bbox[1])).max(8.0) as u32;
+    let (x0, y0) = (
+        inner[0].saturating_sub(reach),
+        inner[1].saturating_sub(reach),
+    );
+    let (x1, y1) = ((inner[2] + reach).min(w), (inner[3] + reach).min(h));
+    let (cw, ch) = (x1 - x0, y1 - y0);
+    let values: Vec<u8> = (y0..y1)
+        .flat_map(|y| (x0..x1).map(move |x| gray.get_pixel(x, y).0[0]))
+        .collect();
+    let in_box = |i: usize| {
+        let (x, y) = (x0 + (i % cw as usize) as u32, y0 + (i / cw as usize) as u32);
+        (inner[0]..inner[2]).contains(&x) && (inner[1]..inner[3]).contains(&y)
+    };
+    // The surface is most of the box; a crack is a thin minority of dark pixels.
+    let boxed: Vec<u8> = (0..values.len())
+        .filter(|i| in_box(*i))
+        .map(|i| values[i])
+        .collect();
+    let median = f64::from(percentile(&boxed, 0.5));
+    let deviations: Vec<u8> = boxed
+        .iter()
+        .map(|v| (f64::from(*v) - median).abs().min(255.0) as u8)
+        .collect();
+    let sigma = 1.4826 * f64::from(percentile(&deviations, 0.5));
+    let threshold = median
+        - (NOISE_SIGMAS * sigma)
+            .max(MIN_CONTRAST * median)
+            .max(MIN_CONTRAST_LEVELS);
+    let mut mask: Vec<bool> = values.iter().map(|v| f64::from(*v) < threshold).collect();
+    keep_components(&mut mask, cw as usize, ch as usize, in_box);
+    thin(&mut mask, cw as usize, ch as usize);
+    drop_corners(&mut mask, cw as usize, ch as usize);
+    let index: Vec<Option<u32>> = {
+        let mut next = 0u32;
+        mask.iter()
+            .map(|m| {
+                m.then(|| {
+                    next += 1;
+                    next - 1
+                })
+            })
+            .collect()
+    };
+    let pixels: Vec<Point2<f64>> = (0..mask.len())
+        .filter(|i| mask[*i])
+        .map(|i| {
+            Point2::new(
+                f64::from(x0) + (i % cw as usize) as f64 + 0.5,
+                f64::from(y0) + (i / cw as usize) as f64 + 0.5,
+            )
+        })
+        .collect();
+    if pixels.len() < MIN_COMPONENT {
+        return None;
+    }
+    let edges = spanning_forest(&index, cw as usize, ch as usize, pixels.len());
+    Some(CrackTrace { pixels, edges })
+}
+
+fn percentile(values: &[u8], q: f64) -> u8 {
+    let mut histogram = [0usize; 256];
+    for v in values {
+        histogram[*v as usize] += 1;
+    }
+    let rank = ((values.len() - 1) as f64 * q).round() as usize;
+    let mut seen = 0;
+    for (v, n) in histogram.iter().enumerate() {
+        seen += n;
+        if seen > rank {
+            return v as u8;
+        }
+    }
+    255
+}
+
+const NEIGHBOURS: [(i32, i32); 8] = [
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+    (-1, 0),
+    (1, 0),
+    (-1, 1),
+    (0, 1),
+    (1, 1),
+];
+
+/// Keep the 8-connected groups of at least [`MIN_COMPONENT`] pixels that
+/// reach into the box (`in_box`).
+fn keep_components(mask: &mut [bool], w: usize, h: usize, in_box: impl Fn(usize) -> bool) {
+    let mut seen = vec![false; mask.len()];
+    let mut stack = Vec::new();
+    for start in 0..mask.len() {
+        if !mask[start] || seen[start] {
+            continue;
+        }
+        let mut group = vec![start];
+        seen[start] = true;
+        stack.push(start);
+        while let Some(i) = stack.pop() {
+            let (x, y) = ((i % w) as i32, (i / w) as i32);
+            for (dx, dy) in NEIGHBOURS {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx < 0 || ny < 0 || nx >= w as i32 || ny >= h as i32 {
+                    continue;
+                }
+                let j = ny as usize * w + nx as usize;
+                if mask[j] && !seen[j] {
+                    seen[j] = true;
+                    group.push(j);
+                    stack.push(j);
+                }
+            }
+        }
+        if group.len() < MIN_COMPONENT || !group.iter().any(|i| in_box(*i)) {
+            for i in group {
+                mask[i] = false;
+            }
+        }
+    }
+}
+
+/// Zhang-Suen thinning: peel boundary pixels until a one-pixel line remains.
+fn thin(mask: &mut [bool], w: usize, h: usize) {
+    let at = |m: &[bool], x: i32, y: i32| {
+        x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h && m[y as usize * w + x as usize]
+    };
+    loop {
+        let mut changed = false;
+        for pass in 0..2 {
+            let mut clear = Vec::new();
+            for i in 0..mask.len() {
+                if !mask[i] {
+                    continue;
+                }
+                let (x, y) = ((i % w) as i32, (i / w) as i32);
+                // P2..P9 clockwise from north.
+                let p = [
+                    at(mask, x, y - 1),
+                    at(mask, x + 1, y - 1),
+                    at(mask, x + 1, y),
+                    at(mask, x + 1, y + 1),
+                    at(mask, x, y + 1),
+                    at(mask, x - 1, y + 1),
+                    at(mask, x - 1, y),
+                    at(mask, x - 1, y - 1),
+                ];
+                let b = p.iter().filter(|v| **v).count();
+                let a = (0..8).filter(|k| !p[*k] && p[(k + 1) % 8]).count();
+                let (c, d) = if pass == 0 {
+                    (p[0] && p[2] && p[4], p[2] && p[4] && p[6])
+                } else {
+                    (p[0] && p[2] && p[6], p[0] && p[4] && p[6])
+                };
+                if (2..=6).contains(&b) && a == 1 && !c && !d {
+                    clear.push(i);
+                }
+            }
+            changed |= !clear.is_empty();
+            for i in clear {
+                mask[i] = false;
+            }
+        }
+        if !changed {
+            return;
+        }
+    }
+}
+
+/// Clear the pixels thinning leaves at the inner corners of staircases:
+/// a pixel (not a line end) whose neighbours stay connected without it.
+fn drop_corners(mask: &mut [bool], w: usize, h: usize) {
+    // Ring of the 8 neighbours, clockwise from north; even entries are the
+    // 4-neighbours, which also touch the 4-neighbour two steps on.
+    const RING: [(i32, i32); 8] = [
+        (0, -1),
+        (1, -1),
+        (1, 0),
+        (1, 1),
+        (0, 1),
+        (-1, 1),
+        (-1, 0),
+        (-1, -1),
+    ];
+    for i in 0..mask.len() {
+        if !mask[i] {
+            continue;
+        }
+        let (x, y) = ((i % w) as i32, (i / w) as i32);
+        let set: Vec<bool> = RING
+            .iter()
+            .map(|(dx, dy)| {
+                let (nx, ny) = (x + dx, y + dy);
+                nx >= 0
+                    && ny >= 0
+                    && (nx as usize) < w
+                    && (ny as usize) < h
+                    && mask[ny as usize * w + nx as usize]
+            })
+            .collect();
+        let count = set.iter().filter(|s| **s).count();
+        if count < 2 {
+            continue;
+        }
+        // Flood the set neighbours from one of them.
+        let mut reached = [false; 8];
+        let first = set.iter().position(|s| *s).expect("a neighbour");
+        let mut stack = vec![first];
+        reached[first] = true;
+        while let Some(k) = stack.pop() {
+            let mut next = vec![(k + 1) % 8, (k + 7) % 8];
+            if k % 2 == 0 {
+                next.extend([(k + 2) % 8, (k + 6) % 8]);
+            }
+            for n in next {
+                if set[n] && !reached[n] {
+                    reached[n] = true;
+                    stack.push(n);
+                }
+            }
+        }
+        if reached.iter().filter(|r| **r).count() == count {
+            mask[i] = false;
+        }
+    }
+}
+
+/// Kruskal over the 8-neighbour grid graph: straight steps (length 1)
+/// before diagonal ones (length sqrt 2), so a staircase is not counted twice.
+fn spanning_forest(index: &[Option<u32>], w: usize, h: usize, n: usize) -> Vec<(u32, u32)> {
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn root(parent: &mut [u32], mut i: u32) -> u32 {
+        while parent[i as usize] != i {
+            parent[i as usize] = parent[parent[i as usize] as usize];
+            i = parent[i as usize];
+        }
+        i
+    }
+    let mut edges = Vec::new();
+    for steps in [[(1, 0), (0, 1)], [(1, 1), (-1, 1)]] {
+        for y in 0..h {
+            for x in 0..w {
+                let Some(a) = index[y * w + x] else { continue };
+                for (dx, dy) in steps {
+                    let (nx, ny) = (x as i32 + dx, y as i32 + dy);
+                    if nx < 0 || nx >= w as i32 || ny >= h as i32 {
+                        continue;
+                    }
+                    let Some(b) = index[ny as usize * w + nx as usize] else {
+                        continue;
+                    };
+                    let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+                    if ra != rb {
+                        parent[ra as usize] = rb;
+                        edges.push((a, b));
+                    }
+                }
+            }
+        }
+    }
+    edges
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use image::Luma;
+
+    /// A grey, slightly noisy surface with a dark line drawn from `a` to `b`,
+    /// `width` pixels wide.
+    fn line_image(a: (f64, f64), b: (f64, f64), width: f64) -> GrayImage {
+        let mut k = 7u32;
+        GrayImage::from_fn(200, 150, |x, y| {
+            k = k.wrapping_mul(1_103_515_245).wrapping_add(12345);
+            let noise = (k >> 16) % 5;
+            let p = (f64::from(x) + 0.5, f64::from(y) + 0.5);
+            let d = (b.0 - a.0, b.1 - a.1);
+            let s =
+                (((p.0 - a.0) * d.0 + (p.1 - a.1) * d.1) / (d.0 * d.0 + d.1 * d.1)).clamp(0.0, 1.0);
+            let off = ((p.0 - a.0 - s * d.0).powi(2) + (p.1 - a.1 - s * d.1).powi(2)).sqrt();
+            Luma([if off <= width / 2.0 {
+                50
+            } else {
+                120 + noise as u8
+            }])
+        })
+    }
+
+    #[test]
+    fn a_thick_diagonal_line_traces_to_its_length() {
+        for (a, b, width) in [
+            ((30.0, 20.0), (170.0, 130.0), 3.0),
+            ((40.0, 75.0), (160.0, 75.0), 1.2),
+            ((100.0, 10.0), (110.0, 140.0), 2.0),
+        ] {
+            let img = line_image(a, b, width);
+            let t = trace(&img, [20.0, 5.0, 180.0, 145.0]).unwrap();
+            let truth = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
+            let len = t.length_px();
+            assert!(
+                (len - truth).abs() / truth < 0.1,
+                "traced {len:.1} px of a {truth:.1} px line"
+            );
+            // One connected line: a spanning tree has one edge fewer than pixels.
+            assert_eq!(t.edges.len(), t.pixels.len() - 1);
+            // Every traced pixel lies on the line.
+            assert!(t.pixels.iter().all(|p| {
+                let d = (b.0 - a.0, b.1 - a.1);
+                let cross = ((p.x - a.0) * d.1 - (p.y - a.1) * d.0).abs() / truth;
+                cross <= width / 2.0 + 1.0
+            }));
+        }
+    }
+
+    #[test]
+    fn a_plain_surface_has_no_trace() {
+        let img = line_image((-50.0, -50.0), (-40.0, -40.0), 1.0);
+        assert!(trace(&img, [10.0, 10.0, 100.0, 100.0]).is_none());
+        // A box off the image or empty.
+        assert!(trace(&img, [300.0, 10.0, 400.0, 100.0]).is_none());
+        assert!(trace(&img, [10.0, 10.0, 10.0, 10.0]).is_none());
+    }
+}
