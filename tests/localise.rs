@@ -394,9 +394,16 @@ fn bad_inputs_fail_clearly_or_are_counted() {
     assert!(err.contains("does not overlap the flight"), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(!run.join("localise.json").exists());
-    // The same map where it belongs works.
+    // The same map where it belongs works, and gives what the recorded map
+    // gives: a rerun keeps the candidates and their ids.
     let out = localise(&run, &["--map", sim.join("map.ply").to_str().unwrap()]);
     assert!(out.status.success(), "{}", stderr(&out));
+    let from_file = read_json(&run.join("defects.json"));
+    let out = localise(&run, &[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let recorded = read_json(&run.join("defects.json"));
+    assert!(!recorded["defects"].as_array().unwrap().is_empty());
+    assert_eq!(from_file, recorded);
 
     // A missing map file, and a run that was never detected.
     let out = localise(&run, &["--map", "/nonexistent/map.ply"]);

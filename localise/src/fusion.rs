@@ -87,18 +87,19 @@ pub fn fuse(observations: &[Observation], options: &FusionOptions) -> Vec<Defect
     if !placed.is_empty() {
         let tree: ImmutableKdTree<f64, 3> =
             ImmutableKdTree::new_from_slice(&centres).expect("finite observation centres");
-        let largest = placed.iter().map(|i| radius(*i)).fold(0.0, f64::max);
         let min_cos = options.max_normal_angle_deg.to_radians().cos();
         for (a, &i) in placed.iter().enumerate() {
             let pa = placement(i);
-            let reach = radius(i) + largest + options.link_distance;
+            // Linked pairs are at most r_a + r_b + link apart: the one with
+            // the larger radius finds the other within twice its own.
+            let reach = 2.0 * radius(i) + options.link_distance;
             for near in tree
                 .query(&centres[a])
                 .within::<SquaredEuclidean<f64>>(reach * reach)
                 .execute()
             {
                 let b = near.item as usize;
-                if b <= a {
+                if b == a || groups.root(a) == groups.root(b) {
                     continue;
                 }
                 let pb = placement(placed[b]);

@@ -279,7 +279,7 @@ fn intersect(
     (t > 0.0).then(|| origin + dir * t)
 }
 
-/// A detection's rays need the image only for its trace.
+/// The crack traced in a detection's box, when its frame's image decoded.
 pub fn trace_in(gray: Option<&GrayImage>, detection: &FrameDetection) -> Option<CrackTrace> {
     let b = detection.detection.bbox;
     crate::trace::trace(gray?, [b.x0, b.y0, b.x1, b.y1])

@@ -61,7 +61,6 @@ pub fn cast(
     dir: &Vector3<f64>,
     max_range: f64,
 ) -> Option<SurfaceHit> {
-    let res = map.voxels.grid.resolution;
     let mut from = 0.0;
     // The first hit no plane confirms, used if no confirmed one follows.
     let mut unconfirmed: Option<SurfaceHit> = None;
@@ -72,15 +71,14 @@ pub fn cast(
             break;
         };
         let entered = from + hit.distance;
-        // Map points of this voxel (and its neighbours' edges) near the ray.
-        let centre = map.voxels.grid.center(hit.voxel);
+        // Map points of this voxel near the ray: where the ray crosses a
+        // surface, the points around the crossing are in a voxel it enters.
         let mut along: Vec<f64> = map
-            .within(&centre, res * 0.9)
-            .into_iter()
+            .points_in(hit.voxel)
             .filter_map(|p| {
-                let v = p.point - origin;
+                let v = p - origin;
                 let t = v.dot(dir);
-                ((v - dir * t).norm() < RAY_RADIUS && t > 0.0).then_some(t)
+                (t > 0.0 && (v - dir * t).norm_squared() < RAY_RADIUS * RAY_RADIUS).then_some(t)
             })
             .collect();
         if along.is_empty() {
@@ -141,11 +139,8 @@ fn refine(
     dir: &Vector3<f64>,
     guess: Point3<f64>,
 ) -> (SurfaceHit, bool) {
-    let near: Vec<Point3<f64>> = map
-        .within(&guess, PLANE_RADIUS)
-        .into_iter()
-        .map(|p| p.point)
-        .collect();
+    let mut near: Vec<Point3<f64>> = Vec::new();
+    map.visit_within(&guess, PLANE_RADIUS, |p| near.push(*p));
     let planes = planes(&near);
     let crossing = |plane: &Plane| {
         let n = if plane.normal.dot(dir) > 0.0 {
@@ -206,7 +201,8 @@ struct Plane {
 const SUPPORT_RADIUS: f64 = 0.15;
 /// Most planes looked for around one hit (a corner has three).
 const MAX_PLANES: usize = 3;
-/// Sample draws per plane.
+/// Most sample draws per plane; fewer when the planes found so far leave
+/// little doubt (adaptive RANSAC, 99% confidence).
 const DRAWS: usize = 40;
 
 /// The planes in a neighbourhood, largest first (RANSAC, then a least-squares
@@ -224,7 +220,10 @@ fn planes(points: &[Point3<f64>]) -> Vec<Plane> {
     };
     while found.len() < MAX_PLANES && rest.len() >= PLANE_POINTS {
         let mut best: Option<(usize, Point3<f64>, Vector3<f64>)> = None;
-        for _ in 0..DRAWS {
+        let mut needed = DRAWS;
+        let mut drawn = 0;
+        while drawn < needed {
+            drawn += 1;
             let (a, b, c) = (
                 rest[draw(rest.len())],
                 rest[draw(rest.len())],
@@ -239,6 +238,9 @@ fn planes(points: &[Point3<f64>]) -> Vec<Plane> {
                 .count();
             if best.is_none_or(|b| count > b.0) {
                 best = Some((count, a, n));
+                let w = count as f64 / rest.len() as f64;
+                let draws = (0.01f64).ln() / (1.0 - w.powi(3)).max(1e-12).ln();
+                needed = needed.min(draws.ceil().max(1.0) as usize);
             }
         }
         let Some((count, a, n)) = best.filter(|b| b.0 >= PLANE_POINTS) else {

@@ -8,6 +8,9 @@ pub mod pointcloud2;
 pub mod raycast;
 pub mod voxel;
 
+use std::collections::HashMap;
+use std::ops::Range;
+
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::Point3;
 
@@ -23,6 +26,9 @@ pub struct SlamMap {
     pub cloud: PointCloud,
     pub voxels: VoxelMap,
     tree: ImmutableKdTree<f64, 3>,
+    /// Point indices grouped by voxel, and each voxel's range of them.
+    by_voxel: Vec<u32>,
+    ranges: HashMap<VoxelIndex, Range<usize>>,
 }
 
 /// A map point found by a query.
@@ -50,11 +56,33 @@ impl SlamMap {
         let voxels = VoxelMap::from_points(grid, &cloud.points, 1);
         let coords: Vec<[f64; 3]> = cloud.points.iter().map(|p| [p.x, p.y, p.z]).collect();
         let tree = ImmutableKdTree::new_from_slice(&coords).ok()?;
+        let keys: Vec<VoxelIndex> = cloud.points.iter().map(|p| grid.voxel_of(p)).collect();
+        let mut by_voxel: Vec<u32> = (0..cloud.points.len() as u32).collect();
+        by_voxel.sort_by_key(|i| keys[*i as usize].0);
+        let mut ranges = HashMap::with_capacity(voxels.len());
+        let mut start = 0;
+        for end in 1..=by_voxel.len() {
+            let key = keys[by_voxel[start] as usize];
+            if end == by_voxel.len() || keys[by_voxel[end] as usize] != key {
+                ranges.insert(key, start..end);
+                start = end;
+            }
+        }
         Some(Self {
             cloud,
             voxels,
             tree,
+            by_voxel,
+            ranges,
         })
+    }
+
+    /// The map points in a voxel.
+    pub fn points_in(&self, v: VoxelIndex) -> impl Iterator<Item = &Point3<f64>> + '_ {
+        let range = self.ranges.get(&v).cloned().unwrap_or(0..0);
+        self.by_voxel[range]
+            .iter()
+            .map(|i| &self.cloud.points[*i as usize])
     }
 
     /// The map point nearest to `p`.
@@ -69,6 +97,35 @@ impl SlamMap {
             index,
             point: self.cloud.points[index],
             distance: hit.distance.sqrt(),
+        }
+    }
+
+    /// Visit the map points within `radius` of `p`, in no order (no
+    /// allocation, no sort: for the hot loops of ray casting). Small radii
+    /// scan the few voxels the ball touches, which beats a tree descent.
+    pub fn visit_within(&self, p: &Point3<f64>, radius: f64, mut visit: impl FnMut(&Point3<f64>)) {
+        let grid = self.voxels.grid;
+        if radius > grid.resolution {
+            self.tree
+                .query(&[p.x, p.y, p.z])
+                .within::<SquaredEuclidean<f64>>(radius * radius)
+                .unsorted()
+                .visit(|hit| visit(&self.cloud.points[hit.item as usize]));
+            return;
+        }
+        let r = nalgebra::Vector3::repeat(radius);
+        let (lo, hi) = (grid.voxel_of(&(p - r)).0, grid.voxel_of(&(p + r)).0);
+        let r2 = radius * radius;
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    for q in self.points_in(VoxelIndex([x, y, z])) {
+                        if (q - p).norm_squared() <= r2 {
+                            visit(q);
+                        }
+                    }
+                }
+            }
         }
     }
 
@@ -118,6 +175,30 @@ mod tests {
             let within = map.within(&q, 1.5);
             assert_eq!(within.len(), n);
             assert!(within.windows(2).all(|w| w[0].distance <= w[1].distance));
+        }
+        // Points by voxel: each point in exactly its own voxel.
+        let mut counted = 0;
+        for v in map.voxels.voxels() {
+            let inside: Vec<&Point3<f64>> = map.points_in(v).collect();
+            assert_eq!(inside.len() as u32, map.voxels.points_in(v));
+            assert!(inside.iter().all(|p| map.voxels.grid.voxel_of(p) == v));
+            counted += inside.len();
+        }
+        assert_eq!(counted, points.len());
+        // Visiting a ball, by voxels (small radius) or the tree (large), finds what a search does.
+        for (q, r) in [
+            (Point3::new(0.3, 2.0, 1.0), 0.4),
+            (Point3::new(-4.0, 1.0, 2.0), 2.5),
+        ] {
+            let mut seen = Vec::new();
+            map.visit_within(&q, r, |p| seen.push(*p));
+            let mut expected: Vec<Point3<f64>> =
+                map.within(&q, r).iter().map(|n| n.point).collect();
+            let key = |p: &Point3<f64>| (p.x.to_bits(), p.y.to_bits(), p.z.to_bits());
+            seen.sort_by_key(key);
+            expected.sort_by_key(key);
+            assert!(!expected.is_empty());
+            assert_eq!(seen, expected);
         }
         assert!(SlamMap::new(PointCloud::default(), 0.5).is_none());
     }
