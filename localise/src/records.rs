@@ -41,8 +41,9 @@ pub struct DefectRecord {
     pub frames: u32,
     pub confidence: f64,
     pub max_score: f64,
-    /// JPEG of the best view, relative to the run directory.
-    pub crop: String,
+    /// JPEG of the best view, relative to the run directory (none when its
+    /// image could not be decoded).
+    pub crop: Option<String>,
     pub best: ViewRecord,
     /// Every supporting view, in frame order.
     pub views: Vec<ViewRecord>,
@@ -66,7 +67,7 @@ fn view(o: &Observation) -> Option<ViewRecord> {
 }
 
 impl DefectRecord {
-    pub fn new(c: &DefectCandidate, observations: &[Observation], crop: String) -> Self {
+    pub fn new(c: &DefectCandidate, observations: &[Observation], crop: Option<String>) -> Self {
         let views = c
             .observations
             .iter()
@@ -250,7 +251,9 @@ pub fn defects_table(defects: &[DefectRecord]) -> PolarsResult<DataFrame> {
     }
     columns.push(Column::new(
         "crop".into(),
-        d.iter().map(|d| d.crop.as_str()).collect::<Vec<&str>>(),
+        d.iter()
+            .map(|d| d.crop.as_deref())
+            .collect::<Vec<Option<&str>>>(),
     ));
     DataFrame::new(d.len(), columns)
 }

@@ -362,8 +362,8 @@ fn write_outputs(
         .map(|c| {
             let name = format!("{}/{}.jpg", files::CROPS, c.id);
             let best = &observations[c.best];
-            write_crop(flight, best, &run.file(&name)).map_err(write_error(&name))?;
-            Ok(DefectRecord::new(c, observations, name))
+            let written = write_crop(flight, best, &run.file(&name)).map_err(write_error(&name))?;
+            Ok(DefectRecord::new(c, observations, written.then_some(name)))
         })
         .collect::<Result<_, LocaliseError>>()?;
     let mut defect_of: Vec<Option<String>> = vec![None; observations.len()];
@@ -386,14 +386,19 @@ fn write_outputs(
     Ok(())
 }
 
-/// Crop of the best view around its box (with the box drawn), for reviewers.
-fn write_crop(flight: &Flight, best: &Observation, path: &Path) -> Result<(), String> {
+/// Crop of the best view around its box (with the box drawn), for
+/// reviewers; `false` when the frame's image cannot be decoded (its
+/// detections were then placed by their boxes, and the summary says so).
+fn write_crop(flight: &Flight, best: &Observation, path: &Path) -> Result<bool, String> {
     let frame = flight
         .frames
         .iter()
         .find(|f| f.index == best.detection.frame)
         .ok_or("frame missing")?;
-    let img = flight.image(frame).map_err(|e| e.to_string())?.to_rgb8();
+    let Ok(img) = flight.image(frame) else {
+        return Ok(false);
+    };
+    let img = img.to_rgb8();
     let b = best.detection.detection.bbox;
     let margin = (0.5 * (b.x1 - b.x0).max(b.y1 - b.y0)).max(24.0);
     let (w, h) = (img.width() as f32, img.height() as f32);
@@ -421,5 +426,6 @@ fn write_crop(flight: &Flight, best: &Observation, path: &Path) -> Result<(), St
     DynamicImage::ImageRgb8(crop)
         .save_with_format(&tmp, image::ImageFormat::Jpeg)
         .map_err(|e| e.to_string())?;
-    std::fs::rename(&tmp, path).map_err(|e| e.to_string())
+    std::fs::rename(&tmp, path).map_err(|e| e.to_string())?;
+    Ok(true)
 }
