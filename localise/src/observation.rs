@@ -58,7 +58,8 @@ pub struct Observation {
     pub placement: Option<Placement>,
     /// Centre-line pixels traced in the image (0: placed by its box).
     pub traced_px: u32,
-    /// The box touches the image border: the crack may go on out of view.
+    /// The box or the traced crack touches the image border: the crack may
+    /// go on out of view.
     pub clipped: bool,
 }
 
@@ -109,10 +110,15 @@ impl Scene<'_> {
         trace: Option<&CrackTrace>,
     ) -> Observation {
         let b = detection.detection.bbox;
-        let clipped = b.x0 <= BORDER_PX
-            || b.y0 <= BORDER_PX
-            || b.x1 >= k.width as f32 - BORDER_PX
-            || b.y1 >= k.height as f32 - BORDER_PX;
+        let (w, h) = (k.width as f32, k.height as f32);
+        let at_border = |x: f32, y: f32| {
+            x <= BORDER_PX || y <= BORDER_PX || x >= w - BORDER_PX || y >= h - BORDER_PX
+        };
+        // The trace follows the crack past its box: if it runs to the edge
+        // of the image, so may the crack.
+        let clipped = at_border(b.x0, b.y0)
+            || at_border(b.x1, b.y1)
+            || trace.is_some_and(|t| t.pixels.iter().any(|p| at_border(p.x as f32, p.y as f32)));
         let mut observation = Observation {
             detection,
             outcome: Outcome::NoSurface,

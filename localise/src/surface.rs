@@ -94,10 +94,10 @@ pub fn cast(
             .collect();
         let guess = origin + dir * first[first.len() / 2];
         match refine(map, origin, dir, guess) {
-            (hit, true) => return Some(hit),
-            (hit, false) => {
-                // The ray passes an edge closely: look beyond it.
-                unconfirmed.get_or_insert(hit);
+            (surface, true) => return Some(surface),
+            (surface, false) => {
+                // The ray passes an edge closely: look beyond this voxel.
+                unconfirmed.get_or_insert(surface);
                 passed += 1;
                 from = entered + exit_distance(map, hit.voxel, &(origin + dir * entered), dir);
             }
@@ -108,7 +108,7 @@ pub fn cast(
 
 /// Occupied voxels with points by the ray but no plane crossing it, passed
 /// before the first of them is taken.
-const MAX_UNCONFIRMED: usize = 3;
+const MAX_UNCONFIRMED: usize = 10;
 
 /// Distance along the ray from `p` (inside or on `voxel`) to where it leaves the voxel.
 fn exit_distance(map: &SlamMap, voxel: VoxelIndex, p: &Point3<f64>, dir: &Vector3<f64>) -> f64 {
@@ -166,7 +166,7 @@ fn refine(
             .filter(|d| d.norm() < SUPPORT_RADIUS)
             .collect();
         let offset = support.iter().sum::<Vector3<f64>>() / support.len().max(1) as f64;
-        let around = support.len() >= 2 && offset.norm() < SUPPORT_RADIUS / 2.0;
+        let around = support.len() >= 2 && offset.norm() < MAX_SUPPORT_OFFSET;
         if around && best.is_none_or(|b| t < b.0) {
             best = Some((t, p, n));
         }
@@ -199,6 +199,10 @@ struct Plane {
 
 /// Map points near where a ray crosses a plane that show the plane is there, metres.
 const SUPPORT_RADIUS: f64 = 0.15;
+/// Largest mean offset of those points from the crossing, metres: points
+/// all around a crossing average out near it; beside a plane's edge they
+/// lie on one side.
+const MAX_SUPPORT_OFFSET: f64 = SUPPORT_RADIUS / 2.0;
 /// Most planes looked for around one hit (a corner has three).
 const MAX_PLANES: usize = 3;
 /// Most sample draws per plane; fewer when the planes found so far leave
