@@ -102,7 +102,8 @@ struct Score {
     duplicates: usize,
     /// Distance from each found crack's candidate to the crack's centroid, metres.
     errors: Vec<f64>,
-    /// Estimated over true length of cracks detected from 5 m or closer.
+    /// Estimated over true length of cracks detected from 5 m or closer
+    /// (lengths measured on complete views).
     length_ratios: Vec<f64>,
 }
 
@@ -219,7 +220,9 @@ fn score(sim: &Path, run: &Path) -> Score {
         };
         s.errors
             .push(dist(&vec3(&best["position"]), &cracks[id].centroid));
+        // A length from views the image border cuts is a lower bound, not an estimate.
         if *range <= 5.0
+            && best["length_partial"] == false
             && let Some(length) = best["length_m"].as_f64()
         {
             s.length_ratios.push(length / cracks[id].length_m);

@@ -47,12 +47,16 @@ pub struct DefectCandidate {
     pub face: &'static str,
     /// Estimated length, metres: the longest of its complete views (not cut
     /// by the image border) from [`LENGTH_RANGE_M`] or closer, else of all
-    /// its complete views; `None` with no complete view that could measure
-    /// it (traced, not too oblique). A view shows at most the whole crack:
-    /// faint or hidden stretches only shorten it.
+    /// its complete views, else of its cut views from that range (see
+    /// `length_partial`); `None` with no view that could measure it (traced,
+    /// not too oblique). A view shows at most the whole crack: faint or
+    /// hidden stretches only shorten it.
     pub length_m: Option<f64>,
     /// Views the length was chosen from.
     pub length_views: u32,
+    /// The length comes from views the image border cuts (no complete view
+    /// measured it): the crack is at least this long.
+    pub length_partial: bool,
     /// Distinct frames that saw it.
     pub frames: u32,
     /// Noisy-OR of the scores of its three best frames: views of one crack
@@ -164,17 +168,23 @@ fn candidate(observations: &[Observation], group: Vec<usize>) -> DefectCandidate
             let e = placement(*i).extent;
             [lo.inf(&e[0]), hi.sup(&e[1])]
         });
-    let lengths = |max_range: f64| -> Vec<f64> {
-        complete
+    let lengths = |views: &[usize], max_range: f64| -> Vec<f64> {
+        views
             .iter()
             .map(|i| placement(*i))
             .filter(|p| p.hit.range <= max_range)
             .filter_map(|p| p.length_m)
             .collect()
     };
-    let mut measured = lengths(LENGTH_RANGE_M);
+    let mut length_partial = false;
+    let mut measured = lengths(&complete, LENGTH_RANGE_M);
     if measured.is_empty() {
-        measured = lengths(f64::INFINITY);
+        measured = lengths(&complete, f64::INFINITY);
+    }
+    if measured.is_empty() {
+        // Only views the image border cuts: the longest is a lower bound.
+        length_partial = true;
+        measured = lengths(&group, LENGTH_RANGE_M);
     }
     let length_views = measured.len() as u32;
     let best = *basis
@@ -200,6 +210,7 @@ fn candidate(observations: &[Observation], group: Vec<usize>) -> DefectCandidate
         voxel,
         face: face_name(&normal),
         length_m: measured.iter().copied().reduce(f64::max),
+        length_partial: length_partial && !measured.is_empty(),
         length_views,
         frames: per_frame.len() as u32,
         confidence,
@@ -362,5 +373,26 @@ mod tests {
         let c = fuse(&obs, &FusionOptions::default());
         assert_eq!(c.len(), 2);
         assert!(c.iter().any(|c| c.observations == [0, 1, 2]));
+        assert!(c.iter().all(|c| !c.length_partial));
+    }
+
+    #[test]
+    fn views_cut_by_the_image_border_give_a_lower_bound() {
+        let mut obs = vec![
+            observation(0, [3.0, 1.0, 2.0], [-1.0, 0.0, 0.0], 0.2),
+            observation(1, [3.0, 1.1, 2.0], [-1.0, 0.0, 0.0], 0.3),
+        ];
+        for o in &mut obs {
+            o.clipped = true;
+        }
+        let c = fuse(&obs, &FusionOptions::default());
+        assert_eq!(c.len(), 1);
+        assert!(c[0].length_partial);
+        assert_eq!(c[0].length_m, Some(0.6));
+        // One complete view, however short, is an estimate, not a bound.
+        obs[0].clipped = false;
+        let c = fuse(&obs, &FusionOptions::default());
+        assert!(!c[0].length_partial);
+        assert_eq!(c[0].length_m, Some(0.4));
     }
 }

@@ -38,6 +38,8 @@ pub struct DefectRecord {
     pub face: String,
     pub length_m: Option<f64>,
     pub length_views: u32,
+    /// The length is a lower bound from views the image border cuts.
+    pub length_partial: bool,
     pub frames: u32,
     pub confidence: f64,
     pub max_score: f64,
@@ -83,6 +85,7 @@ impl DefectRecord {
             face: c.face.to_string(),
             length_m: c.length_m,
             length_views: c.length_views,
+            length_partial: c.length_partial,
             frames: c.frames,
             confidence: c.confidence,
             max_score: c.max_score,
@@ -225,6 +228,10 @@ pub fn defects_table(defects: &[DefectRecord]) -> PolarsResult<DataFrame> {
         Column::new(
             "length_views".into(),
             d.iter().map(|d| d.length_views).collect::<Vec<u32>>(),
+        ),
+        Column::new(
+            "length_partial".into(),
+            d.iter().map(|d| d.length_partial).collect::<Vec<bool>>(),
         ),
         Column::new(
             "frames".into(),
