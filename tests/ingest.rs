@@ -11,8 +11,7 @@ use polars::prelude::*;
 use serde_json::Value;
 
 fn frames_table(run: &Path) -> DataFrame {
-    let file = std::fs::File::open(run.join("frames.parquet")).unwrap();
-    ParquetReader::new(file).finish().unwrap()
+    read_parquet(&run.join("frames.parquet"))
 }
 
 /// Every frame's time, size, status and camera pose match what was written.
@@ -374,9 +373,7 @@ fn truncated_flight_is_salvaged_and_flagged() {
         let poses = summary["poses"].as_u64().unwrap();
         assert!(poses > 0 && poses < expected["poses"].as_u64().unwrap());
         let last_frame_ns = all[n - 1]["time_ns"].as_i64().unwrap();
-        let traj = ParquetReader::new(std::fs::File::open(run.join("trajectory.parquet")).unwrap())
-            .finish()
-            .unwrap();
+        let traj = read_parquet(&run.join("trajectory.parquet"));
         let last_pose_ns = traj
             .column("time_ns")
             .unwrap()

@@ -9,7 +9,6 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use common::*;
-use polars::prelude::*;
 use serde_json::Value;
 
 /// Simulate, ingest and detect; returns (sim dir, run dir).
@@ -245,13 +244,8 @@ fn assert_meets_targets(s: &Score) {
 
 /// The outputs agree with each other and with the detections.
 fn check_outputs(run: &Path, summary: &Value) {
-    let read = |name: &str| {
-        ParquetReader::new(std::fs::File::open(run.join(name)).unwrap())
-            .finish()
-            .unwrap()
-    };
-    let observations = read("observations.parquet");
-    let defects = read("defects.parquet");
+    let observations = read_parquet(&run.join("observations.parquet"));
+    let defects = read_parquet(&run.join("defects.parquet"));
     let json = read_json(&run.join("defects.json"));
     let records = json["defects"].as_array().unwrap();
     assert_eq!(
@@ -425,9 +419,7 @@ fn bad_inputs_fail_clearly_or_are_counted() {
     // Frames without pose: their detections are kept, counted and reported.
     let gap: BTreeSet<u32> = (0..40).collect();
     drop_poses(&run, 0, 40);
-    let rows = ParquetReader::new(std::fs::File::open(run.join("detections.parquet")).unwrap())
-        .finish()
-        .unwrap();
+    let rows = read_parquet(&run.join("detections.parquet"));
     let frames = rows.column("frame").unwrap().u32().unwrap();
     let in_gap = (0..rows.height())
         .filter(|i| gap.contains(&frames.get(*i).unwrap()))

@@ -6,7 +6,7 @@ use polars::prelude::*;
 
 use crate::boxes::{BoxXyxy, Detection};
 use crate::error::DetectError;
-use crate::stage::{DetectSummary, files};
+use crate::stage::files;
 
 /// One detection of one frame, in the frame's pixels.
 #[derive(Debug, Clone, PartialEq)]
@@ -97,19 +97,13 @@ pub fn detections_from_table(df: &DataFrame) -> PolarsResult<Vec<FrameDetection>
         .collect()
 }
 
-/// The detections and summary of a run's completed detect stage.
-pub fn read_detections(
-    run: &std::path::Path,
-) -> Result<(Vec<FrameDetection>, DetectSummary), DetectError> {
+/// The detections of a run's completed detect stage.
+pub fn read_detections(run: &std::path::Path) -> Result<Vec<FrameDetection>, DetectError> {
     let run = RunDir::open(run, files::SUMMARY, "detect")?;
-    let summary: DetectSummary = run.read_json(files::SUMMARY)?;
-    let found = detections_from_table(&run.read_table(files::DETECTIONS)?).map_err(|e| {
-        DetectError::Table {
-            path: run.file(files::DETECTIONS),
-            why: e.to_string(),
-        }
-    })?;
-    Ok((found, summary))
+    detections_from_table(&run.read_table(files::DETECTIONS)?).map_err(|e| DetectError::Table {
+        path: run.file(files::DETECTIONS),
+        why: e.to_string(),
+    })
 }
 
 #[cfg(test)]

@@ -15,26 +15,13 @@ use localise::observation::{Observation, Outcome, Scene};
 use localise::trace::CrackTrace;
 use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector3};
 use rayon::prelude::*;
+use sim::rng::Rng;
 
 const MAP_POINTS: usize = 1_000_000;
 const DETECTIONS: usize = 100_000;
 const CRACKS: usize = 500;
 const MARCH_STEP: f64 = 0.05;
 const MARCH_HIT: f64 = 0.05;
-
-struct Rng(u64);
-impl Rng {
-    fn uniform(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn normal(&mut self) -> f64 {
-        let (u, v) = (self.uniform().max(1e-12), self.uniform());
-        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    }
-}
 
 /// A 200 m box girder, 4 m wide and 3 m deep, on piers every 25 m: its
 /// surfaces sampled with 1.5 cm noise.
@@ -205,7 +192,7 @@ fn march(
 
 fn main() {
     let threads = rayon::current_num_threads();
-    let mut rng = Rng(0x5EED);
+    let mut rng = Rng::new(0x5EED);
     let start = Instant::now();
     let map = girder_map(&mut rng);
     println!(

@@ -6,7 +6,6 @@
 use std::collections::HashSet;
 
 use detect::FrameDetection;
-use image::GrayImage;
 use ingest::Intrinsics;
 use ingest::map::{SlamMap, VoxelIndex};
 use nalgebra::{Isometry3, Point2, Point3, Vector3};
@@ -30,14 +29,6 @@ pub enum Outcome {
 }
 
 impl Outcome {
-    pub const ALL: [Outcome; 5] = [
-        Outcome::Placed,
-        Outcome::NoPose,
-        Outcome::NoIntrinsics,
-        Outcome::NoSurface,
-        Outcome::Obstacle,
-    ];
-
     pub fn as_str(self) -> &'static str {
         match self {
             Outcome::Placed => "placed",
@@ -93,7 +84,7 @@ pub struct Scene<'a> {
 const BORDER_PX: f32 = 3.0;
 /// Views more oblique than this do not measure length, degrees (the View
 /// model's default largest incidence for an inspection view).
-pub const MAX_MEASURED_INCIDENCE_DEG: f64 = 60.0;
+const MAX_MEASURED_INCIDENCE_DEG: f64 = 60.0;
 /// Rays cast per detection, spread along the crack.
 const RAYS: usize = 7;
 /// Rays whose hit lies this far off the crack's surface met something else
@@ -183,26 +174,12 @@ impl Scene<'_> {
         // At grazing angles a pixel spans too much surface to measure on.
         let measurable = surface.incidence.to_degrees() <= MAX_MEASURED_INCIDENCE_DEG;
         let length_m = trace.filter(|_| measurable).map(|t| {
-            crate::trace::CHAIN_CORRECTION
-                * t.edges
-                    .iter()
-                    .filter_map(|&(a, b)| {
-                        Some((on_surface[a as usize]? - on_surface[b as usize]?).norm())
-                    })
-                    .sum::<f64>()
+            let at: Vec<Option<Vector3<f64>>> =
+                on_surface.iter().map(|p| p.map(|p| p.coords)).collect();
+            t.length(&at)
         });
         // The hit at the crack's centre, for its voxel, face, range and angle.
-        let to_centre = (centre - origin).normalize();
-        let hit =
-            SurfaceHit {
-                point: centre,
-                range: (centre - origin).norm(),
-                incidence: (-to_centre).dot(&surface.normal).clamp(-1.0, 1.0).acos(),
-                voxel: self.map.voxels.grid.voxel_of(
-                    &(centre - surface.normal * (self.map.voxels.grid.resolution * 0.02)),
-                ),
-                ..surface
-            };
+        let hit = SurfaceHit::new(self.map, &origin, centre, surface.normal);
         observation.outcome = match self.structure {
             Some(structure) if !near_structure(structure, hit.voxel) => Outcome::Obstacle,
             _ => Outcome::Placed,
@@ -283,12 +260,6 @@ fn intersect(
     }
     let t = (p - origin).dot(n) / denom;
     (t > 0.0).then(|| origin + dir * t)
-}
-
-/// The crack traced in a detection's box, when its frame's image decoded.
-pub fn trace_in(gray: Option<&GrayImage>, detection: &FrameDetection) -> Option<CrackTrace> {
-    let b = detection.detection.bbox;
-    crate::trace::trace(gray?, [b.x0, b.y0, b.x1, b.y1])
 }
 
 #[cfg(test)]

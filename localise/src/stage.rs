@@ -17,8 +17,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::LocaliseError;
 use crate::fusion::{DefectCandidate, FusionOptions, fuse};
-use crate::observation::{Observation, Outcome, Scene, trace_in};
+use crate::observation::{Observation, Outcome, Scene};
 use crate::records::{DefectRecord, defects_table, observations_table};
+use crate::trace::trace;
 
 /// Files of the localise stage.
 pub mod files {
@@ -119,7 +120,7 @@ pub fn localise(
     options.check()?;
     let start = Instant::now();
     let flight = Flight::load(&options.run)?;
-    let (detections, _) = detect::read_detections(&options.run)?;
+    let detections = detect::read_detections(&options.run)?;
     // A failed rerun must not leave the last run's results looking current.
     flight.run.remove(files::SUMMARY)?;
     let plan = options
@@ -193,10 +194,10 @@ pub fn localise(
     }
     let cast = (outcomes.placed + outcomes.no_surface + outcomes.obstacle) as usize;
     let hit = (outcomes.placed + outcomes.obstacle) as usize;
-    check_overlap(&flight, &map, options.max_range_m, hit, cast)?;
     if outcomes.no_pose > 0 && outcomes.no_pose == total {
         return Err(LocaliseError::NoPoses { detections: total });
     }
+    check_overlap(&flight, &map, options.max_range_m, hit, cast)?;
     if outcomes.no_pose > 0 {
         warnings.push(format!(
             "{} detections are in frames without a pose and were not placed (see outcome = no_pose in {})",
@@ -233,7 +234,7 @@ pub fn localise(
         seconds: start.elapsed().as_secs_f64(),
         warnings,
     };
-    write_outputs(&flight, &observations, &candidates, &summary)?;
+    write_outputs(&flight, &frames, &observations, &candidates, &summary)?;
     Ok(summary)
 }
 
@@ -275,8 +276,11 @@ fn place_frame(
     let observations = detections
         .iter()
         .map(|d| {
-            let trace = trace_in(gray.as_ref(), d);
-            scene.place(d.clone(), &pose, k, trace.as_ref())
+            let b = d.detection.bbox;
+            let crack = gray
+                .as_ref()
+                .and_then(|g| trace(g, [b.x0, b.y0, b.x1, b.y1]));
+            scene.place(d.clone(), &pose, k, crack.as_ref())
         })
         .collect();
     (observations, warning)
@@ -343,6 +347,7 @@ fn check_overlap(
 
 fn write_outputs(
     flight: &Flight,
+    frames: &HashMap<u32, &Frame>,
     observations: &[Observation],
     candidates: &[DefectCandidate],
     summary: &LocaliseSummary,
@@ -362,7 +367,9 @@ fn write_outputs(
         .map(|c| {
             let name = format!("{}/{}.jpg", files::CROPS, c.id);
             let best = &observations[c.best];
-            let written = write_crop(flight, best, &run.file(&name)).map_err(write_error(&name))?;
+            let frame = frames[&best.detection.frame];
+            let written =
+                write_crop(flight, frame, best, &run.file(&name)).map_err(write_error(&name))?;
             Ok(DefectRecord::new(c, observations, written.then_some(name)))
         })
         .collect::<Result<_, LocaliseError>>()?;
@@ -389,12 +396,14 @@ fn write_outputs(
 /// Crop of the best view around its box (with the box drawn), for
 /// reviewers; `false` when the frame's image cannot be decoded (its
 /// detections were then placed by their boxes, and the summary says so).
-fn write_crop(flight: &Flight, best: &Observation, path: &Path) -> Result<bool, String> {
-    let frame = flight
-        .frames
-        .iter()
-        .find(|f| f.index == best.detection.frame)
-        .ok_or("frame missing")?;
+/// The frame is decoded again: keeping every frame's image until fusion
+/// picks the best views would hold the whole flight in memory.
+fn write_crop(
+    flight: &Flight,
+    frame: &Frame,
+    best: &Observation,
+    path: &Path,
+) -> Result<bool, String> {
     let Ok(img) = flight.image(frame) else {
         return Ok(false);
     };

@@ -21,6 +21,25 @@ pub struct SurfaceHit {
 }
 
 impl SurfaceHit {
+    /// The hit at `point` on a surface with `normal` (facing the camera),
+    /// seen from `origin`.
+    pub fn new(
+        map: &SlamMap,
+        origin: &Point3<f64>,
+        point: Point3<f64>,
+        normal: Vector3<f64>,
+    ) -> Self {
+        let to_camera = origin - point;
+        let grid = map.voxels.grid;
+        Self {
+            point,
+            normal,
+            voxel: grid.voxel_of(&(point - normal * (grid.resolution * 0.02))),
+            range: to_camera.norm(),
+            incidence: to_camera.normalize().dot(&normal).clamp(-1.0, 1.0).acos(),
+        }
+    }
+
     /// The voxel face the surface lies on: the axis the normal is closest
     /// to, with its sign (`+x`, `-z`, ...).
     pub fn face(&self) -> &'static str {
@@ -177,17 +196,7 @@ fn refine(
         .or_else(|| planes.first().and_then(crossing))
         .filter(|(_, p, _)| (p - guess).norm() < PLANE_RADIUS);
     let (point, normal) = best.map_or((guess, -dir), |(_, p, n)| (p, n));
-    let range = (point - origin).norm();
-    let grid = map.voxels.grid;
-    let inside = point - normal * (grid.resolution * 0.02);
-    let hit = SurfaceHit {
-        point,
-        normal,
-        voxel: grid.voxel_of(&inside),
-        range,
-        incidence: (-dir).dot(&normal).clamp(-1.0, 1.0).acos(),
-    };
-    (hit, confirmed)
+    (SurfaceHit::new(map, origin, point, normal), confirmed)
 }
 
 /// A plane found among map points.
@@ -266,7 +275,7 @@ fn planes(points: &[Point3<f64>]) -> Vec<Plane> {
 }
 
 /// Least-squares plane through points: centroid and unit normal.
-pub fn fit_plane(points: &[Point3<f64>]) -> Option<(Point3<f64>, Vector3<f64>)> {
+fn fit_plane(points: &[Point3<f64>]) -> Option<(Point3<f64>, Vector3<f64>)> {
     if points.len() < PLANE_POINTS {
         return None;
     }

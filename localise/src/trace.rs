@@ -6,7 +6,7 @@
 //! not at the centre of its box.
 
 use image::GrayImage;
-use nalgebra::Point2;
+use nalgebra::{Point2, SVector};
 
 /// A crack's centre line in one image.
 #[derive(Debug, Clone, PartialEq)]
@@ -19,20 +19,22 @@ pub struct CrackTrace {
 }
 
 impl CrackTrace {
-    /// Length of the centre line, pixels.
-    pub fn length_px(&self) -> f64 {
+    /// Length of the centre line with its pixels placed at `at` (pixel `i`
+    /// at `at[i]`, `None` where it has no place): in pixels for the pixels
+    /// themselves, in metres for their places on a surface.
+    pub fn length<const D: usize>(&self, at: &[Option<SVector<f64, D>>]) -> f64 {
         CHAIN_CORRECTION
             * self
                 .edges
                 .iter()
-                .map(|&(a, b)| (self.pixels[a as usize] - self.pixels[b as usize]).norm())
+                .filter_map(|&(a, b)| Some((at[a as usize]? - at[b as usize]?).norm()))
                 .sum::<f64>()
     }
 }
 
 /// Steps of 1 and sqrt 2 between pixel centres overstate a line's length by
 /// up to 8% depending on its direction; this factor (Kulpa 1977) makes the
-/// sum unbiased over directions. Apply it to any sum of trace edges.
+/// sum unbiased over directions.
 pub const CHAIN_CORRECTION: f64 = 0.9481;
 
 /// Pixels around the box searched too, since boxes are drawn tight.
@@ -360,7 +362,8 @@ mod tests {
             let img = line_image(a, b, width);
             let t = trace(&img, [20.0, 5.0, 180.0, 145.0]).unwrap();
             let truth = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
-            let len = t.length_px();
+            let at: Vec<_> = t.pixels.iter().map(|p| Some(p.coords)).collect();
+            let len = t.length(&at);
             assert!(
                 (len - truth).abs() / truth < 0.1,
                 "traced {len:.1} px of a {truth:.1} px line"

@@ -124,10 +124,14 @@ pub struct DetectionRow {
     pub prompt: String,
 }
 
+/// A Parquet table, whole.
+pub fn read_parquet(path: &Path) -> DataFrame {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    ParquetReader::new(file).finish().unwrap()
+}
+
 pub fn detection_rows(run: &Path) -> Vec<DetectionRow> {
-    let df = ParquetReader::new(std::fs::File::open(run.join("detections.parquet")).unwrap())
-        .finish()
-        .unwrap();
+    let df = read_parquet(&run.join("detections.parquet"));
     let time = df.column("time_ns").unwrap().i64().unwrap().clone();
     let tile = df.column("tile").unwrap().i32().unwrap().clone();
     let prompt = df.column("prompt").unwrap().str().unwrap().clone();
