@@ -298,16 +298,22 @@ fn defect_candidates_match_truth_on_simulated_flights() {
     // below the body and pitched 12 degrees (not an identity extrinsic), and
     // 2 cm / 0.17 degree pose noise.
     let mut all = Score::default();
-    for scene in ["girder-bridge", "tower"] {
-        let (sim, run) = detected_flight(dir.path(), scene, &["--scene", scene]);
+    // Bridge seed 3 has a crack on a deck slab edge, seen on both faces.
+    for (scene, seed) in [
+        ("girder-bridge", "1"),
+        ("tower", "1"),
+        ("girder-bridge", "3"),
+    ] {
+        let name = format!("{scene}-{seed}");
+        let (sim, run) = detected_flight(dir.path(), &name, &["--scene", scene, "--seed", seed]);
         let summary = localise_ok(&sim, &run);
         check_outputs(&run, &summary);
         let s = score(&sim, &run);
-        s.print(scene);
+        s.print(&name);
         assert_meets_targets(&s);
         all = all.add(s);
     }
-    all.print("both flights");
+    all.print("all flights");
 }
 
 #[test]

@@ -1,7 +1,8 @@
 //! Multi-view fusion: observations of one crack from many frames become one
 //! defect candidate. Two placed observations belong together when they lie
 //! on the same surface (normals agree, planes coincide) and their extents on
-//! it overlap or nearly touch; candidates are the connected groups.
+//! it overlap or nearly touch, or sit on two faces meeting at an edge with
+//! overlapping extents; candidates are the connected groups.
 
 use std::collections::BTreeMap;
 
@@ -72,6 +73,9 @@ pub struct DefectCandidate {
 
 /// Views farther than this measure length too coarsely to count, metres.
 pub const LENGTH_RANGE_M: f64 = 5.0;
+/// Faces meeting at an edge are about 90 degrees apart; opposite sides of a
+/// thin member are 180 (cosine of 100 degrees).
+const EDGE_MIN_COS: f64 = -0.17;
 /// A crack's extent larger than this is an error, metres (caps the search).
 const MAX_RADIUS: f64 = 3.0;
 
@@ -108,9 +112,15 @@ pub fn fuse(observations: &[Observation], options: &FusionOptions) -> Vec<Defect
                 }
                 let pb = placement(placed[b]);
                 let apart = (pb.centre - pa.centre).norm();
-                let same_surface = pa.hit.normal.dot(&pb.hit.normal) >= min_cos
+                let cos = pa.hit.normal.dot(&pb.hit.normal);
+                let touch = radius(i) + radius(placed[b]);
+                let same_surface = cos >= min_cos
                     && (pb.centre - pa.centre).dot(&pa.hit.normal).abs() < options.link_distance;
-                if same_surface && apart <= radius(i) + radius(placed[b]) + options.link_distance {
+                // A crack at an edge is placed on either face by rays that
+                // graze it: faces at an angle (never opposite sides of a
+                // web) join when the extents themselves overlap.
+                let round_edge = cos >= EDGE_MIN_COS && apart <= touch;
+                if (same_surface && apart <= touch + options.link_distance) || round_edge {
                     groups.join(a, b);
                 }
             }
@@ -359,6 +369,20 @@ mod tests {
         let mut ids: Vec<&str> = c.iter().map(|c| c.id.as_str()).collect();
         ids.sort();
         assert_eq!(ids, ["0_0_0+x", "0_0_0-x", "0_0_0-x.2"]);
+    }
+
+    #[test]
+    fn a_crack_at_an_edge_placed_on_both_faces_is_one_candidate() {
+        let obs = vec![
+            // Seen on the top face and on the side face of a slab edge.
+            observation(0, [3.0, 1.0, 2.0], [0.0, 0.0, 1.0], 0.3),
+            observation(1, [3.05, 1.1, 1.85], [1.0, 0.0, 0.0], 0.3),
+            // A crack round the edge but clear of the first one's extent.
+            observation(2, [3.05, 2.0, 1.2], [1.0, 0.0, 0.0], 0.2),
+        ];
+        let c = fuse(&obs, &FusionOptions::default());
+        assert_eq!(c.len(), 2);
+        assert!(c.iter().any(|c| c.observations == [0, 1]));
     }
 
     #[test]
