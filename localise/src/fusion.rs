@@ -114,13 +114,17 @@ pub fn fuse(observations: &[Observation], options: &FusionOptions) -> Vec<Defect
                 let apart = (pb.centre - pa.centre).norm();
                 let cos = pa.hit.normal.dot(&pb.hit.normal);
                 let touch = radius(i) + radius(placed[b]);
-                let same_surface = cos >= min_cos
-                    && (pb.centre - pa.centre).dot(&pa.hit.normal).abs() < options.link_distance;
-                // A crack at an edge is placed on either face by rays that
-                // graze it: faces at an angle (never opposite sides of a
-                // web) join when the extents themselves overlap.
-                let round_edge = cos >= EDGE_MIN_COS && apart <= touch;
-                if (same_surface && apart <= touch + options.link_distance) || round_edge {
+                let joined = if cos >= min_cos {
+                    // One surface: the planes coincide, the extents nearly touch.
+                    (pb.centre - pa.centre).dot(&pa.hit.normal).abs() < options.link_distance
+                        && apart <= touch + options.link_distance
+                } else {
+                    // Faces at an angle (never opposite sides of a web): rays
+                    // grazing an edge place a crack on either face, so the
+                    // extents themselves must overlap.
+                    cos >= EDGE_MIN_COS && apart <= touch
+                };
+                if joined {
                     groups.join(a, b);
                 }
             }
@@ -383,6 +387,12 @@ mod tests {
         let c = fuse(&obs, &FusionOptions::default());
         assert_eq!(c.len(), 2);
         assert!(c.iter().any(|c| c.observations == [0, 1]));
+        // Parallel faces a step apart are not an edge, however close.
+        let step = vec![
+            observation(0, [3.0, 1.0, 2.0], [-1.0, 0.0, 0.0], 0.3),
+            observation(1, [3.3, 1.1, 2.0], [-1.0, 0.0, 0.0], 0.3),
+        ];
+        assert_eq!(fuse(&step, &FusionOptions::default()).len(), 2);
     }
 
     #[test]
