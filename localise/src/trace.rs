@@ -46,8 +46,14 @@ const MIN_CONTRAST: f64 = 0.06;
 const MIN_CONTRAST_LEVELS: f64 = 3.0;
 /// Darkening, in robust standard deviations of the surface, that counts.
 const NOISE_SIGMAS: f64 = 4.0;
+/// Share of the darkening above that a pixel joined to clearly dark ones
+/// needs to count.
+const WEAK_SHARE: f64 = 0.8;
 /// Dark blobs smaller than this are texture, not crack, pixels.
 const MIN_COMPONENT: usize = 6;
+/// Dark areas holding a full square of `2r + 1` pixels a side, r at least
+/// this, are shade or another surface, not a crack (a thin line).
+const MIN_SHADE_RADIUS: usize = 3;
 
 /// Trace the crack in the box `[x0, y0, x1, y1]` (frame pixels) of `gray`,
 /// following it past the box's edges (a detector often boxes only part of a
@@ -89,12 +95,27 @@ pub fn trace(gray: &GrayImage, bbox: [f32; 4]) -> Option<CrackTrace> {
         .map(|v| (f64::from(*v) - median).abs().min(255.0) as u8)
         .collect();
     let sigma = 1.4826 * f64::from(percentile(&deviations, 0.5));
-    let threshold = median
-        - (NOISE_SIGMAS * sigma)
-            .max(MIN_CONTRAST * median)
-            .max(MIN_CONTRAST_LEVELS);
-    let mut mask: Vec<bool> = values.iter().map(|v| f64::from(*v) < threshold).collect();
-    keep_components(&mut mask, cw as usize, ch as usize, in_box);
+    // Hysteresis, as in Canny: clearly dark pixels find the crack, and
+    // faintly dark ones joined to them follow its fading ends.
+    let threshold = |share: f64| {
+        median
+            - share
+                * (NOISE_SIGMAS * sigma)
+                    .max(MIN_CONTRAST * median)
+                    .max(MIN_CONTRAST_LEVELS)
+    };
+    let (strong, weak) = (threshold(1.0), threshold(WEAK_SHARE));
+    let mut mask: Vec<bool> = values.iter().map(|v| f64::from(*v) < weak).collect();
+    let shortest_side = (bbox[2] - bbox[0]).min(bbox[3] - bbox[1]).max(0.0) as usize;
+    drop_shade(
+        &mut mask,
+        cw as usize,
+        ch as usize,
+        (shortest_side / 16).max(MIN_SHADE_RADIUS),
+    );
+    keep_components(&mut mask, cw as usize, ch as usize, |i| {
+        in_box(i) && f64::from(values[i]) < strong
+    });
     thin(&mut mask, cw as usize, ch as usize);
     drop_corners(&mut mask, cw as usize, ch as usize);
     let index: Vec<Option<u32>> = {
@@ -151,9 +172,54 @@ const NEIGHBOURS: [(i32, i32); 8] = [
     (1, 1),
 ];
 
+/// Clear the dark areas too wide to be a crack: every pixel within `r + 1`
+/// of a fully dark square of `2r + 1` pixels a side. A shaded face or a
+/// shadow in the box would otherwise thin to a long line of its own, and
+/// a crack running into it would be measured along the shade's edge.
+fn drop_shade(mask: &mut [bool], w: usize, h: usize, r: usize) {
+    // Summed-area table of `on`, with a zero row and column in front.
+    let table = |on: &dyn Fn(usize) -> bool| {
+        let mut t = vec![0u32; (w + 1) * (h + 1)];
+        for y in 0..h {
+            for x in 0..w {
+                t[(y + 1) * (w + 1) + x + 1] =
+                    u32::from(on(y * w + x)) + t[y * (w + 1) + x + 1] + t[(y + 1) * (w + 1) + x]
+                        - t[y * (w + 1) + x];
+            }
+        }
+        t
+    };
+    // Count in the square of radius `r` around pixel `i`, clipped to the image.
+    let count = |t: &[u32], i: usize, r: usize| {
+        let (x, y) = (i % w, i / w);
+        let (x0, y0, x1, y1) = (
+            x.saturating_sub(r),
+            y.saturating_sub(r),
+            (x + r + 1).min(w),
+            (y + r + 1).min(h),
+        );
+        (
+            t[y1 * (w + 1) + x1] + t[y0 * (w + 1) + x0]
+                - t[y0 * (w + 1) + x1]
+                - t[y1 * (w + 1) + x0],
+            (x1 - x0) * (y1 - y0),
+        )
+    };
+    let dark = table(&|i| mask[i]);
+    let core = table(&|i| {
+        let (n, area) = count(&dark, i, r);
+        area == (2 * r + 1).pow(2) && n as usize == area
+    });
+    for i in 0..mask.len() {
+        if mask[i] && count(&core, i, r + 1).0 > 0 {
+            mask[i] = false;
+        }
+    }
+}
+
 /// Keep the 8-connected groups of at least [`MIN_COMPONENT`] pixels that
-/// reach into the box (`in_box`).
-fn keep_components(mask: &mut [bool], w: usize, h: usize, in_box: impl Fn(usize) -> bool) {
+/// have a seed pixel (`seed`: clearly dark, inside the box).
+fn keep_components(mask: &mut [bool], w: usize, h: usize, seed: impl Fn(usize) -> bool) {
     let mut seen = vec![false; mask.len()];
     let mut stack = Vec::new();
     for start in 0..mask.len() {
@@ -178,7 +244,7 @@ fn keep_components(mask: &mut [bool], w: usize, h: usize, in_box: impl Fn(usize)
                 }
             }
         }
-        if group.len() < MIN_COMPONENT || !group.iter().any(|i| in_box(*i)) {
+        if group.len() < MIN_COMPONENT || !group.iter().any(|i| seed(*i)) {
             for i in group {
                 mask[i] = false;
             }
@@ -377,6 +443,56 @@ mod tests {
                 cross <= width / 2.0 + 1.0
             }));
         }
+    }
+
+    #[test]
+    fn shade_in_the_box_is_not_measured_as_crack() {
+        // A crack that ends at a shaded face, which fills a corner of the box.
+        let (a, b) = ((30.0, 20.0), (148.0, 72.0));
+        let mut img = line_image(a, b, 2.0);
+        for y in 70..150 {
+            for x in 150..175 {
+                img.put_pixel(x, y, Luma([60]));
+            }
+        }
+        let t = trace(&img, [20.0, 5.0, 180.0, 145.0]).unwrap();
+        let at: Vec<_> = t.pixels.iter().map(|p| Some(p.coords)).collect();
+        let truth = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
+        let len = t.length(&at);
+        assert!(
+            (len - truth).abs() / truth < 0.1,
+            "traced {len:.1} px of a {truth:.1} px crack beside shade"
+        );
+        assert!(t.pixels.iter().all(|p| p.x < 150.0));
+    }
+
+    #[test]
+    fn a_crack_fading_out_is_followed_to_its_end() {
+        // On a flat 120 surface the clear threshold is 6% darker (112.8)
+        // and the faint one 80% of that (114.2): the last 40% of this crack
+        // is only faintly dark, and is traced because it joins the rest.
+        let (a, b) = ((30.0, 75.0), (170.0, 75.0));
+        let img = GrayImage::from_fn(200, 150, |x, y| {
+            let on = (f64::from(y) + 0.5 - a.1).abs() <= 1.0 && (30..170).contains(&x);
+            Luma([match (on, x < 114) {
+                (false, _) => 120,
+                (true, true) => 90,
+                (true, false) => 113,
+            }])
+        });
+        let t = trace(&img, [20.0, 5.0, 180.0, 145.0]).unwrap();
+        let at: Vec<_> = t.pixels.iter().map(|p| Some(p.coords)).collect();
+        let (len, truth) = (t.length(&at), b.0 - a.0);
+        assert!(
+            (len - truth).abs() / truth < 0.1,
+            "traced {len:.1} px of a {truth:.1} px fading crack"
+        );
+        // A surface that dark all over is not a crack at all.
+        let faint = GrayImage::from_fn(200, 150, |x, y| {
+            let on = (f64::from(y) + 0.5 - a.1).abs() <= 1.0 && (30..170).contains(&x);
+            Luma([if on { 113 } else { 120 }])
+        });
+        assert!(trace(&faint, [20.0, 5.0, 180.0, 145.0]).is_none());
     }
 
     #[test]
