@@ -210,9 +210,9 @@ fn drop_shade(mask: &mut [bool], w: usize, h: usize, r: usize) {
         let (n, area) = count(&dark, i, r);
         area == (2 * r + 1).pow(2) && n as usize == area
     });
-    for i in 0..mask.len() {
-        if mask[i] && count(&core, i, r + 1).0 > 0 {
-            mask[i] = false;
+    for (i, pixel) in mask.iter_mut().enumerate() {
+        if *pixel && count(&core, i, r + 1).0 > 0 {
+            *pixel = false;
         }
     }
 }
