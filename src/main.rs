@@ -40,6 +40,63 @@ enum Command {
     Detect(DetectArgs),
     /// Place each detection on the SLAM map and fuse views into defect candidates.
     Localise(LocaliseArgs),
+    /// Recompute voxel coverage achieved versus planned under the View model.
+    Coverage(CoverageArgs),
+}
+
+#[derive(Args)]
+struct CoverageArgs {
+    /// Run directory holding a completed ingest.
+    #[arg(long)]
+    run: PathBuf,
+    /// Inspection plan: target voxels, voxel grid, View model and the planned viewpoints.
+    #[arg(long, value_name = "plan.json")]
+    plan: Option<PathBuf>,
+    /// Judge this plan's viewpoints instead of the flight's frames (check a plan before flying it).
+    #[arg(long, value_name = "plan.json")]
+    viewpoints: Option<PathBuf>,
+    /// SLAM map (PLY or PCD, world frame, metres) instead of the one recorded in the flight.
+    #[arg(long, value_name = "FILE")]
+    map: Option<PathBuf>,
+    /// Targets: occupied map voxels inside these boxes (JSON list of {"min": [x,y,z], "max": [x,y,z]}).
+    #[arg(long, value_name = "FILE", conflicts_with = "target_cloud")]
+    target_boxes: Option<PathBuf>,
+    /// Targets: voxels of a segmented infrastructure cloud (PLY or PCD).
+    #[arg(long, value_name = "FILE")]
+    target_cloud: Option<PathBuf>,
+    /// Settings file (TOML, tables [view] and [coverage]); command-line flags win.
+    #[arg(long, value_name = "postflight.toml")]
+    config: Option<PathBuf>,
+    /// Apex angle of the viewing cone, degrees [default: plan's, else 20].
+    #[arg(long, value_name = "DEGREES")]
+    cone_apex: Option<f64>,
+    /// Near edge of the distance band, metres [default: plan's, else 2].
+    #[arg(long, value_name = "METRES")]
+    min_distance: Option<f64>,
+    /// Far edge of the distance band, metres [default: plan's, else 5].
+    #[arg(long, value_name = "METRES")]
+    max_distance: Option<f64>,
+    /// Largest angle between a face's normal and the camera, degrees [default: plan's, else 60].
+    #[arg(long, value_name = "DEGREES")]
+    max_incidence: Option<f64>,
+    /// Largest motion blur of a usable frame, pixels [default: plan's, else 3].
+    #[arg(long, value_name = "PIXELS")]
+    max_blur: Option<f64>,
+    /// Coarsest ground sampling distance of a usable view, mm per pixel [default: plan's, else 6].
+    #[arg(long, value_name = "MM")]
+    max_gsd: Option<f64>,
+    /// Views a face needs [default: plan's, else 1].
+    #[arg(long, value_name = "N")]
+    views: Option<u32>,
+    /// Views a face needs near a defect candidate (defects.json from localise).
+    #[arg(long, value_name = "N")]
+    views_near_defects: Option<u32>,
+    /// What counts as near a defect candidate, metres [default: 1].
+    #[arg(long, value_name = "METRES")]
+    defect_radius: Option<f64>,
+    /// Exposure assumed for frames that recorded none, seconds.
+    #[arg(long, value_name = "SECONDS")]
+    exposure: Option<f64>,
 }
 
 #[derive(Args)]
@@ -236,6 +293,7 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
         Command::Simulate(args) => simulate(args, cli.quiet),
         Command::Detect(args) => detect(args, cli.quiet),
         Command::Localise(args) => localise(args, cli.quiet),
+        Command::Coverage(args) => coverage(args, cli.quiet),
     }
 }
 
@@ -386,6 +444,59 @@ fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
             o.no_pose,
             o.no_surface,
             o.obstacle,
+            args.run.display()
+        );
+    }
+    Ok(())
+}
+
+fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
+    let targets = match (&args.target_boxes, &args.target_cloud) {
+        (Some(path), _) => coverage::Targets::Boxes(path.clone()),
+        (_, Some(path)) => coverage::Targets::Cloud(path.clone()),
+        _ => coverage::Targets::Plan,
+    };
+    let options = coverage::CoverageOptions {
+        plan: args.plan.clone(),
+        viewpoints: args.viewpoints.clone(),
+        map: args.map.clone(),
+        targets,
+        config: args.config.clone(),
+        view: coverage::ViewSettings {
+            cone_apex_deg: args.cone_apex,
+            min_distance_m: args.min_distance,
+            max_distance_m: args.max_distance,
+            max_incidence_deg: args.max_incidence,
+            max_blur_px: args.max_blur,
+            max_gsd_mm: args.max_gsd,
+            views_required: args.views,
+        },
+        settings: coverage::CoverageSettings {
+            views_near_defects: args.views_near_defects,
+            defect_radius_m: args.defect_radius,
+            exposure_s: args.exposure,
+        },
+        ..coverage::CoverageOptions::new(args.run.clone())
+    };
+    let bar = progress::Bar::count("coverage", quiet);
+    let summary = coverage::coverage(&options, &mut |done, total| bar.set(done, total))?;
+    bar.finish();
+    for w in &summary.warnings {
+        tracing::warn!("{w}");
+    }
+    if !quiet {
+        let planned = match (summary.planned_voxels, summary.planned_inspected_pct) {
+            (Some(p), Some(pct)) => format!(", {pct:.1}% of {p} planned"),
+            _ => String::new(),
+        };
+        println!(
+            "inspected {} of {} target voxels ({:.1}%{planned}); {} gaps to replan, {} uninspectable; face area {:.1}% into {}",
+            summary.inspected_voxels,
+            summary.target_voxels,
+            summary.inspected_pct,
+            summary.gap_voxels,
+            summary.uninspectable_voxels,
+            summary.face_area_coverage_pct,
             args.run.display()
         );
     }

@@ -4,3 +4,20 @@
 //! follow-up flight for the gaps as a Generalized TSP with its own solver. It
 //! owns the coverage tables and the follow-up plan; it reads only the flight
 //! model from `ingest`.
+
+pub mod cover;
+pub mod error;
+pub mod face;
+pub mod motion;
+pub mod reach;
+pub mod stage;
+pub mod targets;
+pub mod view;
+
+pub use cover::{FaceCover, Shot, cover, cover_naive};
+pub use error::CoverageError;
+pub use face::{Face, exposed_faces};
+pub use stage::{
+    CoverageOptions, CoverageSettings, CoverageSummary, Targets, ViewSettings, coverage,
+};
+pub use view::{Miss, Sight};

@@ -35,6 +35,8 @@ pub struct FaceTruth {
     pub views: u32,
     /// Plan viewpoints that would have inspected it.
     pub planned_views: u32,
+    /// Of those, viewpoints the flight skipped.
+    pub skipped_views: u32,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -42,6 +44,9 @@ pub struct VoxelTruth {
     pub voxel: VoxelIndex,
     pub inspected: bool,
     pub planned: bool,
+    /// Not inspected, and the viewpoints the flight skipped would have: a
+    /// gap the skipped segment left.
+    pub skipped_gap: bool,
     /// Exposed faces (not shared with another target voxel).
     pub faces: Vec<FaceTruth>,
 }
@@ -95,7 +100,8 @@ fn inspects(
         .is_none_or(|h| h.distance > dist - resolution)
 }
 
-/// Coverage of the plan's target voxels by `flown` frames and `planned` views.
+/// Coverage of the plan's target voxels by `flown` frames and `planned`
+/// views (each flagged whether the flight skipped it).
 pub fn coverage(
     scene: &Scene,
     grid: &VoxelGrid,
@@ -103,8 +109,10 @@ pub fn coverage(
     view: &ViewModel,
     k: &Intrinsics,
     flown: &[View],
-    planned: &[Isometry3<f64>],
+    planned: &[(Isometry3<f64>, bool)],
 ) -> CoverageTruth {
+    let skipped: Vec<Isometry3<f64>> = planned.iter().filter(|p| p.1).map(|p| p.0).collect();
+    let planned: Vec<Isometry3<f64>> = planned.iter().map(|p| p.0).collect();
     let set: HashSet<VoxelIndex> = targets.iter().copied().collect();
     let usable: Vec<&Isometry3<f64>> = flown
         .iter()
@@ -132,14 +140,17 @@ pub fn coverage(
                         face: name,
                         views: count(&mut usable.iter().copied()),
                         planned_views: count(&mut planned.iter()),
+                        skipped_views: count(&mut skipped.iter()),
                     }
                 })
                 .collect();
             let need = view.views_required.max(1);
+            let inspected = faces.iter().any(|f| f.views >= need);
             VoxelTruth {
                 voxel: v,
-                inspected: faces.iter().any(|f| f.views >= need),
+                inspected,
                 planned: faces.iter().any(|f| f.planned_views >= need),
+                skipped_gap: !inspected && faces.iter().any(|f| f.skipped_views >= need),
                 faces,
             }
         })

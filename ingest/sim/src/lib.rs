@@ -309,14 +309,16 @@ pub fn simulate(
     record::write_ply(&options.out.join("map.ply"), &map)?;
 
     let grid = plan.grid();
-    let planned: Vec<Isometry3<f64>> = plan
+    let planned: Vec<(Isometry3<f64>, bool)> = plan
         .viewpoints
         .iter()
-        .map(|v| {
-            Isometry3::from_parts(
+        .enumerate()
+        .map(|(i, v)| {
+            let camera = Isometry3::from_parts(
                 Translation3::from(Vector3::from(v.position)),
                 UnitQuaternion::from_axis_angle(&Vector3::z_axis(), v.yaw),
-            ) * body_camera
+            ) * body_camera;
+            (camera, flight.skipped.contains(&i))
         })
         .collect();
     let coverage = coverage::coverage(

@@ -87,11 +87,22 @@ impl VoxelMap {
         direction: &Vector3<f64>,
         max_range: f64,
     ) -> Option<VoxelHit> {
+        self.cast_past(origin, direction, max_range, |_| false)
+    }
+
+    /// [`VoxelMap::cast`], passing through the occupied voxels `pass` accepts.
+    pub fn cast_past(
+        &self,
+        origin: &Point3<f64>,
+        direction: &Vector3<f64>,
+        max_range: f64,
+        pass: impl Fn(VoxelIndex) -> bool,
+    ) -> Option<VoxelHit> {
         let dir = direction.try_normalize(1e-12)?;
         let mut walk = Walk::new(self, origin, &dir);
         while walk.entered_at <= max_range {
             let voxel = VoxelIndex(walk.voxel);
-            if self.is_occupied(voxel) {
+            if self.is_occupied(voxel) && !pass(voxel) {
                 return Some(VoxelHit {
                     voxel,
                     distance: walk.entered_at,

@@ -1,0 +1,717 @@
+//! The coverage stage: `postflight coverage --run RUN_DIR`. Judges every
+//! exposed face of the target voxels against every usable frame of the
+//! flight (and against the plan's viewpoints, for what was planned), and
+//! writes `coverage.parquet` (one row per target voxel) and `coverage.json`.
+
+use std::collections::{BTreeMap, HashSet};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use ingest::map::{DEFAULT_RESOLUTION, PointCloud, SlamMap, VoxelGrid, VoxelIndex};
+use ingest::{Flight, InspectionPlan, Intrinsics, PoseAt, ViewModel, Viewpoint};
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use polars::prelude::*;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::cover::{FaceCover, Shot, cover};
+use crate::error::CoverageError;
+use crate::face::{Face, exposed_faces};
+use crate::motion::{blur_px, velocity};
+use crate::reach::inspectable;
+use crate::targets;
+use crate::view::Miss;
+
+/// Files this stage writes in the run directory.
+pub mod files {
+    pub const TABLE: &str = "coverage.parquet";
+    pub const SUMMARY: &str = "coverage.json";
+    /// With `--viewpoints`: a plan checked before flying it.
+    pub const VIEWPOINTS_TABLE: &str = "coverage-viewpoints.parquet";
+    pub const VIEWPOINTS_SUMMARY: &str = "coverage-viewpoints.json";
+}
+
+/// Where the target voxels come from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Targets {
+    /// The plan's target voxels (needs a plan).
+    Plan,
+    /// Occupied map voxels inside axis-aligned boxes (JSON file).
+    Boxes(PathBuf),
+    /// Voxels of a segmented infrastructure cloud (PLY or PCD).
+    Cloud(PathBuf),
+}
+
+/// The settings a config file may hold (`[view]` and `[coverage]` tables).
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ConfigFile {
+    pub view: Option<ViewSettings>,
+    pub coverage: Option<CoverageSettings>,
+}
+
+/// View model settings; unset ones keep the plan's (or the defaults).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ViewSettings {
+    pub cone_apex_deg: Option<f64>,
+    pub min_distance_m: Option<f64>,
+    pub max_distance_m: Option<f64>,
+    pub max_incidence_deg: Option<f64>,
+    pub max_blur_px: Option<f64>,
+    pub max_gsd_mm: Option<f64>,
+    pub views_required: Option<u32>,
+}
+
+impl ViewSettings {
+    /// `self` over `base`.
+    pub fn apply(&self, base: ViewModel) -> ViewModel {
+        ViewModel {
+            cone_apex_deg: self.cone_apex_deg.unwrap_or(base.cone_apex_deg),
+            min_distance_m: self.min_distance_m.unwrap_or(base.min_distance_m),
+            max_distance_m: self.max_distance_m.unwrap_or(base.max_distance_m),
+            max_incidence_deg: self.max_incidence_deg.unwrap_or(base.max_incidence_deg),
+            max_blur_px: self.max_blur_px.unwrap_or(base.max_blur_px),
+            max_gsd_mm: self.max_gsd_mm.unwrap_or(base.max_gsd_mm),
+            views_required: self.views_required.unwrap_or(base.views_required),
+        }
+    }
+
+    /// `self` where set, else `other`.
+    pub fn or(&self, other: &Self) -> Self {
+        Self {
+            cone_apex_deg: self.cone_apex_deg.or(other.cone_apex_deg),
+            min_distance_m: self.min_distance_m.or(other.min_distance_m),
+            max_distance_m: self.max_distance_m.or(other.max_distance_m),
+            max_incidence_deg: self.max_incidence_deg.or(other.max_incidence_deg),
+            max_blur_px: self.max_blur_px.or(other.max_blur_px),
+            max_gsd_mm: self.max_gsd_mm.or(other.max_gsd_mm),
+            views_required: self.views_required.or(other.views_required),
+        }
+    }
+}
+
+/// Settings of the stage other than the View model.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CoverageSettings {
+    /// Views a face needs within `defect_radius_m` of a defect candidate.
+    pub views_near_defects: Option<u32>,
+    pub defect_radius_m: Option<f64>,
+    /// Exposure assumed for frames that did not record one, seconds.
+    pub exposure_s: Option<f64>,
+}
+
+impl CoverageSettings {
+    pub fn or(&self, other: &Self) -> Self {
+        Self {
+            views_near_defects: self.views_near_defects.or(other.views_near_defects),
+            defect_radius_m: self.defect_radius_m.or(other.defect_radius_m),
+            exposure_s: self.exposure_s.or(other.exposure_s),
+        }
+    }
+}
+
+pub fn load_config(path: &Path) -> Result<ConfigFile, CoverageError> {
+    let bad = |why: String| CoverageError::Config {
+        path: path.to_owned(),
+        why,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+    toml::from_str(&text).map_err(|e| bad(e.to_string().replace('\n', " ")))
+}
+
+#[derive(Debug, Clone)]
+pub struct CoverageOptions {
+    pub run: PathBuf,
+    pub plan: Option<PathBuf>,
+    /// Judge this plan's viewpoints instead of the flight's frames.
+    pub viewpoints: Option<PathBuf>,
+    pub map: Option<PathBuf>,
+    pub targets: Targets,
+    pub config: Option<PathBuf>,
+    /// Command-line View model settings (over the config file's).
+    pub view: ViewSettings,
+    pub settings: CoverageSettings,
+}
+
+impl CoverageOptions {
+    pub const DEFAULT_DEFECT_RADIUS_M: f64 = 1.0;
+
+    pub fn new(run: PathBuf) -> Self {
+        Self {
+            run,
+            plan: None,
+            viewpoints: None,
+            map: None,
+            targets: Targets::Plan,
+            config: None,
+            view: ViewSettings::default(),
+            settings: CoverageSettings::default(),
+        }
+    }
+}
+
+/// Voxel counts by reason for not being inspected.
+pub type ReasonCounts = BTreeMap<&'static str, usize>;
+
+/// `coverage.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct CoverageSummary {
+    pub run: PathBuf,
+    /// `flight`, or the viewpoints file judged instead.
+    pub shots: String,
+    pub view: ViewModel,
+    pub resolution_m: f64,
+    pub targets: String,
+    pub target_voxels: usize,
+    pub planned_voxels: Option<usize>,
+    pub inspected_voxels: usize,
+    pub inspected_pct: f64,
+    /// Of the planned voxels, the share inspected.
+    pub planned_inspected_pct: Option<f64>,
+    /// Planned voxels not inspected.
+    pub planned_missed_voxels: Option<usize>,
+    /// Target voxels not inspected that a follow-up flight could inspect.
+    pub gap_voxels: usize,
+    /// Target voxels no free standpoint can inspect under the View model.
+    pub uninspectable_voxels: usize,
+    pub exposed_faces: usize,
+    pub inspected_faces: usize,
+    pub face_area_coverage_pct: f64,
+    /// Occupied map voxels that are not targets (GATSBI's V_O).
+    pub obstacle_voxels: usize,
+    /// Not-inspected voxels by the furthest rule any frame reached.
+    pub reasons: ReasonCounts,
+    pub shots_total: usize,
+    pub shots_usable: usize,
+    pub shots_blurred: usize,
+    pub frames_without_pose: usize,
+    pub frames_without_exposure: usize,
+    pub faces_needing_more_views: usize,
+    pub seconds: f64,
+    pub warnings: Vec<String>,
+}
+
+/// Everything judged about one target voxel.
+struct VoxelRecord {
+    voxel: VoxelIndex,
+    centre: Point3<f64>,
+    planned: Option<bool>,
+    inspected: bool,
+    uninspectable: bool,
+    faces_exposed: u32,
+    faces_inspected: u32,
+    views: u32,
+    views_required: u32,
+    best: Option<(crate::view::Sight, u32)>,
+    reason: Option<Miss>,
+}
+
+/// Camera pose for a plan viewpoint: the body at the viewpoint, the camera
+/// mounted by `extrinsic` turned about the body's y axis to the viewpoint's
+/// gimbal pitch.
+pub fn viewpoint_camera(v: &Viewpoint, extrinsic: &Isometry3<f64>) -> Isometry3<f64> {
+    let axis = extrinsic.rotation * Vector3::z();
+    let mount_pitch = (-axis.z).clamp(-1.0, 1.0).asin();
+    let body = Isometry3::from_parts(
+        Translation3::from(Vector3::from(v.position)),
+        UnitQuaternion::from_axis_angle(&Vector3::z_axis(), v.yaw),
+    );
+    let gimbal = Isometry3::from_parts(
+        Translation3::identity(),
+        UnitQuaternion::from_axis_angle(&Vector3::y_axis(), v.gimbal_pitch - mount_pitch),
+    );
+    body * gimbal * extrinsic
+}
+
+/// Faces per progress step.
+const CHUNK: usize = 4096;
+
+pub fn coverage(
+    options: &CoverageOptions,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<CoverageSummary, CoverageError> {
+    let start = Instant::now();
+    let flight = Flight::load(&options.run)?;
+    let checking_plan = options.viewpoints.is_some();
+    let (table_name, summary_name) = if checking_plan {
+        (files::VIEWPOINTS_TABLE, files::VIEWPOINTS_SUMMARY)
+    } else {
+        (files::TABLE, files::SUMMARY)
+    };
+    // A failed rerun must not leave the last run's results looking current.
+    flight.run.remove(summary_name)?;
+    let config = options
+        .config
+        .as_deref()
+        .map(load_config)
+        .transpose()?
+        .unwrap_or_default();
+    let plan = options
+        .plan
+        .as_deref()
+        .map(InspectionPlan::load)
+        .transpose()?;
+    let view = options
+        .view
+        .or(&config.view.unwrap_or_default())
+        .apply(plan.as_ref().map_or_else(ViewModel::default, |p| p.view));
+    let settings = options.settings.or(&config.coverage.unwrap_or_default());
+    check_view(&view)?;
+    let grid = plan.as_ref().map_or(
+        VoxelGrid::new(DEFAULT_RESOLUTION, Point3::origin()),
+        InspectionPlan::grid,
+    );
+    let cloud = match &options.map {
+        Some(path) => PointCloud::load(path)?,
+        None => flight.recorded_map()?.ok_or(CoverageError::NoMap)?,
+    };
+    let map = SlamMap::on_grid(cloud, grid).ok_or_else(|| {
+        CoverageError::Option("the map has no points; pass a map with --map".into())
+    })?;
+
+    let (targets, targets_name): (Vec<VoxelIndex>, String) = match &options.targets {
+        Targets::Plan => {
+            let plan = plan.as_ref().ok_or_else(|| {
+                CoverageError::Option(
+                    "no target voxels: pass the plan with --plan, or the structure with --target-boxes or --target-cloud".into(),
+                )
+            })?;
+            (plan.target_voxels.clone(), "plan".into())
+        }
+        Targets::Boxes(path) => (
+            targets::in_boxes(&map.voxels, &targets::load_boxes(path)?),
+            format!("boxes {}", path.display()),
+        ),
+        Targets::Cloud(path) => (
+            targets::of_cloud(&grid, &PointCloud::load(path)?),
+            format!("cloud {}", path.display()),
+        ),
+    };
+    if targets.is_empty() {
+        return Err(CoverageError::Option(format!(
+            "the targets ({targets_name}) hold no voxel of the map; check that they are in the map's world frame and metres"
+        )));
+    }
+    let target_set: HashSet<VoxelIndex> = targets.iter().copied().collect();
+    let faces = exposed_faces(&grid, &targets, &target_set);
+
+    let mut warnings = Vec::new();
+    let lenses: Vec<Intrinsics> = flight
+        .cameras
+        .iter()
+        .map(|c| c.intrinsics.clone())
+        .collect::<Option<Vec<_>>>()
+        .ok_or_else(|| {
+            CoverageError::Option(
+                "a camera of the flight has no intrinsics; rerun `postflight ingest` with --camera-info FILE".into(),
+            )
+        })?;
+    let extrinsic_of = |lens: usize| flight.cameras[lens].extrinsic;
+
+    // The shots: the flight's frames, or the viewpoints of a plan to check.
+    let mut frames_without_pose = 0;
+    let mut frames_without_exposure = 0;
+    let shots: Vec<Shot> = match &options.viewpoints {
+        Some(path) => {
+            let check = InspectionPlan::load(path)?;
+            let extrinsic = extrinsic_of(0).unwrap_or_else(Isometry3::identity);
+            check
+                .viewpoints
+                .iter()
+                .enumerate()
+                .map(|(i, v)| Shot {
+                    id: i as u32,
+                    camera: viewpoint_camera(v, &extrinsic),
+                    lens: 0,
+                    blur_px: Some(0.0),
+                })
+                .collect()
+        }
+        None => {
+            let mut shots = Vec::new();
+            for frame in &flight.frames {
+                let (Some(camera), Some(lens)) = (
+                    frame.camera_pose,
+                    flight.cameras.iter().position(|c| c.topic == frame.topic),
+                ) else {
+                    frames_without_pose += 1;
+                    continue;
+                };
+                let exposure = frame.exposure_s.or(settings.exposure_s);
+                if exposure.is_none() {
+                    frames_without_exposure += 1;
+                }
+                let blur = exposure.and_then(|e| {
+                    let extrinsic = extrinsic_of(lens)?;
+                    let PoseAt::Pose(body) = flight.trajectory.at(frame.time_ns, i64::MAX) else {
+                        return None;
+                    };
+                    let v = velocity(&flight.trajectory, frame.time_ns)?;
+                    Some(blur_px(
+                        &body,
+                        &extrinsic,
+                        &lenses[lens],
+                        &v,
+                        e,
+                        &map.voxels,
+                    ))
+                });
+                shots.push(Shot {
+                    id: frame.index,
+                    camera,
+                    lens,
+                    blur_px: blur,
+                });
+            }
+            shots
+        }
+    };
+    if frames_without_pose > 0 {
+        warnings.push(format!(
+            "{frames_without_pose} frames have no pose and count for nothing (ingest.json says why)"
+        ));
+    }
+    if frames_without_exposure > 0 {
+        warnings.push(format!(
+            "{frames_without_exposure} frames recorded no exposure time, so their blur was not judged; pass --exposure SECONDS"
+        ));
+    }
+    if !checking_plan && shots.is_empty() {
+        return Err(CoverageError::Option(
+            "no frame of the flight has a pose, so nothing can be judged; check the pose source with `postflight ingest`".into(),
+        ));
+    }
+    let shots_blurred = shots
+        .iter()
+        .filter(|s| s.is_blurred(view.max_blur_px))
+        .count();
+
+    // Views each face needs: more around defect candidates, if asked.
+    let defects = match settings.views_near_defects {
+        Some(_) => defect_positions(&flight.run.file("defects.json"))?,
+        None => Vec::new(),
+    };
+    let radius = settings
+        .defect_radius_m
+        .unwrap_or(CoverageOptions::DEFAULT_DEFECT_RADIUS_M);
+    let need: Vec<u32> = faces
+        .iter()
+        .map(|f| {
+            match settings.views_near_defects {
+                Some(n) if defects.iter().any(|d| (d - f.centre).norm() <= radius) => n,
+                _ => view.views_required,
+            }
+            .max(1)
+        })
+        .collect();
+
+    let plan_shots: Option<Vec<Shot>> = plan.as_ref().map(|p| {
+        let extrinsic = extrinsic_of(0).unwrap_or_else(Isometry3::identity);
+        p.viewpoints
+            .iter()
+            .enumerate()
+            .map(|(i, v)| Shot {
+                id: i as u32,
+                camera: viewpoint_camera(v, &extrinsic),
+                lens: 0,
+                blur_px: Some(0.0),
+            })
+            .collect()
+    });
+
+    let total = faces.len() as u64;
+    progress(0, total);
+    let mut flown: Vec<FaceCover> = Vec::with_capacity(faces.len());
+    let mut planned: Vec<FaceCover> = Vec::new();
+    let mut reachable: Vec<bool> = Vec::with_capacity(faces.len());
+    let max_gsd_distance = view.max_gsd_mm / 1000.0 * lenses[0].fx.min(lenses[0].fy);
+    for (chunk, need) in faces.chunks(CHUNK).zip(need.chunks(CHUNK)) {
+        let got = cover(chunk, need, &shots, &lenses, &map, &view);
+        reachable.extend(
+            chunk
+                .par_iter()
+                .zip(&got)
+                .map(|(f, c)| c.miss.is_none() || inspectable(f, &map, &view, max_gsd_distance))
+                .collect::<Vec<bool>>(),
+        );
+        flown.extend(got);
+        if let Some(ps) = &plan_shots {
+            planned.extend(cover(chunk, need, ps, &lenses, &map, &view));
+        }
+        progress(flown.len() as u64, total);
+    }
+
+    let records = voxel_records(
+        &grid,
+        &targets,
+        &faces,
+        &need,
+        &flown,
+        &planned,
+        &reachable,
+        plan_shots.is_some(),
+    );
+    let n = records.len();
+    let inspected = records.iter().filter(|r| r.inspected).count();
+    let planned_voxels = plan_shots
+        .as_ref()
+        .map(|_| records.iter().filter(|r| r.planned == Some(true)).count());
+    let planned_inspected = records
+        .iter()
+        .filter(|r| r.planned == Some(true) && r.inspected)
+        .count();
+    let uninspectable = records.iter().filter(|r| r.uninspectable).count();
+    let mut reasons = ReasonCounts::new();
+    for r in &records {
+        if let Some(m) = r.reason {
+            *reasons.entry(m.as_str()).or_default() += 1;
+        }
+    }
+    let inspected_faces = flown.iter().filter(|c| c.miss.is_none()).count();
+    let pct = |a: usize, b: usize| {
+        if b == 0 {
+            0.0
+        } else {
+            100.0 * a as f64 / b as f64
+        }
+    };
+    let summary = CoverageSummary {
+        run: options.run.clone(),
+        shots: options
+            .viewpoints
+            .as_ref()
+            .map_or("flight".into(), |p| p.display().to_string()),
+        view,
+        resolution_m: grid.resolution,
+        targets: targets_name,
+        target_voxels: n,
+        planned_voxels,
+        inspected_voxels: inspected,
+        inspected_pct: pct(inspected, n),
+        planned_inspected_pct: planned_voxels.map(|p| pct(planned_inspected, p)),
+        planned_missed_voxels: planned_voxels.map(|p| p - planned_inspected),
+        gap_voxels: n - inspected - uninspectable,
+        uninspectable_voxels: uninspectable,
+        exposed_faces: faces.len(),
+        inspected_faces,
+        // Every face of a voxel grid has the same area.
+        face_area_coverage_pct: pct(inspected_faces, faces.len()),
+        obstacle_voxels: map
+            .voxels
+            .voxels()
+            .filter(|v| !target_set.contains(v))
+            .count(),
+        reasons,
+        shots_total: shots.len(),
+        shots_usable: shots.len() - shots_blurred,
+        shots_blurred,
+        frames_without_pose,
+        frames_without_exposure,
+        faces_needing_more_views: need
+            .iter()
+            .filter(|n| **n > view.views_required.max(1))
+            .count(),
+        seconds: start.elapsed().as_secs_f64(),
+        warnings,
+    };
+    let mut table =
+        coverage_table(&records, grid.resolution).map_err(|e| CoverageError::Write {
+            path: flight.run.file(table_name),
+            why: e.to_string(),
+        })?;
+    flight.run.write_table(table_name, &mut table)?;
+    flight.run.write_json(summary_name, &summary)?;
+    Ok(summary)
+}
+
+fn check_view(view: &ViewModel) -> Result<(), CoverageError> {
+    let bad = |what: &str| Err(CoverageError::Option(format!("invalid View model: {what}")));
+    if !(view.min_distance_m >= 0.0 && view.min_distance_m < view.max_distance_m) {
+        return bad("the distance band needs 0 <= min < max (--min-distance, --max-distance)");
+    }
+    if !(view.cone_apex_deg > 0.0 && view.cone_apex_deg <= 180.0) {
+        return bad("the cone apex angle must be in (0, 180] degrees (--cone-apex)");
+    }
+    if !(view.max_incidence_deg > 0.0 && view.max_incidence_deg <= 90.0) {
+        return bad("the largest incidence must be in (0, 90] degrees (--max-incidence)");
+    }
+    if !(view.max_blur_px >= 0.0 && view.max_gsd_mm > 0.0) {
+        return bad("blur and GSD limits must be positive (--max-blur, --max-gsd)");
+    }
+    Ok(())
+}
+
+/// Positions of the defect candidates in `defects.json` (written by localise).
+fn defect_positions(path: &Path) -> Result<Vec<Point3<f64>>, CoverageError> {
+    #[derive(Deserialize)]
+    struct Defects {
+        defects: Vec<Defect>,
+    }
+    #[derive(Deserialize)]
+    struct Defect {
+        position: [f64; 3],
+    }
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        CoverageError::Option(format!(
+            "views near defects need {} ({e}); run `postflight localise` first",
+            path.display()
+        ))
+    })?;
+    let d: Defects = serde_json::from_str(&text).map_err(|e| {
+        CoverageError::Option(format!(
+            "{} is unreadable ({e}); rerun `postflight localise`",
+            path.display()
+        ))
+    })?;
+    Ok(d.defects.iter().map(|d| Point3::from(d.position)).collect())
+}
+
+/// Per-voxel records from per-face results (faces are grouped by voxel, in
+/// target order).
+#[allow(clippy::too_many_arguments)]
+fn voxel_records(
+    grid: &VoxelGrid,
+    targets: &[VoxelIndex],
+    faces: &[Face],
+    need: &[u32],
+    flown: &[FaceCover],
+    planned: &[FaceCover],
+    reachable: &[bool],
+    has_plan: bool,
+) -> Vec<VoxelRecord> {
+    let mut records = Vec::with_capacity(targets.len());
+    let mut i = 0;
+    for &voxel in targets {
+        let start = i;
+        while i < faces.len() && faces[i].voxel == voxel {
+            i += 1;
+        }
+        let range = start..i;
+        let got = &flown[range.clone()];
+        let inspected = got.iter().any(|c| c.miss.is_none());
+        let best = got
+            .iter()
+            .filter(|c| c.miss.is_none())
+            .filter_map(|c| c.best)
+            .min_by(|a, b| a.0.gsd_mm.total_cmp(&b.0.gsd_mm));
+        let uninspectable = !inspected && !reachable[range.clone()].iter().any(|r| *r);
+        records.push(VoxelRecord {
+            voxel,
+            centre: grid.center(voxel),
+            planned: has_plan.then(|| planned[range.clone()].iter().any(|c| c.miss.is_none())),
+            inspected,
+            uninspectable,
+            faces_exposed: range.len() as u32,
+            faces_inspected: got.iter().filter(|c| c.miss.is_none()).count() as u32,
+            views: got.iter().map(|c| c.views).max().unwrap_or(0),
+            views_required: need[range].iter().copied().min().unwrap_or(1),
+            best,
+            reason: if inspected {
+                None
+            } else {
+                // An enclosed voxel has no face to see.
+                Some(
+                    got.iter()
+                        .filter_map(|c| c.miss)
+                        .max()
+                        .unwrap_or(Miss::OutOfCone),
+                )
+            },
+        });
+    }
+    records
+}
+
+/// GATSBI's classes of a target voxel: inspected or not.
+fn class(r: &VoxelRecord) -> &'static str {
+    if r.inspected { "V_BI" } else { "V_BN" }
+}
+
+fn coverage_table(records: &[VoxelRecord], resolution: f64) -> PolarsResult<DataFrame> {
+    let r = records;
+    let col_i = |name: &str, a: usize| {
+        Column::new(
+            name.into(),
+            r.iter().map(|r| r.voxel.0[a]).collect::<Vec<i32>>(),
+        )
+    };
+    let col_f = |name: &str, a: usize| {
+        Column::new(
+            name.into(),
+            r.iter().map(|r| r.centre[a]).collect::<Vec<f64>>(),
+        )
+    };
+    let best = |f: &dyn Fn(&crate::view::Sight) -> f64| {
+        r.iter()
+            .map(|r| r.best.map(|(s, _)| f(&s)))
+            .collect::<Vec<Option<f64>>>()
+    };
+    let area = resolution * resolution;
+    let columns = vec![
+        col_i("voxel_x", 0),
+        col_i("voxel_y", 1),
+        col_i("voxel_z", 2),
+        col_f("x", 0),
+        col_f("y", 1),
+        col_f("z", 2),
+        Column::new("class".into(), r.iter().map(class).collect::<Vec<&str>>()),
+        Column::new(
+            "planned".into(),
+            r.iter().map(|r| r.planned).collect::<Vec<Option<bool>>>(),
+        ),
+        Column::new(
+            "inspected".into(),
+            r.iter().map(|r| r.inspected).collect::<Vec<bool>>(),
+        ),
+        Column::new(
+            "uninspectable".into(),
+            r.iter().map(|r| r.uninspectable).collect::<Vec<bool>>(),
+        ),
+        Column::new(
+            "faces_exposed".into(),
+            r.iter().map(|r| r.faces_exposed).collect::<Vec<u32>>(),
+        ),
+        Column::new(
+            "faces_inspected".into(),
+            r.iter().map(|r| r.faces_inspected).collect::<Vec<u32>>(),
+        ),
+        Column::new(
+            "face_area_m2".into(),
+            r.iter()
+                .map(|r| f64::from(r.faces_exposed) * area)
+                .collect::<Vec<f64>>(),
+        ),
+        Column::new(
+            "inspected_area_m2".into(),
+            r.iter()
+                .map(|r| f64::from(r.faces_inspected) * area)
+                .collect::<Vec<f64>>(),
+        ),
+        Column::new(
+            "views".into(),
+            r.iter().map(|r| r.views).collect::<Vec<u32>>(),
+        ),
+        Column::new(
+            "views_required".into(),
+            r.iter().map(|r| r.views_required).collect::<Vec<u32>>(),
+        ),
+        Column::new("best_distance_m".into(), best(&|s| s.distance_m)),
+        Column::new("best_incidence_deg".into(), best(&|s| s.incidence_deg)),
+        Column::new("best_gsd_mm".into(), best(&|s| s.gsd_mm)),
+        Column::new(
+            "best_frame".into(),
+            r.iter()
+                .map(|r| r.best.map(|(_, id)| id))
+                .collect::<Vec<Option<u32>>>(),
+        ),
+        Column::new(
+            "reason".into(),
+            r.iter()
+                .map(|r| r.reason.map(Miss::as_str))
+                .collect::<Vec<Option<&str>>>(),
+        ),
+    ];
+    DataFrame::new(r.len(), columns)
+}

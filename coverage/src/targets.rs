@@ -1,0 +1,97 @@
+//! Which voxels are the structure to inspect: the plan's target voxels, or
+//! the map's occupied voxels inside axis-aligned boxes (the box filter the
+//! GATSBI flights segmented their bridge with), or the voxels of a
+//! separately segmented infrastructure cloud.
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use ingest::map::{PointCloud, VoxelGrid, VoxelIndex, VoxelMap};
+use nalgebra::Point3;
+use serde::Deserialize;
+
+use crate::error::CoverageError;
+
+/// An axis-aligned box in the world frame, metres.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+pub struct AxisBox {
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+}
+
+impl AxisBox {
+    pub fn contains(&self, p: &Point3<f64>) -> bool {
+        (0..3).all(|a| p[a] >= self.min[a] && p[a] <= self.max[a])
+    }
+}
+
+/// Read boxes from JSON: `[{"min": [x, y, z], "max": [x, y, z]}, ...]`.
+pub fn load_boxes(path: &Path) -> Result<Vec<AxisBox>, CoverageError> {
+    let bad = |why: String| CoverageError::Targets {
+        path: path.to_owned(),
+        why,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+    let boxes: Vec<AxisBox> = serde_json::from_str(&text).map_err(|e| {
+        bad(format!(
+            "{e}; expected a JSON list of {{\"min\": [x, y, z], \"max\": [x, y, z]}} in metres"
+        ))
+    })?;
+    if let Some(b) = boxes
+        .iter()
+        .find(|b| (0..3).any(|a| b.min[a].partial_cmp(&b.max[a]).is_none_or(|o| o.is_gt())))
+    {
+        return Err(bad(format!(
+            "box {:?}..{:?} has a min above its max; give min then max corner",
+            b.min, b.max
+        )));
+    }
+    Ok(boxes)
+}
+
+/// Occupied voxels of `map` whose centre lies in one of `boxes`.
+pub fn in_boxes(map: &VoxelMap, boxes: &[AxisBox]) -> Vec<VoxelIndex> {
+    let set: BTreeSet<VoxelIndex> = map
+        .voxels()
+        .filter(|v| {
+            let c = map.grid.center(*v);
+            boxes.iter().any(|b| b.contains(&c))
+        })
+        .collect();
+    set.into_iter().collect()
+}
+
+/// Voxels of `grid` holding points of a segmented infrastructure cloud.
+pub fn of_cloud(grid: &VoxelGrid, cloud: &PointCloud) -> Vec<VoxelIndex> {
+    let set: BTreeSet<VoxelIndex> = cloud.points.iter().map(|p| grid.voxel_of(p)).collect();
+    set.into_iter().collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn boxes_pick_the_occupied_voxels_inside_them() {
+        let grid = VoxelGrid::new(0.5, Point3::origin());
+        let points = [
+            Point3::new(0.1, 0.1, 0.1),
+            Point3::new(3.1, 0.1, 0.1),
+            Point3::new(0.6, 0.1, 0.1),
+        ];
+        let map = VoxelMap::from_points(grid, &points, 1);
+        let boxes = [AxisBox {
+            min: [0.0, 0.0, 0.0],
+            max: [1.0, 1.0, 1.0],
+        }];
+        assert_eq!(
+            in_boxes(&map, &boxes),
+            vec![VoxelIndex([0, 0, 0]), VoxelIndex([1, 0, 0])]
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("boxes.json");
+        std::fs::write(&path, r#"[{"min": [0, 0, 0], "max": [1, 1, -1]}]"#).unwrap();
+        let err = load_boxes(&path).unwrap_err().to_string();
+        assert!(err.contains("min above its max"), "{err}");
+    }
+}
