@@ -311,3 +311,54 @@ fn targets_from_boxes_or_a_segmented_cloud() {
     assert_eq!(out.status.code(), Some(1));
     assert!(stderr(&out).contains("--target-boxes"), "{}", stderr(&out));
 }
+
+#[test]
+fn bad_inputs_fail_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let (sim, run) = ingested_flight(dir.path(), "tower", &["--scene", "tower", "--frames", "40"]);
+    let plan = sim.join("plan.json");
+    let plan = plan.to_str().unwrap();
+    // The map moved 100 m (another frame): said so, nothing written.
+    let bytes = std::fs::read(sim.join("map.ply")).unwrap();
+    let header_end = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .unwrap()
+        + 11;
+    let mut shifted = bytes[..header_end].to_vec();
+    for point in bytes[header_end..].chunks_exact(12) {
+        let x = f32::from_le_bytes(point[..4].try_into().unwrap()) + 100.0;
+        shifted.extend_from_slice(&x.to_le_bytes());
+        shifted.extend_from_slice(&point[4..]);
+    }
+    let moved = dir.path().join("moved.ply");
+    std::fs::write(&moved, shifted).unwrap();
+    let out = coverage(&run, &["--plan", plan, "--map", moved.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = stderr(&out);
+    assert!(err.contains("do not overlap the map"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!run.join("coverage.json").exists());
+    // A distance band upside down.
+    let out = coverage(
+        &run,
+        &["--plan", plan, "--min-distance", "5", "--max-distance", "2"],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr(&out).contains("distance band"), "{}", stderr(&out));
+    // The same map file as recorded gives the recorded map's result.
+    coverage_ok(&run, &["--plan", plan]);
+    let recorded = read_json(&run.join("coverage.json"));
+    coverage_ok(
+        &run,
+        &[
+            "--plan",
+            plan,
+            "--map",
+            sim.join("map.ply").to_str().unwrap(),
+        ],
+    );
+    let from_file = read_json(&run.join("coverage.json"));
+    assert_eq!(recorded["inspected_voxels"], from_file["inspected_voxels"]);
+    assert_eq!(recorded["gap_voxels"], from_file["gap_voxels"]);
+}

@@ -205,7 +205,8 @@ struct VoxelRecord {
     views: u32,
     views_required: u32,
     best: Option<(crate::view::Sight, u32)>,
-    reason: Option<Miss>,
+    /// Why not inspected: a [`Miss`] name, or `no_exposed_face`.
+    reason: Option<&'static str>,
 }
 
 /// Camera pose for a plan viewpoint: the body at the viewpoint, the camera
@@ -227,6 +228,25 @@ pub fn viewpoint_camera(v: &Viewpoint, extrinsic: &Isometry3<f64>) -> Isometry3<
 
 /// Faces per progress step.
 const CHUNK: usize = 4096;
+/// Below this share of target voxels holding map points, the map is not
+/// the targets' (another frame or unit).
+const MIN_MAPPED_SHARE: f64 = 0.25;
+
+/// `[x, y, z]..[x, y, z]`, the bounding box of some points, for messages.
+fn span(points: impl Iterator<Item = Point3<f64>>) -> String {
+    let (mut lo, mut hi) = (
+        Vector3::repeat(f64::INFINITY),
+        Vector3::repeat(f64::NEG_INFINITY),
+    );
+    for p in points {
+        lo = lo.inf(&p.coords);
+        hi = hi.sup(&p.coords);
+    }
+    format!(
+        "[{:.1}, {:.1}, {:.1}]..[{:.1}, {:.1}, {:.1}]",
+        lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+    )
+}
 
 pub fn coverage(
     options: &CoverageOptions,
@@ -289,9 +309,26 @@ pub fn coverage(
             format!("cloud {}", path.display()),
         ),
     };
+    let targets: Vec<VoxelIndex> = targets
+        .into_iter()
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
     if targets.is_empty() {
         return Err(CoverageError::Option(format!(
             "the targets ({targets_name}) hold no voxel of the map; check that they are in the map's world frame and metres"
+        )));
+    }
+    let mapped = targets
+        .iter()
+        .filter(|v| map.voxels.is_occupied(**v))
+        .count();
+    if (mapped as f64) < MIN_MAPPED_SHARE * targets.len() as f64 {
+        return Err(CoverageError::Option(format!(
+            "the targets ({targets_name}) do not overlap the map: {mapped} of {} target voxels hold map points (targets span {}, map spans {}); check that both are in the same world frame and in metres",
+            targets.len(),
+            span(targets.iter().map(|v| grid.center(*v))),
+            span(map.cloud.points.iter().copied()),
         )));
     }
     let target_set: HashSet<VoxelIndex> = targets.iter().copied().collect();
@@ -443,6 +480,18 @@ pub fn coverage(
         progress(flown.len() as u64, total);
     }
 
+    if !shots.is_empty() && flown.iter().all(|c| c.miss == Some(Miss::TooFar)) {
+        return Err(CoverageError::Option(format!(
+            "no camera came within {} m of any target voxel (cameras span {}, targets span {}); check that the poses and the targets are in the same world frame",
+            view.max_distance_m,
+            span(
+                shots
+                    .iter()
+                    .map(|s| Point3::from(s.camera.translation.vector))
+            ),
+            span(targets.iter().map(|v| grid.center(*v))),
+        )));
+    }
     let records = voxel_records(
         &grid,
         &targets,
@@ -466,7 +515,7 @@ pub fn coverage(
     let mut reasons = ReasonCounts::new();
     for r in &records {
         if let Some(m) = r.reason {
-            *reasons.entry(m.as_str()).or_default() += 1;
+            *reasons.entry(m).or_default() += 1;
         }
     }
     let inspected_faces = flown.iter().filter(|c| c.miss.is_none()).count();
@@ -611,12 +660,11 @@ fn voxel_records(
             reason: if inspected {
                 None
             } else {
-                // An enclosed voxel has no face to see.
                 Some(
                     got.iter()
                         .filter_map(|c| c.miss)
                         .max()
-                        .unwrap_or(Miss::OutOfCone),
+                        .map_or("no_exposed_face", Miss::as_str),
                 )
             },
         });
@@ -708,9 +756,7 @@ fn coverage_table(records: &[VoxelRecord], resolution: f64) -> PolarsResult<Data
         ),
         Column::new(
             "reason".into(),
-            r.iter()
-                .map(|r| r.reason.map(Miss::as_str))
-                .collect::<Vec<Option<&str>>>(),
+            r.iter().map(|r| r.reason).collect::<Vec<Option<&str>>>(),
         ),
     ];
     DataFrame::new(r.len(), columns)
