@@ -10,6 +10,8 @@ pub mod error;
 pub mod face;
 pub mod motion;
 pub mod reach;
+pub mod records;
+pub mod settings;
 pub mod stage;
 pub mod targets;
 pub mod view;
@@ -17,7 +19,6 @@ pub mod view;
 pub use cover::{FaceCover, Shot, cover, cover_naive};
 pub use error::CoverageError;
 pub use face::{Face, exposed_faces};
-pub use stage::{
-    CoverageOptions, CoverageSettings, CoverageSummary, Targets, ViewSettings, coverage,
-};
+pub use settings::{CoverageSettings, ViewSettings};
+pub use stage::{CoverageOptions, CoverageSummary, Targets, coverage};
 pub use view::{Miss, Sight};

@@ -10,15 +10,16 @@ use std::time::Instant;
 use ingest::map::{DEFAULT_RESOLUTION, PointCloud, SlamMap, VoxelGrid, VoxelIndex};
 use ingest::{Flight, InspectionPlan, Intrinsics, PoseAt, ViewModel, Viewpoint};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
-use polars::prelude::*;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::cover::{FaceCover, Shot, cover};
 use crate::error::CoverageError;
-use crate::face::{Face, exposed_faces};
+use crate::face::exposed_faces;
 use crate::motion::{blur_px, velocity};
 use crate::reach::inspectable;
+use crate::records::{coverage_table, voxel_records};
+use crate::settings::{CoverageSettings, ViewSettings, load_config};
 use crate::targets;
 use crate::view::Miss;
 
@@ -40,85 +41,6 @@ pub enum Targets {
     Boxes(PathBuf),
     /// Voxels of a segmented infrastructure cloud (PLY or PCD).
     Cloud(PathBuf),
-}
-
-/// The settings a config file may hold (`[view]` and `[coverage]` tables).
-#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ConfigFile {
-    pub view: Option<ViewSettings>,
-    pub coverage: Option<CoverageSettings>,
-}
-
-/// View model settings; unset ones keep the plan's (or the defaults).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ViewSettings {
-    pub cone_apex_deg: Option<f64>,
-    pub min_distance_m: Option<f64>,
-    pub max_distance_m: Option<f64>,
-    pub max_incidence_deg: Option<f64>,
-    pub max_blur_px: Option<f64>,
-    pub max_gsd_mm: Option<f64>,
-    pub views_required: Option<u32>,
-}
-
-impl ViewSettings {
-    /// `self` over `base`.
-    pub fn apply(&self, base: ViewModel) -> ViewModel {
-        ViewModel {
-            cone_apex_deg: self.cone_apex_deg.unwrap_or(base.cone_apex_deg),
-            min_distance_m: self.min_distance_m.unwrap_or(base.min_distance_m),
-            max_distance_m: self.max_distance_m.unwrap_or(base.max_distance_m),
-            max_incidence_deg: self.max_incidence_deg.unwrap_or(base.max_incidence_deg),
-            max_blur_px: self.max_blur_px.unwrap_or(base.max_blur_px),
-            max_gsd_mm: self.max_gsd_mm.unwrap_or(base.max_gsd_mm),
-            views_required: self.views_required.unwrap_or(base.views_required),
-        }
-    }
-
-    /// `self` where set, else `other`.
-    pub fn or(&self, other: &Self) -> Self {
-        Self {
-            cone_apex_deg: self.cone_apex_deg.or(other.cone_apex_deg),
-            min_distance_m: self.min_distance_m.or(other.min_distance_m),
-            max_distance_m: self.max_distance_m.or(other.max_distance_m),
-            max_incidence_deg: self.max_incidence_deg.or(other.max_incidence_deg),
-            max_blur_px: self.max_blur_px.or(other.max_blur_px),
-            max_gsd_mm: self.max_gsd_mm.or(other.max_gsd_mm),
-            views_required: self.views_required.or(other.views_required),
-        }
-    }
-}
-
-/// Settings of the stage other than the View model.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct CoverageSettings {
-    /// Views a face needs within `defect_radius_m` of a defect candidate.
-    pub views_near_defects: Option<u32>,
-    pub defect_radius_m: Option<f64>,
-    /// Exposure assumed for frames that did not record one, seconds.
-    pub exposure_s: Option<f64>,
-}
-
-impl CoverageSettings {
-    pub fn or(&self, other: &Self) -> Self {
-        Self {
-            views_near_defects: self.views_near_defects.or(other.views_near_defects),
-            defect_radius_m: self.defect_radius_m.or(other.defect_radius_m),
-            exposure_s: self.exposure_s.or(other.exposure_s),
-        }
-    }
-}
-
-pub fn load_config(path: &Path) -> Result<ConfigFile, CoverageError> {
-    let bad = |why: String| CoverageError::Config {
-        path: path.to_owned(),
-        why,
-    };
-    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
-    toml::from_str(&text).map_err(|e| bad(e.to_string().replace('\n', " ")))
 }
 
 #[derive(Debug, Clone)]
@@ -191,22 +113,6 @@ pub struct CoverageSummary {
     pub faces_needing_more_views: usize,
     pub seconds: f64,
     pub warnings: Vec<String>,
-}
-
-/// Everything judged about one target voxel.
-struct VoxelRecord {
-    voxel: VoxelIndex,
-    centre: Point3<f64>,
-    planned: Option<bool>,
-    inspected: bool,
-    uninspectable: bool,
-    faces_exposed: u32,
-    faces_inspected: u32,
-    views: u32,
-    views_required: u32,
-    best: Option<(crate::view::Sight, u32)>,
-    /// Why not inspected: a [`Miss`] name, or `no_exposed_face`.
-    reason: Option<&'static str>,
 }
 
 /// Camera pose for a plan viewpoint: the body at the viewpoint, the camera
@@ -291,50 +197,16 @@ pub fn coverage(
         CoverageError::Option("the map has no points; pass a map with --map".into())
     })?;
 
-    let (targets, targets_name): (Vec<VoxelIndex>, String) = match &options.targets {
-        Targets::Plan => {
-            let plan = plan.as_ref().ok_or_else(|| {
-                CoverageError::Option(
-                    "no target voxels: pass the plan with --plan, or the structure with --target-boxes or --target-cloud".into(),
-                )
-            })?;
-            (plan.target_voxels.clone(), "plan".into())
-        }
-        Targets::Boxes(path) => (
-            targets::in_boxes(&map.voxels, &targets::load_boxes(path)?),
-            format!("boxes {}", path.display()),
-        ),
-        Targets::Cloud(path) => (
-            targets::of_cloud(&grid, &PointCloud::load(path)?),
-            format!("cloud {}", path.display()),
-        ),
-    };
-    let targets: Vec<VoxelIndex> = targets
-        .into_iter()
-        .collect::<std::collections::BTreeSet<_>>()
-        .into_iter()
-        .collect();
-    if targets.is_empty() {
-        return Err(CoverageError::Option(format!(
-            "the targets ({targets_name}) hold no voxel of the map; check that they are in the map's world frame and metres"
-        )));
-    }
-    let mapped = targets
-        .iter()
-        .filter(|v| map.voxels.is_occupied(**v))
-        .count();
-    if (mapped as f64) < MIN_MAPPED_SHARE * targets.len() as f64 {
-        return Err(CoverageError::Option(format!(
-            "the targets ({targets_name}) do not overlap the map: {mapped} of {} target voxels hold map points (targets span {}, map spans {}); check that both are in the same world frame and in metres",
-            targets.len(),
-            span(targets.iter().map(|v| grid.center(*v))),
-            span(map.cloud.points.iter().copied()),
-        )));
-    }
+    let (targets, targets_name) = load_targets(&options.targets, plan.as_ref(), &map)?;
     let target_set: HashSet<VoxelIndex> = targets.iter().copied().collect();
     let faces = exposed_faces(&grid, &targets, &target_set);
 
     let mut warnings = Vec::new();
+    if flight.cameras.is_empty() {
+        return Err(CoverageError::Option(
+            "the flight has no camera (no image topic was ingested); check `postflight ingest`'s image topics".into(),
+        ));
+    }
     let lenses: Vec<Intrinsics> = flight
         .cameras
         .iter()
@@ -345,65 +217,27 @@ pub fn coverage(
                 "a camera of the flight has no intrinsics; rerun `postflight ingest` with --camera-info FILE".into(),
             )
         })?;
-    let extrinsic_of = |lens: usize| flight.cameras[lens].extrinsic;
 
     // The shots: the flight's frames, or the viewpoints of a plan to check.
-    let mut frames_without_pose = 0;
-    let mut frames_without_exposure = 0;
-    let shots: Vec<Shot> = match &options.viewpoints {
-        Some(path) => {
-            let check = InspectionPlan::load(path)?;
-            let extrinsic = extrinsic_of(0).unwrap_or_else(Isometry3::identity);
-            check
-                .viewpoints
-                .iter()
-                .enumerate()
-                .map(|(i, v)| Shot {
-                    id: i as u32,
-                    camera: viewpoint_camera(v, &extrinsic),
-                    lens: 0,
-                    blur_px: Some(0.0),
-                })
-                .collect()
-        }
-        None => {
-            let mut shots = Vec::new();
-            for frame in &flight.frames {
-                let (Some(camera), Some(lens)) = (
-                    frame.camera_pose,
-                    flight.cameras.iter().position(|c| c.topic == frame.topic),
-                ) else {
-                    frames_without_pose += 1;
-                    continue;
-                };
-                let exposure = frame.exposure_s.or(settings.exposure_s);
-                if exposure.is_none() {
-                    frames_without_exposure += 1;
-                }
-                let blur = exposure.and_then(|e| {
-                    let extrinsic = extrinsic_of(lens)?;
-                    let PoseAt::Pose(body) = flight.trajectory.at(frame.time_ns, i64::MAX) else {
-                        return None;
-                    };
-                    let v = velocity(&flight.trajectory, frame.time_ns)?;
-                    Some(blur_px(
-                        &body,
-                        &extrinsic,
-                        &lenses[lens],
-                        &v,
-                        e,
-                        &map.voxels,
-                    ))
-                });
-                shots.push(Shot {
-                    id: frame.index,
-                    camera,
-                    lens,
-                    blur_px: blur,
-                });
-            }
-            shots
-        }
+    // Without a recorded mounting, a camera at the body origin looking
+    // forward (optical z along body x, y down).
+    let extrinsic = flight.cameras[0].extrinsic.unwrap_or_else(|| {
+        Isometry3::from_parts(
+            Translation3::identity(),
+            UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(0.5, -0.5, 0.5, -0.5)),
+        )
+    });
+    let FlightShots {
+        shots,
+        without_pose: frames_without_pose,
+        without_exposure: frames_without_exposure,
+    } = match &options.viewpoints {
+        Some(path) => FlightShots {
+            shots: viewpoint_shots(&InspectionPlan::load(path)?, &extrinsic),
+            without_pose: 0,
+            without_exposure: 0,
+        },
+        None => flight_shots(&flight, &lenses, &map, settings.exposure_s),
     };
     if frames_without_pose > 0 {
         warnings.push(format!(
@@ -444,19 +278,7 @@ pub fn coverage(
         })
         .collect();
 
-    let plan_shots: Option<Vec<Shot>> = plan.as_ref().map(|p| {
-        let extrinsic = extrinsic_of(0).unwrap_or_else(Isometry3::identity);
-        p.viewpoints
-            .iter()
-            .enumerate()
-            .map(|(i, v)| Shot {
-                id: i as u32,
-                camera: viewpoint_camera(v, &extrinsic),
-                lens: 0,
-                blur_px: Some(0.0),
-            })
-            .collect()
-    });
+    let plan_shots: Option<Vec<Shot>> = plan.as_ref().map(|p| viewpoint_shots(p, &extrinsic));
 
     let total = faces.len() as u64;
     progress(0, total);
@@ -575,6 +397,130 @@ pub fn coverage(
     Ok(summary)
 }
 
+/// The target voxels (deduplicated, in index order) and where they came
+/// from; an error when they miss the map.
+fn load_targets(
+    source: &Targets,
+    plan: Option<&InspectionPlan>,
+    map: &SlamMap,
+) -> Result<(Vec<VoxelIndex>, String), CoverageError> {
+    let (targets, targets_name): (Vec<VoxelIndex>, String) = match source {
+        Targets::Plan => {
+            let plan = plan.ok_or_else(|| {
+                CoverageError::Option(
+                    "no target voxels: pass the plan with --plan, or the structure with --target-boxes or --target-cloud".into(),
+                )
+            })?;
+            (plan.target_voxels.clone(), "plan".into())
+        }
+        Targets::Boxes(path) => (
+            targets::in_boxes(&map.voxels, &targets::load_boxes(path)?),
+            format!("boxes {}", path.display()),
+        ),
+        Targets::Cloud(path) => (
+            targets::of_cloud(&map.voxels.grid, &PointCloud::load(path)?),
+            format!("cloud {}", path.display()),
+        ),
+    };
+    let targets: Vec<VoxelIndex> = targets
+        .into_iter()
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    if targets.is_empty() {
+        return Err(CoverageError::Option(format!(
+            "the targets ({targets_name}) hold no voxel of the map; check that they are in the map's world frame and metres"
+        )));
+    }
+    let mapped = targets
+        .iter()
+        .filter(|v| map.voxels.is_occupied(**v))
+        .count();
+    if (mapped as f64) < MIN_MAPPED_SHARE * targets.len() as f64 {
+        return Err(CoverageError::Option(format!(
+            "the targets ({targets_name}) do not overlap the map: {mapped} of {} target voxels hold map points (targets span {}, map spans {}); check that both are in the same world frame and in metres",
+            targets.len(),
+            span(targets.iter().map(|v| map.voxels.grid.center(*v))),
+            span(map.cloud.points.iter().copied()),
+        )));
+    }
+    Ok((targets, targets_name))
+}
+
+/// A plan's viewpoints as shots of the flight's first camera (sharp: a
+/// plan is flown hovering).
+fn viewpoint_shots(plan: &InspectionPlan, extrinsic: &Isometry3<f64>) -> Vec<Shot> {
+    plan.viewpoints
+        .iter()
+        .enumerate()
+        .map(|(i, v)| Shot {
+            id: i as u32,
+            camera: viewpoint_camera(v, extrinsic),
+            lens: 0,
+            blur_px: Some(0.0),
+        })
+        .collect()
+}
+
+/// The flight's frames as shots, and the frames that could not be.
+struct FlightShots {
+    shots: Vec<Shot>,
+    /// Frames without a camera pose (or of a camera not in cameras.json).
+    without_pose: usize,
+    /// Frames whose blur cannot be judged: no exposure time recorded or given.
+    without_exposure: usize,
+}
+
+/// Every frame with a pose, with its motion blur (`exposure_s` for frames
+/// that recorded none).
+fn flight_shots(
+    flight: &Flight,
+    lenses: &[Intrinsics],
+    map: &SlamMap,
+    exposure_s: Option<f64>,
+) -> FlightShots {
+    let mut out = FlightShots {
+        shots: Vec::new(),
+        without_pose: 0,
+        without_exposure: 0,
+    };
+    for frame in &flight.frames {
+        let (Some(camera), Some(lens)) = (
+            frame.camera_pose,
+            flight.cameras.iter().position(|c| c.topic == frame.topic),
+        ) else {
+            out.without_pose += 1;
+            continue;
+        };
+        let exposure = frame.exposure_s.or(exposure_s);
+        if exposure.is_none() {
+            out.without_exposure += 1;
+        }
+        let blur = exposure.and_then(|e| {
+            let extrinsic = flight.cameras[lens].extrinsic?;
+            let PoseAt::Pose(body) = flight.trajectory.at(frame.time_ns, i64::MAX) else {
+                return None;
+            };
+            let v = velocity(&flight.trajectory, frame.time_ns)?;
+            Some(blur_px(
+                &body,
+                &extrinsic,
+                &lenses[lens],
+                &v,
+                e,
+                &map.voxels,
+            ))
+        });
+        out.shots.push(Shot {
+            id: frame.index,
+            camera,
+            lens,
+            blur_px: blur,
+        });
+    }
+    out
+}
+
 fn check_view(view: &ViewModel) -> Result<(), CoverageError> {
     let bad = |what: &str| Err(CoverageError::Option(format!("invalid View model: {what}")));
     if !(view.min_distance_m >= 0.0 && view.min_distance_m < view.max_distance_m) {
@@ -615,149 +561,4 @@ fn defect_positions(path: &Path) -> Result<Vec<Point3<f64>>, CoverageError> {
         ))
     })?;
     Ok(d.defects.iter().map(|d| Point3::from(d.position)).collect())
-}
-
-/// Per-voxel records from per-face results (faces are grouped by voxel, in
-/// target order).
-#[allow(clippy::too_many_arguments)]
-fn voxel_records(
-    grid: &VoxelGrid,
-    targets: &[VoxelIndex],
-    faces: &[Face],
-    need: &[u32],
-    flown: &[FaceCover],
-    planned: &[FaceCover],
-    reachable: &[bool],
-    has_plan: bool,
-) -> Vec<VoxelRecord> {
-    let mut records = Vec::with_capacity(targets.len());
-    let mut i = 0;
-    for &voxel in targets {
-        let start = i;
-        while i < faces.len() && faces[i].voxel == voxel {
-            i += 1;
-        }
-        let range = start..i;
-        let got = &flown[range.clone()];
-        let inspected = got.iter().any(|c| c.miss.is_none());
-        let best = got
-            .iter()
-            .filter(|c| c.miss.is_none())
-            .filter_map(|c| c.best)
-            .min_by(|a, b| a.0.gsd_mm.total_cmp(&b.0.gsd_mm));
-        let uninspectable = !inspected && !reachable[range.clone()].iter().any(|r| *r);
-        records.push(VoxelRecord {
-            voxel,
-            centre: grid.center(voxel),
-            planned: has_plan.then(|| planned[range.clone()].iter().any(|c| c.miss.is_none())),
-            inspected,
-            uninspectable,
-            faces_exposed: range.len() as u32,
-            faces_inspected: got.iter().filter(|c| c.miss.is_none()).count() as u32,
-            views: got.iter().map(|c| c.views).max().unwrap_or(0),
-            views_required: need[range].iter().copied().min().unwrap_or(1),
-            best,
-            reason: if inspected {
-                None
-            } else {
-                Some(
-                    got.iter()
-                        .filter_map(|c| c.miss)
-                        .max()
-                        .map_or("no_exposed_face", Miss::as_str),
-                )
-            },
-        });
-    }
-    records
-}
-
-/// GATSBI's classes of a target voxel: inspected or not.
-fn class(r: &VoxelRecord) -> &'static str {
-    if r.inspected { "V_BI" } else { "V_BN" }
-}
-
-fn coverage_table(records: &[VoxelRecord], resolution: f64) -> PolarsResult<DataFrame> {
-    let r = records;
-    let col_i = |name: &str, a: usize| {
-        Column::new(
-            name.into(),
-            r.iter().map(|r| r.voxel.0[a]).collect::<Vec<i32>>(),
-        )
-    };
-    let col_f = |name: &str, a: usize| {
-        Column::new(
-            name.into(),
-            r.iter().map(|r| r.centre[a]).collect::<Vec<f64>>(),
-        )
-    };
-    let best = |f: &dyn Fn(&crate::view::Sight) -> f64| {
-        r.iter()
-            .map(|r| r.best.map(|(s, _)| f(&s)))
-            .collect::<Vec<Option<f64>>>()
-    };
-    let area = resolution * resolution;
-    let columns = vec![
-        col_i("voxel_x", 0),
-        col_i("voxel_y", 1),
-        col_i("voxel_z", 2),
-        col_f("x", 0),
-        col_f("y", 1),
-        col_f("z", 2),
-        Column::new("class".into(), r.iter().map(class).collect::<Vec<&str>>()),
-        Column::new(
-            "planned".into(),
-            r.iter().map(|r| r.planned).collect::<Vec<Option<bool>>>(),
-        ),
-        Column::new(
-            "inspected".into(),
-            r.iter().map(|r| r.inspected).collect::<Vec<bool>>(),
-        ),
-        Column::new(
-            "uninspectable".into(),
-            r.iter().map(|r| r.uninspectable).collect::<Vec<bool>>(),
-        ),
-        Column::new(
-            "faces_exposed".into(),
-            r.iter().map(|r| r.faces_exposed).collect::<Vec<u32>>(),
-        ),
-        Column::new(
-            "faces_inspected".into(),
-            r.iter().map(|r| r.faces_inspected).collect::<Vec<u32>>(),
-        ),
-        Column::new(
-            "face_area_m2".into(),
-            r.iter()
-                .map(|r| f64::from(r.faces_exposed) * area)
-                .collect::<Vec<f64>>(),
-        ),
-        Column::new(
-            "inspected_area_m2".into(),
-            r.iter()
-                .map(|r| f64::from(r.faces_inspected) * area)
-                .collect::<Vec<f64>>(),
-        ),
-        Column::new(
-            "views".into(),
-            r.iter().map(|r| r.views).collect::<Vec<u32>>(),
-        ),
-        Column::new(
-            "views_required".into(),
-            r.iter().map(|r| r.views_required).collect::<Vec<u32>>(),
-        ),
-        Column::new("best_distance_m".into(), best(&|s| s.distance_m)),
-        Column::new("best_incidence_deg".into(), best(&|s| s.incidence_deg)),
-        Column::new("best_gsd_mm".into(), best(&|s| s.gsd_mm)),
-        Column::new(
-            "best_frame".into(),
-            r.iter()
-                .map(|r| r.best.map(|(_, id)| id))
-                .collect::<Vec<Option<u32>>>(),
-        ),
-        Column::new(
-            "reason".into(),
-            r.iter().map(|r| r.reason).collect::<Vec<Option<&str>>>(),
-        ),
-    ];
-    DataFrame::new(r.len(), columns)
 }
