@@ -42,6 +42,25 @@ enum Command {
     Localise(LocaliseArgs),
     /// Recompute voxel coverage achieved versus planned under the View model.
     Coverage(CoverageArgs),
+    /// Solve a Generalized TSP instance (GTSPLIB, GLNS or Karapetyan format);
+    /// prints {"instance", "cost", "tour", "time_s", "stats"} as JSON.
+    Gtsp(GtspArgs),
+}
+
+#[derive(Args)]
+struct GtspArgs {
+    /// Instance file.
+    instance: PathBuf,
+    /// Wall-clock bound in seconds; the best tour so far is returned.
+    #[arg(long, value_name = "S")]
+    time_limit: Option<f64>,
+    /// Random seed; a seed and thread count give the same tour when the
+    /// search ends before the time limit.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Worker threads (0: one per core).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
 }
 
 #[derive(Args)]
@@ -294,6 +313,7 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
         Command::Detect(args) => detect(args, cli.quiet),
         Command::Localise(args) => localise(args, cli.quiet),
         Command::Coverage(args) => coverage(args, cli.quiet),
+        Command::Gtsp(args) => gtsp(args),
     }
 }
 
@@ -500,5 +520,33 @@ fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
             args.run.display()
         );
     }
+    Ok(())
+}
+
+fn gtsp(args: &GtspArgs) -> anyhow::Result<()> {
+    use coverage::gtsp::{Instance, SolveOptions, solve};
+    let time_limit = match args.time_limit {
+        Some(s) if s.is_finite() && s > 0.0 => Some(std::time::Duration::from_secs_f64(s)),
+        Some(s) => anyhow::bail!("--time-limit must be a positive number of seconds, not {s}"),
+        None => None,
+    };
+    let inst = Instance::read(&args.instance)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.instance.display()))?;
+    let options = SolveOptions {
+        time_limit,
+        seed: args.seed,
+        threads: args.threads,
+        ..SolveOptions::default()
+    };
+    let solution = solve(&inst, &options);
+    let tour: Vec<u32> = solution.tour.iter().map(|v| v + 1).collect();
+    let out = serde_json::json!({
+        "instance": inst.name,
+        "cost": solution.cost,
+        "tour": tour,
+        "time_s": solution.stats.time_s,
+        "stats": solution.stats,
+    });
+    println!("{out}");
     Ok(())
 }

@@ -8,6 +8,7 @@
 pub mod cover;
 pub mod error;
 pub mod face;
+pub mod gtsp;
 pub mod motion;
 pub mod reach;
 pub mod records;
