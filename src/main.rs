@@ -42,6 +42,9 @@ enum Command {
     Localise(LocaliseArgs),
     /// Recompute voxel coverage achieved versus planned under the View model.
     Coverage(CoverageArgs),
+    /// Plan a follow-up flight for the coverage gaps (GTSP over candidate
+    /// viewpoints, collision-checked paths); writes replan.json and replan.csv.
+    Replan(ReplanArgs),
     /// Solve a Generalized TSP instance (GTSPLIB, GLNS or Karapetyan format);
     /// prints {"instance", "cost", "tour", "time_s", "stats"} as JSON.
     Gtsp(GtspArgs),
@@ -61,6 +64,49 @@ struct GtspArgs {
     /// Worker threads (0: one per core).
     #[arg(long, default_value_t = 0)]
     threads: usize,
+}
+
+#[derive(Args)]
+struct ReplanArgs {
+    /// Run directory holding a completed coverage stage.
+    #[arg(long)]
+    run: PathBuf,
+    /// SLAM map (PLY or PCD) instead of the one coverage used.
+    #[arg(long, value_name = "FILE")]
+    map: Option<PathBuf>,
+    /// Take-off and landing point (default: the flight's first pose).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point)]
+    home: Option<[f64; 3]>,
+    /// Closest approach to any occupied voxel, metres.
+    #[arg(long, default_value_t = 1.0, value_name = "M")]
+    clearance: f64,
+    /// Split the plan into sorties from home no longer than this (battery), metres.
+    #[arg(long, value_name = "M")]
+    max_sortie_length: Option<f64>,
+    /// Cruise speed for the time estimate, m/s.
+    #[arg(long, default_value_t = 2.0)]
+    speed: f64,
+    /// Hover per waypoint for the time estimate, seconds.
+    #[arg(long, default_value_t = 2.0)]
+    hover: f64,
+    /// Time limit of each GTSP solve, seconds.
+    #[arg(long, default_value_t = 10.0, value_name = "S")]
+    solver_time_limit: f64,
+    /// Solver seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+fn parse_point(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("expected X,Y,Z in metres: {e}"))?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
+        _ => Err("expected three finite numbers X,Y,Z in metres".into()),
+    }
 }
 
 #[derive(Args)]
@@ -313,6 +359,7 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
         Command::Detect(args) => detect(args, cli.quiet),
         Command::Localise(args) => localise(args, cli.quiet),
         Command::Coverage(args) => coverage(args, cli.quiet),
+        Command::Replan(args) => replan(args, cli.quiet),
         Command::Gtsp(args) => gtsp(args),
     }
 }
@@ -519,6 +566,50 @@ fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
             summary.face_area_coverage_pct,
             args.run.display()
         );
+    }
+    Ok(())
+}
+
+fn replan(args: &ReplanArgs, quiet: bool) -> anyhow::Result<()> {
+    if !(args.solver_time_limit.is_finite() && args.solver_time_limit > 0.0) {
+        anyhow::bail!("--solver-time-limit must be a positive number of seconds");
+    }
+    let mut options = coverage::ReplanOptions {
+        map: args.map.clone(),
+        home: args.home,
+        clearance_m: args.clearance,
+        max_sortie_length_m: args.max_sortie_length,
+        speed_m_s: args.speed,
+        hover_s: args.hover,
+        ..coverage::ReplanOptions::new(args.run.clone())
+    };
+    options.solver.time_limit = Some(std::time::Duration::from_secs_f64(args.solver_time_limit));
+    options.solver.seed = args.seed;
+    let bar = progress::Bar::count("replan", quiet);
+    let summary = coverage::replan(&options, &mut |done, total| bar.set(done, total))?;
+    bar.finish();
+    for w in &summary.warnings {
+        tracing::warn!("{w}");
+    }
+    if !quiet {
+        if summary.gap_voxels == 0 {
+            println!(
+                "no gaps: coverage found nothing to replan; wrote an empty plan into {}",
+                args.run.display()
+            );
+        } else {
+            println!(
+                "{} of {} gap voxels planned ({} uninspectable): {} waypoints in {} sorties, {:.0} m, about {:.0} min; replan.json and replan.csv in {}",
+                summary.planned_gap_voxels,
+                summary.gap_voxels,
+                summary.uninspectable_gaps.len(),
+                summary.waypoints,
+                summary.sorties.len(),
+                summary.length_m,
+                summary.time_s / 60.0,
+                args.run.display()
+            );
+        }
     }
     Ok(())
 }

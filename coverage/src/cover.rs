@@ -44,7 +44,7 @@ pub struct FaceCover {
 }
 
 /// Judge one face against one shot: the View model's rules in order.
-fn judge(
+pub fn judge(
     face: &Face,
     shot: &Shot,
     lenses: &[Intrinsics],

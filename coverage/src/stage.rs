@@ -85,6 +85,10 @@ pub struct CoverageSummary {
     pub shots: String,
     pub view: ViewModel,
     pub resolution_m: f64,
+    /// World position of the corner of voxel `[0, 0, 0]`.
+    pub grid_origin: [f64; 3],
+    /// The map judged against: a file, or `None` for the flight's recorded map.
+    pub map: Option<PathBuf>,
     pub targets: String,
     pub target_voxels: usize,
     pub planned_voxels: Option<usize>,
@@ -130,6 +134,22 @@ pub fn viewpoint_camera(v: &Viewpoint, extrinsic: &Isometry3<f64>) -> Isometry3<
         UnitQuaternion::from_axis_angle(&Vector3::y_axis(), v.gimbal_pitch - mount_pitch),
     );
     body * gimbal * extrinsic
+}
+
+/// How the flight's first camera is mounted on the body (plan viewpoints
+/// are shots of it). Without a recorded mounting, a camera at the body
+/// origin looking forward (optical z along body x, y down).
+pub fn camera_mount(flight: &Flight) -> Isometry3<f64> {
+    flight
+        .cameras
+        .first()
+        .and_then(|c| c.extrinsic)
+        .unwrap_or_else(|| {
+            Isometry3::from_parts(
+                Translation3::identity(),
+                UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(0.5, -0.5, 0.5, -0.5)),
+            )
+        })
 }
 
 /// Faces per progress step.
@@ -219,14 +239,7 @@ pub fn coverage(
         })?;
 
     // The shots: the flight's frames, or the viewpoints of a plan to check.
-    // Without a recorded mounting, a camera at the body origin looking
-    // forward (optical z along body x, y down).
-    let extrinsic = flight.cameras[0].extrinsic.unwrap_or_else(|| {
-        Isometry3::from_parts(
-            Translation3::identity(),
-            UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(0.5, -0.5, 0.5, -0.5)),
-        )
-    });
+    let extrinsic = camera_mount(&flight);
     let FlightShots {
         shots,
         without_pose: frames_without_pose,
@@ -356,6 +369,8 @@ pub fn coverage(
             .map_or("flight".into(), |p| p.display().to_string()),
         view,
         resolution_m: grid.resolution,
+        grid_origin: grid.origin.coords.into(),
+        map: options.map.clone(),
         targets: targets_name,
         target_voxels: n,
         planned_voxels,
@@ -521,7 +536,7 @@ fn flight_shots(
     out
 }
 
-fn check_view(view: &ViewModel) -> Result<(), CoverageError> {
+pub(crate) fn check_view(view: &ViewModel) -> Result<(), CoverageError> {
     let bad = |what: &str| Err(CoverageError::Option(format!("invalid View model: {what}")));
     if !(view.min_distance_m >= 0.0 && view.min_distance_m < view.max_distance_m) {
         return bad("the distance band needs 0 <= min < max (--min-distance, --max-distance)");

@@ -1,0 +1,319 @@
+//! End-to-end tests of `postflight replan` on a simulated flight: the
+//! follow-up plan, judged by `postflight coverage --viewpoints`, inspects
+//! every gap voxel it claims, the gaps it cannot plan are listed with a
+//! reason, and no segment of the flown path comes within the clearance of
+//! an occupied voxel of the map (checked here from map.ply, point by point).
+
+mod common;
+
+use std::collections::{BTreeSet, HashMap};
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use common::*;
+use ingest::map::{PointCloud, VoxelGrid, VoxelIndex, VoxelMap};
+use nalgebra::{Point3, Vector3};
+use serde_json::Value;
+
+type Voxel = [i64; 3];
+
+fn replan(run: &Path, args: &[&str]) -> Output {
+    let mut all = vec!["replan", "--run", run.to_str().unwrap()];
+    all.extend_from_slice(args);
+    postflight(&all, run.parent().unwrap())
+}
+
+fn coverage(run: &Path, args: &[&str]) {
+    let mut all = vec!["coverage", "--run", run.to_str().unwrap()];
+    all.extend_from_slice(args);
+    let out = postflight(&all, run.parent().unwrap());
+    assert!(out.status.success(), "coverage: {}", stderr(&out));
+}
+
+/// (inspected, uninspectable) of every target voxel of a coverage table.
+fn coverage_rows(path: &Path) -> HashMap<Voxel, (bool, bool)> {
+    let df = read_parquet(path);
+    let int = |c: &str| df.column(c).unwrap().i32().unwrap().clone();
+    let boolean = |c: &str| df.column(c).unwrap().bool().unwrap().clone();
+    let (x, y, z) = (int("voxel_x"), int("voxel_y"), int("voxel_z"));
+    let (inspected, uninspectable) = (boolean("inspected"), boolean("uninspectable"));
+    (0..df.height())
+        .map(|i| {
+            let v = [x.get(i), y.get(i), z.get(i)].map(|c| i64::from(c.unwrap()));
+            (
+                v,
+                (inspected.get(i).unwrap(), uninspectable.get(i).unwrap()),
+            )
+        })
+        .collect()
+}
+
+fn voxel(v: &Value) -> Voxel {
+    let a = v.as_array().unwrap();
+    [0, 1, 2].map(|k| a[k].as_i64().unwrap())
+}
+
+fn point(v: &Value) -> Point3<f64> {
+    Point3::from(vec3(v))
+}
+
+/// Occupied voxels of the simulator's map, on the replan's grid.
+fn occupied(sim: &Path, plan: &Value) -> VoxelMap {
+    let cloud = PointCloud::load(&sim.join("map.ply")).unwrap();
+    let grid = VoxelGrid::new(f(&plan["resolution"]), Point3::from(vec3(&plan["origin"])));
+    VoxelMap::from_points(grid, &cloud.points, 1)
+}
+
+/// Smallest distance from any point of the segment (sampled every 2 cm) to
+/// the box of an occupied voxel.
+fn segment_clearance(map: &VoxelMap, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
+    let res = map.grid.resolution;
+    let steps = ((b - a).norm() / 0.02).ceil().max(1.0) as usize;
+    let mut nearest = f64::INFINITY;
+    for i in 0..=steps {
+        let p = a + (b - a) * (i as f64 / steps as f64);
+        let c = map.grid.voxel_of(&p);
+        for dx in -4..=4 {
+            for dy in -4..=4 {
+                for dz in -4..=4 {
+                    let v = VoxelIndex([c.0[0] + dx, c.0[1] + dy, c.0[2] + dz]);
+                    if map.is_occupied(v) {
+                        let d = ((p - map.grid.center(v)).abs() - Vector3::repeat(res / 2.0))
+                            .sup(&Vector3::zeros());
+                        nearest = nearest.min(d.norm());
+                    }
+                }
+            }
+        }
+    }
+    nearest
+}
+
+fn flight(dir: &Path) -> (PathBuf, PathBuf) {
+    let sim = simulate_into(dir, "bridge", &[]);
+    let run = dir.join("run");
+    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
+    coverage(&run, &["--plan", sim.join("plan.json").to_str().unwrap()]);
+    (sim, run)
+}
+
+#[test]
+fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let (sim, run) = flight(dir.path());
+    let plan_file = sim.join("plan.json");
+
+    let before = coverage_rows(&run.join("coverage.parquet"));
+    let gaps: BTreeSet<Voxel> = before
+        .iter()
+        .filter(|(_, (inspected, uninspectable))| !inspected && !uninspectable)
+        .map(|(v, _)| *v)
+        .collect();
+    assert!(
+        gaps.len() > 50,
+        "the simulated flight leaves gaps: {}",
+        gaps.len()
+    );
+
+    let out = replan(&run, &["--solver-time-limit", "3"]);
+    assert!(out.status.success(), "replan: {}", stderr(&out));
+    let plan = read_json(&run.join("replan.json"));
+    assert_eq!(plan["gap_voxels"].as_u64().unwrap() as usize, gaps.len());
+
+    // Every gap is planned at exactly one waypoint, or listed with a reason.
+    let mut planned: Vec<Voxel> = Vec::new();
+    for sortie in plan["sorties"].as_array().unwrap() {
+        for w in sortie["waypoints"].as_array().unwrap() {
+            planned.extend(w["gap_voxels"].as_array().unwrap().iter().map(voxel));
+        }
+    }
+    let planned_set: BTreeSet<Voxel> = planned.iter().copied().collect();
+    assert_eq!(
+        planned.len(),
+        planned_set.len(),
+        "a gap voxel at two waypoints"
+    );
+    let unplanned: BTreeSet<Voxel> = plan["uninspectable_gaps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|u| {
+            let reason = u["reason"].as_str().unwrap();
+            assert!(
+                ["no_clear_viewpoint", "unreachable"].contains(&reason),
+                "{reason}"
+            );
+            voxel(&u["voxel"])
+        })
+        .collect();
+    assert!(planned_set.is_disjoint(&unplanned));
+    let accounted: BTreeSet<Voxel> = planned_set.union(&unplanned).copied().collect();
+    assert_eq!(accounted, gaps);
+    // Most gaps of a girder bridge in open air can be planned.
+    assert!(
+        planned_set.len() * 100 >= gaps.len() * 95,
+        "{} of {}",
+        planned_set.len(),
+        gaps.len()
+    );
+
+    // The plan, judged by the coverage stage alone, inspects them all.
+    coverage(
+        &run,
+        &[
+            "--plan",
+            plan_file.to_str().unwrap(),
+            "--viewpoints",
+            run.join("replan.json").to_str().unwrap(),
+        ],
+    );
+    let after = coverage_rows(&run.join("coverage-viewpoints.parquet"));
+    let missed: Vec<&Voxel> = planned_set.iter().filter(|v| !after[*v].0).collect();
+    assert!(
+        missed.is_empty(),
+        "{} planned gap voxels not inspected: {:?}",
+        missed.len(),
+        &missed[..missed.len().min(5)]
+    );
+
+    // The flown path: home to home, through every waypoint in order, and
+    // never within the clearance of the map.
+    let map = occupied(&sim, &plan);
+    let clearance = f(&plan["clearance_m"]);
+    let home = point(&plan["home"]);
+    let mut nearest = f64::INFINITY;
+    for sortie in plan["sorties"].as_array().unwrap() {
+        let path: Vec<Point3<f64>> = sortie["path"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(point)
+            .collect();
+        assert_eq!(path.first(), Some(&home));
+        assert_eq!(path.last(), Some(&home));
+        let mut at = 0;
+        for w in sortie["waypoints"].as_array().unwrap() {
+            let p = Point3::new(f(&w["x"]), f(&w["y"]), f(&w["z"]));
+            at += path[at..]
+                .iter()
+                .position(|q| *q == p)
+                .expect("waypoints on the path, in order");
+        }
+        for s in path.windows(2) {
+            nearest = nearest.min(segment_clearance(&map, &s[0], &s[1]));
+        }
+        let length: f64 = path.windows(2).map(|s| (s[1] - s[0]).norm()).sum();
+        assert_close(length, f(&sortie["length_m"]), 1e-6, "sortie length");
+    }
+    assert!(
+        nearest >= clearance,
+        "the path comes {nearest:.3} m from the map (clearance {clearance} m)"
+    );
+    eprintln!(
+        "{} gaps: {} planned, {} uninspectable; {} waypoints, {:.0} m; closest approach {nearest:.2} m; solver {}",
+        gaps.len(),
+        planned_set.len(),
+        unplanned.len(),
+        plan["waypoints"],
+        f(&plan["length_m"]),
+        plan["solver"]
+    );
+
+    // GATSBI's path format: X,Y,Z,Yaw from home, every waypoint included.
+    let csv = std::fs::read_to_string(run.join("replan.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("X,Y,Z,Yaw"));
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert!(rows.iter().all(|r| r.len() == 4));
+    assert!(rows.len() >= plan["waypoints"].as_u64().unwrap() as usize);
+    assert!((rows[0][0] - home.x).abs() < 1e-3 && (rows[0][2] - home.z).abs() < 1e-3);
+
+    // Battery: sorties no longer than the limit, each from home and back,
+    // planning the same gaps.
+    let limit = f(&plan["length_m"]) / 3.0;
+    let out = replan(
+        &run,
+        &[
+            "--solver-time-limit",
+            "2",
+            "--max-sortie-length",
+            &limit.to_string(),
+        ],
+    );
+    assert!(out.status.success(), "replan: {}", stderr(&out));
+    let split = read_json(&run.join("replan.json"));
+    let sorties = split["sorties"].as_array().unwrap();
+    assert!(sorties.len() >= 3, "{} sorties", sorties.len());
+    let mut again: BTreeSet<Voxel> = BTreeSet::new();
+    for s in sorties {
+        assert!(f(&s["length_m"]) <= limit + 1e-6);
+        let path = s["path"].as_array().unwrap();
+        assert_eq!(point(&path[0]), point(&split["home"]));
+        assert_eq!(point(path.last().unwrap()), point(&split["home"]));
+        for w in s["waypoints"].as_array().unwrap() {
+            again.extend(w["gap_voxels"].as_array().unwrap().iter().map(voxel));
+        }
+    }
+    assert_eq!(again, planned_set);
+}
+
+#[test]
+fn no_gaps_give_an_empty_plan_and_bad_runs_say_what_to_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = simulate_into(dir.path(), "bridge", &["--frames", "120"]);
+    let run = dir.path().join("run");
+    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
+
+    // Before coverage: the error names the stage to run.
+    let out = replan(&run, &[]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stderr(&out).contains("postflight coverage"),
+        "{}",
+        stderr(&out)
+    );
+
+    // Targets: only voxels the flight inspected, so nothing is left to plan.
+    coverage(&run, &["--plan", sim.join("plan.json").to_str().unwrap()]);
+    let rows = coverage_rows(&run.join("coverage.parquet"));
+    let seen: Vec<Voxel> = rows
+        .iter()
+        .filter(|(_, r)| r.0)
+        .map(|(v, _)| *v)
+        .take(5)
+        .collect();
+    assert!(!seen.is_empty());
+    let boxes: Vec<Value> = seen
+        .iter()
+        .map(|v| {
+            let c = v.map(|i| i as f64 * 0.5 + 0.25);
+            serde_json::json!({"min": [c[0] - 0.1, c[1] - 0.1, c[2] - 0.1], "max": [c[0] + 0.1, c[1] + 0.1, c[2] + 0.1]})
+        })
+        .collect();
+    let boxes_file = dir.path().join("boxes.json");
+    std::fs::write(&boxes_file, serde_json::to_string(&boxes).unwrap()).unwrap();
+    coverage(&run, &["--target-boxes", boxes_file.to_str().unwrap()]);
+    let out = replan(&run, &[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("no gaps"));
+    let plan = read_json(&run.join("replan.json"));
+    assert_eq!(plan["gap_voxels"], 0);
+    assert_eq!(plan["waypoints"], 0);
+    assert!(plan["sorties"].as_array().unwrap().is_empty());
+    assert_eq!(
+        std::fs::read_to_string(run.join("replan.csv")).unwrap(),
+        "X,Y,Z,Yaw\n"
+    );
+
+    // Nonsense options are refused with the option named.
+    let out = replan(&run, &["--max-sortie-length=-5"]);
+    assert!(
+        stderr(&out).contains("--max-sortie-length"),
+        "{}",
+        stderr(&out)
+    );
+    let out = replan(&run, &["--home", "1,2"]);
+    assert!(stderr(&out).contains("X,Y,Z"), "{}", stderr(&out));
+}
