@@ -4,7 +4,11 @@
 //! Exit codes: 0 success (warnings are printed, not fatal); 1 the input or a
 //! stage failed (the message says what and how to fix it); 2 bad usage.
 
+mod config;
+mod demo;
+mod pipeline;
 mod progress;
+mod stages;
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -31,6 +35,13 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Run the whole pipeline on a flight (ingest, detect, localise,
+    /// coverage, replan, report); re-runs skip stages whose inputs and
+    /// settings are unchanged, so an interrupted run resumes.
+    Run(RunArgs),
+    /// Simulate the default bridge flight and run the whole pipeline on it
+    /// with the reference crack detector shipped inside postflight.
+    Demo(DemoArgs),
     /// Read a ROS 2 MCAP flight recording into a run directory.
     Ingest(IngestArgs),
     /// Simulate an inspection flight with ground truth (flight.mcap, map.ply,
@@ -48,6 +59,55 @@ enum Command {
     /// Solve a Generalized TSP instance (GTSPLIB, GLNS or Karapetyan format);
     /// prints {"instance", "cost", "tour", "time_s", "stats"} as JSON.
     Gtsp(GtspArgs),
+    /// Write summary.json and the self-contained report.html of a run directory.
+    Report(ReportArgs),
+}
+
+#[derive(Args)]
+struct RunArgs {
+    /// The flight recording (ROS 2 MCAP).
+    #[arg(long)]
+    flight: PathBuf,
+    /// SLAM map (PLY or PCD) instead of the one recorded in the flight.
+    #[arg(long, value_name = "FILE")]
+    map: Option<PathBuf>,
+    /// The inspection plan that was flown; coverage and replanning need it.
+    #[arg(long, value_name = "plan.json")]
+    plan: Option<PathBuf>,
+    /// Crack detector exported to ONNX (YOLO-World) [default: the reference
+    /// detector for simulated flights].
+    #[arg(long, value_name = "M.onnx")]
+    model: Option<PathBuf>,
+    /// Settings for every stage (TOML; tables [ingest], [detect], [localise],
+    /// [view], [coverage], [replan]).
+    #[arg(long, value_name = "postflight.toml")]
+    config: Option<PathBuf>,
+    /// ONNX Runtime library (default: ORT_DYLIB_PATH, the project .venv, python3's onnxruntime).
+    #[arg(long, value_name = "PATH")]
+    onnxruntime: Option<PathBuf>,
+    /// Run directory (created if missing; a previous run there is resumed).
+    #[arg(long)]
+    out: PathBuf,
+    /// Rerun from this stage on, even if it is up to date.
+    #[arg(long, value_enum, value_name = "STAGE")]
+    force: Option<pipeline::Stage>,
+}
+
+#[derive(Args)]
+struct DemoArgs {
+    /// Directory for the simulated flight, the model and the run.
+    #[arg(long, default_value = "demo-run")]
+    out: PathBuf,
+    /// Rerun from this stage on, even if it is up to date.
+    #[arg(long, value_enum, value_name = "STAGE")]
+    force: Option<pipeline::Stage>,
+}
+
+#[derive(Args)]
+struct ReportArgs {
+    /// Run directory (at least ingested).
+    #[arg(long)]
+    run: PathBuf,
 }
 
 #[derive(Args)]
@@ -222,18 +282,11 @@ struct DetectArgs {
     #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_TILE_OVERLAP)]
     tile_overlap: f32,
     /// Where inference runs; without the provider in the ONNX Runtime library, a warning and the CPU.
-    #[arg(long, value_enum, default_value_t = DeviceArg::Cpu)]
-    device: DeviceArg,
+    #[arg(long, value_enum, default_value_t = config::DeviceName::Cpu)]
+    device: config::DeviceName,
     /// Images per inference call, for models with a dynamic batch size.
     #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_BATCH)]
     batch: usize,
-}
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum DeviceArg {
-    Cpu,
-    Cuda,
-    Tensorrt,
 }
 
 #[derive(Args)]
@@ -361,6 +414,9 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
         Command::Coverage(args) => coverage(args, cli.quiet),
         Command::Replan(args) => replan(args, cli.quiet),
         Command::Gtsp(args) => gtsp(args),
+        Command::Report(args) => report(args, cli.quiet),
+        Command::Run(args) => run_pipeline(args, cli.quiet),
+        Command::Demo(args) => demo::demo(&args.out, args.force, cli.quiet),
     }
 }
 
@@ -377,28 +433,7 @@ fn ingest(args: &IngestArgs, quiet: bool) -> anyhow::Result<()> {
         strict: args.strict,
         ..ingest::IngestOptions::new(args.flight.clone(), args.out.clone())
     };
-    let mut bar = progress::Bar::bytes("ingest", quiet);
-    let summary = ingest::ingest(&options, &mut bar)?;
-    bar.finish();
-    for w in &summary.warnings {
-        tracing::warn!("{w}");
-    }
-    if !quiet {
-        println!(
-            "ingested {} frames ({} with pose), {} poses, {:.1} s of flight{} into {}",
-            summary.frames,
-            summary.frames_with_pose,
-            summary.poses,
-            summary.duration_s,
-            if summary.truncated {
-                " (TRUNCATED recording, salvaged)"
-            } else {
-                ""
-            },
-            args.out.display()
-        );
-    }
-    Ok(())
+    stages::ingest(&options, quiet).map(drop)
 }
 
 fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
@@ -425,21 +460,7 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
         },
         ..sim::SimOptions::new(args.out.clone())
     };
-    let bar = progress::Bar::count("simulate", quiet);
-    let summary = sim::simulate(&options, &mut |done, total| bar.set(done, total))
-        .map_err(|e| anyhow::anyhow!("simulate: {e}"))?;
-    bar.finish();
-    if !quiet {
-        println!(
-            "simulated {} frames ({} dropped), {} cracks, {:.0} s of flight into {}",
-            summary.frames,
-            summary.dropped_frames,
-            summary.cracks,
-            summary.duration_s,
-            args.out.display()
-        );
-    }
-    Ok(())
+    stages::simulate(&options, quiet).map(drop)
 }
 
 fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
@@ -453,35 +474,11 @@ fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
         onnxruntime: args.onnxruntime.clone(),
         tile: args.tile,
         tile_overlap: args.tile_overlap,
-        device: match args.device {
-            DeviceArg::Cpu => detect::Device::Cpu,
-            DeviceArg::Cuda => detect::Device::Cuda,
-            DeviceArg::Tensorrt => detect::Device::TensorRt,
-        },
+        device: args.device.device(),
         batch: args.batch,
         ..detect::DetectOptions::new(args.run.clone(), args.model.clone())
     };
-    let bar = progress::Bar::count("detect", quiet);
-    let summary = detect::detect(&options, &mut |done, total| bar.set(done, total))?;
-    bar.finish();
-    for w in &summary.warnings {
-        tracing::warn!("{w}");
-    }
-    for f in &summary.failed_frames {
-        tracing::warn!("frame {} skipped: {}", f.frame, f.why);
-    }
-    if !quiet {
-        println!(
-            "{} detections in {} frames ({:.1} frames/s on {}, {:.0}% of the time in ONNX Runtime) into {}",
-            summary.detections,
-            summary.frames_run,
-            summary.frames_per_s,
-            summary.device,
-            100.0 * summary.inference_share,
-            args.run.display()
-        );
-    }
-    Ok(())
+    stages::detect(&options, quiet).map(drop)
 }
 
 fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
@@ -495,26 +492,7 @@ fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
         },
         ..localise::LocaliseOptions::new(args.run.clone())
     };
-    let bar = progress::Bar::count("localise", quiet);
-    let summary = localise::localise(&options, &mut |done, total| bar.set(done, total))?;
-    bar.finish();
-    for w in &summary.warnings {
-        tracing::warn!("{w}");
-    }
-    if !quiet {
-        let o = &summary.outcomes;
-        println!(
-            "{} defect candidates from {} detections ({} placed, {} without pose, {} on no surface, {} on obstacles) into {}",
-            summary.defects,
-            summary.detections,
-            o.placed,
-            o.no_pose,
-            o.no_surface,
-            o.obstacle,
-            args.run.display()
-        );
-    }
-    Ok(())
+    stages::localise(&options, quiet).map(drop)
 }
 
 fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
@@ -545,35 +523,10 @@ fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
         },
         ..coverage::CoverageOptions::new(args.run.clone())
     };
-    let bar = progress::Bar::count("coverage", quiet);
-    let summary = coverage::coverage(&options, &mut |done, total| bar.set(done, total))?;
-    bar.finish();
-    for w in &summary.warnings {
-        tracing::warn!("{w}");
-    }
-    if !quiet {
-        let planned = match (summary.planned_voxels, summary.planned_inspected_pct) {
-            (Some(p), Some(pct)) => format!(", {pct:.1}% of {p} planned"),
-            _ => String::new(),
-        };
-        println!(
-            "inspected {} of {} target voxels ({:.1}%{planned}); {} gaps to replan, {} uninspectable; face area {:.1}% into {}",
-            summary.inspected_voxels,
-            summary.target_voxels,
-            summary.inspected_pct,
-            summary.gap_voxels,
-            summary.uninspectable_voxels,
-            summary.face_area_coverage_pct,
-            args.run.display()
-        );
-    }
-    Ok(())
+    stages::coverage(&options, quiet).map(drop)
 }
 
 fn replan(args: &ReplanArgs, quiet: bool) -> anyhow::Result<()> {
-    if !(args.solver_time_limit.is_finite() && args.solver_time_limit > 0.0) {
-        anyhow::bail!("--solver-time-limit must be a positive number of seconds");
-    }
     let mut options = coverage::ReplanOptions {
         map: args.map.clone(),
         home: args.home,
@@ -583,33 +536,52 @@ fn replan(args: &ReplanArgs, quiet: bool) -> anyhow::Result<()> {
         hover_s: args.hover,
         ..coverage::ReplanOptions::new(args.run.clone())
     };
-    options.solver.time_limit = Some(std::time::Duration::from_secs_f64(args.solver_time_limit));
+    options.solver.time_limit = Some(config::solver_time_limit(args.solver_time_limit).map_err(
+        |_| anyhow::anyhow!("--solver-time-limit must be a positive number of seconds"),
+    )?);
     options.solver.seed = args.seed;
-    let bar = progress::Bar::count("replan", quiet);
-    let summary = coverage::replan(&options, &mut |done, total| bar.set(done, total))?;
-    bar.finish();
-    for w in &summary.warnings {
-        tracing::warn!("{w}");
-    }
-    if !quiet {
-        if summary.gap_voxels == 0 {
-            println!(
-                "no gaps: coverage found nothing to replan; wrote an empty plan into {}",
-                args.run.display()
+    stages::replan(&options, quiet).map(drop)
+}
+
+fn report(args: &ReportArgs, quiet: bool) -> anyhow::Result<()> {
+    let options = reports::ReportOptions {
+        run: args.run.clone(),
+    };
+    stages::report(&options, quiet).map(drop)
+}
+
+fn run_pipeline(args: &RunArgs, quiet: bool) -> anyhow::Result<()> {
+    let config = match &args.config {
+        Some(path) => config::RunConfig::load(path)?,
+        None => config::RunConfig::default(),
+    };
+    let model = match &args.model {
+        Some(m) => m.clone(),
+        None => {
+            let path = args.out.join("reference-model.onnx");
+            tracing::warn!(
+                "no --model: using the reference detector, made for simulated flights; give --model for a real flight"
             );
-        } else {
-            println!(
-                "{} of {} gap voxels planned ({} uninspectable): {} waypoints in {} sorties, {:.0} m, about {:.0} min; replan.json and replan.csv in {}",
-                summary.planned_gap_voxels,
-                summary.gap_voxels,
-                summary.uninspectable_gaps.len(),
-                summary.waypoints,
-                summary.sorties.len(),
-                summary.length_m,
-                summary.time_s / 60.0,
-                args.run.display()
-            );
+            demo::write_reference_model(&path)?;
+            path
         }
+    };
+    let inputs = pipeline::RunInputs {
+        flight: args.flight.clone(),
+        map: args.map.clone(),
+        plan: args.plan.clone(),
+        model,
+        onnxruntime: args.onnxruntime.clone(),
+        config,
+        out: args.out.clone(),
+        force: args.force,
+    };
+    pipeline::run(&inputs, quiet)?;
+    if !quiet {
+        println!(
+            "run complete: {}",
+            args.out.join(reports::stage::files::REPORT).display()
+        );
     }
     Ok(())
 }

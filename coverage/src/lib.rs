@@ -21,7 +21,7 @@ pub mod view;
 pub use cover::{FaceCover, Shot, cover, cover_naive};
 pub use error::CoverageError;
 pub use face::{Face, exposed_faces};
-pub use replan::{ReplanOptions, ReplanSummary, replan};
+pub use replan::{ReplanOptions, ReplanSummary, Unplannable, replan};
 pub use settings::{CoverageSettings, ViewSettings};
 pub use stage::{CoverageOptions, CoverageSummary, Targets, coverage};
 pub use view::{Miss, Sight};

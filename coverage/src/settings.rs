@@ -5,20 +5,30 @@
 use std::path::Path;
 
 use ingest::ViewModel;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::error::CoverageError;
 
-/// The settings a config file may hold (`[view]` and `[coverage]` tables).
+/// The settings of a config file this stage reads (`[view]` and
+/// `[coverage]`); the other stages' tables of `postflight.toml` are theirs
+/// and left alone, and any other table is a mistake.
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ConfigFile {
     pub view: Option<ViewSettings>,
     pub coverage: Option<CoverageSettings>,
+    #[serde(rename = "ingest")]
+    _ingest: Option<toml::Table>,
+    #[serde(rename = "detect")]
+    _detect: Option<toml::Table>,
+    #[serde(rename = "localise")]
+    _localise: Option<toml::Table>,
+    #[serde(rename = "replan")]
+    _replan: Option<toml::Table>,
 }
 
 /// View model settings; unset ones keep the plan's (or the defaults).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ViewSettings {
     pub cone_apex_deg: Option<f64>,
@@ -59,7 +69,7 @@ impl ViewSettings {
 }
 
 /// Settings of the stage other than the View model.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CoverageSettings {
     /// Views a face needs within `defect_radius_m` of a defect candidate.
@@ -86,4 +96,19 @@ pub fn load_config(path: &Path) -> Result<ConfigFile, CoverageError> {
     };
     let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
     toml::from_str(&text).map_err(|e| bad(e.to_string().replace('\n', " ")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn other_stages_tables_are_left_alone_and_unknown_tables_refused() {
+        let c: ConfigFile = toml::from_str(
+            "[detect]\nconfidence = 0.3\n[view]\nmax_distance_m = 4.0\n[replan]\nseed = 2\n",
+        )
+        .unwrap();
+        assert_eq!(c.view.unwrap().max_distance_m, Some(4.0));
+        assert!(toml::from_str::<ConfigFile>("[veiw]\nmax_distance_m = 4.0\n").is_err());
+    }
 }

@@ -75,10 +75,10 @@ impl CoverageOptions {
 }
 
 /// Voxel counts by reason for not being inspected.
-pub type ReasonCounts = BTreeMap<&'static str, usize>;
+pub type ReasonCounts = BTreeMap<String, usize>;
 
 /// `coverage.json`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct CoverageSummary {
     pub run: PathBuf,
     /// `flight`, or the viewpoints file judged instead.
@@ -350,7 +350,7 @@ pub fn coverage(
     let mut reasons = ReasonCounts::new();
     for r in &records {
         if let Some(m) = r.reason {
-            *reasons.entry(m).or_default() += 1;
+            *reasons.entry(m.to_string()).or_default() += 1;
         }
     }
     let inspected_faces = flown.iter().filter(|c| c.miss.is_none()).count();

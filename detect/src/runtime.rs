@@ -127,6 +127,30 @@ fn in_capi(capi: &Path) -> Option<PathBuf> {
     libs.into_iter().next()
 }
 
+/// `OrtGetApiBase()->GetVersionString()` of the library at `path` (already
+/// loaded by `ort`, so this only looks the symbol up); the build information
+/// `ort::info()` gives names no release in the PyPI wheels.
+fn library_version(path: &Path) -> Option<String> {
+    // SAFETY: the library is ONNX Runtime, which `ort` loaded from the same
+    // path and checked; `OrtGetApiBase` has this signature in every release,
+    // returns a static table, and `GetVersionString` a static C string.
+    unsafe {
+        let lib = libloading::Library::new(path).ok()?;
+        let get: libloading::Symbol<unsafe extern "C" fn() -> *const ort::sys::OrtApiBase> =
+            lib.get(b"OrtGetApiBase").ok()?;
+        let base = get();
+        if base.is_null() {
+            return None;
+        }
+        let text = ((*base).GetVersionString)();
+        (!text.is_null()).then(|| {
+            std::ffi::CStr::from_ptr(text)
+                .to_string_lossy()
+                .into_owned()
+        })
+    }
+}
+
 fn python_package() -> Option<PathBuf> {
     let out = Command::new("python3")
         .args([
@@ -184,6 +208,11 @@ impl Runtime {
         }));
         *started = Some(runtime);
         Ok(runtime)
+    }
+
+    /// The library's version (`1.31.1`), as the library itself reports it.
+    pub fn version(&self) -> String {
+        library_version(&self.library.path).unwrap_or_else(|| "unknown".into())
     }
 
     /// Open a model on `device`, falling back to the CPU (with a warning in

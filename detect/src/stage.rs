@@ -124,7 +124,13 @@ pub struct FailedFrame {
 pub struct DetectSummary {
     pub model: PathBuf,
     pub model_bytes: u64,
+    /// SHA-256 of the model file, as `sha256sum` prints it.
+    #[serde(default)]
+    pub model_sha256: String,
     pub onnxruntime: PathBuf,
+    /// ONNX Runtime's version (`1.31.1`).
+    #[serde(default)]
+    pub onnxruntime_version: String,
     /// Device inference ran on (`cpu` when a GPU was asked for but unavailable).
     pub device: String,
     /// Views per inference call.
@@ -330,7 +336,9 @@ pub fn detect(
         model_bytes: std::fs::metadata(&options.model)
             .map(|m| m.len())
             .unwrap_or(0),
+        model_sha256: ingest::run_log::sha256_file(&options.model)?,
         onnxruntime: runtime.library.path.clone(),
+        onnxruntime_version: runtime.version(),
         vocabulary: match detector.signature.vocabulary {
             Vocabulary::Baked => "baked".into(),
             Vocabulary::Embeddings { .. } => "embeddings".into(),

@@ -968,7 +968,7 @@ fn write_outputs(
 }
 
 /// UTC time as RFC 3339 with nanoseconds.
-fn rfc3339(ns: i64) -> String {
+pub(crate) fn rfc3339(ns: i64) -> String {
     let secs = ns.div_euclid(1_000_000_000);
     let nanos = ns.rem_euclid(1_000_000_000);
     let days = secs.div_euclid(86_400);

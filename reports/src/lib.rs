@@ -1,4 +1,19 @@
-//! Reports: turns a run directory into what people read and use: summary
-//! tables, the self-contained HTML report, the Rerun recording and the human
-//! review queue of proposed cracks. It may read the outputs of every stage
-//! and writes nothing that another stage reads back.
+//! Reports: turns a run directory into what people read and use: the run in
+//! numbers (`summary.json`) and the self-contained HTML report
+//! (`report.html`: coverage pictures, defect candidates in review order, the
+//! follow-up flight), with the Rerun recording and the human review queue of
+//! proposed cracks to follow. It reads the outputs of every stage and writes
+//! nothing that another stage reads back.
+
+pub mod error;
+pub mod html;
+pub mod results;
+pub mod stage;
+pub mod summary;
+pub mod svg;
+pub mod views;
+
+pub use error::ReportError;
+pub use results::{RunResults, TargetVoxel, VoxelStatus, review_priority};
+pub use stage::{ReportOptions, report};
+pub use summary::RunSummary;

@@ -56,7 +56,7 @@ impl Default for SolveOptions {
 }
 
 /// What the search did.
-#[derive(Debug, Clone, Default, serde::Serialize)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct SolveStats {
     pub threads: usize,
     pub trials: usize,

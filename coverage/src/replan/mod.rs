@@ -73,7 +73,7 @@ impl ReplanOptions {
 }
 
 /// A stop of the follow-up flight.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Waypoint {
     pub x: f64,
     pub y: f64,
@@ -87,7 +87,7 @@ pub struct Waypoint {
 }
 
 /// One flight from home and back.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Sortie {
     pub waypoints: Vec<Waypoint>,
     /// The collision-free path flown, home to home.
@@ -98,19 +98,26 @@ pub struct Sortie {
 }
 
 /// A gap voxel the follow-up flight cannot inspect, and why.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Uninspectable {
     pub voxel: VoxelIndex,
-    /// `no_clear_viewpoint`: no viewpoint that keeps the clearance inspects
-    /// it; `unreachable`: such viewpoints exist but no collision-free path
-    /// leads to them from home.
-    pub reason: &'static str,
+    pub reason: Unplannable,
+}
+
+/// Why a gap voxel is left out of the follow-up flight.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Unplannable {
+    /// No viewpoint that keeps the clearance inspects it.
+    NoClearViewpoint,
+    /// Such viewpoints exist, but no collision-free path leads to them from home.
+    Unreachable,
 }
 
 /// `replan.json`. Its first fields make it an inspection plan (the gap
 /// voxels it inspects as targets, the waypoints as viewpoints in flight
 /// order), so `postflight coverage --viewpoints replan.json` checks it.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ReplanSummary {
     pub frame_id: String,
     pub resolution: f64,
@@ -262,10 +269,10 @@ pub fn replan(
     progress(done.load(std::sync::atomic::Ordering::Relaxed), total);
     summary.candidate_viewpoints = found.len();
     let mut by_gap = clusters(&gaps, &found, |v| grid.center(v));
-    let mut uninspectable: BTreeMap<usize, &'static str> = BTreeMap::new();
+    let mut uninspectable: BTreeMap<usize, Unplannable> = BTreeMap::new();
     for (g, members) in by_gap.iter().enumerate() {
         if members.is_empty() {
-            uninspectable.insert(g, "no_clear_viewpoint");
+            uninspectable.insert(g, Unplannable::NoClearViewpoint);
         }
     }
 
@@ -294,7 +301,7 @@ pub fn replan(
                     let before = members.len();
                     members.retain(|k| !lost.contains(k));
                     if before > 0 && members.is_empty() {
-                        uninspectable.insert(g, "unreachable");
+                        uninspectable.insert(g, Unplannable::Unreachable);
                     }
                 }
             }

@@ -44,7 +44,7 @@ pub struct Tour {
 }
 
 /// What the solver and the collision checks did.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct ReplanSolverStats {
     pub vertices: usize,
     pub clusters: usize,

@@ -1,0 +1,156 @@
+//! The run log (`pipeline.json`): which stages `postflight run` completed in
+//! a run directory, on which inputs and settings (a fingerprint), and how
+//! long each took. A stage whose fingerprint still matches is not run again,
+//! so an interrupted run resumes where it stopped.
+
+use std::collections::BTreeMap;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+use crate::error::IngestError;
+use crate::run_dir::RunDir;
+
+/// The run log's file in the run directory.
+pub const RUN_LOG: &str = "pipeline.json";
+
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct RunLog {
+    pub postflight_version: String,
+    /// The stage started last and not finished: running now, or cut off.
+    pub running: Option<String>,
+    /// Completed stages, in pipeline order.
+    pub stages: Vec<StageRecord>,
+}
+
+/// One completed stage.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct StageRecord {
+    pub stage: String,
+    /// SHA-256 over the stage's settings, the contents of its input files
+    /// and the previous stage's fingerprint.
+    pub fingerprint: String,
+    /// Input files from outside the run directory, by role (`flight`, `model`, ...).
+    pub inputs: BTreeMap<String, InputFile>,
+    pub seconds: f64,
+    /// When it finished (RFC 3339, UTC).
+    pub finished: String,
+}
+
+/// An input file as a stage read it.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct InputFile {
+    pub path: PathBuf,
+    pub sha256: String,
+}
+
+impl RunLog {
+    /// The log of `dir`, or an empty one when no run has been logged there.
+    pub fn read(dir: &RunDir) -> Result<Self, IngestError> {
+        if dir.file(RUN_LOG).is_file() {
+            dir.read_json(RUN_LOG)
+        } else {
+            Ok(Self::default())
+        }
+    }
+
+    pub fn write(&self, dir: &RunDir) -> Result<(), IngestError> {
+        dir.write_json(RUN_LOG, self)
+    }
+
+    pub fn record(&self, stage: &str) -> Option<&StageRecord> {
+        self.stages.iter().find(|r| r.stage == stage)
+    }
+
+    /// Forget `stage` (before running it again).
+    pub fn forget(&mut self, stage: &str) {
+        self.stages.retain(|r| r.stage != stage);
+    }
+
+    /// Seconds per completed stage.
+    pub fn timings(&self) -> BTreeMap<String, f64> {
+        self.stages
+            .iter()
+            .map(|r| (r.stage.clone(), r.seconds))
+            .collect()
+    }
+}
+
+/// SHA-256 of a file's contents, in hex (as `sha256sum` prints it).
+pub fn sha256_file(path: &Path) -> Result<String, IngestError> {
+    let open = |source| IngestError::Open {
+        path: path.to_owned(),
+        source,
+    };
+    let mut file = std::fs::File::open(path).map_err(open)?;
+    let mut hasher = Sha256::new();
+    let mut buf = vec![0u8; 1 << 20];
+    loop {
+        let n = file.read(&mut buf).map_err(open)?;
+        if n == 0 {
+            break;
+        }
+        hasher.update(&buf[..n]);
+    }
+    Ok(hex(&hasher.finalize()))
+}
+
+/// SHA-256 of bytes, in hex.
+pub fn sha256(bytes: &[u8]) -> String {
+    hex(&Sha256::digest(bytes))
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The current time in RFC 3339, UTC.
+pub fn now_rfc3339() -> String {
+    let ns = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as i64);
+    crate::stage::rfc3339(ns)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hashes_like_sha256sum() {
+        // `printf abc | sha256sum`
+        assert_eq!(
+            sha256(b"abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f");
+        std::fs::write(&path, b"abc").unwrap();
+        assert_eq!(sha256_file(&path).unwrap(), sha256(b"abc"));
+    }
+
+    #[test]
+    fn a_missing_log_is_empty_and_a_written_one_reads_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let run = RunDir::create(dir.path()).unwrap();
+        assert_eq!(RunLog::read(&run).unwrap(), RunLog::default());
+        let mut log = RunLog {
+            postflight_version: "0".into(),
+            running: Some("detect".into()),
+            stages: vec![StageRecord {
+                stage: "ingest".into(),
+                fingerprint: "f".into(),
+                inputs: BTreeMap::new(),
+                seconds: 1.5,
+                finished: now_rfc3339(),
+            }],
+        };
+        log.write(&run).unwrap();
+        assert_eq!(RunLog::read(&run).unwrap(), log);
+        assert_eq!(log.timings()["ingest"], 1.5);
+        log.forget("ingest");
+        assert!(log.record("ingest").is_none());
+    }
+}

@@ -1,0 +1,177 @@
+//! What a run directory holds: each stage's summary and the tables the
+//! reports draw from, read once. A stage that has not run is `None`, so a
+//! report can be made at any point of the pipeline.
+
+use std::path::{Path, PathBuf};
+
+use coverage::{CoverageSummary, ReplanSummary};
+use detect::DetectSummary;
+use ingest::{IngestSummary, RunDir, RunLog};
+use localise::{DefectRecord, LocaliseSummary};
+use polars::prelude::*;
+use serde::Deserialize;
+
+use crate::error::ReportError;
+
+/// Coverage status of a target voxel, as the report colours it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum VoxelStatus {
+    Inspected,
+    /// Planned and not inspected: the flight missed it.
+    PlannedMissed,
+    /// Not planned and not inspected, but a flight could inspect it.
+    NotPlanned,
+    /// No free standpoint can inspect it under the View model.
+    Uninspectable,
+}
+
+impl VoxelStatus {
+    pub const ALL: [Self; 4] = [
+        Self::Inspected,
+        Self::PlannedMissed,
+        Self::NotPlanned,
+        Self::Uninspectable,
+    ];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Inspected => "inspected",
+            Self::PlannedMissed => "planned, missed",
+            Self::NotPlanned => "not planned, not inspected",
+            Self::Uninspectable => "uninspectable",
+        }
+    }
+}
+
+/// One target voxel of `coverage.parquet`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TargetVoxel {
+    pub index: [i32; 3],
+    /// Centre, world frame, metres.
+    pub centre: [f64; 3],
+    pub status: VoxelStatus,
+}
+
+/// Everything the stages of one run wrote.
+pub struct RunResults {
+    pub dir: RunDir,
+    pub ingest: IngestSummary,
+    pub detect: Option<DetectSummary>,
+    pub localise: Option<LocaliseSummary>,
+    /// Defect candidates, in the order localise wrote them.
+    pub defects: Vec<DefectRecord>,
+    pub coverage: Option<CoverageSummary>,
+    pub voxels: Vec<TargetVoxel>,
+    pub replan: Option<ReplanSummary>,
+    pub log: RunLog,
+}
+
+#[derive(Deserialize)]
+struct DefectsFile {
+    defects: Vec<DefectRecord>,
+}
+
+impl RunResults {
+    /// Read the run directory at `path` (ingest must have completed).
+    pub fn read(path: &Path) -> Result<Self, ReportError> {
+        let dir = RunDir::open(path, ingest::run_dir::files::INGEST, "ingest")?;
+        let optional = |name: &str| dir.file(name).is_file();
+        let detect = if optional(detect::stage::files::SUMMARY) {
+            Some(dir.read_json(detect::stage::files::SUMMARY)?)
+        } else {
+            None
+        };
+        let (localise, defects) = if optional(localise::stage::files::SUMMARY) {
+            let file: DefectsFile = dir.read_json(localise::stage::files::DEFECTS_JSON)?;
+            (
+                Some(dir.read_json(localise::stage::files::SUMMARY)?),
+                file.defects,
+            )
+        } else {
+            (None, Vec::new())
+        };
+        let (coverage, voxels) = if optional(coverage::stage::files::SUMMARY) {
+            let table = dir.read_table(coverage::stage::files::TABLE)?;
+            let voxels = target_voxels(&table).map_err(|why| ReportError::Table {
+                path: dir.file(coverage::stage::files::TABLE),
+                why: format!("{why}; rerun `postflight coverage`"),
+            })?;
+            (
+                Some(dir.read_json(coverage::stage::files::SUMMARY)?),
+                voxels,
+            )
+        } else {
+            (None, Vec::new())
+        };
+        let replan = if optional(coverage::replan::files::PLAN) {
+            Some(dir.read_json(coverage::replan::files::PLAN)?)
+        } else {
+            None
+        };
+        Ok(Self {
+            ingest: dir.read_json(ingest::run_dir::files::INGEST)?,
+            detect,
+            localise,
+            defects,
+            coverage,
+            voxels,
+            replan,
+            log: RunLog::read(&dir)?,
+            dir,
+        })
+    }
+
+    /// A file of the run directory.
+    pub fn file(&self, name: &str) -> PathBuf {
+        self.dir.file(name)
+    }
+
+    /// Defect candidates in review order: the likeliest and largest first
+    /// (fused confidence times length, cracks of unknown length counted 5 cm).
+    pub fn defects_for_review(&self) -> Vec<&DefectRecord> {
+        let mut order: Vec<&DefectRecord> = self.defects.iter().collect();
+        order.sort_by(|a, b| {
+            review_priority(b)
+                .total_cmp(&review_priority(a))
+                .then_with(|| a.id.cmp(&b.id))
+        });
+        order
+    }
+}
+
+/// How urgently a candidate needs a reviewer's eye.
+pub fn review_priority(d: &DefectRecord) -> f64 {
+    d.confidence * d.length_m.unwrap_or(0.0).max(0.05)
+}
+
+fn target_voxels(df: &DataFrame) -> Result<Vec<TargetVoxel>, PolarsError> {
+    let int = |name: &str| -> Result<Vec<i32>, PolarsError> {
+        let c = df.column(name)?.cast(&DataType::Int32)?;
+        Ok(c.i32()?.into_no_null_iter().collect())
+    };
+    let float = |name: &str| -> Result<Vec<f64>, PolarsError> {
+        Ok(df.column(name)?.f64()?.into_no_null_iter().collect())
+    };
+    let flag = |name: &str| -> Result<Vec<Option<bool>>, PolarsError> {
+        Ok(df.column(name)?.bool()?.iter().collect())
+    };
+    let (ix, iy, iz) = (int("voxel_x")?, int("voxel_y")?, int("voxel_z")?);
+    let (x, y, z) = (float("x")?, float("y")?, float("z")?);
+    let (planned, inspected, uninspectable) =
+        (flag("planned")?, flag("inspected")?, flag("uninspectable")?);
+    Ok((0..df.height())
+        .map(|i| TargetVoxel {
+            index: [ix[i], iy[i], iz[i]],
+            centre: [x[i], y[i], z[i]],
+            status: if inspected[i] == Some(true) {
+                VoxelStatus::Inspected
+            } else if uninspectable[i] == Some(true) {
+                VoxelStatus::Uninspectable
+            } else if planned[i] == Some(true) {
+                VoxelStatus::PlannedMissed
+            } else {
+                VoxelStatus::NotPlanned
+            },
+        })
+        .collect())
+}

@@ -1,0 +1,59 @@
+//! The report stage: reads what the other stages wrote into a run directory
+//! and writes `report.html`, then `summary.json` (last: the stage is
+//! complete exactly when it exists).
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use crate::error::ReportError;
+use crate::html;
+use crate::results::RunResults;
+use crate::summary::RunSummary;
+
+/// Files of the report stage.
+pub mod files {
+    pub const REPORT: &str = "report.html";
+    pub const SUMMARY: &str = "summary.json";
+}
+
+#[derive(Debug, Clone)]
+pub struct ReportOptions {
+    pub run: PathBuf,
+}
+
+/// Write the report of the run directory `options.run`.
+pub fn report(options: &ReportOptions) -> Result<RunSummary, ReportError> {
+    let start = Instant::now();
+    let results = RunResults::read(&options.run)?;
+    results.dir.remove(files::SUMMARY)?;
+    // Timings of the stages `postflight run` ran, else what each stage
+    // recorded of itself.
+    let mut timings = results.log.timings();
+    timings.remove("report");
+    if timings.is_empty() {
+        if let Some(d) = &results.detect {
+            timings.insert("detect".into(), d.seconds);
+        }
+        if let Some(l) = &results.localise {
+            timings.insert("localise".into(), l.seconds);
+        }
+        if let Some(c) = &results.coverage {
+            timings.insert("coverage".into(), c.seconds);
+        }
+        if let Some(r) = &results.replan {
+            timings.insert("replan".into(), r.seconds);
+        }
+    }
+    let mut summary = RunSummary::new(&results, timings);
+    let page = html::page(&results, &summary);
+    let path = results.file(files::REPORT);
+    results.dir.write_with(files::REPORT, |f| {
+        std::io::Write::write_all(f, page.as_bytes())
+            .map_err(|source| ingest::IngestError::Write { path, source })
+    })?;
+    summary
+        .timings_s
+        .insert("report".into(), start.elapsed().as_secs_f64());
+    results.dir.write_json(files::SUMMARY, &summary)?;
+    Ok(summary)
+}

@@ -1,0 +1,235 @@
+//! `postflight.toml`: settings for every stage of `postflight run`, one
+//! table per stage (`[ingest]`, `[detect]`, `[localise]`, `[view]`,
+//! `[coverage]`, `[replan]`), every key optional. `postflight coverage
+//! --config` reads the same file's `[view]` and `[coverage]` tables.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RunConfig {
+    pub ingest: IngestConfig,
+    pub detect: DetectConfig,
+    pub localise: LocaliseConfig,
+    pub view: coverage::ViewSettings,
+    pub coverage: coverage::CoverageSettings,
+    pub replan: ReplanConfig,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IngestConfig {
+    pub image_topics: Vec<String>,
+    pub pose_topic: Option<String>,
+    pub camera_info_topic: Option<String>,
+    pub map_topic: Option<String>,
+    pub body_frame: Option<String>,
+    pub world_frame: Option<String>,
+    pub max_pose_gap_s: Option<f64>,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DetectConfig {
+    pub prompts: Vec<String>,
+    pub embeddings: Option<PathBuf>,
+    pub confidence: Option<f32>,
+    pub iou: Option<f32>,
+    pub merge_gap: Option<f32>,
+    pub image_size: Option<u32>,
+    pub tile: Option<u32>,
+    pub tile_overlap: Option<f32>,
+    pub batch: Option<usize>,
+    pub device: Option<DeviceName>,
+}
+
+/// Where inference runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum DeviceName {
+    Cpu,
+    Cuda,
+    Tensorrt,
+}
+
+impl DeviceName {
+    pub fn device(self) -> detect::Device {
+        match self {
+            Self::Cpu => detect::Device::Cpu,
+            Self::Cuda => detect::Device::Cuda,
+            Self::Tensorrt => detect::Device::TensorRt,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LocaliseConfig {
+    pub max_range_m: Option<f64>,
+    pub link_distance_m: Option<f64>,
+    pub max_normal_angle_deg: Option<f64>,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ReplanConfig {
+    pub home: Option<[f64; 3]>,
+    pub clearance_m: Option<f64>,
+    pub max_sortie_length_m: Option<f64>,
+    pub speed_m_s: Option<f64>,
+    pub hover_s: Option<f64>,
+    pub solver_time_limit_s: Option<f64>,
+    pub seed: Option<u64>,
+}
+
+impl RunConfig {
+    pub fn load(path: &Path) -> anyhow::Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| anyhow::anyhow!("cannot read config {}: {e}", path.display()))?;
+        toml::from_str(&text).map_err(|e| {
+            anyhow::anyhow!(
+                "config {}: {}; tables are [ingest], [detect], [localise], [view], [coverage] and [replan] (see README)",
+                path.display(),
+                e.to_string().trim().replace('\n', " ")
+            )
+        })
+    }
+
+    pub fn ingest_options(&self, flight: &Path, out: &Path) -> ingest::IngestOptions {
+        let c = &self.ingest;
+        let defaults = ingest::IngestOptions::new(flight.to_owned(), out.to_owned());
+        ingest::IngestOptions {
+            image_topics: c.image_topics.clone(),
+            pose_topic: c.pose_topic.clone(),
+            camera_info_topic: c.camera_info_topic.clone(),
+            map_topic: c.map_topic.clone(),
+            body_frame: c.body_frame.clone(),
+            world_frame: c.world_frame.clone(),
+            max_pose_gap_s: c.max_pose_gap_s.unwrap_or(defaults.max_pose_gap_s),
+            ..defaults
+        }
+    }
+
+    pub fn detect_options(
+        &self,
+        run: &Path,
+        model: &Path,
+        onnxruntime: Option<&Path>,
+    ) -> detect::DetectOptions {
+        let c = &self.detect;
+        let d = detect::DetectOptions::new(run.to_owned(), model.to_owned());
+        detect::DetectOptions {
+            prompts: if c.prompts.is_empty() {
+                d.prompts.clone()
+            } else {
+                c.prompts.clone()
+            },
+            embeddings: c.embeddings.clone(),
+            confidence: c.confidence.unwrap_or(d.confidence),
+            iou: c.iou.unwrap_or(d.iou),
+            merge_gap: c.merge_gap.unwrap_or(d.merge_gap),
+            image_size: c.image_size.unwrap_or(d.image_size),
+            tile: c.tile.or(d.tile),
+            tile_overlap: c.tile_overlap.unwrap_or(d.tile_overlap),
+            batch: c.batch.unwrap_or(d.batch),
+            device: c.device.map_or(d.device, DeviceName::device),
+            onnxruntime: onnxruntime.map(Path::to_path_buf),
+            ..d
+        }
+    }
+
+    pub fn localise_options(
+        &self,
+        run: &Path,
+        map: Option<&Path>,
+        plan: Option<&Path>,
+    ) -> localise::LocaliseOptions {
+        let c = &self.localise;
+        let d = localise::LocaliseOptions::new(run.to_owned());
+        localise::LocaliseOptions {
+            map: map.map(Path::to_path_buf),
+            plan: plan.map(Path::to_path_buf),
+            max_range_m: c.max_range_m.unwrap_or(d.max_range_m),
+            fusion: localise::FusionOptions {
+                link_distance: c.link_distance_m.unwrap_or(d.fusion.link_distance),
+                max_normal_angle_deg: c
+                    .max_normal_angle_deg
+                    .unwrap_or(d.fusion.max_normal_angle_deg),
+            },
+            ..d
+        }
+    }
+
+    pub fn coverage_options(
+        &self,
+        run: &Path,
+        map: Option<&Path>,
+        plan: &Path,
+    ) -> coverage::CoverageOptions {
+        coverage::CoverageOptions {
+            plan: Some(plan.to_owned()),
+            map: map.map(Path::to_path_buf),
+            view: self.view,
+            settings: self.coverage,
+            ..coverage::CoverageOptions::new(run.to_owned())
+        }
+    }
+
+    pub fn replan_options(
+        &self,
+        run: &Path,
+        map: Option<&Path>,
+    ) -> anyhow::Result<coverage::ReplanOptions> {
+        let c = &self.replan;
+        let d = coverage::ReplanOptions::new(run.to_owned());
+        let mut options = coverage::ReplanOptions {
+            map: map.map(Path::to_path_buf),
+            home: c.home.or(d.home),
+            clearance_m: c.clearance_m.unwrap_or(d.clearance_m),
+            max_sortie_length_m: c.max_sortie_length_m.or(d.max_sortie_length_m),
+            speed_m_s: c.speed_m_s.unwrap_or(d.speed_m_s),
+            hover_s: c.hover_s.unwrap_or(d.hover_s),
+            ..d
+        };
+        if let Some(s) = c.solver_time_limit_s {
+            options.solver.time_limit = Some(solver_time_limit(s)?);
+        }
+        if let Some(seed) = c.seed {
+            options.solver.seed = seed;
+        }
+        Ok(options)
+    }
+}
+
+/// A solver time limit from seconds, which must be positive.
+pub fn solver_time_limit(seconds: f64) -> anyhow::Result<std::time::Duration> {
+    if seconds.is_finite() && seconds > 0.0 {
+        Ok(std::time::Duration::from_secs_f64(seconds))
+    } else {
+        anyhow::bail!("the solver time limit must be a positive number of seconds, not {seconds}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_every_table_and_rejects_unknown_keys() {
+        let c: RunConfig = toml::from_str(
+            "[detect]\nconfidence = 0.4\ndevice = \"cuda\"\n[view]\nmax_distance_m = 6.0\n[replan]\nclearance_m = 1.5\nhome = [0.0, 1.0, 2.0]\n",
+        )
+        .unwrap();
+        assert_eq!(c.detect.confidence, Some(0.4));
+        assert_eq!(c.detect.device, Some(DeviceName::Cuda));
+        assert_eq!(c.view.max_distance_m, Some(6.0));
+        let r = c.replan_options(Path::new("run"), None).unwrap();
+        assert_eq!((r.clearance_m, r.home), (1.5, Some([0.0, 1.0, 2.0])));
+        let d = c.detect_options(Path::new("run"), Path::new("m.onnx"), None);
+        assert_eq!(d.confidence, 0.4);
+        assert!(toml::from_str::<RunConfig>("[detect]\nconfidense = 0.4\n").is_err());
+        assert!(toml::from_str::<RunConfig>("[detector]\n").is_err());
+    }
+}

@@ -1,0 +1,181 @@
+//! Running one stage: a progress bar while it works, its warnings logged,
+//! and one line saying what it did. The stage commands and `postflight run`
+//! share these.
+
+use crate::progress::Bar;
+
+pub fn ingest(
+    options: &ingest::IngestOptions,
+    quiet: bool,
+) -> anyhow::Result<ingest::IngestSummary> {
+    let mut bar = Bar::bytes("ingest", quiet);
+    let summary = ingest::ingest(options, &mut bar)?;
+    bar.finish();
+    for w in &summary.warnings {
+        tracing::warn!("{w}");
+    }
+    if !quiet {
+        println!(
+            "ingested {} frames ({} with pose), {} poses, {:.1} s of flight{} into {}",
+            summary.frames,
+            summary.frames_with_pose,
+            summary.poses,
+            summary.duration_s,
+            if summary.truncated {
+                " (TRUNCATED recording, salvaged)"
+            } else {
+                ""
+            },
+            options.out.display()
+        );
+    }
+    Ok(summary)
+}
+
+pub fn detect(
+    options: &detect::DetectOptions,
+    quiet: bool,
+) -> anyhow::Result<detect::DetectSummary> {
+    let bar = Bar::count("detect", quiet);
+    let summary = detect::detect(options, &mut |done, total| bar.set(done, total))?;
+    bar.finish();
+    for w in &summary.warnings {
+        tracing::warn!("{w}");
+    }
+    for f in &summary.failed_frames {
+        tracing::warn!("frame {} skipped: {}", f.frame, f.why);
+    }
+    if !quiet {
+        println!(
+            "{} detections in {} frames ({:.1} frames/s on {}, {:.0}% of the time in ONNX Runtime) into {}",
+            summary.detections,
+            summary.frames_run,
+            summary.frames_per_s,
+            summary.device,
+            100.0 * summary.inference_share,
+            options.run.display()
+        );
+    }
+    Ok(summary)
+}
+
+pub fn localise(
+    options: &localise::LocaliseOptions,
+    quiet: bool,
+) -> anyhow::Result<localise::LocaliseSummary> {
+    let bar = Bar::count("localise", quiet);
+    let summary = localise::localise(options, &mut |done, total| bar.set(done, total))?;
+    bar.finish();
+    for w in &summary.warnings {
+        tracing::warn!("{w}");
+    }
+    if !quiet {
+        let o = &summary.outcomes;
+        println!(
+            "{} defect candidates from {} detections ({} placed, {} without pose, {} on no surface, {} on obstacles) into {}",
+            summary.defects,
+            summary.detections,
+            o.placed,
+            o.no_pose,
+            o.no_surface,
+            o.obstacle,
+            options.run.display()
+        );
+    }
+    Ok(summary)
+}
+
+pub fn coverage(
+    options: &coverage::CoverageOptions,
+    quiet: bool,
+) -> anyhow::Result<coverage::CoverageSummary> {
+    let bar = Bar::count("coverage", quiet);
+    let summary = coverage::coverage(options, &mut |done, total| bar.set(done, total))?;
+    bar.finish();
+    for w in &summary.warnings {
+        tracing::warn!("{w}");
+    }
+    if !quiet {
+        let planned = match (summary.planned_voxels, summary.planned_inspected_pct) {
+            (Some(p), Some(pct)) => format!(", {pct:.1}% of {p} planned"),
+            _ => String::new(),
+        };
+        println!(
+            "inspected {} of {} target voxels ({:.1}%{planned}); {} gaps to replan, {} uninspectable; face area {:.1}% into {}",
+            summary.inspected_voxels,
+            summary.target_voxels,
+            summary.inspected_pct,
+            summary.gap_voxels,
+            summary.uninspectable_voxels,
+            summary.face_area_coverage_pct,
+            options.run.display()
+        );
+    }
+    Ok(summary)
+}
+
+pub fn replan(
+    options: &coverage::ReplanOptions,
+    quiet: bool,
+) -> anyhow::Result<coverage::ReplanSummary> {
+    let bar = Bar::count("replan", quiet);
+    let summary = coverage::replan(options, &mut |done, total| bar.set(done, total))?;
+    bar.finish();
+    for w in &summary.warnings {
+        tracing::warn!("{w}");
+    }
+    if !quiet {
+        if summary.gap_voxels == 0 {
+            println!(
+                "no gaps: coverage found nothing to replan; wrote an empty plan into {}",
+                options.run.display()
+            );
+        } else {
+            println!(
+                "{} of {} gap voxels planned ({} uninspectable): {} waypoints in {} sorties, {:.0} m, about {:.0} min; replan.json and replan.csv in {}",
+                summary.planned_gap_voxels,
+                summary.gap_voxels,
+                summary.uninspectable_gaps.len(),
+                summary.waypoints,
+                summary.sorties.len(),
+                summary.length_m,
+                summary.time_s / 60.0,
+                options.run.display()
+            );
+        }
+    }
+    Ok(summary)
+}
+
+pub fn report(
+    options: &reports::ReportOptions,
+    quiet: bool,
+) -> anyhow::Result<reports::RunSummary> {
+    let summary = reports::report(options)?;
+    if !quiet {
+        println!(
+            "report: {} and {}",
+            options.run.join(reports::stage::files::REPORT).display(),
+            options.run.join(reports::stage::files::SUMMARY).display()
+        );
+    }
+    Ok(summary)
+}
+
+pub fn simulate(options: &sim::SimOptions, quiet: bool) -> anyhow::Result<sim::SimSummary> {
+    let bar = Bar::count("simulate", quiet);
+    let summary = sim::simulate(options, &mut |done, total| bar.set(done, total))
+        .map_err(|e| anyhow::anyhow!("simulate: {e}"))?;
+    bar.finish();
+    if !quiet {
+        println!(
+            "simulated {} frames ({} dropped), {} cracks, {:.0} s of flight into {}",
+            summary.frames,
+            summary.dropped_frames,
+            summary.cracks,
+            summary.duration_s,
+            options.out.display()
+        );
+    }
+    Ok(summary)
+}

@@ -1,0 +1,465 @@
+//! End-to-end tests of `postflight demo` and `postflight run`: the demo's
+//! summary.json and report.html show the simulated cracks and the simulated
+//! gap (against truth.json and the stages' own files); a second run skips
+//! every stage; a run killed mid-detect resumes without redoing ingest; a
+//! changed setting reruns from its stage on; a failing stage says which and
+//! leaves the earlier results intact.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant, SystemTime};
+
+use common::*;
+use serde_json::Value;
+
+fn stdout(out: &std::process::Output) -> String {
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+fn modified(path: &Path) -> SystemTime {
+    std::fs::metadata(path).unwrap().modified().unwrap()
+}
+
+/// Centroids of the truth cracks some recorded frame shows.
+fn visible_cracks(truth: &Value) -> Vec<(i64, [f64; 3])> {
+    let seen: std::collections::BTreeSet<i64> = truth["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| !f["dropped"].as_bool().unwrap())
+        .flat_map(|f| f["cracks"].as_array().unwrap().iter())
+        .map(|c| c["id"].as_i64().unwrap())
+        .collect();
+    truth["cracks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|c| seen.contains(&c["id"].as_i64().unwrap()))
+        .map(|c| {
+            let points: Vec<[f64; 3]> = c["lines"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .flat_map(|l| l.as_array().unwrap().iter().map(vec3))
+                .collect();
+            let centroid =
+                [0, 1, 2].map(|a| points.iter().map(|p| p[a]).sum::<f64>() / points.len() as f64);
+            (c["id"].as_i64().unwrap(), centroid)
+        })
+        .collect()
+}
+
+/// Positions of the candidates the report lists ("at (x, y, z) m").
+fn reported_positions(html: &str) -> Vec<[f64; 3]> {
+    html.match_indices("at (")
+        .filter_map(|(i, _)| {
+            let rest = &html[i + 4..];
+            let inner = &rest[..rest.find(") m")?];
+            let v: Vec<f64> = inner
+                .split(", ")
+                .map(|x| x.parse().ok())
+                .collect::<Option<_>>()?;
+            (v.len() == 3).then(|| [v[0], v[1], v[2]])
+        })
+        .collect()
+}
+
+/// The number in the report's coverage table row that starts with `label`.
+fn table_count(html: &str, label: &str) -> usize {
+    let row = &html[html
+        .find(&format!("<tr><td>{label}</td>"))
+        .unwrap_or_else(|| panic!("no row {label}"))..];
+    let cell = &row[row.find("<td class=\"n\">").unwrap() + 14..];
+    cell[..cell.find('<').unwrap()].parse().unwrap()
+}
+
+fn python_says(code: &str, arg: &Path) -> String {
+    let out = Command::new(python())
+        .args(["-c", code])
+        .arg(arg)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).trim().to_string()
+}
+
+/// Render `page` in headless Chromium to `png`; returns the console messages.
+fn render_in_chromium(page: &Path, png: &Path, scratch: &Path) -> Vec<String> {
+    let chromium = Path::new("/usr/bin/chromium");
+    assert!(
+        chromium.is_file(),
+        "Debian's chromium is missing: run scripts/setup --browser (scripts/test does)"
+    );
+    let out = Command::new(chromium)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--enable-logging=stderr",
+            "--v=0",
+            "--window-size=1100,2400",
+        ])
+        .arg(format!(
+            "--user-data-dir={}",
+            scratch.join("chromium").display()
+        ))
+        .arg(format!("--screenshot={}", png.display()))
+        .arg(format!("file://{}", page.display()))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success() && png.is_file(),
+        "chromium: {}",
+        stderr(&out)
+    );
+    stderr(&out)
+        .lines()
+        .filter(|l| l.contains(":CONSOLE"))
+        .map(String::from)
+        .collect()
+}
+
+#[test]
+fn chromium_console_messages_are_caught() {
+    // The check the report passes must be able to fail.
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("bad.html");
+    std::fs::write(&page, "<!DOCTYPE html><p>x</p><script>missing();</script>").unwrap();
+    let console = render_in_chromium(&page, &dir.path().join("bad.png"), dir.path());
+    assert!(
+        console.iter().any(|l| l.contains("missing is not defined")),
+        "{console:?}"
+    );
+}
+
+#[test]
+fn the_demo_reports_the_simulated_cracks_and_the_simulated_gap() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    let result = postflight(&["demo", "--out", out.to_str().unwrap()], dir.path());
+    assert!(result.status.success(), "demo failed: {}", stderr(&result));
+    let run = out.join("run");
+    let text = stdout(&result);
+    assert!(
+        text.contains(&run.join("report.html").display().to_string()),
+        "{text}"
+    );
+
+    let truth = read_json(&out.join("flight/truth.json"));
+    let summary = read_json(&run.join("summary.json"));
+    let html = std::fs::read_to_string(run.join("report.html")).unwrap();
+
+    // Frames: what the simulator recorded (its dropped frames are not in the file).
+    let recorded = truth["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| !f["dropped"].as_bool().unwrap())
+        .count();
+    assert_eq!(summary["frames"].as_u64().unwrap() as usize, recorded);
+
+    // The cracks: every crack a frame shows is a candidate in the report,
+    // and the report shows nothing that is not a crack.
+    let defects = read_json(&run.join("defects.json"))["defects"]
+        .as_array()
+        .unwrap()
+        .len();
+    assert_eq!(summary["defects"].as_u64().unwrap() as usize, defects);
+    let reported = reported_positions(&html);
+    assert_eq!(reported.len(), defects, "one report row per candidate");
+    let visible = visible_cracks(&truth);
+    let found = visible
+        .iter()
+        .filter(|(_, c)| reported.iter().any(|p| dist(p, c) <= 0.3))
+        .count();
+    assert!(
+        found as f64 >= 0.9 * visible.len() as f64 && found > 0,
+        "report shows {found} of {} visible cracks",
+        visible.len()
+    );
+    for p in &reported {
+        assert!(
+            visible.iter().any(|(_, c)| dist(p, c) <= 0.5),
+            "reported candidate at {p:?} is no simulated crack"
+        );
+    }
+    assert!(
+        html.contains("data:image/jpeg;base64,"),
+        "thumbnails are inline"
+    );
+
+    // The gap: the simulator skipped viewpoints; the voxels only they would
+    // have inspected are planned-but-missed, in the summary and the report.
+    let skipped_gap = truth["coverage"]["voxels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|v| v["skipped_gap"].as_bool().unwrap())
+        .count();
+    assert!(skipped_gap > 20, "the simulated flight has a gap");
+    let coverage = read_json(&run.join("coverage.json"));
+    let c = &summary["coverage"];
+    for key in [
+        "target_voxels",
+        "gap_voxels",
+        "uninspectable_voxels",
+        "inspected_pct",
+        "planned_inspected_pct",
+    ] {
+        assert_eq!(c[key], coverage[key], "summary coverage.{key}");
+    }
+    let missed = table_count(&html, "planned but missed");
+    assert_eq!(
+        missed as u64,
+        coverage["planned_missed_voxels"].as_u64().unwrap()
+    );
+    assert!(
+        missed >= skipped_gap,
+        "{missed} planned-missed voxels, {skipped_gap} in the skipped segment"
+    );
+    assert!(f(&c["planned_inspected_pct"]) < 100.0);
+    assert!(html.contains("#d7301f"), "planned-missed voxels are drawn");
+
+    // The follow-up flight for the gaps.
+    let replan = read_json(&run.join("replan.json"));
+    let r = &summary["replan"];
+    assert_eq!(r["waypoints"], replan["waypoints"]);
+    assert_eq!(
+        r["sorties"].as_u64().unwrap() as usize,
+        replan["sorties"].as_array().unwrap().len()
+    );
+    assert!(f(&r["length_m"]) > 0.0);
+    assert!(html.contains("<polyline"), "the follow-up flight is drawn");
+
+    // Timings of every stage, and versions checked by Python.
+    for stage in [
+        "ingest", "detect", "localise", "coverage", "replan", "report",
+    ] {
+        assert!(f(&summary["timings_s"][stage]) >= 0.0, "timing of {stage}");
+    }
+    let v = &summary["versions"];
+    let model = out.join("model/crack-baked.onnx");
+    assert_eq!(
+        v["model_sha256"].as_str().unwrap(),
+        python_says(
+            "import hashlib, sys; print(hashlib.sha256(open(sys.argv[1], 'rb').read()).hexdigest())",
+            &model
+        )
+    );
+    assert_eq!(
+        v["onnxruntime"].as_str().unwrap(),
+        python_says(
+            "import onnxruntime, sys; print(onnxruntime.__version__)",
+            &model
+        )
+    );
+
+    // Looked at as a person would: Chromium renders it, with nothing said
+    // on its console, and it needs nothing from the network.
+    let png = dir.path().join("report.png");
+    let console = render_in_chromium(&run.join("report.html"), &png, dir.path());
+    assert!(console.is_empty(), "console messages: {console:?}");
+    let picture = image::open(&png).unwrap().to_rgb8();
+    assert_eq!(picture.width(), 1100);
+    let colours: std::collections::HashSet<[u8; 3]> = picture.pixels().map(|p| p.0).collect();
+    assert!(colours.len() > 50, "the rendered report is blank");
+    let outside: Vec<&str> = html
+        .match_indices("http")
+        .map(|(i, _)| &html[i..(i + 40).min(html.len())])
+        .filter(|u| !u.starts_with("http://www.w3.org/2000/svg"))
+        .collect();
+    assert!(outside.is_empty(), "the report fetches {outside:?}");
+
+    // Again: nothing to do.
+    let ingest_time = modified(&run.join("ingest.json"));
+    let again = postflight(&["demo", "--out", out.to_str().unwrap()], dir.path());
+    assert!(again.status.success(), "{}", stderr(&again));
+    let text = stdout(&again);
+    for stage in [
+        "ingest", "detect", "localise", "coverage", "replan", "report",
+    ] {
+        assert!(
+            text.contains(&format!("{stage}: up to date, skipped")),
+            "{stage} was redone:\n{text}"
+        );
+    }
+    assert!(text.contains("reusing the simulated flight"), "{text}");
+    assert_eq!(modified(&run.join("ingest.json")), ingest_time);
+}
+
+#[test]
+fn a_run_killed_mid_detect_resumes_without_redoing_ingest() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = simulate_into(dir.path(), "sim", &["--frames", "140"]);
+    let run = dir.path().join("run");
+    let config = dir.path().join("postflight.toml");
+    std::fs::write(&config, "[replan]\nsolver_time_limit_s = 2.0\n").unwrap();
+    let model = root().join("detect/models/crack-baked.onnx");
+    let flight = sim.join("flight.mcap");
+    let plan = sim.join("plan.json");
+    let args = |config: &Path, plan: &Path| -> Vec<String> {
+        [
+            "run",
+            "--flight",
+            flight.to_str().unwrap(),
+            "--plan",
+            plan.to_str().unwrap(),
+            "--model",
+            model.to_str().unwrap(),
+            "--config",
+            config.to_str().unwrap(),
+            "--out",
+            run.to_str().unwrap(),
+        ]
+        .map(String::from)
+        .to_vec()
+    };
+    let run_with = |args: &[String]| {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        postflight(&args, dir.path())
+    };
+
+    // Start, and kill -9 once detect has been running for a moment.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_postflight"))
+        .args(args(&config, &plan))
+        .arg("-q")
+        .env("XDG_CACHE_HOME", dir.path().join("cache"))
+        .env("XDG_CONFIG_HOME", dir.path().join("config"))
+        .env("XDG_DATA_HOME", dir.path().join("data"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let log = run.join("pipeline.json");
+    let start = Instant::now();
+    loop {
+        let running = std::fs::read_to_string(&log)
+            .ok()
+            .and_then(|t| serde_json::from_str::<Value>(&t).ok())
+            .and_then(|v| v["running"].as_str().map(String::from));
+        if running.as_deref() == Some("detect") {
+            break;
+        }
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before detect"
+        );
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "detect never started"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(1500));
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(
+        !run.join("detect.json").exists(),
+        "detect finished before the kill; the flight is too short for this test"
+    );
+    let ingest_time = modified(&run.join("ingest.json"));
+
+    let resumed = run_with(&args(&config, &plan));
+    assert!(resumed.status.success(), "{}", stderr(&resumed));
+    let text = stdout(&resumed);
+    assert!(text.contains("ingest: up to date, skipped"), "{text}");
+    assert!(!text.contains("ingested"), "ingest was redone:\n{text}");
+    assert!(text.contains("detections in"), "detect ran:\n{text}");
+    assert_eq!(modified(&run.join("ingest.json")), ingest_time);
+    let logged = read_json(&log);
+    let stages: Vec<&str> = logged["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["stage"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        stages,
+        [
+            "ingest", "detect", "localise", "coverage", "replan", "report"
+        ]
+    );
+    assert!(logged["running"].is_null());
+    assert_eq!(
+        logged["stages"][0]["inputs"]["flight"]["sha256"]
+            .as_str()
+            .unwrap(),
+        python_says(
+            "import hashlib, sys; print(hashlib.sha256(open(sys.argv[1], 'rb').read()).hexdigest())",
+            &flight
+        )
+    );
+
+    // A changed localise setting reruns localise and what follows it, only.
+    std::fs::write(
+        &config,
+        "[replan]\nsolver_time_limit_s = 2.0\n[localise]\nmax_range_m = 25.0\n",
+    )
+    .unwrap();
+    let detect_time = modified(&run.join("detect.json"));
+    let changed = run_with(&args(&config, &plan));
+    assert!(changed.status.success(), "{}", stderr(&changed));
+    let text = stdout(&changed);
+    for stage in ["ingest", "detect"] {
+        assert!(
+            text.contains(&format!("{stage}: up to date, skipped")),
+            "{text}"
+        );
+    }
+    assert!(
+        text.contains("defect candidates from"),
+        "localise reran:\n{text}"
+    );
+    assert!(text.contains("target voxels"), "coverage reran:\n{text}");
+    assert_eq!(modified(&run.join("detect.json")), detect_time);
+
+    // --force detect reruns detect.
+    let mut forced = args(&config, &plan);
+    forced.extend(["--force".to_string(), "detect".to_string()]);
+    let text = stdout(&run_with(&forced));
+    assert!(
+        text.contains("ingest: up to date, skipped") && text.contains("detections in"),
+        "{text}"
+    );
+
+    // A stage that fails says which, and earlier results stay.
+    let bad_plan = dir.path().join("bad-plan.json");
+    std::fs::write(&bad_plan, "{\"resolution\": \"half a metre\"}").unwrap();
+    let failed = run_with(&args(&config, &bad_plan));
+    assert_eq!(failed.status.code(), Some(1));
+    let err = stderr(&failed);
+    assert!(
+        err.contains("stage localise failed") && err.contains("resume from localise"),
+        "{err}"
+    );
+    assert!(run.join("ingest.json").is_file() && run.join("detect.json").is_file());
+    let logged = read_json(&log);
+    assert_eq!(logged["running"], "localise");
+    assert_eq!(logged["stages"].as_array().unwrap().len(), 2);
+
+    // A config with a misspelt key is refused before anything runs.
+    let typo = dir.path().join("typo.toml");
+    std::fs::write(&typo, "[detect]\nconfidense = 0.3\n").unwrap();
+    let refused = run_with(&args(&typo, &plan));
+    assert_eq!(refused.status.code(), Some(1));
+    let err = stderr(&refused);
+    assert!(
+        err.contains("confidense") && err.contains("[detect]"),
+        "{err}"
+    );
+}
