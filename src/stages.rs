@@ -151,12 +151,16 @@ pub fn report(
     options: &reports::ReportOptions,
     quiet: bool,
 ) -> anyhow::Result<reports::RunSummary> {
-    let summary = reports::report(options)?;
+    let bar = Bar::count("report", quiet);
+    let summary = reports::report(options, &mut |done, total| bar.set(done, total))?;
+    bar.finish();
     if !quiet {
+        let file = |name| options.run.join(name).display().to_string();
         println!(
-            "report: {} and {}",
-            options.run.join(reports::stage::files::REPORT).display(),
-            options.run.join(reports::stage::files::SUMMARY).display()
+            "report: {}, {} and {}",
+            file(reports::stage::files::REPORT),
+            file(reports::stage::files::RECORDING),
+            file(reports::stage::files::SUMMARY)
         );
     }
     Ok(summary)

@@ -93,6 +93,31 @@ fn python_says(code: &str, arg: &Path) -> String {
     String::from_utf8_lossy(&out.stdout).trim().to_string()
 }
 
+/// Rows per "entity archetype" in `rerun rrd print`'s chunk lines
+/// (`Chunk(..) with N rows (..) - /entity - data columns: [Archetype:field ..]`).
+fn rrd_rows(print: &str) -> std::collections::BTreeMap<String, usize> {
+    let mut rows = std::collections::BTreeMap::new();
+    for line in print.lines().filter(|l| l.starts_with("Chunk(")) {
+        let n: usize = line
+            .split(" with ")
+            .nth(1)
+            .and_then(|r| r.split(' ').next())
+            .unwrap()
+            .parse()
+            .unwrap();
+        let entity = line.split(" - ").nth(1).unwrap();
+        let archetype = line
+            .split("data columns: [")
+            .nth(1)
+            .unwrap()
+            .split(':')
+            .next()
+            .unwrap();
+        *rows.entry(format!("{entity} {archetype}")).or_default() += n;
+    }
+    rows
+}
+
 /// Render `page` in headless Chromium to `png`; returns the console messages.
 fn render_in_chromium(page: &Path, png: &Path, scratch: &Path) -> Vec<String> {
     let chromium = Path::new("/usr/bin/chromium");
@@ -284,6 +309,52 @@ fn the_demo_reports_the_simulated_cracks_and_the_simulated_gap() {
         .filter(|u| !u.starts_with("http://www.w3.org/2000/svg"))
         .collect();
     assert!(outside.is_empty(), "the report fetches {outside:?}");
+
+    // The 3D recording: Rerun's own tools load it and find the run in it.
+    let rrd = run.join("flight.rrd");
+    let rerun = |args: &[&str]| {
+        let out = Command::new(python().with_file_name("rerun"))
+            .args(args)
+            .arg(&rrd)
+            .env("XDG_CONFIG_HOME", dir.path().join("config"))
+            .env("XDG_DATA_HOME", dir.path().join("data"))
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "rerun {args:?}: {}", stderr(&out));
+        stdout(&out)
+    };
+    rerun(&["rrd", "verify"]);
+    let rows = rrd_rows(&rerun(&["rrd", "print"]));
+    let posed = summary["frames_with_pose"].as_u64().unwrap() as usize;
+    let camera = "/world/cameras/camera_image_raw_compressed";
+    assert_eq!(
+        rows.get(&format!("{camera} Transform3D")),
+        Some(&posed),
+        "{rows:?}"
+    );
+    assert_eq!(
+        rows.get(&format!("{camera}/image EncodedImage")),
+        Some(&posed)
+    );
+    assert_eq!(rows.get(&format!("{camera}/image Pinhole")), Some(&posed));
+    assert_eq!(
+        rows.get(&format!("{camera}/image/detections Boxes2D")),
+        Some(&posed)
+    );
+    for static_entity in [
+        "/world/map Points3D",
+        "/world/trajectory LineStrips3D",
+        "/world/defects Points3D",
+        "/world/coverage/inspected Boxes3D",
+        "/world/coverage/planned_missed Boxes3D",
+        "/world/replan/path LineStrips3D",
+    ] {
+        assert_eq!(
+            rows.get(static_entity),
+            Some(&1),
+            "{static_entity} in {rows:?}"
+        );
+    }
 
     // Again: nothing to do.
     let ingest_time = modified(&run.join("ingest.json"));

@@ -76,10 +76,7 @@ impl Flight {
             why,
         };
         if matches!(frame.encoding.as_str(), "jpeg" | "png") {
-            let (_, mut tail) = cdr::decode_head::<msg::CompressedImageHead>(&payload)
-                .map_err(|e| bad(e.to_string()))?;
-            let data = tail.byte_sequence().map_err(|e| bad(e.to_string()))?;
-            decode_compressed(data).map_err(bad)
+            decode_compressed(compressed_bytes(&payload).map_err(&bad)?).map_err(bad)
         } else {
             let (head, mut tail) =
                 cdr::decode_head::<msg::ImageHead>(&payload).map_err(|e| bad(e.to_string()))?;
@@ -96,6 +93,21 @@ impl Flight {
         }
     }
 
+    /// A frame's image as recorded, still compressed (JPEG or PNG bytes), for
+    /// passing on without decoding; `None` for raw images.
+    pub fn compressed_image(&self, frame: &Frame) -> Result<Option<Vec<u8>>, IngestError> {
+        if !matches!(frame.encoding.as_str(), "jpeg" | "png") {
+            return Ok(None);
+        }
+        let payload = self.recording.read_message(frame.location)?;
+        let bad = |why: String| IngestError::BadLocation {
+            path: self.recording.path().to_owned(),
+            location: frame.location,
+            why,
+        };
+        Ok(Some(compressed_bytes(&payload).map_err(bad)?.to_vec()))
+    }
+
     /// The SLAM map recorded in the flight, if it had one.
     pub fn recorded_map(&self) -> Result<Option<PointCloud>, IngestError> {
         let Some(map) = &self.summary.map else {
@@ -109,4 +121,11 @@ impl Flight {
         let msg: msg::PointCloud2 = cdr::decode(&payload).map_err(|e| bad(e.to_string()))?;
         pointcloud2::decode(&msg).map(Some).map_err(bad)
     }
+}
+
+/// The data of a CompressedImage message.
+fn compressed_bytes(payload: &[u8]) -> Result<&[u8], String> {
+    let (_, mut tail) =
+        cdr::decode_head::<msg::CompressedImageHead>(payload).map_err(|e| e.to_string())?;
+    tail.byte_sequence().map_err(|e| e.to_string())
 }

@@ -8,4 +8,6 @@ pub enum ReportError {
     Run(#[from] ingest::IngestError),
     #[error("{}: {why}", path.display())]
     Table { path: PathBuf, why: String },
+    #[error("cannot write the Rerun recording {}: {why}", path.display())]
+    Recording { path: PathBuf, why: String },
 }

@@ -1,12 +1,13 @@
 //! Reports: turns a run directory into what people read and use: the run in
-//! numbers (`summary.json`) and the self-contained HTML report
-//! (`report.html`: coverage pictures, defect candidates in review order, the
-//! follow-up flight), with the Rerun recording and the human review queue of
-//! proposed cracks to follow. It reads the outputs of every stage and writes
-//! nothing that another stage reads back.
+//! numbers (`summary.json`), the self-contained HTML report (`report.html`:
+//! coverage pictures, defect candidates in review order, the follow-up
+//! flight) and the Rerun recording (`flight.rrd`), with the human review
+//! queue of proposed cracks to follow. It reads the outputs of every stage
+//! and writes nothing that another stage reads back.
 
 pub mod error;
 pub mod html;
+pub mod recording;
 pub mod results;
 pub mod stage;
 pub mod summary;

@@ -33,6 +33,16 @@ impl VoxelStatus {
         Self::Uninspectable,
     ];
 
+    /// A name for files and entity paths.
+    pub fn key(self) -> &'static str {
+        match self {
+            Self::Inspected => "inspected",
+            Self::PlannedMissed => "planned_missed",
+            Self::NotPlanned => "not_planned",
+            Self::Uninspectable => "uninspectable",
+        }
+    }
+
     pub fn label(self) -> &'static str {
         match self {
             Self::Inspected => "inspected",

@@ -1,18 +1,20 @@
 //! The report stage: reads what the other stages wrote into a run directory
-//! and writes `report.html`, then `summary.json` (last: the stage is
-//! complete exactly when it exists).
+//! and writes `flight.rrd`, `report.html`, then `summary.json` (last: the
+//! stage is complete exactly when it exists).
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use crate::error::ReportError;
 use crate::html;
+use crate::recording::write_recording;
 use crate::results::RunResults;
 use crate::summary::RunSummary;
 
 /// Files of the report stage.
 pub mod files {
     pub const REPORT: &str = "report.html";
+    pub const RECORDING: &str = "flight.rrd";
     pub const SUMMARY: &str = "summary.json";
 }
 
@@ -22,7 +24,10 @@ pub struct ReportOptions {
 }
 
 /// Write the report of the run directory `options.run`.
-pub fn report(options: &ReportOptions) -> Result<RunSummary, ReportError> {
+pub fn report(
+    options: &ReportOptions,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<RunSummary, ReportError> {
     let start = Instant::now();
     let results = RunResults::read(&options.run)?;
     results.dir.remove(files::SUMMARY)?;
@@ -44,6 +49,15 @@ pub fn report(options: &ReportOptions) -> Result<RunSummary, ReportError> {
             timings.insert("replan".into(), r.seconds);
         }
     }
+    // Rerun writes as it goes: to a temporary name, renamed when complete.
+    let partial = results.file(&format!(".{}.tmp", files::RECORDING));
+    write_recording(&results, &partial, progress)?;
+    std::fs::rename(&partial, results.file(files::RECORDING)).map_err(|source| {
+        ingest::IngestError::Write {
+            path: results.file(files::RECORDING),
+            source,
+        }
+    })?;
     let mut summary = RunSummary::new(&results, timings);
     let page = html::page(&results, &summary);
     let path = results.file(files::REPORT);
