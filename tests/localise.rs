@@ -6,7 +6,6 @@ mod common;
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use common::*;
 use serde_json::Value;
@@ -360,16 +359,13 @@ status = t.column("pose_status").to_pylist()
 t = t.set_column(i, "pose_status", pa.array(["pose_gap" if g else s for g, s in zip(gap, status)]))
 pq.write_table(t, path)
 "#;
-    let out = Command::new(python())
-        .args(["-c", script])
-        .arg(run.join("frames.parquet"))
-        .args([from.to_string(), to.to_string()])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    python_run(
+        script,
+        &[
+            run.join("frames.parquet").into_os_string(),
+            from.to_string().into(),
+            to.to_string().into(),
+        ],
     );
 }
 

@@ -79,18 +79,12 @@ fn table_count(html: &str, label: &str) -> usize {
     cell[..cell.find('<').unwrap()].parse().unwrap()
 }
 
-fn python_says(code: &str, arg: &Path) -> String {
-    let out = Command::new(python())
-        .args(["-c", code])
-        .arg(arg)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).trim().to_string()
+/// SHA-256 of a file, by Python's hashlib.
+fn sha256_by_python(path: &Path) -> String {
+    python_run(
+        "import hashlib, sys; print(hashlib.sha256(open(sys.argv[1], 'rb').read()).hexdigest())",
+        &[path],
+    )
 }
 
 /// Rows per "entity archetype" in `rerun rrd print`'s chunk lines
@@ -281,17 +275,11 @@ fn the_demo_reports_the_simulated_cracks_and_the_simulated_gap() {
     let model = out.join("model/crack-baked.onnx");
     assert_eq!(
         v["model_sha256"].as_str().unwrap(),
-        python_says(
-            "import hashlib, sys; print(hashlib.sha256(open(sys.argv[1], 'rb').read()).hexdigest())",
-            &model
-        )
+        sha256_by_python(&model)
     );
     assert_eq!(
         v["onnxruntime"].as_str().unwrap(),
-        python_says(
-            "import onnxruntime, sys; print(onnxruntime.__version__)",
-            &model
-        )
+        python_run::<&str>("import onnxruntime; print(onnxruntime.__version__)", &[])
     );
 
     // Looked at as a person would: Chromium renders it, with nothing said
@@ -470,10 +458,7 @@ fn a_run_killed_mid_detect_resumes_without_redoing_ingest() {
         logged["stages"][0]["inputs"]["flight"]["sha256"]
             .as_str()
             .unwrap(),
-        python_says(
-            "import hashlib, sys; print(hashlib.sha256(open(sys.argv[1], 'rb').read()).hexdigest())",
-            &flight
-        )
+        sha256_by_python(&flight)
     );
 
     // A changed localise setting reruns localise and what follows it, only.

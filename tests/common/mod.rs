@@ -26,6 +26,21 @@ pub fn python() -> PathBuf {
     p
 }
 
+/// Run Python `code` (`python -c`) with `args`; returns its stdout, trimmed.
+pub fn python_run<S: AsRef<std::ffi::OsStr>>(code: &str, args: &[S]) -> String {
+    let out = Command::new(python())
+        .args(["-c", code])
+        .args(args)
+        .output()
+        .expect("run the project's Python");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).trim().to_string()
+}
+
 /// Write a flight with tests/fixtures/write_flight.py; returns (mcap, expected).
 pub fn write_flight(dir: &Path, name: &str, args: &[&str]) -> (PathBuf, Value) {
     let mcap = dir.join(format!("{name}.mcap"));
