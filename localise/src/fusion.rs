@@ -46,17 +46,17 @@ pub struct DefectCandidate {
     pub extent: [Point3<f64>; 2],
     pub voxel: VoxelIndex,
     pub face: &'static str,
-    /// Estimated length, metres: the longest of its complete views (not cut
-    /// by the image border) from [`LENGTH_RANGE_M`] or closer, else of all
-    /// its complete views, else of its cut views from that range (see
-    /// `length_partial`); `None` with no view that could measure it (traced,
-    /// not too oblique). A view shows at most the whole crack: faint or
-    /// hidden stretches only shorten it.
+    /// Estimated length, metres: the longest measurement of its views from
+    /// [`LENGTH_RANGE_M`] or closer, complete or cut by the image border
+    /// (a view shows at most the whole crack: faint or hidden stretches and
+    /// the border only shorten it), or, when none of those is complete, of
+    /// its complete views from farther if it has any (see `length_partial`);
+    /// `None` with no view that could measure it (traced, not too oblique).
     pub length_m: Option<f64>,
     /// Views the length was chosen from.
     pub length_views: u32,
-    /// The length comes from views the image border cuts (no complete view
-    /// measured it): the crack is at least this long.
+    /// No complete view measured it: the length comes from views the image
+    /// border cuts, and the crack is at least this long.
     pub length_partial: bool,
     /// Distinct frames that saw it.
     pub frames: u32,
@@ -182,25 +182,30 @@ fn candidate(observations: &[Observation], group: Vec<usize>) -> DefectCandidate
             let e = placement(*i).extent;
             [lo.inf(&e[0]), hi.sup(&e[1])]
         });
-    let lengths = |views: &[usize], max_range: f64| -> Vec<f64> {
+    let measuring = |views: &[usize], max_range: f64| -> Vec<usize> {
         views
             .iter()
-            .map(|i| placement(*i))
-            .filter(|p| p.hit.range <= max_range)
-            .filter_map(|p| p.length_m)
+            .copied()
+            .filter(|i| placement(*i).hit.range <= max_range && placement(*i).length_m.is_some())
             .collect()
     };
-    let mut length_partial = false;
-    let mut measured = lengths(&complete, LENGTH_RANGE_M);
-    if measured.is_empty() {
-        measured = lengths(&complete, f64::INFINITY);
+    // Every view shows at most the whole crack (faint or hidden stretches
+    // and the image border only shorten it), so the longest near view,
+    // complete or cut, is the estimate; complete views from farther count
+    // only when no near view measured it.
+    let mut measured = measuring(&group, LENGTH_RANGE_M);
+    if !measured.iter().any(|i| complete.contains(i)) {
+        let far = measuring(&complete, f64::INFINITY);
+        if !far.is_empty() {
+            measured = far;
+        }
     }
-    if measured.is_empty() {
-        // Only views the image border cuts: the longest is a lower bound.
-        length_partial = true;
-        measured = lengths(&group, LENGTH_RANGE_M);
-    }
+    let length_partial = !measured.is_empty() && !measured.iter().any(|i| complete.contains(i));
     let length_views = measured.len() as u32;
+    let length_m = measured
+        .iter()
+        .filter_map(|i| placement(*i).length_m)
+        .reduce(f64::max);
     let best = *basis
         .iter()
         .min_by(|a, b| placement(**a).gsd_mm.total_cmp(&placement(**b).gsd_mm))
@@ -223,8 +228,8 @@ fn candidate(observations: &[Observation], group: Vec<usize>) -> DefectCandidate
         extent,
         voxel,
         face: face_name(&normal),
-        length_m: measured.iter().copied().reduce(f64::max),
-        length_partial: length_partial && !measured.is_empty(),
+        length_m,
+        length_partial,
         length_views,
         frames: per_frame.len() as u32,
         confidence,
@@ -423,10 +428,13 @@ mod tests {
         assert_eq!(c.len(), 1);
         assert!(c[0].length_partial);
         assert_eq!(c[0].length_m, Some(0.6));
-        // One complete view, however short, is an estimate, not a bound.
+        // With a complete view it is an estimate, not a bound; a cut view
+        // longer than the complete one proves that one short (a faint end
+        // it lost), so the longest still counts.
         obs[0].clipped = false;
         let c = fuse(&obs, &FusionOptions::default());
         assert!(!c[0].length_partial);
-        assert_eq!(c[0].length_m, Some(0.4));
+        assert_eq!(c[0].length_m, Some(0.6));
+        assert_eq!(c[0].length_views, 2);
     }
 }

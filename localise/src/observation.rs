@@ -329,7 +329,11 @@ mod tests {
             })
             .collect();
         let edges = (0..100).map(|i| (i, i + 1)).collect();
-        CrackTrace { pixels, edges }
+        CrackTrace {
+            pixels,
+            edges,
+            bridges: Vec::new(),
+        }
     }
 
     fn bounds(t: &CrackTrace) -> [f32; 4] {

@@ -1,6 +1,7 @@
 //! The crack inside a detection box, traced in the image: pixels clearly
-//! darker than the surface around them, thinned to a one-pixel centre line
-//! and joined into a minimum spanning forest. A box says only roughly where
+//! darker than the surface around them, thinned to a one-pixel centre line,
+//! joined into a minimum spanning forest, and its pieces bridged where a
+//! hairline crack faded for a few pixels. A box says only roughly where
 //! a crack is; the trace gives its shape, so a long diagonal, curved or
 //! branching crack is measured along its length and placed at its centre,
 //! not at the centre of its box.
@@ -16,6 +17,8 @@ pub struct CrackTrace {
     /// Edges between neighbouring pixels (indices into `pixels`) that join
     /// them into a spanning forest: summed, they are the crack's length.
     pub edges: Vec<(u32, u32)>,
+    /// Straight joins across gaps where the crack faded (ends of two pieces).
+    pub bridges: Vec<(u32, u32)>,
 }
 
 impl CrackTrace {
@@ -23,12 +26,13 @@ impl CrackTrace {
     /// at `at[i]`, `None` where it has no place): in pixels for the pixels
     /// themselves, in metres for their places on a surface.
     pub fn length<const D: usize>(&self, at: &[Option<SVector<f64, D>>]) -> f64 {
-        CHAIN_CORRECTION
-            * self
-                .edges
+        let sum = |edges: &[(u32, u32)]| {
+            edges
                 .iter()
                 .filter_map(|&(a, b)| Some((at[a as usize]? - at[b as usize]?).norm()))
                 .sum::<f64>()
+        };
+        CHAIN_CORRECTION * sum(&self.edges) + sum(&self.bridges)
     }
 }
 
@@ -116,6 +120,7 @@ pub fn trace(gray: &GrayImage, bbox: [f32; 4]) -> Option<CrackTrace> {
     keep_components(&mut mask, cw as usize, ch as usize, |i| {
         in_box(i) && f64::from(values[i]) < strong
     });
+    fill_holes(&mut mask, cw as usize, ch as usize);
     thin(&mut mask, cw as usize, ch as usize);
     drop_corners(&mut mask, cw as usize, ch as usize);
     let index: Vec<Option<u32>> = {
@@ -142,7 +147,12 @@ pub fn trace(gray: &GrayImage, bbox: [f32; 4]) -> Option<CrackTrace> {
         return None;
     }
     let edges = spanning_forest(&index, cw as usize, ch as usize, pixels.len());
-    Some(CrackTrace { pixels, edges })
+    let bridges = bridge_gaps(&pixels, &edges);
+    Some(CrackTrace {
+        pixels,
+        edges,
+        bridges,
+    })
 }
 
 fn percentile(values: &[u8], q: f64) -> u8 {
@@ -252,6 +262,49 @@ fn keep_components(mask: &mut [bool], w: usize, h: usize, seed: impl Fn(usize) -
     }
 }
 
+/// Largest hole in the dark pixels filled before thinning, pixels: specks
+/// of surface inside a wide crack would thin into loops, measured twice.
+const MAX_HOLE: usize = 12;
+
+/// Fill the small enclosed holes of `mask` (4-connected runs of surface
+/// pixels that do not reach the window's edge).
+fn fill_holes(mask: &mut [bool], w: usize, h: usize) {
+    let mut seen = vec![false; mask.len()];
+    let mut stack = Vec::new();
+    for start in 0..mask.len() {
+        if mask[start] || seen[start] {
+            continue;
+        }
+        let (mut hole, mut enclosed) = (vec![start], true);
+        seen[start] = true;
+        stack.push(start);
+        while let Some(i) = stack.pop() {
+            let (x, y) = (i % w, i / w);
+            if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
+                enclosed = false;
+            }
+            let next = [
+                (x > 0).then(|| i - 1),
+                (x + 1 < w).then(|| i + 1),
+                (y > 0).then(|| i - w),
+                (y + 1 < h).then(|| i + w),
+            ];
+            for j in next.into_iter().flatten() {
+                if !mask[j] && !seen[j] {
+                    seen[j] = true;
+                    hole.push(j);
+                    stack.push(j);
+                }
+            }
+        }
+        if enclosed && hole.len() <= MAX_HOLE {
+            for i in hole {
+                mask[i] = true;
+            }
+        }
+    }
+}
+
 /// Zhang-Suen thinning: peel boundary pixels until a one-pixel line remains.
 fn thin(mask: &mut [bool], w: usize, h: usize) {
     let at = |m: &[bool], x: i32, y: i32| {
@@ -355,6 +408,82 @@ fn drop_corners(mask: &mut [bool], w: usize, h: usize) {
             mask[i] = false;
         }
     }
+}
+
+/// Longest gap bridged between pieces of one crack, pixels.
+const MAX_GAP_PX: f64 = 20.0;
+/// Largest angle between a piece's direction at its end and the gap.
+const MAX_GAP_TURN_DEG: f64 = 45.0;
+/// Pixels back along a piece its direction at an end is taken over.
+const END_DIRECTION_PX: usize = 6;
+
+/// Join the pieces of a crack that faded below the threshold in places (a
+/// hairline crack's darkening comes and goes along it): an end of one piece
+/// is joined to an end of another when the gap is short and continues both
+/// pieces' directions, so the gap counts towards the length while texture
+/// beside the crack, or a parallel crack, stays apart. Shortest gaps first,
+/// never closing a loop.
+fn bridge_gaps(pixels: &[Point2<f64>], edges: &[(u32, u32)]) -> Vec<(u32, u32)> {
+    let n = pixels.len();
+    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for &(a, b) in edges {
+        neighbours[a as usize].push(b);
+        neighbours[b as usize].push(a);
+    }
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn root(parent: &mut [u32], mut i: u32) -> u32 {
+        while parent[i as usize] != i {
+            parent[i as usize] = parent[parent[i as usize] as usize];
+            i = parent[i as usize];
+        }
+        i
+    }
+    for &(a, b) in edges {
+        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+        parent[ra as usize] = rb;
+    }
+    // Each end with the direction its piece runs out of it.
+    let ends: Vec<(u32, nalgebra::Vector2<f64>)> = (0..n)
+        .filter(|&i| neighbours[i].len() == 1)
+        .filter_map(|i| {
+            let (mut previous, mut at) = (i, i);
+            for _ in 0..END_DIRECTION_PX {
+                let Some(&next) = neighbours[at].iter().find(|&&k| k as usize != previous) else {
+                    break;
+                };
+                (previous, at) = (at, next as usize);
+            }
+            let out = pixels[i] - pixels[at];
+            (out.norm() >= 2.0).then(|| (i as u32, out.normalize()))
+        })
+        .collect();
+    let cos_turn = MAX_GAP_TURN_DEG.to_radians().cos();
+    let mut gaps: Vec<(f64, u32, u32)> = Vec::new();
+    for (k, (a, out_a)) in ends.iter().enumerate() {
+        for (b, out_b) in &ends[k + 1..] {
+            let gap = pixels[*b as usize] - pixels[*a as usize];
+            let length = gap.norm();
+            if length <= MAX_GAP_PX
+                && out_a.dot(&gap) >= cos_turn * length
+                && out_b.dot(&-gap) >= cos_turn * length
+            {
+                gaps.push((length, *a, *b));
+            }
+        }
+    }
+    gaps.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let mut used = vec![false; n];
+    let mut bridges = Vec::new();
+    for (_, a, b) in gaps {
+        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+        if ra != rb && !used[a as usize] && !used[b as usize] {
+            parent[ra as usize] = rb;
+            used[a as usize] = true;
+            used[b as usize] = true;
+            bridges.push((a, b));
+        }
+    }
+    bridges
 }
 
 /// Kruskal over the 8-neighbour grid graph: straight steps (length 1)
@@ -493,6 +622,55 @@ mod tests {
             Luma([if on { 113 } else { 120 }])
         });
         assert!(trace(&faint, [20.0, 5.0, 180.0, 145.0]).is_none());
+    }
+
+    /// `line_image` with the line broken: every `period` pixels along it,
+    /// `gap` pixels of plain surface.
+    fn broken_line(a: (f64, f64), b: (f64, f64), period: f64, gap: f64) -> GrayImage {
+        let mut img = line_image(a, b, 1.5);
+        let plain = line_image((0.0, 0.0), (0.0, 0.0), 0.0);
+        let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+        let len = (dx * dx + dy * dy).sqrt();
+        for (x, y, p) in img.enumerate_pixels_mut() {
+            let s = ((f64::from(x) + 0.5 - a.0) * dx + (f64::from(y) + 0.5 - a.1) * dy) / len;
+            if s > 0.0 && s < len && s % period >= period - gap {
+                *p = *plain.get_pixel(x, y);
+            }
+        }
+        img
+    }
+
+    fn traced_length(img: &GrayImage, bbox: [f32; 4]) -> f64 {
+        let t = trace(img, bbox).expect("a trace");
+        let at: Vec<Option<nalgebra::Vector2<f64>>> =
+            t.pixels.iter().map(|p| Some(p.coords)).collect();
+        t.length(&at)
+    }
+
+    #[test]
+    fn a_crack_that_fades_in_places_is_measured_across_its_gaps() {
+        // 100 px long, broken for 6 px in every 20.
+        let img = broken_line((40.0, 40.0), (120.0, 100.0), 20.0, 6.0);
+        // Drawn: from 0 to 94 px along the line (the last 6 px are a gap).
+        let length = traced_length(&img, [38.0, 38.0, 122.0, 102.0]);
+        assert!((length - 94.0).abs() <= 6.0, "length {length}");
+        // Unbridged, the pieces would add up to about 50 px.
+        let t = trace(&img, [38.0, 38.0, 122.0, 102.0]).unwrap();
+        assert_eq!(t.bridges.len(), 4);
+    }
+
+    #[test]
+    fn parallel_cracks_are_not_joined_sideways() {
+        // Two 60 px lines 8 px apart, side by side: two pieces, no bridge.
+        let mut img = line_image((40.0, 40.0), (100.0, 40.0), 1.5);
+        let other = line_image((40.0, 48.0), (100.0, 48.0), 1.5);
+        for (x, y, p) in img.enumerate_pixels_mut() {
+            p.0[0] = p.0[0].min(other.get_pixel(x, y).0[0]);
+        }
+        let t = trace(&img, [38.0, 36.0, 102.0, 52.0]).unwrap();
+        assert!(t.bridges.is_empty(), "{:?}", t.bridges);
+        let length = traced_length(&img, [38.0, 36.0, 102.0, 52.0]);
+        assert!((length - 120.0).abs() <= 10.0, "length {length}");
     }
 
     #[test]
