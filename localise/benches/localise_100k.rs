@@ -137,7 +137,11 @@ fn trace(pose: &Isometry3<f64>, k: &Intrinsics, crack: &[Point3<f64>]) -> Option
         return None;
     }
     let edges = (0..pixels.len() as u32 - 1).map(|i| (i, i + 1)).collect();
-    Some(CrackTrace { pixels, edges })
+    Some(CrackTrace {
+        pixels,
+        edges,
+        bridges: Vec::new(),
+    })
 }
 
 fn detection(frame: u32, t: &CrackTrace) -> FrameDetection {
