@@ -431,13 +431,6 @@ fn bridge_gaps(pixels: &[Point2<f64>], edges: &[(u32, u32)]) -> Vec<(u32, u32)> 
         neighbours[b as usize].push(a);
     }
     let mut parent: Vec<u32> = (0..n as u32).collect();
-    fn root(parent: &mut [u32], mut i: u32) -> u32 {
-        while parent[i as usize] != i {
-            parent[i as usize] = parent[parent[i as usize] as usize];
-            i = parent[i as usize];
-        }
-        i
-    }
     for &(a, b) in edges {
         let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
         parent[ra as usize] = rb;
@@ -486,17 +479,19 @@ fn bridge_gaps(pixels: &[Point2<f64>], edges: &[(u32, u32)]) -> Vec<(u32, u32)> 
     bridges
 }
 
+/// Union-find: the representative of `i`'s set (halving paths on the way).
+fn root(parent: &mut [u32], mut i: u32) -> u32 {
+    while parent[i as usize] != i {
+        parent[i as usize] = parent[parent[i as usize] as usize];
+        i = parent[i as usize];
+    }
+    i
+}
+
 /// Kruskal over the 8-neighbour grid graph: straight steps (length 1)
 /// before diagonal ones (length sqrt 2), so a staircase is not counted twice.
 fn spanning_forest(index: &[Option<u32>], w: usize, h: usize, n: usize) -> Vec<(u32, u32)> {
     let mut parent: Vec<u32> = (0..n as u32).collect();
-    fn root(parent: &mut [u32], mut i: u32) -> u32 {
-        while parent[i as usize] != i {
-            parent[i as usize] = parent[parent[i as usize] as usize];
-            i = parent[i as usize];
-        }
-        i
-    }
     let mut edges = Vec::new();
     for steps in [[(1, 0), (0, 1)], [(1, 1), (-1, 1)]] {
         for y in 0..h {
