@@ -1,14 +1,16 @@
 //! Reports: turns a run directory into what people read and use: the run in
 //! numbers (`summary.json`), the self-contained HTML report (`report.html`:
 //! coverage pictures, defect candidates in review order, the follow-up
-//! flight) and the Rerun recording (`flight.rrd`), with the human review
-//! queue of proposed cracks to follow. It reads the outputs of every stage
-//! and writes nothing that another stage reads back.
+//! flight) and the Rerun recording (`flight.rrd`), and the human review
+//! queue of proposed cracks (`review`: the decisions' store so far). It
+//! reads the outputs of every stage and writes nothing that another stage
+//! reads back.
 
 pub mod error;
 pub mod html;
 pub mod recording;
 pub mod results;
+pub mod review;
 pub mod stage;
 pub mod summary;
 pub mod svg;
