@@ -1,7 +1,8 @@
 //! `postflight.toml`: settings for every stage of `postflight run`, one
 //! table per stage (`[ingest]`, `[detect]`, `[localise]`, `[view]`,
-//! `[coverage]`, `[replan]`), every key optional. `postflight coverage
-//! --config` reads the same file's `[view]` and `[coverage]` tables.
+//! `[coverage]`, `[replan]`), every key optional; unknown tables and keys
+//! are refused. `postflight coverage --config` reads the same file and uses
+//! its `[view]` and `[coverage]` tables.
 
 use std::path::{Path, PathBuf};
 
@@ -85,6 +86,11 @@ pub struct ReplanConfig {
 }
 
 impl RunConfig {
+    /// The file at `path`, or every setting unset without one.
+    pub fn load_or_default(path: Option<&Path>) -> anyhow::Result<Self> {
+        path.map_or_else(|| Ok(Self::default()), Self::load)
+    }
+
     pub fn load(path: &Path) -> anyhow::Result<Self> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| anyhow::anyhow!("cannot read config {}: {e}", path.display()))?;
@@ -231,5 +237,15 @@ mod tests {
         assert_eq!(d.confidence, 0.4);
         assert!(toml::from_str::<RunConfig>("[detect]\nconfidense = 0.4\n").is_err());
         assert!(toml::from_str::<RunConfig>("[detector]\n").is_err());
+    }
+
+    #[test]
+    fn other_stages_tables_are_left_alone_and_unknown_tables_refused() {
+        let c: RunConfig = toml::from_str(
+            "[detect]\nconfidence = 0.3\n[view]\nmax_distance_m = 4.0\n[replan]\nseed = 2\n",
+        )
+        .unwrap();
+        assert_eq!(c.view.max_distance_m, Some(4.0));
+        assert!(toml::from_str::<RunConfig>("[veiw]\nmax_distance_m = 4.0\n").is_err());
     }
 }

@@ -189,7 +189,7 @@ struct CoverageArgs {
     /// Targets: voxels of a segmented infrastructure cloud (PLY or PCD).
     #[arg(long, value_name = "FILE")]
     target_cloud: Option<PathBuf>,
-    /// Settings file (TOML, tables [view] and [coverage]); command-line flags win.
+    /// Settings file (postflight.toml; its [view] and [coverage] tables); command-line flags win.
     #[arg(long, value_name = "postflight.toml")]
     config: Option<PathBuf>,
     /// Apex angle of the viewing cone, degrees [default: plan's, else 20].
@@ -433,7 +433,7 @@ fn ingest(args: &IngestArgs, quiet: bool) -> anyhow::Result<()> {
         strict: args.strict,
         ..ingest::IngestOptions::new(args.flight.clone(), args.out.clone())
     };
-    stages::ingest(&options, quiet).map(drop)
+    stages::ingest(&options, quiet)
 }
 
 fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
@@ -460,7 +460,7 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
         },
         ..sim::SimOptions::new(args.out.clone())
     };
-    stages::simulate(&options, quiet).map(drop)
+    stages::simulate(&options, quiet)
 }
 
 fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
@@ -478,7 +478,7 @@ fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
         batch: args.batch,
         ..detect::DetectOptions::new(args.run.clone(), args.model.clone())
     };
-    stages::detect(&options, quiet).map(drop)
+    stages::detect(&options, quiet)
 }
 
 fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
@@ -492,7 +492,7 @@ fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
         },
         ..localise::LocaliseOptions::new(args.run.clone())
     };
-    stages::localise(&options, quiet).map(drop)
+    stages::localise(&options, quiet)
 }
 
 fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
@@ -501,12 +501,13 @@ fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
         (_, Some(path)) => coverage::Targets::Cloud(path.clone()),
         _ => coverage::Targets::Plan,
     };
+    let config = config::RunConfig::load_or_default(args.config.as_deref())?;
     let options = coverage::CoverageOptions {
         plan: args.plan.clone(),
         viewpoints: args.viewpoints.clone(),
         map: args.map.clone(),
         targets,
-        config: args.config.clone(),
+        // Command line over the config file's tables.
         view: coverage::ViewSettings {
             cone_apex_deg: args.cone_apex,
             min_distance_m: args.min_distance,
@@ -515,15 +516,17 @@ fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
             max_blur_px: args.max_blur,
             max_gsd_mm: args.max_gsd,
             views_required: args.views,
-        },
+        }
+        .or(&config.view),
         settings: coverage::CoverageSettings {
             views_near_defects: args.views_near_defects,
             defect_radius_m: args.defect_radius,
             exposure_s: args.exposure,
-        },
+        }
+        .or(&config.coverage),
         ..coverage::CoverageOptions::new(args.run.clone())
     };
-    stages::coverage(&options, quiet).map(drop)
+    stages::coverage(&options, quiet)
 }
 
 fn replan(args: &ReplanArgs, quiet: bool) -> anyhow::Result<()> {
@@ -540,21 +543,18 @@ fn replan(args: &ReplanArgs, quiet: bool) -> anyhow::Result<()> {
         |_| anyhow::anyhow!("--solver-time-limit must be a positive number of seconds"),
     )?);
     options.solver.seed = args.seed;
-    stages::replan(&options, quiet).map(drop)
+    stages::replan(&options, quiet)
 }
 
 fn report(args: &ReportArgs, quiet: bool) -> anyhow::Result<()> {
     let options = reports::ReportOptions {
         run: args.run.clone(),
     };
-    stages::report(&options, quiet).map(drop)
+    stages::report(&options, quiet)
 }
 
 fn run_pipeline(args: &RunArgs, quiet: bool) -> anyhow::Result<()> {
-    let config = match &args.config {
-        Some(path) => config::RunConfig::load(path)?,
-        None => config::RunConfig::default(),
-    };
+    let config = config::RunConfig::load_or_default(args.config.as_deref())?;
     let model = match &args.model {
         Some(m) => m.clone(),
         None => {

@@ -6,10 +6,10 @@
 //! and an interrupted run resumes at the stage it was cut off in.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
-use ingest::run_log::{InputFile, now_rfc3339, sha256, sha256_file};
+use ingest::run_log::{InputFile, now_rfc3339, sha256};
 use ingest::{RunDir, RunLog, StageRecord};
 
 use crate::config::RunConfig;
@@ -76,15 +76,13 @@ pub struct RunInputs {
 
 /// Run every stage that is not up to date.
 pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
-    for (what, path) in [
+    let given = [
         ("--flight", Some(&inputs.flight)),
         ("--model", Some(&inputs.model)),
-    ]
-    .into_iter()
-    .chain([
         ("--map", inputs.map.as_ref()),
         ("--plan", inputs.plan.as_ref()),
-    ]) {
+    ];
+    for (what, path) in given {
         if let Some(p) = path.filter(|p| !p.is_file()) {
             anyhow::bail!("{what} {} is not a file; check the path", p.display());
         }
@@ -97,11 +95,15 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
         )
     })?;
     log.postflight_version = env!("CARGO_PKG_VERSION").to_string();
-    let mut hashes = FileHashes::default();
+    // Input files already hashed, by this run or logged by earlier ones.
+    let mut known: Vec<InputFile> = log
+        .stages
+        .iter()
+        .flat_map(|r| r.inputs.values().cloned())
+        .collect();
     let mut previous = String::new();
     for stage in Stage::ALL {
-        let (settings, files) = stage_inputs(stage, inputs);
-        let Some(settings) = settings else {
+        let Some(StageInputs { settings, files }) = stage_inputs(stage, inputs) else {
             // Without a plan there is nothing to judge coverage against:
             // leave no stale results from an earlier run with one.
             log.forget(stage.name());
@@ -111,16 +113,21 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
             }
             continue;
         };
-        let mut input_hashes = BTreeMap::new();
-        for (label, path) in &files {
-            input_hashes.insert(label.to_string(), hashes.get(path)?);
+        let mut read = BTreeMap::new();
+        for (role, path) in files {
+            let file = InputFile::describe(&path, &known)?;
+            known.push(file.clone());
+            read.insert(role.to_string(), file);
         }
+        // Contents, not places: a moved input does not rerun a stage.
+        let contents: BTreeMap<&String, &String> =
+            read.iter().map(|(r, f)| (r, &f.sha256)).collect();
         let fingerprint = sha256(
             serde_json::json!({
                 "stage": stage.name(),
                 "postflight": env!("CARGO_PKG_VERSION"),
                 "settings": settings,
-                "inputs": input_hashes,
+                "inputs": contents,
                 "previous": previous,
             })
             .to_string()
@@ -161,16 +168,7 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
         log.stages.push(StageRecord {
             stage: stage.name().to_string(),
             fingerprint: fingerprint.clone(),
-            inputs: files
-                .iter()
-                .map(|(label, path)| {
-                    let file = InputFile {
-                        path: std::path::absolute(path).unwrap_or_else(|_| path.clone()),
-                        sha256: input_hashes[*label].clone(),
-                    };
-                    (label.to_string(), file)
-                })
-                .collect(),
+            inputs: read,
             seconds: start.elapsed().as_secs_f64(),
             finished: now_rfc3339(),
         });
@@ -180,88 +178,77 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// A stage's settings (as they enter its fingerprint; `None`: the stage
-/// cannot run with these inputs) and its input files from outside the run.
-fn stage_inputs(
-    stage: Stage,
-    i: &RunInputs,
-) -> (Option<serde_json::Value>, Vec<(&'static str, PathBuf)>) {
+/// What a stage's fingerprint covers besides the previous stage.
+struct StageInputs {
+    /// Its settings.
+    settings: serde_json::Value,
+    /// Its input files from outside the run directory, by role.
+    files: Vec<(&'static str, PathBuf)>,
+}
+
+/// A stage's inputs; `None` when it cannot run with what the run was given.
+fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
     let c = &i.config;
-    let mut files: Vec<(&'static str, PathBuf)> = Vec::new();
-    let settings = match stage {
-        Stage::Ingest => {
-            files.push(("flight", i.flight.clone()));
-            serde_json::to_value(&c.ingest)
-        }
-        Stage::Detect => {
-            files.push(("model", i.model.clone()));
-            if let Some(e) = &c.detect.embeddings {
-                files.push(("embeddings", e.clone()));
-            }
-            serde_json::to_value(&c.detect)
-        }
-        Stage::Localise => {
-            files.extend(i.map.iter().map(|m| ("map", m.clone())));
-            files.extend(i.plan.iter().map(|p| ("plan", p.clone())));
-            serde_json::to_value(&c.localise)
-        }
-        Stage::Coverage => {
-            let Some(plan) = &i.plan else {
-                return (None, files);
-            };
-            files.push(("plan", plan.clone()));
-            files.extend(i.map.iter().map(|m| ("map", m.clone())));
-            serde_json::to_value((&c.view, &c.coverage))
-        }
+    let map = i.map.iter().map(|m| ("map", m.clone()));
+    let (settings, files): (_, Vec<_>) = match stage {
+        Stage::Ingest => (
+            serde_json::to_value(&c.ingest),
+            vec![("flight", i.flight.clone())],
+        ),
+        Stage::Detect => (
+            serde_json::to_value(&c.detect),
+            std::iter::once(("model", i.model.clone()))
+                .chain(
+                    c.detect
+                        .embeddings
+                        .iter()
+                        .map(|e| ("embeddings", e.clone())),
+                )
+                .collect(),
+        ),
+        Stage::Localise => (
+            serde_json::to_value(&c.localise),
+            map.chain(i.plan.iter().map(|p| ("plan", p.clone())))
+                .collect(),
+        ),
+        Stage::Coverage => (
+            serde_json::to_value((&c.view, &c.coverage)),
+            std::iter::once(("plan", i.plan.clone()?))
+                .chain(map)
+                .collect(),
+        ),
         Stage::Replan => {
-            if i.plan.is_none() {
-                return (None, files);
-            }
-            files.extend(i.map.iter().map(|m| ("map", m.clone())));
-            serde_json::to_value(&c.replan)
+            i.plan.as_ref()?;
+            (serde_json::to_value(&c.replan), map.collect())
         }
-        Stage::Report => Ok(serde_json::Value::Null),
+        Stage::Report => (Ok(serde_json::Value::Null), Vec::new()),
     };
-    (Some(settings.expect("settings serialise to JSON")), files)
+    Some(StageInputs {
+        settings: settings.expect("settings serialise to JSON"),
+        files,
+    })
 }
 
 fn run_stage(stage: Stage, i: &RunInputs, quiet: bool) -> anyhow::Result<()> {
     let c = &i.config;
     let (run, map, plan) = (i.out.as_path(), i.map.as_deref(), i.plan.as_deref());
     match stage {
-        Stage::Ingest => stages::ingest(&c.ingest_options(&i.flight, run), quiet).map(drop),
+        Stage::Ingest => stages::ingest(&c.ingest_options(&i.flight, run), quiet),
         Stage::Detect => stages::detect(
             &c.detect_options(run, &i.model, i.onnxruntime.as_deref()),
             quiet,
-        )
-        .map(drop),
-        Stage::Localise => stages::localise(&c.localise_options(run, map, plan), quiet).map(drop),
+        ),
+        Stage::Localise => stages::localise(&c.localise_options(run, map, plan), quiet),
         Stage::Coverage => {
             let plan = plan.expect("coverage runs with a plan");
-            stages::coverage(&c.coverage_options(run, map, plan), quiet).map(drop)
+            stages::coverage(&c.coverage_options(run, map, plan), quiet)
         }
-        Stage::Replan => stages::replan(&c.replan_options(run, map)?, quiet).map(drop),
+        Stage::Replan => stages::replan(&c.replan_options(run, map)?, quiet),
         Stage::Report => stages::report(
             &reports::ReportOptions {
                 run: run.to_owned(),
             },
             quiet,
-        )
-        .map(drop),
-    }
-}
-
-/// Content hashes of input files, each file read once per run.
-#[derive(Default)]
-struct FileHashes(BTreeMap<PathBuf, String>);
-
-impl FileHashes {
-    fn get(&mut self, path: &Path) -> anyhow::Result<String> {
-        if let Some(h) = self.0.get(path) {
-            return Ok(h.clone());
-        }
-        let h = sha256_file(path)?;
-        self.0.insert(path.to_owned(), h.clone());
-        Ok(h)
+        ),
     }
 }

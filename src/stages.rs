@@ -4,10 +4,7 @@
 
 use crate::progress::Bar;
 
-pub fn ingest(
-    options: &ingest::IngestOptions,
-    quiet: bool,
-) -> anyhow::Result<ingest::IngestSummary> {
+pub fn ingest(options: &ingest::IngestOptions, quiet: bool) -> anyhow::Result<()> {
     let mut bar = Bar::bytes("ingest", quiet);
     let summary = ingest::ingest(options, &mut bar)?;
     bar.finish();
@@ -29,13 +26,10 @@ pub fn ingest(
             options.out.display()
         );
     }
-    Ok(summary)
+    Ok(())
 }
 
-pub fn detect(
-    options: &detect::DetectOptions,
-    quiet: bool,
-) -> anyhow::Result<detect::DetectSummary> {
+pub fn detect(options: &detect::DetectOptions, quiet: bool) -> anyhow::Result<()> {
     let bar = Bar::count("detect", quiet);
     let summary = detect::detect(options, &mut |done, total| bar.set(done, total))?;
     bar.finish();
@@ -56,13 +50,10 @@ pub fn detect(
             options.run.display()
         );
     }
-    Ok(summary)
+    Ok(())
 }
 
-pub fn localise(
-    options: &localise::LocaliseOptions,
-    quiet: bool,
-) -> anyhow::Result<localise::LocaliseSummary> {
+pub fn localise(options: &localise::LocaliseOptions, quiet: bool) -> anyhow::Result<()> {
     let bar = Bar::count("localise", quiet);
     let summary = localise::localise(options, &mut |done, total| bar.set(done, total))?;
     bar.finish();
@@ -82,13 +73,10 @@ pub fn localise(
             options.run.display()
         );
     }
-    Ok(summary)
+    Ok(())
 }
 
-pub fn coverage(
-    options: &coverage::CoverageOptions,
-    quiet: bool,
-) -> anyhow::Result<coverage::CoverageSummary> {
+pub fn coverage(options: &coverage::CoverageOptions, quiet: bool) -> anyhow::Result<()> {
     let bar = Bar::count("coverage", quiet);
     let summary = coverage::coverage(options, &mut |done, total| bar.set(done, total))?;
     bar.finish();
@@ -111,13 +99,10 @@ pub fn coverage(
             options.run.display()
         );
     }
-    Ok(summary)
+    Ok(())
 }
 
-pub fn replan(
-    options: &coverage::ReplanOptions,
-    quiet: bool,
-) -> anyhow::Result<coverage::ReplanSummary> {
+pub fn replan(options: &coverage::ReplanOptions, quiet: bool) -> anyhow::Result<()> {
     let bar = Bar::count("replan", quiet);
     let summary = coverage::replan(options, &mut |done, total| bar.set(done, total))?;
     bar.finish();
@@ -144,15 +129,12 @@ pub fn replan(
             );
         }
     }
-    Ok(summary)
+    Ok(())
 }
 
-pub fn report(
-    options: &reports::ReportOptions,
-    quiet: bool,
-) -> anyhow::Result<reports::RunSummary> {
+pub fn report(options: &reports::ReportOptions, quiet: bool) -> anyhow::Result<()> {
     let bar = Bar::count("report", quiet);
-    let summary = reports::report(options, &mut |done, total| bar.set(done, total))?;
+    reports::report(options, &mut |done, total| bar.set(done, total))?;
     bar.finish();
     if !quiet {
         let file = |name| options.run.join(name).display().to_string();
@@ -163,10 +145,10 @@ pub fn report(
             file(reports::stage::files::SUMMARY)
         );
     }
-    Ok(summary)
+    Ok(())
 }
 
-pub fn simulate(options: &sim::SimOptions, quiet: bool) -> anyhow::Result<sim::SimSummary> {
+pub fn simulate(options: &sim::SimOptions, quiet: bool) -> anyhow::Result<()> {
     let bar = Bar::count("simulate", quiet);
     let summary = sim::simulate(options, &mut |done, total| bar.set(done, total))
         .map_err(|e| anyhow::anyhow!("simulate: {e}"))?;
@@ -181,5 +163,5 @@ pub fn simulate(options: &sim::SimOptions, quiet: bool) -> anyhow::Result<sim::S
             options.out.display()
         );
     }
-    Ok(summary)
+    Ok(())
 }

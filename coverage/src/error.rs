@@ -10,8 +10,6 @@ pub enum CoverageError {
     Flight(#[from] ingest::IngestError),
     #[error("cannot read targets {}: {why}", path.display())]
     Targets { path: PathBuf, why: String },
-    #[error("cannot read config {}: {why}", path.display())]
-    Config { path: PathBuf, why: String },
     #[error(
         "the flight has no SLAM map (no PointCloud2 topic was recorded); pass the map with --map map.ply (PLY or PCD, in the world frame of the poses)"
     )]

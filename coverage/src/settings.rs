@@ -1,31 +1,10 @@
-//! The stage's settings beyond the command line: a TOML config file with a
-//! `[view]` table (the View model) and a `[coverage]` table, merged as
-//! command line over config file over plan over defaults.
-
-use std::path::Path;
+//! The stage's settings: the View model's and the others, each unset one
+//! falling back (`or`) to the next source; the binary merges command line
+//! over `postflight.toml`'s `[view]` and `[coverage]` tables, and the stage
+//! applies the result over the plan's View model and the defaults.
 
 use ingest::ViewModel;
 use serde::{Deserialize, Serialize};
-
-use crate::error::CoverageError;
-
-/// The settings of a config file this stage reads (`[view]` and
-/// `[coverage]`); the other stages' tables of `postflight.toml` are theirs
-/// and left alone, and any other table is a mistake.
-#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ConfigFile {
-    pub view: Option<ViewSettings>,
-    pub coverage: Option<CoverageSettings>,
-    #[serde(rename = "ingest")]
-    _ingest: Option<toml::Table>,
-    #[serde(rename = "detect")]
-    _detect: Option<toml::Table>,
-    #[serde(rename = "localise")]
-    _localise: Option<toml::Table>,
-    #[serde(rename = "replan")]
-    _replan: Option<toml::Table>,
-}
 
 /// View model settings; unset ones keep the plan's (or the defaults).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
@@ -86,29 +65,5 @@ impl CoverageSettings {
             defect_radius_m: self.defect_radius_m.or(other.defect_radius_m),
             exposure_s: self.exposure_s.or(other.exposure_s),
         }
-    }
-}
-
-pub fn load_config(path: &Path) -> Result<ConfigFile, CoverageError> {
-    let bad = |why: String| CoverageError::Config {
-        path: path.to_owned(),
-        why,
-    };
-    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
-    toml::from_str(&text).map_err(|e| bad(e.to_string().replace('\n', " ")))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn other_stages_tables_are_left_alone_and_unknown_tables_refused() {
-        let c: ConfigFile = toml::from_str(
-            "[detect]\nconfidence = 0.3\n[view]\nmax_distance_m = 4.0\n[replan]\nseed = 2\n",
-        )
-        .unwrap();
-        assert_eq!(c.view.unwrap().max_distance_m, Some(4.0));
-        assert!(toml::from_str::<ConfigFile>("[veiw]\nmax_distance_m = 4.0\n").is_err());
     }
 }

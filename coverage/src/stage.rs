@@ -19,7 +19,7 @@ use crate::face::exposed_faces;
 use crate::motion::{blur_px, velocity};
 use crate::reach::inspectable;
 use crate::records::{coverage_table, voxel_records};
-use crate::settings::{CoverageSettings, ViewSettings, load_config};
+use crate::settings::{CoverageSettings, ViewSettings};
 use crate::targets;
 use crate::view::Miss;
 
@@ -51,8 +51,7 @@ pub struct CoverageOptions {
     pub viewpoints: Option<PathBuf>,
     pub map: Option<PathBuf>,
     pub targets: Targets,
-    pub config: Option<PathBuf>,
-    /// Command-line View model settings (over the config file's).
+    /// View model settings over the plan's (unset: the plan's, else defaults).
     pub view: ViewSettings,
     pub settings: CoverageSettings,
 }
@@ -67,7 +66,6 @@ impl CoverageOptions {
             viewpoints: None,
             map: None,
             targets: Targets::Plan,
-            config: None,
             view: ViewSettings::default(),
             settings: CoverageSettings::default(),
         }
@@ -188,12 +186,6 @@ pub fn coverage(
     };
     // A failed rerun must not leave the last run's results looking current.
     flight.run.remove(summary_name)?;
-    let config = options
-        .config
-        .as_deref()
-        .map(load_config)
-        .transpose()?
-        .unwrap_or_default();
     let plan = options
         .plan
         .as_deref()
@@ -201,9 +193,7 @@ pub fn coverage(
         .transpose()?;
     let view = options
         .view
-        .or(&config.view.unwrap_or_default())
         .apply(plan.as_ref().map_or_else(ViewModel::default, |p| p.view));
-    let settings = options.settings.or(&config.coverage.unwrap_or_default());
     check_view(&view)?;
     let grid = plan.as_ref().map_or(
         VoxelGrid::new(DEFAULT_RESOLUTION, Point3::origin()),
@@ -250,7 +240,7 @@ pub fn coverage(
             without_pose: 0,
             without_exposure: 0,
         },
-        None => flight_shots(&flight, &lenses, &map, settings.exposure_s),
+        None => flight_shots(&flight, &lenses, &map, options.settings.exposure_s),
     };
     if frames_without_pose > 0 {
         warnings.push(format!(
@@ -273,17 +263,18 @@ pub fn coverage(
         .count();
 
     // Views each face needs: more around defect candidates, if asked.
-    let defects = match settings.views_near_defects {
+    let defects = match options.settings.views_near_defects {
         Some(_) => defect_positions(&flight.run.file("defects.json"))?,
         None => Vec::new(),
     };
-    let radius = settings
+    let radius = options
+        .settings
         .defect_radius_m
         .unwrap_or(CoverageOptions::DEFAULT_DEFECT_RADIUS_M);
     let need: Vec<u32> = faces
         .iter()
         .map(|f| {
-            match settings.views_near_defects {
+            match options.settings.views_near_defects {
                 Some(n) if defects.iter().any(|d| (d - f.centre).norm() <= radius) => n,
                 _ => view.views_required,
             }

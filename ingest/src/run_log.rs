@@ -44,6 +44,45 @@ pub struct StageRecord {
 pub struct InputFile {
     pub path: PathBuf,
     pub sha256: String,
+    #[serde(default)]
+    pub size_bytes: u64,
+    /// Modification time, nanoseconds since 1970.
+    #[serde(default)]
+    pub modified_ns: i64,
+}
+
+impl InputFile {
+    /// The file at `path` as it is now. Its SHA-256 is taken from a `known`
+    /// file with the same path, size and modification time, so a resumed
+    /// run does not read a flight of many gigabytes again; else it is read.
+    pub fn describe(path: &Path, known: &[InputFile]) -> Result<Self, IngestError> {
+        let path = std::path::absolute(path).unwrap_or_else(|_| path.to_owned());
+        let meta = std::fs::metadata(&path).map_err(|source| IngestError::Open {
+            path: path.clone(),
+            source,
+        })?;
+        let modified_ns = meta
+            .modified()
+            .ok()
+            .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+            .map_or(0, |d| d.as_nanos() as i64);
+        let same = known.iter().find(|k| {
+            k.path == path
+                && k.size_bytes == meta.len()
+                && k.modified_ns == modified_ns
+                && modified_ns != 0
+        });
+        let sha256 = match same {
+            Some(k) => k.sha256.clone(),
+            None => sha256_file(&path)?,
+        };
+        Ok(Self {
+            path,
+            sha256,
+            size_bytes: meta.len(),
+            modified_ns,
+        })
+    }
 }
 
 impl RunLog {
@@ -129,6 +168,31 @@ mod tests {
         let path = dir.path().join("f");
         std::fs::write(&path, b"abc").unwrap();
         assert_eq!(sha256_file(&path).unwrap(), sha256(b"abc"));
+    }
+
+    #[test]
+    fn an_unchanged_file_keeps_its_hash_and_a_changed_one_is_read_again() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f");
+        std::fs::write(&path, b"abc").unwrap();
+        let first = InputFile::describe(&path, &[]).unwrap();
+        assert_eq!(first.sha256, sha256(b"abc"));
+        // A stale hash for the same path, size and time is trusted, not re-read.
+        let known = InputFile {
+            sha256: "known".into(),
+            ..first.clone()
+        };
+        assert_eq!(
+            InputFile::describe(&path, std::slice::from_ref(&known))
+                .unwrap()
+                .sha256,
+            "known"
+        );
+        std::fs::write(&path, b"abcd").unwrap();
+        assert_eq!(
+            InputFile::describe(&path, &[known]).unwrap().sha256,
+            sha256(b"abcd")
+        );
     }
 
     #[test]

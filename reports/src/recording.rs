@@ -7,7 +7,6 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use ingest::Flight;
 use ingest::map::PointCloud;
 use nalgebra::Isometry3;
 
@@ -18,39 +17,26 @@ use crate::views::colour;
 /// Most map points logged; larger maps are thinned evenly.
 const MAX_MAP_POINTS: usize = 2_000_000;
 
-/// What the recording holds.
-#[derive(Debug, Clone, Default, serde::Serialize)]
-pub struct RecordingContents {
-    pub map_points: usize,
-    pub voxels: usize,
-    pub frames: usize,
-    pub images: usize,
-    pub detections: usize,
-    pub defects: usize,
-    pub waypoints: usize,
-}
-
 /// Write the recording of `results` to `path`; `progress(done, total)` over frames.
 pub fn write_recording(
     results: &RunResults,
     path: &Path,
     progress: &mut dyn FnMut(u64, u64),
-) -> Result<RecordingContents, ReportError> {
+) -> Result<(), ReportError> {
     let rerun_error = |e: &dyn std::fmt::Display| ReportError::Recording {
         path: path.to_owned(),
         why: e.to_string(),
     };
-    let flight = Flight::load(results.dir.path())?;
+    let flight = &results.flight;
     let rec = rerun::RecordingStreamBuilder::new("postflight")
         .save(path)
         .map_err(|e| rerun_error(&e))?;
-    let mut contents = RecordingContents::default();
     let log = |entity: &str, what: &dyn rerun::AsComponents| {
         rec.log_static(entity, what).map_err(|e| rerun_error(&e))
     };
     log("world", &rerun::ViewCoordinates::RIGHT_HAND_Z_UP())?;
 
-    if let Some(cloud) = map_cloud(results, &flight)? {
+    if let Some(cloud) = map_cloud(results, flight)? {
         let step = cloud.points.len().div_ceil(MAX_MAP_POINTS).max(1);
         let points: Vec<[f32; 3]> = cloud
             .points
@@ -58,7 +44,6 @@ pub fn write_recording(
             .step_by(step)
             .map(|p| f32x3(p.coords.into()))
             .collect();
-        contents.map_points = points.len();
         log(
             "world/map",
             &rerun::Points3D::new(points)
@@ -78,7 +63,6 @@ pub fn write_recording(
         if centres.is_empty() {
             continue;
         }
-        contents.voxels += centres.len();
         let half = (resolution / 2.0 * 0.95) as f32;
         log(
             &format!("world/coverage/{}", status.key()),
@@ -107,7 +91,6 @@ pub fn write_recording(
 
     let review = results.defects_for_review();
     if !review.is_empty() {
-        contents.defects = review.len();
         log(
             "world/defects",
             &rerun::Points3D::new(review.iter().map(|d| f32x3(d.position)))
@@ -131,7 +114,6 @@ pub fn write_recording(
             .iter()
             .flat_map(|s| s.waypoints.iter().map(|w| f32x3([w.x, w.y, w.z])))
             .collect();
-        contents.waypoints = waypoints.len();
         if !strips.is_empty() {
             log(
                 "world/replan/path",
@@ -155,7 +137,7 @@ pub fn write_recording(
     // Detections by frame index.
     let mut boxes: BTreeMap<u32, Vec<detect::FrameDetection>> = BTreeMap::new();
     if results.detect.is_some() {
-        for d in detect::read_detections(results.dir.path()).map_err(|e| rerun_error(&e))? {
+        for d in detect::read_detections(results.dir().path()).map_err(|e| rerun_error(&e))? {
             boxes.entry(d.frame).or_default().push(d);
         }
     }
@@ -171,6 +153,7 @@ pub fn write_recording(
             continue;
         };
         let entity = format!("world/cameras/{}", entity_name(&camera.topic));
+        let image_entity = format!("{entity}/image");
         rec.set_timestamp_nanos_since_epoch("time", frame.time_ns);
         rec.set_time_sequence("frame", i64::from(frame.index));
         let timed = |path: &str, what: &dyn rerun::AsComponents| {
@@ -179,7 +162,7 @@ pub fn write_recording(
         timed(&entity, &transform(&pose))?;
         if let Some(k) = &camera.intrinsics {
             timed(
-                &format!("{entity}/image"),
+                &image_entity,
                 &rerun::Pinhole::from_focal_length_and_resolution(
                     [k.fx as f32, k.fy as f32],
                     [k.width as f32, k.height as f32],
@@ -196,20 +179,18 @@ pub fn write_recording(
                     rerun::MediaType::jpeg()
                 };
                 timed(
-                    &format!("{entity}/image"),
+                    &image_entity,
                     &rerun::EncodedImage::new(bytes).with_media_type(media),
                 )?;
-                contents.images += 1;
             }
             Ok(None) => {
                 if let Ok(image) = flight.image(frame) {
                     let rgb = image.to_rgb8();
                     let (w, h) = rgb.dimensions();
                     timed(
-                        &format!("{entity}/image"),
+                        &image_entity,
                         &rerun::Image::from_rgb24(rgb.into_raw(), [w, h]),
                     )?;
-                    contents.images += 1;
                 }
             }
             // An unreadable image is already reported by ingest and detect.
@@ -219,9 +200,8 @@ pub fn write_recording(
             .get(&frame.index)
             .map(Vec::as_slice)
             .unwrap_or_default();
-        contents.detections += found.len();
         timed(
-            &format!("{entity}/image/detections"),
+            &format!("{image_entity}/detections"),
             &rerun::Boxes2D::from_mins_and_sizes(
                 found
                     .iter()
@@ -241,16 +221,18 @@ pub fn write_recording(
             }))
             .with_colors([rgb("#d7301f")]),
         )?;
-        contents.frames += 1;
     }
     progress(total, total);
     rec.flush_blocking().map_err(|e| rerun_error(&e))?;
     drop(rec);
-    Ok(contents)
+    Ok(())
 }
 
 /// The map coverage judged against: its file, else the one in the flight.
-fn map_cloud(results: &RunResults, flight: &Flight) -> Result<Option<PointCloud>, ReportError> {
+fn map_cloud(
+    results: &RunResults,
+    flight: &ingest::Flight,
+) -> Result<Option<PointCloud>, ReportError> {
     if let Some(path) = results.coverage.as_ref().and_then(|c| c.map.as_ref()) {
         return Ok(Some(PointCloud::load(path)?));
     }

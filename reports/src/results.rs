@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use coverage::{CoverageSummary, ReplanSummary};
 use detect::DetectSummary;
-use ingest::{IngestSummary, RunDir, RunLog};
+use ingest::{Flight, IngestError, RunDir, RunLog};
 use localise::{DefectRecord, LocaliseSummary};
 use polars::prelude::*;
 use serde::Deserialize;
@@ -64,8 +64,9 @@ pub struct TargetVoxel {
 
 /// Everything the stages of one run wrote.
 pub struct RunResults {
-    pub dir: RunDir,
-    pub ingest: IngestSummary,
+    /// The ingested flight (its summary, frames, cameras, trajectory and
+    /// recording) and the run directory.
+    pub flight: Flight,
     pub detect: Option<DetectSummary>,
     pub localise: Option<LocaliseSummary>,
     /// Defect candidates, in the order localise wrote them.
@@ -84,56 +85,49 @@ struct DefectsFile {
 impl RunResults {
     /// Read the run directory at `path` (ingest must have completed).
     pub fn read(path: &Path) -> Result<Self, ReportError> {
-        let dir = RunDir::open(path, ingest::run_dir::files::INGEST, "ingest")?;
-        let optional = |name: &str| dir.file(name).is_file();
-        let detect = if optional(detect::stage::files::SUMMARY) {
-            Some(dir.read_json(detect::stage::files::SUMMARY)?)
-        } else {
-            None
+        let flight = Flight::load(path)?;
+        let dir = &flight.run;
+        // A stage's other files count only once its summary says it completed.
+        let localise: Option<LocaliseSummary> =
+            optional_json(dir, localise::stage::files::SUMMARY)?;
+        let defects = match localise {
+            Some(_) => {
+                dir.read_json::<DefectsFile>(localise::stage::files::DEFECTS_JSON)?
+                    .defects
+            }
+            None => Vec::new(),
         };
-        let (localise, defects) = if optional(localise::stage::files::SUMMARY) {
-            let file: DefectsFile = dir.read_json(localise::stage::files::DEFECTS_JSON)?;
-            (
-                Some(dir.read_json(localise::stage::files::SUMMARY)?),
-                file.defects,
-            )
-        } else {
-            (None, Vec::new())
-        };
-        let (coverage, voxels) = if optional(coverage::stage::files::SUMMARY) {
+        let coverage: Option<CoverageSummary> =
+            optional_json(dir, coverage::stage::files::SUMMARY)?;
+        let voxels = if coverage.is_some() {
             let table = dir.read_table(coverage::stage::files::TABLE)?;
-            let voxels = target_voxels(&table).map_err(|why| ReportError::Table {
+            target_voxels(&table).map_err(|why| ReportError::Table {
                 path: dir.file(coverage::stage::files::TABLE),
                 why: format!("{why}; rerun `postflight coverage`"),
-            })?;
-            (
-                Some(dir.read_json(coverage::stage::files::SUMMARY)?),
-                voxels,
-            )
+            })?
         } else {
-            (None, Vec::new())
-        };
-        let replan = if optional(coverage::replan::files::PLAN) {
-            Some(dir.read_json(coverage::replan::files::PLAN)?)
-        } else {
-            None
+            Vec::new()
         };
         Ok(Self {
-            ingest: dir.read_json(ingest::run_dir::files::INGEST)?,
-            detect,
+            detect: optional_json(dir, detect::stage::files::SUMMARY)?,
             localise,
             defects,
             coverage,
             voxels,
-            replan,
-            log: RunLog::read(&dir)?,
-            dir,
+            replan: optional_json(dir, coverage::replan::files::PLAN)?,
+            log: RunLog::read(dir)?,
+            flight,
         })
+    }
+
+    /// The run directory.
+    pub fn dir(&self) -> &RunDir {
+        &self.flight.run
     }
 
     /// A file of the run directory.
     pub fn file(&self, name: &str) -> PathBuf {
-        self.dir.file(name)
+        self.dir().file(name)
     }
 
     /// Defect candidates in review order: the likeliest and largest first
@@ -146,6 +140,18 @@ impl RunResults {
                 .then_with(|| a.id.cmp(&b.id))
         });
         order
+    }
+}
+
+/// A stage's JSON file, `None` when the stage has not written it.
+fn optional_json<T: serde::de::DeserializeOwned>(
+    dir: &RunDir,
+    name: &str,
+) -> Result<Option<T>, IngestError> {
+    if dir.file(name).is_file() {
+        dir.read_json(name).map(Some)
+    } else {
+        Ok(None)
     }
 }
 

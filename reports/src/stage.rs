@@ -30,7 +30,7 @@ pub fn report(
 ) -> Result<RunSummary, ReportError> {
     let start = Instant::now();
     let results = RunResults::read(&options.run)?;
-    results.dir.remove(files::SUMMARY)?;
+    results.dir().remove(files::SUMMARY)?;
     // Timings of the stages `postflight run` ran, else what each stage
     // recorded of itself.
     let mut timings = results.log.timings();
@@ -61,13 +61,13 @@ pub fn report(
     let mut summary = RunSummary::new(&results, timings);
     let page = html::page(&results, &summary);
     let path = results.file(files::REPORT);
-    results.dir.write_with(files::REPORT, |f| {
+    results.dir().write_with(files::REPORT, |f| {
         std::io::Write::write_all(f, page.as_bytes())
             .map_err(|source| ingest::IngestError::Write { path, source })
     })?;
     summary
         .timings_s
         .insert("report".into(), start.elapsed().as_secs_f64());
-    results.dir.write_json(files::SUMMARY, &summary)?;
+    results.dir().write_json(files::SUMMARY, &summary)?;
     Ok(summary)
 }

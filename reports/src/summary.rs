@@ -63,7 +63,7 @@ pub struct Versions {
 
 impl RunSummary {
     pub fn new(results: &RunResults, timings_s: BTreeMap<String, f64>) -> Self {
-        let i = &results.ingest;
+        let i = &results.flight.summary;
         let mut warnings: Vec<String> = Vec::new();
         let mut warn = |stage: &str, list: &[String]| {
             warnings.extend(list.iter().map(|w| format!("{stage}: {w}")));
@@ -82,8 +82,8 @@ impl RunSummary {
             warn("replan", &r.warnings);
         }
         Self {
-            run: std::path::absolute(results.dir.path())
-                .unwrap_or_else(|_| results.dir.path().to_owned()),
+            run: std::path::absolute(results.dir().path())
+                .unwrap_or_else(|_| results.dir().path().to_owned()),
             flight: i.flight.path.clone(),
             flight_start: i.start_time.clone(),
             duration_s: i.duration_s,
