@@ -8,6 +8,7 @@ mod config;
 mod demo;
 mod pipeline;
 mod progress;
+mod review;
 mod stages;
 
 use std::io::IsTerminal;
@@ -61,6 +62,9 @@ enum Command {
     Gtsp(GtspArgs),
     /// Write summary.json and the self-contained report.html of a run directory.
     Report(ReportArgs),
+    /// The human review queue: inspectors accept or reject each defect candidate.
+    #[command(subcommand)]
+    Review(review::ReviewCommand),
 }
 
 #[derive(Args)]
@@ -415,6 +419,7 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
         Command::Replan(args) => replan(args, cli.quiet),
         Command::Gtsp(args) => gtsp(args),
         Command::Report(args) => report(args, cli.quiet),
+        Command::Review(command) => review::run(command, cli.quiet),
         Command::Run(args) => run_pipeline(args, cli.quiet),
         Command::Demo(args) => demo::demo(&args.out, args.force, cli.quiet),
     }

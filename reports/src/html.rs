@@ -6,6 +6,7 @@
 use std::fmt::Write;
 
 use base64::Engine;
+use localise::DefectRecord;
 
 use crate::results::{RunResults, VoxelStatus, review_priority};
 use crate::summary::RunSummary;
@@ -59,7 +60,8 @@ pub fn page(results: &RunResults, summary: &RunSummary) -> String {
 }
 
 /// `2025-06-15T12:00:00.000000000Z` as `2025-06-15 12:00:00 UTC`.
-fn readable_time(rfc3339: &str) -> String {
+/// An RFC 3339 UTC time as `YYYY-MM-DD HH:MM:SS UTC`.
+pub fn readable_time(rfc3339: &str) -> String {
     match (rfc3339.get(..10), rfc3339.get(11..19)) {
         (Some(date), Some(time)) if rfc3339.ends_with('Z') => format!("{date} {time} UTC"),
         _ => rfc3339.to_string(),
@@ -242,11 +244,7 @@ fn defects_section(h: &mut String, r: &RunResults) {
                 )
             })
             .unwrap_or_else(|| "(no image)".into());
-        let length = match (d.length_m, d.length_partial) {
-            (Some(l), false) => format!("{l:.2} m"),
-            (Some(l), true) => format!("&ge; {l:.2} m"),
-            (None, _) => "&ndash;".into(),
-        };
+        let length = length_html(d);
         let mut frames = String::new();
         for v in &d.views {
             let b = v.bbox;
@@ -281,6 +279,16 @@ fn defects_section(h: &mut String, r: &RunResults) {
         );
     }
     h.push_str("</table>");
+}
+
+/// A candidate's estimated length as HTML: "&ge;" marks a lower bound (its
+/// views were cut by the image border), a dash an unknown length.
+pub fn length_html(d: &DefectRecord) -> String {
+    match (d.length_m, d.length_partial) {
+        (Some(l), false) => format!("{l:.2} m"),
+        (Some(l), true) => format!("&ge; {l:.2} m"),
+        (None, _) => "&ndash;".into(),
+    }
 }
 
 fn replan_section(h: &mut String, r: &RunResults) {

@@ -2,7 +2,7 @@
 //! numbers (`summary.json`), the self-contained HTML report (`report.html`:
 //! coverage pictures, defect candidates in review order, the follow-up
 //! flight) and the Rerun recording (`flight.rrd`), and the human review
-//! queue of proposed cracks (`review`: the decisions' store so far). It
+//! queue of proposed cracks (`review`: a small web application over a SQLite store of decisions). It
 //! reads the outputs of every stage and writes nothing that another stage
 //! reads back.
 

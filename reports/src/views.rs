@@ -76,15 +76,6 @@ pub fn view(
     overlay: &Overlay,
     width: f64,
 ) -> String {
-    let mut front: HashMap<(i64, i64), (f64, usize)> = HashMap::new();
-    let cell = |c: f64| (c / resolution).floor() as i64;
-    for (i, v) in voxels.iter().enumerate() {
-        let (u, w, depth) = side.project(v.centre);
-        let slot = front.entry((cell(u), cell(w))).or_insert((depth, i));
-        if depth > slot.0 {
-            *slot = (depth, i);
-        }
-    }
     let mut bounds = [[f64::INFINITY; 2], [f64::NEG_INFINITY; 2]];
     let mut grow = |p: [f64; 3], pad: f64| {
         let (u, w, _) = side.project(p);
@@ -103,10 +94,7 @@ pub fn view(
         return String::new();
     }
     let mut svg = Svg::new(bounds, width, 12.0);
-    // Far to near, so nearer squares cover farther ones' edges.
-    let mut drawn: Vec<(f64, usize)> = front.into_values().collect();
-    drawn.sort_by(|a, b| a.0.total_cmp(&b.0));
-    for (_, i) in drawn {
+    for i in nearest_per_cell(voxels, resolution, side) {
         let v = &voxels[i];
         let (u, w, _) = side.project(v.centre);
         let fill = if overlay.grey {
@@ -143,6 +131,24 @@ pub fn view(
     let metres = nice_length((bounds[1][0] - bounds[0][0]) / 5.0);
     svg.scale_bar(metres);
     svg.finish(side.title())
+}
+
+/// The voxels a view of `side` draws: per picture cell the one nearest the
+/// viewer (indices into `voxels`), far to near so that nearer squares cover
+/// farther ones' edges.
+pub fn nearest_per_cell(voxels: &[TargetVoxel], resolution: f64, side: Side) -> Vec<usize> {
+    let mut front: HashMap<(i64, i64), (f64, usize)> = HashMap::new();
+    let cell = |c: f64| (c / resolution).floor() as i64;
+    for (i, v) in voxels.iter().enumerate() {
+        let (u, w, depth) = side.project(v.centre);
+        let slot = front.entry((cell(u), cell(w))).or_insert((depth, i));
+        if depth > slot.0 {
+            *slot = (depth, i);
+        }
+    }
+    let mut drawn: Vec<(f64, usize)> = front.into_values().collect();
+    drawn.sort_by(|a, b| a.0.total_cmp(&b.0));
+    drawn.into_iter().map(|(_, i)| i).collect()
 }
 
 /// 1, 2 or 5 times a power of ten, at most `x`.

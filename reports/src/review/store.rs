@@ -59,6 +59,11 @@ pub struct Decision {
 pub enum ReviewError {
     #[error("review database: {0}")]
     Database(#[from] rusqlite::Error),
+    #[error("cannot open the review database {}: {source}; check the --db path", path.display())]
+    Open {
+        path: std::path::PathBuf,
+        source: rusqlite::Error,
+    },
     #[error("no defect candidate {0:?} in this review; reload the queue")]
     UnknownCandidate(String),
     #[error(
@@ -67,6 +72,23 @@ pub enum ReviewError {
     Conflict { candidate: String, current: i64 },
     #[error("{0}")]
     Invalid(String),
+    #[error(transparent)]
+    Files(#[from] ingest::IngestError),
+    #[error(transparent)]
+    Run(#[from] crate::ReportError),
+    #[error(
+        "this run has no defect candidates to review yet: run `postflight localise --run {0}` (or `postflight run`) first"
+    )]
+    NotLocalised(std::path::PathBuf),
+    #[error(
+        "cannot listen on {addr}: {source}; choose another address with --addr (port 0 picks a free port)"
+    )]
+    Bind {
+        addr: std::net::SocketAddr,
+        source: std::io::Error,
+    },
+    #[error("review server: {0}")]
+    Server(std::io::Error),
 }
 
 const SCHEMA: &str = "
@@ -92,6 +114,14 @@ CREATE TABLE IF NOT EXISTS decisions (
 );
 ";
 
+/// The review database's file name in a run directory, by default.
+pub const DEFAULT_DB: &str = "review.sqlite";
+
+/// Longest reviewer name accepted.
+pub const MAX_REVIEWER_CHARS: usize = 80;
+/// Longest note accepted.
+pub const MAX_NOTE_CHARS: usize = 4000;
+
 /// The review database of a run.
 pub struct ReviewStore {
     conn: Connection,
@@ -102,12 +132,19 @@ impl ReviewStore {
     /// to disk before it returns, so an acknowledged decision survives a
     /// killed server.
     pub fn open(path: &Path) -> Result<Self, ReviewError> {
-        let conn = Connection::open(path)?;
-        conn.pragma_update(None, "journal_mode", "WAL")?;
-        conn.pragma_update(None, "synchronous", "FULL")?;
-        conn.pragma_update(None, "foreign_keys", "ON")?;
-        conn.busy_timeout(std::time::Duration::from_secs(5))?;
-        conn.execute_batch(SCHEMA)?;
+        let setup = || -> rusqlite::Result<Connection> {
+            let conn = Connection::open(path)?;
+            conn.pragma_update(None, "journal_mode", "WAL")?;
+            conn.pragma_update(None, "synchronous", "FULL")?;
+            conn.pragma_update(None, "foreign_keys", "ON")?;
+            conn.busy_timeout(std::time::Duration::from_secs(5))?;
+            conn.execute_batch(SCHEMA)?;
+            Ok(conn)
+        };
+        let conn = setup().map_err(|source| ReviewError::Open {
+            path: path.to_owned(),
+            source,
+        })?;
         Ok(Self { conn })
     }
 
@@ -167,6 +204,16 @@ impl ReviewStore {
             return Err(ReviewError::Invalid(
                 "say who you are: a decision needs a reviewer name".into(),
             ));
+        }
+        if reviewer.chars().count() > MAX_REVIEWER_CHARS {
+            return Err(ReviewError::Invalid(format!(
+                "a reviewer name has at most {MAX_REVIEWER_CHARS} characters"
+            )));
+        }
+        if note.chars().count() > MAX_NOTE_CHARS {
+            return Err(ReviewError::Invalid(format!(
+                "a note has at most {MAX_NOTE_CHARS} characters; put longer text in the inspection report"
+            )));
         }
         let tx = self
             .conn
@@ -236,6 +283,16 @@ impl ReviewStore {
         Ok(rows.collect::<Result<_, _>>()?)
     }
 
+    /// Every decision ever made, in the order they were made.
+    pub fn all_decisions(&self) -> Result<Vec<Decision>, ReviewError> {
+        let mut q = self.conn.prepare(
+            "SELECT candidate, version, verdict, severity, note, reviewer, decided_at
+             FROM decisions ORDER BY seq",
+        )?;
+        let rows = q.query_map([], decision_row)?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+
     /// The current decisions as CSV (RFC 4180: fields with commas, quotes
     /// or line breaks quoted).
     pub fn export_csv(&self) -> Result<String, ReviewError> {
@@ -250,12 +307,17 @@ impl ReviewStore {
                 d.decided_at,
                 d.version.to_string(),
             ];
-            let line: Vec<String> = fields.iter().map(|f| csv_field(f)).collect();
-            out.push_str(&line.join(","));
-            out.push('\n');
+            push_csv_row(&mut out, &fields);
         }
         Ok(out)
     }
+}
+
+/// One CSV row (RFC 4180 quoting), with its line break.
+pub fn push_csv_row(out: &mut String, fields: &[String]) {
+    let line: Vec<String> = fields.iter().map(|f| csv_field(f)).collect();
+    out.push_str(&line.join(","));
+    out.push('\n');
 }
 
 fn decision_row(r: &rusqlite::Row) -> rusqlite::Result<Decision> {
@@ -288,21 +350,7 @@ fn csv_field(f: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn defect(id: &str, confidence: f64) -> DefectRecord {
-        let view = serde_json::json!({
-            "frame": 1, "time_ns": 0, "bbox": [0.0, 0.0, 10.0, 10.0], "score": confidence,
-            "range_m": 3.0, "incidence_deg": 10.0, "gsd_mm": 3.0, "length_m": 0.5, "clipped": false
-        });
-        serde_json::from_value(serde_json::json!({
-            "id": id, "position": [0.0, 0.0, 0.0], "normal": [1.0, 0.0, 0.0],
-            "extent_min": [0.0, 0.0, 0.0], "extent_max": [0.0, 0.5, 0.0], "voxel": [0, 0, 0],
-            "face": "+x", "length_m": 0.5, "length_views": 1, "length_partial": false,
-            "frames": 1, "confidence": confidence, "max_score": confidence, "crop": null,
-            "best": view, "views": [view]
-        }))
-        .unwrap()
-    }
+    use crate::review::testing::defect;
 
     fn store(dir: &tempfile::TempDir) -> ReviewStore {
         ReviewStore::open(&dir.path().join("review.sqlite")).unwrap()
