@@ -55,12 +55,13 @@ pub fn demo(out: &Path, force: Option<Stage>, quiet: bool) -> anyhow::Result<()>
         quiet,
     )?;
     println!(
-        "\nThe demo flight's results:\n  report:       {}\n  3D recording: rerun {}\n  summary:      {}\n  tables:       {} (*.parquet: polars, pandas, DuckDB)\n  ground truth: {}",
+        "\nThe demo flight's results:\n  report:       {}\n  3D recording: rerun {}\n  summary:      {}\n  tables:       {} (*.parquet: polars, pandas, DuckDB)\n  ground truth: {}\n  review:       postflight review serve --run {}",
         run_dir.join(reports::stage::files::REPORT).display(),
         run_dir.join(reports::stage::files::RECORDING).display(),
         run_dir.join(reports::stage::files::SUMMARY).display(),
         run_dir.display(),
-        flight.join("truth.json").display()
+        flight.join("truth.json").display(),
+        run_dir.display()
     );
     Ok(())
 }

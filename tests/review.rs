@@ -845,3 +845,85 @@ fn beyond_loopback_every_request_needs_the_token() {
         r.body_mut().read_to_string().unwrap()
     );
 }
+
+// ---- localisation re-run ---------------------------------------------------
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        let target = to.join(entry.file_name());
+        if entry.file_type().unwrap().is_dir() {
+            copy_dir(&entry.path(), &target);
+        } else {
+            std::fs::copy(entry.path(), target).unwrap();
+        }
+    }
+}
+
+#[test]
+fn decisions_stay_with_their_candidates_when_localisation_reruns() {
+    let fixture = reviewed_run();
+    let tmp = tempfile::tempdir().unwrap();
+    let run = tmp.path().join("run");
+    copy_dir(fixture, &run);
+    let db = run.join("review.sqlite");
+    let server = Server::start(&run, &db, &[]);
+    let ids = candidate_ids(&server);
+    let agent = agent();
+    for (id, verdict) in [(&ids[0], "accepted"), (&ids[1], "rejected")] {
+        let (status, body) = post_json(
+            &agent,
+            &format!("{}/api/candidates/{}/decisions", server.base, url_path(id)),
+            &json!({"version": 0, "verdict": verdict, "reviewer": "kim"}),
+        );
+        assert_eq!(status, 201, "{body}");
+    }
+    drop(server);
+    let before = std::fs::metadata(run.join("defects.json"))
+        .unwrap()
+        .modified()
+        .unwrap();
+    let plan = fixture.parent().unwrap().join("sim/plan.json");
+    let out = postflight(
+        &[
+            "localise",
+            "--run",
+            run.to_str().unwrap(),
+            "--plan",
+            plan.to_str().unwrap(),
+        ],
+        tmp.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_ne!(
+        std::fs::metadata(run.join("defects.json"))
+            .unwrap()
+            .modified()
+            .unwrap(),
+        before,
+        "localise did not run again"
+    );
+    let server = Server::start(&run, &db, &[]);
+    let (_, body) = get(&agent, &format!("{}/api/candidates", server.base));
+    let queue: Value = serde_json::from_str(&body).unwrap();
+    let verdicts: BTreeMap<String, Value> = queue["candidates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            (
+                c["id"].as_str().unwrap().to_string(),
+                c["decision"]["verdict"].clone(),
+            )
+        })
+        .collect();
+    assert_eq!(verdicts.keys().collect::<Vec<_>>(), {
+        let mut sorted: Vec<&String> = ids.iter().collect();
+        sorted.sort();
+        sorted
+    });
+    assert_eq!(verdicts[&ids[0]], "accepted");
+    assert_eq!(verdicts[&ids[1]], "rejected");
+    assert_eq!(queue["progress"]["reviewed"], 2);
+}
