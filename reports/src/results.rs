@@ -133,11 +133,20 @@ impl RunResults {
     /// Defect candidates in review order: the likeliest and largest first
     /// (fused confidence times length, cracks of unknown length counted 5 cm).
     pub fn defects_for_review(&self) -> Vec<&DefectRecord> {
-        let mut order: Vec<&DefectRecord> = self.defects.iter().collect();
-        order.sort_by(|a, b| {
-            review_priority(b)
-                .total_cmp(&review_priority(a))
-                .then_with(|| a.id.cmp(&b.id))
+        self.review_order()
+            .into_iter()
+            .map(|i| &self.defects[i])
+            .collect()
+    }
+
+    /// The same order as indices into `defects`.
+    pub fn review_order(&self) -> Vec<usize> {
+        let d = &self.defects;
+        let mut order: Vec<usize> = (0..d.len()).collect();
+        order.sort_by(|&a, &b| {
+            review_priority(&d[b])
+                .total_cmp(&review_priority(&d[a]))
+                .then_with(|| d[a].id.cmp(&d[b].id))
         });
         order
     }

@@ -110,7 +110,9 @@ pub fn queue_page(ctx: &Context, queue: &Queue) -> String {
     }
     h.push_str("</nav><nav class=\"exports\">Export: <a href=\"/export/decisions.csv\">decisions (CSV)</a> <a href=\"/export/decisions.json\">decisions with history (JSON)</a> <a href=\"/export/accepted-defects.csv\">accepted defects (CSV)</a></nav>");
     let shown: Vec<&Entry> = queue.shown(ctx.filter).collect();
-    if shown.is_empty() {
+    if shown.is_empty() && ctx.filter == Filter::All {
+        h.push_str("<p class=\"empty\">No defect candidates in this run: the detector found no cracks that could be placed on the structure.</p>");
+    } else if shown.is_empty() {
         let _ = write!(
             h,
             "<p class=\"empty\">No {} candidates.</p>",

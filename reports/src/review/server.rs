@@ -57,6 +57,13 @@ pub struct Listening {
     pub decided: usize,
 }
 
+/// A decision the form sent and the store refused, shown again with why.
+struct Refused<'a> {
+    why: String,
+    note: &'a str,
+    reviewer: &'a str,
+}
+
 struct App {
     results: RunResults,
     /// Indices into `results.defects`, in review order.
@@ -107,7 +114,6 @@ impl App {
         }
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn candidate_page(
         &self,
         id: &str,
@@ -115,9 +121,7 @@ impl App {
         current: Vec<Decision>,
         history: &[Decision],
         view: Option<usize>,
-        error: Option<String>,
-        note: &str,
-        reviewer: &str,
+        refused: Option<Refused>,
     ) -> Result<Html<String>, HttpError> {
         let queue = self.queue(current);
         let entry = queue
@@ -130,9 +134,9 @@ impl App {
             view: view.or(best).unwrap_or(0),
             position: position_svgs(&self.backdrop, self.resolution, d),
             history,
-            error,
-            note,
-            reviewer,
+            error: refused.as_ref().map(|r| r.why.clone()),
+            note: refused.as_ref().map_or("", |r| r.note),
+            reviewer: refused.as_ref().map_or("", |r| r.reviewer),
         };
         Ok(Html(pages::candidate_page(
             &self.context(filter),
@@ -158,19 +162,7 @@ pub fn serve(options: ServeOptions, on_ready: impl FnOnce(&Listening)) -> Result
         None if options.addr.ip().is_loopback() => (None, false),
         None => (Some(new_token()?), true),
     };
-    let order = {
-        let review = results.defects_for_review();
-        review
-            .iter()
-            .map(|d| {
-                results
-                    .defects
-                    .iter()
-                    .position(|x| std::ptr::eq(x, *d))
-                    .expect("a defect of the run")
-            })
-            .collect()
-    };
+    let order = results.review_order();
     let resolution = results.coverage.as_ref().map_or(0.1, |c| c.resolution_m);
     let flight = results
         .flight
@@ -195,9 +187,9 @@ pub fn serve(options: ServeOptions, on_ready: impl FnOnce(&Listening)) -> Result
     runtime.block_on(async move {
         let listener = tokio::net::TcpListener::bind(options.addr)
             .await
-            .map_err(|source| ReviewError::Bind {
+            .map_err(|cause| ReviewError::Bind {
                 addr: options.addr,
-                source,
+                cause,
             })?;
         let addr = listener.local_addr().map_err(ReviewError::Server)?;
         let url = match &app.token {
@@ -558,7 +550,7 @@ async fn candidate_page(
     let (current, history) = app
         .store(move |s| Ok((s.current_decisions()?, s.history(&key)?)))
         .await?;
-    app.candidate_page(&id, filter, current, &history, q.view, None, "", "")
+    app.candidate_page(&id, filter, current, &history, q.view, None)
 }
 
 /// A decision as the form sends it (every field text, checked here so that
@@ -679,9 +671,11 @@ async fn decide_form(
                 current,
                 &history,
                 None,
-                Some(e.to_string()),
-                &form.note,
-                &form.reviewer,
+                Some(Refused {
+                    why: e.to_string(),
+                    note: &form.note,
+                    reviewer: &form.reviewer,
+                }),
             )?;
             Ok((status, page).into_response())
         }

@@ -59,10 +59,10 @@ pub struct Decision {
 pub enum ReviewError {
     #[error("review database: {0}")]
     Database(#[from] rusqlite::Error),
-    #[error("cannot open the review database {}: {source}; check the --db path", path.display())]
+    #[error("cannot open the review database {}: {cause}; check the --db path", path.display())]
     Open {
         path: std::path::PathBuf,
-        source: rusqlite::Error,
+        cause: rusqlite::Error,
     },
     #[error("no defect candidate {0:?} in this review; reload the queue")]
     UnknownCandidate(String),
@@ -81,11 +81,11 @@ pub enum ReviewError {
     )]
     NotLocalised(std::path::PathBuf),
     #[error(
-        "cannot listen on {addr}: {source}; choose another address with --addr (port 0 picks a free port)"
+        "cannot listen on {addr}: {cause}; choose another address with --addr (port 0 picks a free port)"
     )]
     Bind {
         addr: std::net::SocketAddr,
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     #[error("review server: {0}")]
     Server(std::io::Error),
@@ -141,9 +141,9 @@ impl ReviewStore {
             conn.execute_batch(SCHEMA)?;
             Ok(conn)
         };
-        let conn = setup().map_err(|source| ReviewError::Open {
+        let conn = setup().map_err(|cause| ReviewError::Open {
             path: path.to_owned(),
-            source,
+            cause,
         })?;
         Ok(Self { conn })
     }
