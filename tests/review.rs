@@ -168,6 +168,26 @@ fn decide(
     )
 }
 
+/// The database holds exactly `expected` (rows as [`stored_decisions`]
+/// gives them, oldest first), and the CSV export, read by Python's csv
+/// module, has the same current decisions.
+fn assert_stored_exactly(db: &Path, server: &Server, expected: &[Value]) {
+    assert_eq!(stored_decisions(db), expected);
+    let (status, csv) = get(&agent(), &format!("{}/export/decisions.csv", server.base));
+    assert_eq!(status, 200);
+    let csv_path = db.with_extension("csv");
+    std::fs::write(&csv_path, csv).unwrap();
+    let rows = python_run(
+        "import csv, json, sys\n\
+         rows = list(csv.DictReader(open(sys.argv[1], newline='')))\n\
+         print(json.dumps(sorted([r['candidate'], int(r['version']), r['verdict'], int(r['severity']) if r['severity'] else None, r['note'], r['reviewer']] for r in rows)))",
+        &[&csv_path],
+    );
+    let mut sorted = expected.to_vec();
+    sorted.sort_by_key(|v| v[0].as_str().unwrap().to_string());
+    assert_eq!(serde_json::from_str::<Vec<Value>>(&rows).unwrap(), sorted);
+}
+
 // ---- the browser -----------------------------------------------------------
 
 fn free_port() -> u16 {
@@ -247,7 +267,8 @@ fn a_reviewer_accepts_and_rejects_by_keyboard_in_chromium_and_exactly_that_is_st
         .enable_all()
         .build()
         .unwrap();
-    let (first, second, progress) = runtime.block_on(async {
+    let reviewer = "Ann <Inspector> & Co";
+    runtime.block_on(async {
         let mut caps = serde_json::Map::new();
         caps.insert(
             "goog:chromeOptions".into(),
@@ -292,43 +313,57 @@ fn a_reviewer_accepts_and_rejects_by_keyboard_in_chromium_and_exactly_that_is_st
         press(&client, 'a').await;
         let second = text_after(&client, "#candidate-id", &first).await;
         press(&client, 'r').await;
-        text_after(&client, "#candidate-id", &second).await;
+        let third = text_after(&client, "#candidate-id", &second).await;
+        assert_eq!(
+            [first.as_str(), second.as_str(), third.as_str()],
+            [ids[0].as_str(), ids[1].as_str(), ids[2].as_str()],
+            "the keyboard walks the queue in review order"
+        );
+        // Exactly the two decisions, in the database and in the CSV export.
+        assert_stored_exactly(
+            &db,
+            &server,
+            &[
+                json!([ids[0], 1, "accepted", null, "", reviewer]),
+                json!([ids[1], 1, "rejected", null, "", reviewer]),
+            ],
+        );
+        // Needs repair, with a note, by keyboard too; then back to it.
+        press(&client, 'n').await;
+        client
+            .active_element()
+            .await
+            .unwrap()
+            .send_keys("spalled edge, 2 mm")
+            .await
+            .unwrap();
+        press(&client, fantoccini::key::Key::Escape.into()).await;
+        press(&client, '4').await;
+        let fourth = text_after(&client, "#candidate-id", &third).await;
+        press(&client, 'k').await;
+        text_after(&client, "#candidate-id", &fourth).await;
+        let decided = client
+            .find(fantoccini::Locator::Css(".decide .v"))
+            .await
+            .unwrap()
+            .text()
+            .await
+            .unwrap();
+        assert_eq!(decided, "needs repair, severity 4");
         press(&client, 'q').await;
         let progress = text_after(&client, "#reviewed", "").await;
+        assert_eq!(progress, format!("3 of {} reviewed", ids.len()));
         client.close().await.unwrap();
-        (first, second, progress)
     });
-    assert_eq!(
-        (first.as_str(), second.as_str()),
-        (ids[0].as_str(), ids[1].as_str()),
-        "the keyboard walks the queue in review order"
-    );
-    assert_eq!(progress, format!("2 of {} reviewed", ids.len()));
-
-    let reviewer = "Ann <Inspector> & Co";
-    assert_eq!(
-        stored_decisions(&db),
-        vec![
+    assert_stored_exactly(
+        &db,
+        &server,
+        &[
             json!([ids[0], 1, "accepted", null, "", reviewer]),
             json!([ids[1], 1, "rejected", null, "", reviewer]),
-        ]
+            json!([ids[2], 1, "needs_repair", 4, "spalled edge, 2 mm", reviewer]),
+        ],
     );
-    let (status, csv) = get(&agent(), &format!("{}/export/decisions.csv", server.base));
-    assert_eq!(status, 200);
-    let csv_path = tmp.path().join("decisions.csv");
-    std::fs::write(&csv_path, csv).unwrap();
-    let rows = python_run(
-        "import csv, json, sys\n\
-         rows = list(csv.DictReader(open(sys.argv[1], newline='')))\n\
-         print(json.dumps(sorted([r['candidate'], r['verdict'], r['severity'], r['reviewer'], r['version']] for r in rows)))",
-        &[&csv_path],
-    );
-    let mut expected = vec![
-        json!([ids[0], "accepted", "", reviewer, "1"]),
-        json!([ids[1], "rejected", "", reviewer, "1"]),
-    ];
-    expected.sort_by_key(|v| v[0].as_str().unwrap().to_string());
-    assert_eq!(serde_json::from_str::<Vec<Value>>(&rows).unwrap(), expected);
 
     // The reviewer's name is shown escaped, never as markup.
     let (_, page) = get(
@@ -338,7 +373,7 @@ fn a_reviewer_accepts_and_rejects_by_keyboard_in_chromium_and_exactly_that_is_st
     assert!(page.contains("Ann &lt;Inspector&gt; &amp; Co"), "{page}");
     assert!(!page.contains("<Inspector>"));
 
-    // The accepted-defects table: one row, the accepted crack, in Parquet.
+    // The accepted-defects table: the two cracks accepted, in review order.
     drop(server);
     let out = postflight(
         &[
@@ -355,16 +390,20 @@ fn a_reviewer_accepts_and_rejects_by_keyboard_in_chromium_and_exactly_that_is_st
     );
     assert!(out.status.success(), "{}", stderr(&out));
     let table = read_parquet(&tmp.path().join("export/accepted-defects.parquet"));
-    assert_eq!(table.height(), 1);
-    let id = table
-        .column("id")
-        .unwrap()
-        .str()
-        .unwrap()
-        .get(0)
-        .unwrap()
-        .to_string();
-    assert_eq!(id, ids[0]);
+    let column = |name: &str| -> Vec<String> {
+        let c = table
+            .column(name)
+            .unwrap()
+            .cast(&polars::prelude::DataType::String)
+            .unwrap();
+        c.str()
+            .unwrap()
+            .iter()
+            .map(|v| v.unwrap().to_string())
+            .collect()
+    };
+    assert_eq!(column("id"), [ids[0].clone(), ids[2].clone()]);
+    assert_eq!(column("verdict"), ["accepted", "needs_repair"]);
 }
 
 // ---- load ------------------------------------------------------------------
