@@ -7,6 +7,7 @@
 //! defects tables; it reads the flight model from `ingest` and detections
 //! from `detect`.
 
+pub mod crop;
 pub mod error;
 pub mod fusion;
 pub mod observation;

@@ -27,7 +27,7 @@ pub fn view_jpeg(flight: &Flight, v: &ViewRecord) -> Result<Vec<u8>, String> {
         .map_err(|e| format!("frame {}: {e}", v.frame))?
         .to_rgb8();
     let thickness = (img.width() / 320).max(2);
-    localise::stage::draw_box(&mut img, v.bbox, thickness);
+    localise::crop::draw_box(&mut img, v.bbox, thickness);
     let mut img = DynamicImage::ImageRgb8(img);
     if img.width() > MAX_WIDTH {
         img = img.resize(MAX_WIDTH, u32::MAX, image::imageops::FilterType::Triangle);

@@ -1,0 +1,67 @@
+//! Pictures of a detection for reviewers: its box drawn on a frame, and
+//! the crop of a candidate's best view.
+
+use std::path::Path;
+
+use image::{DynamicImage, Rgb, RgbImage};
+use ingest::{Flight, Frame};
+
+use crate::observation::Observation;
+
+/// Draw a detection box (`[x0, y0, x1, y1]`, pixels) on an image in red,
+/// `thickness` pixels wide inwards, clipped to the image.
+pub fn draw_box(img: &mut RgbImage, bbox: [f32; 4], thickness: u32) {
+    let (w, h) = (img.width(), img.height());
+    if w == 0 || h == 0 {
+        return;
+    }
+    let red = Rgb([230, 40, 40]);
+    let clamp = |v: f32, n: u32| (v.max(0.0) as u32).min(n - 1);
+    let (x0, y0) = (clamp(bbox[0], w), clamp(bbox[1], h));
+    let (x1, y1) = (clamp(bbox[2], w).max(x0), clamp(bbox[3], h).max(y0));
+    for t in 0..thickness {
+        let (ax0, ay0) = ((x0 + t).min(x1), (y0 + t).min(y1));
+        let (ax1, ay1) = (x1.saturating_sub(t).max(ax0), y1.saturating_sub(t).max(ay0));
+        for x in ax0..=ax1 {
+            img.put_pixel(x, ay0, red);
+            img.put_pixel(x, ay1, red);
+        }
+        for y in ay0..=ay1 {
+            img.put_pixel(ax0, y, red);
+            img.put_pixel(ax1, y, red);
+        }
+    }
+}
+
+/// Crop of the best view around its box (with the box drawn), for
+/// reviewers; `false` when the frame's image cannot be decoded (its
+/// detections were then placed by their boxes, and the summary says so).
+/// The frame is decoded again: keeping every frame's image until fusion
+/// picks the best views would hold the whole flight in memory.
+pub(crate) fn write_crop(
+    flight: &Flight,
+    frame: &Frame,
+    best: &Observation,
+    path: &Path,
+) -> Result<bool, String> {
+    let Ok(img) = flight.image(frame) else {
+        return Ok(false);
+    };
+    let img = img.to_rgb8();
+    let b = best.detection.detection.bbox;
+    let margin = (0.5 * (b.x1 - b.x0).max(b.y1 - b.y0)).max(24.0);
+    let (w, h) = (img.width() as f32, img.height() as f32);
+    let x0 = (b.x0 - margin).clamp(0.0, w - 1.0) as u32;
+    let y0 = (b.y0 - margin).clamp(0.0, h - 1.0) as u32;
+    let x1 = (b.x1 + margin).clamp(x0 as f32 + 1.0, w) as u32;
+    let y1 = (b.y1 + margin).clamp(y0 as f32 + 1.0, h) as u32;
+    let mut crop: RgbImage = image::imageops::crop_imm(&img, x0, y0, x1 - x0, y1 - y0).to_image();
+    let (dx, dy) = (x0 as f32, y0 as f32);
+    draw_box(&mut crop, [b.x0 - dx, b.y0 - dy, b.x1 - dx, b.y1 - dy], 1);
+    let tmp = path.with_extension("jpg.tmp");
+    DynamicImage::ImageRgb8(crop)
+        .save_with_format(&tmp, image::ImageFormat::Jpeg)
+        .map_err(|e| e.to_string())?;
+    std::fs::rename(&tmp, path).map_err(|e| e.to_string())?;
+    Ok(true)
+}
