@@ -812,6 +812,16 @@ fn malformed_and_foreign_requests_get_a_4xx_with_a_reason() {
     );
     // None of it was stored.
     assert!(stored_decisions(&db).is_empty());
+    // Pages and refusals alike run no script but the server's own.
+    for url in [format!("{base}/"), format!("{base}/etc/passwd")] {
+        let r = agent.get(&url).call().unwrap();
+        let csp = r.headers()["content-security-policy"].to_str().unwrap();
+        assert!(
+            csp.contains("script-src 'self'") && csp.contains("frame-ancestors 'none'"),
+            "{csp}"
+        );
+        assert_eq!(r.headers()["x-content-type-options"], "nosniff");
+    }
 
     // A note with markup is stored as written and shown as text.
     let (status, body) = send(

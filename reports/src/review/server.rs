@@ -329,6 +329,10 @@ fn presented_token<'a>(headers: &'a HeaderMap, query: Option<&'a str>) -> Vec<&'
 /// elsewhere cannot reach the queue through a rebound DNS name), the token
 /// when there is one, and no writes from other sites' pages.
 async fn guard(State(app): State<Arc<App>>, req: Request, next: Next) -> Response {
+    secured(admit(&app, req, next).await)
+}
+
+async fn admit(app: &App, req: Request, next: Next) -> Response {
     let headers = req.headers();
     let host = header_str(headers, header::HOST).unwrap_or("");
     if app.token.is_none() && !is_loopback_host(host) {
@@ -389,12 +393,14 @@ async fn guard(State(app): State<Arc<App>>, req: Request, next: Next) -> Respons
             )) {
                 resp.headers_mut().insert(header::SET_COOKIE, v);
             }
-            return secured(resp);
+            return resp;
         }
     }
-    secured(next.run(req).await)
+    next.run(req).await
 }
 
+/// Headers every answer carries: no scripts or styles but the server's own,
+/// no framing, no type sniffing, no caching of pages and data.
 fn secured(mut resp: Response) -> Response {
     let h = resp.headers_mut();
     h.insert(
