@@ -146,7 +146,7 @@ pub fn queue_page(ctx: &Context, queue: &Queue) -> String {
 fn crop_img(d: &DefectRecord, class: &str) -> String {
     if d.crop.is_some() {
         format!(
-            "<img class=\"{class}\" alt=\"best view of {id}\" src=\"/candidates/{href}/crop\">",
+            "<img class=\"{class}\" loading=\"lazy\" alt=\"best view of {id}\" src=\"/candidates/{href}/crop\">",
             id = escape(&d.id),
             href = percent_encode(&d.id)
         )
