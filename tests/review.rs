@@ -154,6 +154,11 @@ fn url_path(id: &str) -> String {
     id.replace('+', "%2B")
 }
 
+/// Where decisions on a candidate are posted.
+fn decisions_url(base: &str, id: &str) -> String {
+    format!("{base}/api/candidates/{}/decisions", url_path(id))
+}
+
 fn decide(
     agent: &ureq::Agent,
     server: &Server,
@@ -163,7 +168,7 @@ fn decide(
 ) -> (u16, String) {
     post_json(
         agent,
-        &format!("{}/api/candidates/{}/decisions", server.base, url_path(id)),
+        &decisions_url(&server.base, id),
         &json!({"version": version, "verdict": "accepted", "note": note, "reviewer": "kim"}),
     )
 }
@@ -451,11 +456,7 @@ fn eight_reviewers_deciding_at_once_lose_and_duplicate_nothing() {
                             let t = Instant::now();
                             let (status, body) = post_json(
                                 &agent,
-                                &format!(
-                                    "{}/api/candidates/{}/decisions",
-                                    server.base,
-                                    url_path(id)
-                                ),
+                                &decisions_url(&server.base, id),
                                 &json!({"version": version, "verdict": verdict,
                                             "severity": severity, "note": note,
                                             "reviewer": format!("reviewer {r}")}),
@@ -575,7 +576,7 @@ fn a_server_killed_with_sigkill_keeps_every_acknowledged_decision() {
                 let note = format!("racing the kill {sent}");
                 sent += 1;
                 let r = agent
-                    .post(format!("{base}/api/candidates/{}/decisions", url_path(id)))
+                    .post(decisions_url(&base, id))
                     .header("content-type", "application/json")
                     .send(
                         json!({"version": v, "verdict": "rejected", "note": note, "reviewer": "kim"})
@@ -633,7 +634,7 @@ fn malformed_and_foreign_requests_get_a_4xx_with_a_reason() {
     let id = url_path(&ids[0]);
     let base = &server.base;
     let agent = agent();
-    let api = format!("{base}/api/candidates/{id}/decisions");
+    let api = decisions_url(base, &ids[0]);
     let send = |url: &str, content_type: &str, body: String, headers: &[(&str, &str)]| {
         let mut req = agent.post(url).header("content-type", content_type);
         for (k, v) in headers {
@@ -645,6 +646,10 @@ fn malformed_and_foreign_requests_get_a_4xx_with_a_reason() {
             r.body_mut().read_to_string().unwrap_or_default(),
         )
     };
+    let send_json = |url: &str, body: Value, headers: &[(&str, &str)]| {
+        send(url, "application/json", body.to_string(), headers)
+    };
+    let valid = json!({"version": 0, "verdict": "accepted", "reviewer": "a"});
     let cases: Vec<(&str, (u16, String), u16, &str)> = vec![
         (
             "broken JSON",
@@ -660,10 +665,9 @@ fn malformed_and_foreign_requests_get_a_4xx_with_a_reason() {
         ),
         (
             "unknown verdict",
-            send(
+            send_json(
                 &api,
-                "application/json",
-                json!({"version": 0, "verdict": "maybe", "reviewer": "a"}).to_string(),
+                json!({"version": 0, "verdict": "maybe", "reviewer": "a"}),
                 &[],
             ),
             422,
@@ -671,10 +675,9 @@ fn malformed_and_foreign_requests_get_a_4xx_with_a_reason() {
         ),
         (
             "needs repair without severity",
-            send(
+            send_json(
                 &api,
-                "application/json",
-                json!({"version": 0, "verdict": "needs_repair", "reviewer": "a"}).to_string(),
+                json!({"version": 0, "verdict": "needs_repair", "reviewer": "a"}),
                 &[],
             ),
             422,
@@ -682,10 +685,9 @@ fn malformed_and_foreign_requests_get_a_4xx_with_a_reason() {
         ),
         (
             "no reviewer",
-            send(
+            send_json(
                 &api,
-                "application/json",
-                json!({"version": 0, "verdict": "accepted", "reviewer": " "}).to_string(),
+                json!({"version": 0, "verdict": "accepted", "reviewer": " "}),
                 &[],
             ),
             422,
@@ -693,12 +695,7 @@ fn malformed_and_foreign_requests_get_a_4xx_with_a_reason() {
         ),
         (
             "unknown candidate",
-            send(
-                &format!("{base}/api/candidates/nope/decisions"),
-                "application/json",
-                json!({"version": 0, "verdict": "accepted", "reviewer": "a"}).to_string(),
-                &[],
-            ),
+            send_json(&decisions_url(base, "nope"), valid.clone(), &[]),
             404,
             "nope",
         ),
@@ -715,34 +712,19 @@ fn malformed_and_foreign_requests_get_a_4xx_with_a_reason() {
         ),
         (
             "a decision posted from another site's page",
-            send(
-                &api,
-                "application/json",
-                json!({"version": 0, "verdict": "accepted", "reviewer": "a"}).to_string(),
-                &[("origin", "http://evil.example")],
-            ),
+            send_json(&api, valid.clone(), &[("origin", "http://evil.example")]),
             403,
             "another site",
         ),
         (
             "a decision a browser says comes from another site",
-            send(
-                &api,
-                "application/json",
-                json!({"version": 0, "verdict": "accepted", "reviewer": "a"}).to_string(),
-                &[("sec-fetch-site", "cross-site")],
-            ),
+            send_json(&api, valid.clone(), &[("sec-fetch-site", "cross-site")]),
             403,
             "another site",
         ),
         (
             "a decision from an opaque origin (a sandboxed frame)",
-            send(
-                &api,
-                "application/json",
-                json!({"version": 0, "verdict": "accepted", "reviewer": "a"}).to_string(),
-                &[("origin", "null")],
-            ),
+            send_json(&api, valid.clone(), &[("origin", "null")]),
             403,
             "another site",
         ),
@@ -923,7 +905,7 @@ fn decisions_stay_with_their_candidates_when_localisation_reruns() {
     for (id, verdict) in [(&ids[0], "accepted"), (&ids[1], "rejected")] {
         let (status, body) = post_json(
             &agent,
-            &format!("{}/api/candidates/{}/decisions", server.base, url_path(id)),
+            &decisions_url(&server.base, id),
             &json!({"version": 0, "verdict": verdict, "reviewer": "kim"}),
         );
         assert_eq!(status, 201, "{body}");

@@ -62,6 +62,14 @@ impl Flight {
         })
     }
 
+    /// The frame with this index (its place in time order).
+    pub fn frame(&self, index: u32) -> Option<&Frame> {
+        self.frames
+            .binary_search_by_key(&index, |f| f.index)
+            .ok()
+            .map(|i| &self.frames[i])
+    }
+
     /// The camera that took a frame.
     pub fn camera(&self, frame: &Frame) -> Option<&Camera> {
         self.cameras.iter().find(|c| c.topic == frame.topic)

@@ -91,14 +91,18 @@ impl RunDir {
         std::fs::rename(&tmp, &target).map_err(io)
     }
 
-    pub fn write_json(&self, name: &str, value: &impl serde::Serialize) -> Result<(), IngestError> {
+    /// Write `name` atomically with the text `text`.
+    pub fn write_text(&self, name: &str, text: &str) -> Result<(), IngestError> {
         let path = self.file(name);
         self.write_with(name, |f| {
-            let text = serde_json::to_string_pretty(value).expect("JSON-serialisable");
             f.write_all(text.as_bytes())
-                .and_then(|_| f.write_all(b"\n"))
                 .map_err(|source| IngestError::Write { path, source })
         })
+    }
+
+    pub fn write_json(&self, name: &str, value: &impl serde::Serialize) -> Result<(), IngestError> {
+        let text = serde_json::to_string_pretty(value).expect("JSON-serialisable");
+        self.write_text(name, &(text + "\n"))
     }
 
     pub fn read_json<T: serde::de::DeserializeOwned>(&self, name: &str) -> Result<T, IngestError> {

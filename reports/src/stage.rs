@@ -60,11 +60,7 @@ pub fn report(
     })?;
     let mut summary = RunSummary::new(&results, timings);
     let page = html::page(&results, &summary);
-    let path = results.file(files::REPORT);
-    results.dir().write_with(files::REPORT, |f| {
-        std::io::Write::write_all(f, page.as_bytes())
-            .map_err(|source| ingest::IngestError::Write { path, source })
-    })?;
+    results.dir().write_text(files::REPORT, &page)?;
     summary
         .timings_s
         .insert("report".into(), start.elapsed().as_secs_f64());

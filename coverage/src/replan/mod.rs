@@ -11,7 +11,6 @@ pub mod tour;
 pub mod viewpoints;
 
 use std::collections::{BTreeMap, HashSet};
-use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -495,7 +494,6 @@ fn write(
     started: Instant,
 ) -> Result<ReplanSummary, CoverageError> {
     summary.seconds = started.elapsed().as_secs_f64();
-    let csv_path = run.file(files::PATH_CSV);
     let mut text = String::from("X,Y,Z,Yaw\n");
     let mut row = |p: &[f64; 3], yaw: f64| {
         text += &format!("{:.3},{:.3},{:.3},{:.4}\n", p[0], p[1], p[2], yaw);
@@ -518,13 +516,7 @@ fn write(
             }
         }
     }
-    run.write_with(files::PATH_CSV, |f| {
-        f.write_all(text.as_bytes())
-            .map_err(|source| ingest::IngestError::Write {
-                path: csv_path,
-                source,
-            })
-    })?;
+    run.write_text(files::PATH_CSV, &text)?;
     run.write_json(files::PLAN, &summary)?;
     Ok(summary)
 }

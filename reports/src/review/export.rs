@@ -2,7 +2,6 @@
 //! their history) and the accepted defects as a report table (CSV and
 //! Parquet), one row per crack an inspector confirmed.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use ingest::RunDir;
@@ -10,7 +9,7 @@ use polars::prelude::*;
 use serde::Serialize;
 
 use super::queue::Queue;
-use super::store::{Decision, ReviewError, ReviewStore, Verdict, push_csv_row};
+use super::store::{Decision, ReviewError, ReviewStore, Verdict};
 use crate::results::RunResults;
 
 /// Files `postflight review export` writes.
@@ -79,57 +78,6 @@ pub fn accepted_defects(queue: &Queue) -> Vec<AcceptedDefect> {
         .collect()
 }
 
-const ACCEPTED_COLUMNS: [&str; 17] = [
-    "id",
-    "verdict",
-    "severity",
-    "note",
-    "reviewer",
-    "decided_at",
-    "x",
-    "y",
-    "z",
-    "face",
-    "length_m",
-    "length_partial",
-    "confidence",
-    "frames",
-    "best_frame",
-    "gsd_mm",
-    "range_m",
-];
-
-pub fn accepted_csv(rows: &[AcceptedDefect]) -> String {
-    let mut out = String::new();
-    push_csv_row(&mut out, &ACCEPTED_COLUMNS.map(String::from));
-    let opt = |v: Option<String>| v.unwrap_or_default();
-    for r in rows {
-        push_csv_row(
-            &mut out,
-            &[
-                r.id.clone(),
-                r.verdict.as_str().into(),
-                opt(r.severity.map(|s| s.to_string())),
-                r.note.clone(),
-                r.reviewer.clone(),
-                r.decided_at.clone(),
-                r.x.to_string(),
-                r.y.to_string(),
-                r.z.to_string(),
-                r.face.clone(),
-                opt(r.length_m.map(|l| l.to_string())),
-                r.length_partial.to_string(),
-                r.confidence.to_string(),
-                r.frames.to_string(),
-                r.best_frame.to_string(),
-                r.gsd_mm.to_string(),
-                r.range_m.to_string(),
-            ],
-        );
-    }
-    out
-}
-
 fn accepted_table(rows: &[AcceptedDefect]) -> PolarsResult<DataFrame> {
     let text = |f: fn(&AcceptedDefect) -> &str| rows.iter().map(f).collect::<Vec<_>>();
     let float = |f: fn(&AcceptedDefect) -> f64| rows.iter().map(f).collect::<Vec<_>>();
@@ -172,6 +120,47 @@ fn accepted_table(rows: &[AcceptedDefect]) -> PolarsResult<DataFrame> {
     DataFrame::new(rows.len(), columns)
 }
 
+/// The current decisions as a table, one row per candidate.
+fn decisions_table(decisions: &[Decision]) -> PolarsResult<DataFrame> {
+    let text = |f: fn(&Decision) -> &str| decisions.iter().map(f).collect::<Vec<_>>();
+    let columns = vec![
+        Column::new("candidate".into(), text(|d| &d.candidate)),
+        Column::new("verdict".into(), text(|d| d.verdict.as_str())),
+        Column::new(
+            "severity".into(),
+            decisions
+                .iter()
+                .map(|d| d.severity.map(i32::from))
+                .collect::<Vec<_>>(),
+        ),
+        Column::new("note".into(), text(|d| &d.note)),
+        Column::new("reviewer".into(), text(|d| &d.reviewer)),
+        Column::new("decided_at".into(), text(|d| &d.decided_at)),
+        Column::new(
+            "version".into(),
+            decisions.iter().map(|d| d.version).collect::<Vec<_>>(),
+        ),
+    ];
+    DataFrame::new(decisions.len(), columns)
+}
+
+/// A table as CSV: a header line, RFC 4180 quoting, missing values empty.
+fn csv(mut table: DataFrame) -> Result<String, ReviewError> {
+    let mut out = Vec::new();
+    CsvWriter::new(&mut out).finish(&mut table)?;
+    Ok(String::from_utf8(out).expect("polars writes UTF-8 CSV"))
+}
+
+/// The current decisions as CSV.
+pub fn decisions_csv(decisions: &[Decision]) -> Result<String, ReviewError> {
+    csv(decisions_table(decisions)?)
+}
+
+/// The accepted defects as CSV.
+pub fn accepted_csv(rows: &[AcceptedDefect]) -> Result<String, ReviewError> {
+    csv(accepted_table(rows)?)
+}
+
 /// The decisions as JSON: the current one per candidate, and every decision
 /// ever made in the order made (the audit trail).
 #[derive(Debug, Serialize)]
@@ -195,22 +184,12 @@ pub fn write_all(
     store: &ReviewStore,
     queue: &Queue,
 ) -> Result<[&'static str; 4], ReviewError> {
-    let text = |name: &str, body: String| {
-        let path = dir.file(name);
-        dir.write_with(name, |f| {
-            f.write_all(body.as_bytes())
-                .map_err(|source| ingest::IngestError::Write { path, source })
-        })
-    };
-    text(files::DECISIONS_CSV, store.export_csv()?)?;
-    dir.write_json(files::DECISIONS_JSON, &DecisionsExport::read(store)?)?;
+    let decisions = DecisionsExport::read(store)?;
+    dir.write_text(files::DECISIONS_CSV, &decisions_csv(&decisions.current)?)?;
+    dir.write_json(files::DECISIONS_JSON, &decisions)?;
     let accepted = accepted_defects(queue);
-    text(files::ACCEPTED_CSV, accepted_csv(&accepted))?;
-    let mut table = accepted_table(&accepted).map_err(|source| ingest::IngestError::Table {
-        path: dir.file(files::ACCEPTED_TABLE),
-        source,
-    })?;
-    dir.write_table(files::ACCEPTED_TABLE, &mut table)?;
+    dir.write_text(files::ACCEPTED_CSV, &accepted_csv(&accepted)?)?;
+    dir.write_table(files::ACCEPTED_TABLE, &mut accepted_table(&accepted)?)?;
     Ok([
         files::DECISIONS_CSV,
         files::DECISIONS_JSON,
@@ -238,4 +217,32 @@ pub fn export_run(run: &Path, db: &Path, out: &Path) -> Result<Vec<PathBuf>, Rev
     let dir = RunDir::create(out)?;
     let written = write_all(&dir, &store, &queue)?;
     Ok(written.iter().map(|name| dir.file(name)).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_csv_export_quotes_what_needs_quoting() {
+        let decision = Decision {
+            candidate: "a".into(),
+            version: 1,
+            verdict: Verdict::NeedsRepair,
+            severity: Some(3),
+            note: "crack, \"wide\"\nat joint".into(),
+            reviewer: "ann".into(),
+            decided_at: "2026-11-23T00:00:00Z".into(),
+        };
+        let csv = decisions_csv(&[decision]).unwrap();
+        assert!(
+            csv.starts_with("candidate,verdict,severity,note,reviewer,decided_at,version\n"),
+            "{csv}"
+        );
+        let row = csv.lines().nth(1).unwrap();
+        assert!(
+            row.starts_with("a,needs_repair,3,\"crack, \"\"wide\"\""),
+            "{csv}"
+        );
+    }
 }

@@ -163,9 +163,14 @@ pub struct CandidateView<'a> {
     pub position: Vec<String>,
     /// Every decision on it, oldest first.
     pub history: &'a [Decision],
-    /// A message above the form (a conflict or a refused decision).
-    pub error: Option<String>,
-    /// The note and reviewer as the reviewer last typed them.
+    /// The decision just sent, if it was refused.
+    pub refused: Option<Refused<'a>>,
+}
+
+/// A decision the form sent and the store refused: shown again with why,
+/// keeping what the reviewer typed.
+pub struct Refused<'a> {
+    pub why: String,
     pub note: &'a str,
     pub reviewer: &'a str,
 }
@@ -197,7 +202,7 @@ pub fn candidate_page(ctx: &Context, queue: &Queue, entry: &Entry, v: &Candidate
         total = p.total,
         id = escape(&d.id),
         progress = progress_line(&p),
-        who = reviewer_field(v.reviewer),
+        who = reviewer_field(v.refused.as_ref().map_or("", |r| r.reviewer)),
     );
     let _ = write!(
         h,
@@ -305,8 +310,12 @@ fn decision_form(h: &mut String, ctx: &Context, entry: &Entry, v: &CandidateView
         "<p>Current: {}</p>",
         verdict_html(entry.decision.as_ref())
     );
-    if let Some(e) = &v.error {
-        let _ = write!(h, "<p class=\"error\" role=\"alert\">{}</p>", escape(e));
+    if let Some(r) = &v.refused {
+        let _ = write!(
+            h,
+            "<p class=\"error\" role=\"alert\">{}</p>",
+            escape(&r.why)
+        );
     }
     let _ = write!(
         h,
@@ -318,7 +327,7 @@ fn decision_form(h: &mut String, ctx: &Context, entry: &Entry, v: &CandidateView
             .map(|s| format!("<option value=\"{s}\">{s}</option>"))
             .collect::<String>(),
         max = super::store::MAX_NOTE_CHARS,
-        note = escape(v.note),
+        note = escape(v.refused.as_ref().map_or("", |r| r.note)),
     );
 }
 

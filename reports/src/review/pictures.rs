@@ -18,9 +18,7 @@ const MAX_WIDTH: u32 = 1280;
 /// down to at most [`MAX_WIDTH`] pixels wide).
 pub fn view_jpeg(flight: &Flight, v: &ViewRecord) -> Result<Vec<u8>, String> {
     let frame = flight
-        .frames
-        .iter()
-        .find(|f| f.index == v.frame)
+        .frame(v.frame)
         .ok_or_else(|| format!("frame {} is not in this run's flight", v.frame))?;
     let mut img = flight
         .image(frame)

@@ -41,11 +41,8 @@ impl Filter {
 
     pub fn label(self) -> &'static str {
         match self {
-            Self::All => "all",
-            Self::Pending => "pending",
-            Self::Accepted => "accepted",
-            Self::Rejected => "rejected",
             Self::NeedsRepair => "needs repair",
+            other => other.key(),
         }
     }
 

@@ -20,8 +20,8 @@ use axum::routing::{get, post};
 use localise::DefectRecord;
 use serde::{Deserialize, Serialize};
 
-use super::export::{DecisionsExport, accepted_csv, accepted_defects};
-use super::pages::{self, CandidateView, Context, candidate_href};
+use super::export::{DecisionsExport, accepted_csv, accepted_defects, decisions_csv};
+use super::pages::{self, CandidateView, Context, Refused, candidate_href};
 use super::pictures::{backdrop, position_svgs, view_jpeg};
 use super::queue::{Filter, Progress, Queue};
 use super::store::{Decision, ReviewError, ReviewStore, Verdict};
@@ -55,13 +55,6 @@ pub struct Listening {
     /// Candidates new since the database last saw this run.
     pub new: usize,
     pub decided: usize,
-}
-
-/// A decision the form sent and the store refused, shown again with why.
-struct Refused<'a> {
-    why: String,
-    note: &'a str,
-    reviewer: &'a str,
 }
 
 struct App {
@@ -134,9 +127,7 @@ impl App {
             view: view.or(best).unwrap_or(0),
             position: position_svgs(&self.backdrop, self.resolution, d),
             history,
-            error: refused.as_ref().map(|r| r.why.clone()),
-            note: refused.as_ref().map_or("", |r| r.note),
-            reviewer: refused.as_ref().map_or("", |r| r.reviewer),
+            refused,
         };
         Ok(Html(pages::candidate_page(
             &self.context(filter),
@@ -503,10 +494,6 @@ impl IntoResponse for HttpError {
     }
 }
 
-fn rejected(status: StatusCode, text: String) -> HttpError {
-    HttpError::text(status, text)
-}
-
 // ---- pages -----------------------------------------------------------------
 
 #[derive(Debug, Default, Deserialize)]
@@ -531,7 +518,7 @@ fn filter(name: Option<&str>) -> Result<Filter, HttpError> {
 
 fn page_query(q: Result<Query<PageQuery>, QueryRejection>) -> Result<PageQuery, HttpError> {
     q.map(|Query(q)| q)
-        .map_err(|r| rejected(r.status(), r.body_text()).page())
+        .map_err(|r| HttpError::text(r.status(), r.body_text()).page())
 }
 
 async fn queue_page(
@@ -643,9 +630,9 @@ async fn decide_form(
     Path(id): Path<String>,
     form: Result<Form<DecisionForm>, FormRejection>,
 ) -> Result<Response, HttpError> {
-    let Form(form) = form.map_err(|r| rejected(r.status(), r.body_text()).page())?;
+    let Form(form) = form.map_err(|r| HttpError::text(r.status(), r.body_text()).page())?;
     let filter = filter(Some(&form.filter))?;
-    app.defect(&id).map_err(HttpError::page)?;
+    app.defect(&id)?;
     let request = form.request();
     let key = id.clone();
     let (outcome, current, history) = app
@@ -730,7 +717,7 @@ async fn view_image(
     State(app): State<Arc<App>>,
     path: Result<Path<(String, usize)>, axum::extract::rejection::PathRejection>,
 ) -> Result<Response, HttpError> {
-    let Path((id, k)) = path.map_err(|r| rejected(r.status(), r.body_text()))?;
+    let Path((id, k)) = path.map_err(|r| HttpError::text(r.status(), r.body_text()))?;
     let d = app.defect(&id)?;
     let view = d.views.get(k).cloned().ok_or_else(|| {
         HttpError::text(
@@ -824,7 +811,7 @@ async fn api_decide(
     Path(id): Path<String>,
     body: Result<Json<DecisionRequest>, JsonRejection>,
 ) -> Result<Response, HttpError> {
-    let Json(request) = body.map_err(|r| rejected(r.status(), r.body_text()).json())?;
+    let Json(request) = body.map_err(|r| HttpError::text(r.status(), r.body_text()).json())?;
     let decision = app
         .store(move |s| request.apply(s, &id))
         .await
@@ -849,7 +836,8 @@ fn download(content_type: &'static str, name: &str, body: String) -> Response {
 }
 
 async fn export_csv(State(app): State<Arc<App>>) -> Result<Response, HttpError> {
-    let csv = app.store(|s| s.export_csv()).await?;
+    let current = app.store(|s| s.current_decisions()).await?;
+    let csv = decisions_csv(&current)?;
     Ok(download(
         "text/csv; charset=utf-8",
         "review-decisions.csv",
@@ -867,7 +855,7 @@ async fn export_json(State(app): State<Arc<App>>) -> Result<Response, HttpError>
 async fn export_accepted(State(app): State<Arc<App>>) -> Result<Response, HttpError> {
     let current = app.store(|s| s.current_decisions()).await?;
     let queue = app.queue(current);
-    let csv = accepted_csv(&accepted_defects(&queue));
+    let csv = accepted_csv(&accepted_defects(&queue))?;
     Ok(download(
         "text/csv; charset=utf-8",
         "accepted-defects.csv",

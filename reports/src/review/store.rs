@@ -76,6 +76,8 @@ pub enum ReviewError {
     Files(#[from] ingest::IngestError),
     #[error(transparent)]
     Run(#[from] crate::ReportError),
+    #[error("cannot build the export table: {0}")]
+    Table(#[from] polars::prelude::PolarsError),
     #[error(
         "this run has no defect candidates to review yet: run `postflight localise --run {0}` (or `postflight run`) first"
     )]
@@ -292,32 +294,6 @@ impl ReviewStore {
         let rows = q.query_map([], decision_row)?;
         Ok(rows.collect::<Result<_, _>>()?)
     }
-
-    /// The current decisions as CSV (RFC 4180: fields with commas, quotes
-    /// or line breaks quoted).
-    pub fn export_csv(&self) -> Result<String, ReviewError> {
-        let mut out = String::from("candidate,verdict,severity,note,reviewer,decided_at,version\n");
-        for d in self.current_decisions()? {
-            let fields = [
-                d.candidate,
-                d.verdict.as_str().to_string(),
-                d.severity.map_or(String::new(), |s| s.to_string()),
-                d.note,
-                d.reviewer,
-                d.decided_at,
-                d.version.to_string(),
-            ];
-            push_csv_row(&mut out, &fields);
-        }
-        Ok(out)
-    }
-}
-
-/// One CSV row (RFC 4180 quoting), with its line break.
-pub fn push_csv_row(out: &mut String, fields: &[String]) {
-    let line: Vec<String> = fields.iter().map(|f| csv_field(f)).collect();
-    out.push_str(&line.join(","));
-    out.push('\n');
 }
 
 fn decision_row(r: &rusqlite::Row) -> rusqlite::Result<Decision> {
@@ -337,14 +313,6 @@ fn decision_row(r: &rusqlite::Row) -> rusqlite::Result<Decision> {
         reviewer: r.get(5)?,
         decided_at: r.get(6)?,
     })
-}
-
-fn csv_field(f: &str) -> String {
-    if f.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", f.replace('"', "\"\""))
-    } else {
-        f.to_string()
-    }
 }
 
 #[cfg(test)]
@@ -436,27 +404,5 @@ mod tests {
         assert!(refused(s.decide("a", 0, Verdict::Accepted, None, "", "  ")).contains("reviewer"));
         assert!(refused(s.decide("zz", 0, Verdict::Accepted, None, "", "ann")).contains("zz"));
         assert!(s.history("a").unwrap().is_empty());
-    }
-
-    #[test]
-    fn the_csv_export_quotes_what_needs_quoting() {
-        let dir = tempfile::tempdir().unwrap();
-        let mut s = store(&dir);
-        s.sync_candidates(&[defect("a", 0.9)]).unwrap();
-        s.decide(
-            "a",
-            0,
-            Verdict::NeedsRepair,
-            Some(3),
-            "crack, \"wide\"\nat joint",
-            "ann",
-        )
-        .unwrap();
-        let csv = s.export_csv().unwrap();
-        let row = csv.lines().nth(1).unwrap();
-        assert!(
-            row.starts_with("a,needs_repair,3,\"crack, \"\"wide\"\""),
-            "{csv}"
-        );
     }
 }
