@@ -187,10 +187,10 @@ impl RunConfig {
         &self,
         run: &Path,
         map: Option<&Path>,
-    ) -> anyhow::Result<coverage::ReplanOptions> {
+    ) -> anyhow::Result<replan::ReplanOptions> {
         let c = &self.replan;
-        let d = coverage::ReplanOptions::new(run.to_owned());
-        let mut options = coverage::ReplanOptions {
+        let d = replan::ReplanOptions::new(run.to_owned());
+        let mut options = replan::ReplanOptions {
             map: map.map(Path::to_path_buf),
             home: c.home.or(d.home),
             clearance_m: c.clearance_m.unwrap_or(d.clearance_m),
@@ -200,21 +200,12 @@ impl RunConfig {
             ..d
         };
         if let Some(s) = c.solver_time_limit_s {
-            options.solver.time_limit = Some(solver_time_limit(s)?);
+            options.solver.time_limit = Some(replan::stage::solver_time_limit(s)?);
         }
         if let Some(seed) = c.seed {
             options.solver.seed = seed;
         }
         Ok(options)
-    }
-}
-
-/// A solver time limit from seconds, which must be positive.
-pub fn solver_time_limit(seconds: f64) -> anyhow::Result<std::time::Duration> {
-    if seconds.is_finite() && seconds > 0.0 {
-        Ok(std::time::Duration::from_secs_f64(seconds))
-    } else {
-        anyhow::bail!("the solver time limit must be a positive number of seconds, not {seconds}")
     }
 }
 

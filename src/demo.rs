@@ -3,8 +3,11 @@
 
 use std::path::Path;
 
+use postflight_core::Stage;
+use postflight_core::outputs::report::files;
+
 use crate::config::RunConfig;
-use crate::pipeline::{RunInputs, Stage, run};
+use crate::pipeline::{RunInputs, run};
 use crate::stages;
 
 /// The reference detector (`detect/models/crack-baked.onnx`, built by
@@ -56,9 +59,9 @@ pub fn demo(out: &Path, force: Option<Stage>, quiet: bool) -> anyhow::Result<()>
     )?;
     println!(
         "\nThe demo flight's results:\n  report:       {}\n  3D recording: rerun {}\n  summary:      {}\n  tables:       {} (*.parquet: polars, pandas, DuckDB)\n  ground truth: {}\n  review:       postflight review serve --run {}",
-        run_dir.join(reports::stage::files::REPORT).display(),
-        run_dir.join(reports::stage::files::RECORDING).display(),
-        run_dir.join(reports::stage::files::SUMMARY).display(),
+        run_dir.join(files::REPORT).display(),
+        run_dir.join(files::RECORDING).display(),
+        run_dir.join(files::SUMMARY).display(),
         run_dir.display(),
         flight.join("truth.json").display(),
         run_dir.display()

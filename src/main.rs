@@ -16,6 +16,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
+use postflight_core::Stage;
+use replan::ReplanOptions;
 
 #[derive(Parser)]
 #[command(
@@ -94,7 +96,7 @@ struct RunArgs {
     out: PathBuf,
     /// Rerun from this stage on, even if it is up to date.
     #[arg(long, value_enum, value_name = "STAGE")]
-    force: Option<pipeline::Stage>,
+    force: Option<Stage>,
 }
 
 #[derive(Args)]
@@ -104,7 +106,7 @@ struct DemoArgs {
     out: PathBuf,
     /// Rerun from this stage on, even if it is up to date.
     #[arg(long, value_enum, value_name = "STAGE")]
-    force: Option<pipeline::Stage>,
+    force: Option<Stage>,
 }
 
 #[derive(Args)]
@@ -123,7 +125,7 @@ struct GtspArgs {
     time_limit: Option<f64>,
     /// Random seed; a seed and thread count give the same tour when the
     /// search ends before the time limit.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = gtsp::SolveOptions::default().seed)]
     seed: u64,
     /// Worker threads (0: one per core).
     #[arg(long, default_value_t = 0)]
@@ -142,22 +144,22 @@ struct ReplanArgs {
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_point)]
     home: Option<[f64; 3]>,
     /// Closest approach to any occupied voxel, metres.
-    #[arg(long, default_value_t = 1.0, value_name = "M")]
+    #[arg(long, default_value_t = ReplanOptions::DEFAULT_CLEARANCE_M, value_name = "M")]
     clearance: f64,
     /// Split the plan into sorties from home no longer than this (battery), metres.
     #[arg(long, value_name = "M")]
     max_sortie_length: Option<f64>,
     /// Cruise speed for the time estimate, m/s.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = ReplanOptions::DEFAULT_SPEED_M_S)]
     speed: f64,
     /// Hover per waypoint for the time estimate, seconds.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = ReplanOptions::DEFAULT_HOVER_S)]
     hover: f64,
     /// Time limit of each GTSP solve, seconds.
-    #[arg(long, default_value_t = 10.0, value_name = "S")]
+    #[arg(long, default_value_t = ReplanOptions::DEFAULT_SOLVER_TIME_LIMIT_S, value_name = "S")]
     solver_time_limit: f64,
     /// Solver seed.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = gtsp::SolveOptions::default().seed)]
     seed: u64,
 }
 
@@ -535,18 +537,16 @@ fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
 }
 
 fn replan(args: &ReplanArgs, quiet: bool) -> anyhow::Result<()> {
-    let mut options = coverage::ReplanOptions {
+    let mut options = ReplanOptions {
         map: args.map.clone(),
         home: args.home,
         clearance_m: args.clearance,
         max_sortie_length_m: args.max_sortie_length,
         speed_m_s: args.speed,
         hover_s: args.hover,
-        ..coverage::ReplanOptions::new(args.run.clone())
+        ..ReplanOptions::new(args.run.clone())
     };
-    options.solver.time_limit = Some(config::solver_time_limit(args.solver_time_limit).map_err(
-        |_| anyhow::anyhow!("--solver-time-limit must be a positive number of seconds"),
-    )?);
+    options.solver.time_limit = Some(replan::stage::solver_time_limit(args.solver_time_limit)?);
     options.solver.seed = args.seed;
     stages::replan(&options, quiet)
 }
@@ -585,14 +585,16 @@ fn run_pipeline(args: &RunArgs, quiet: bool) -> anyhow::Result<()> {
     if !quiet {
         println!(
             "run complete: {}",
-            args.out.join(reports::stage::files::REPORT).display()
+            args.out
+                .join(postflight_core::outputs::report::files::REPORT)
+                .display()
         );
     }
     Ok(())
 }
 
 fn gtsp(args: &GtspArgs) -> anyhow::Result<()> {
-    use coverage::gtsp::{Instance, SolveOptions, solve};
+    use gtsp::{Instance, SolveOptions, solve};
     let time_limit = match args.time_limit {
         Some(s) if s.is_finite() && s > 0.0 => Some(std::time::Duration::from_secs_f64(s)),
         Some(s) => anyhow::bail!("--time-limit must be a positive number of seconds, not {s}"),

@@ -9,56 +9,12 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use ingest::run_log::{InputFile, now_rfc3339, sha256};
-use ingest::{RunDir, RunLog, StageRecord};
+use postflight_core::run_log::{InputFile, RUN_LOG, sha256};
+use postflight_core::time::now_rfc3339;
+use postflight_core::{RunDir, RunLog, Stage, StageRecord};
 
 use crate::config::RunConfig;
 use crate::stages;
-
-/// The stages of a run, in order.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, clap::ValueEnum)]
-pub enum Stage {
-    Ingest,
-    Detect,
-    Localise,
-    Coverage,
-    Replan,
-    Report,
-}
-
-impl Stage {
-    pub const ALL: [Self; 6] = [
-        Self::Ingest,
-        Self::Detect,
-        Self::Localise,
-        Self::Coverage,
-        Self::Replan,
-        Self::Report,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Ingest => "ingest",
-            Self::Detect => "detect",
-            Self::Localise => "localise",
-            Self::Coverage => "coverage",
-            Self::Replan => "replan",
-            Self::Report => "report",
-        }
-    }
-
-    /// The file a stage writes last: it exists exactly when the stage completed.
-    fn summary_file(self) -> &'static str {
-        match self {
-            Self::Ingest => ingest::run_dir::files::INGEST,
-            Self::Detect => detect::stage::files::SUMMARY,
-            Self::Localise => localise::stage::files::SUMMARY,
-            Self::Coverage => coverage::stage::files::SUMMARY,
-            Self::Replan => coverage::replan::files::PLAN,
-            Self::Report => reports::stage::files::SUMMARY,
-        }
-    }
-}
 
 /// What `postflight run` was given.
 #[derive(Debug, Clone)]
@@ -91,7 +47,7 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
     let mut log = RunLog::read(&dir).map_err(|e| {
         anyhow::anyhow!(
             "{e}; delete {} to start the run afresh",
-            dir.file(ingest::run_log::RUN_LOG).display()
+            dir.file(RUN_LOG).display()
         )
     })?;
     log.postflight_version = env!("CARGO_PKG_VERSION").to_string();

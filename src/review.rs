@@ -5,7 +5,7 @@ use std::net::SocketAddr;
 use std::path::PathBuf;
 
 use clap::{Args, Subcommand};
-use reports::review::{self, ServeOptions};
+use review::ServeOptions;
 
 #[derive(Subcommand)]
 pub enum ReviewCommand {

@@ -2,6 +2,8 @@
 //! and one line saying what it did. The stage commands and `postflight run`
 //! share these.
 
+use postflight_core::outputs::report::files;
+
 use crate::progress::Bar;
 
 pub fn ingest(options: &ingest::IngestOptions, quiet: bool) -> anyhow::Result<()> {
@@ -102,9 +104,9 @@ pub fn coverage(options: &coverage::CoverageOptions, quiet: bool) -> anyhow::Res
     Ok(())
 }
 
-pub fn replan(options: &coverage::ReplanOptions, quiet: bool) -> anyhow::Result<()> {
+pub fn replan(options: &replan::ReplanOptions, quiet: bool) -> anyhow::Result<()> {
     let bar = Bar::count("replan", quiet);
-    let summary = coverage::replan(options, &mut |done, total| bar.set(done, total))?;
+    let summary = replan::replan(options, &mut |done, total| bar.set(done, total))?;
     bar.finish();
     for w in &summary.warnings {
         tracing::warn!("{w}");
@@ -140,9 +142,9 @@ pub fn report(options: &reports::ReportOptions, quiet: bool) -> anyhow::Result<(
         let file = |name| options.run.join(name).display().to_string();
         println!(
             "report: {}, {} and {}",
-            file(reports::stage::files::REPORT),
-            file(reports::stage::files::RECORDING),
-            file(reports::stage::files::SUMMARY)
+            file(files::REPORT),
+            file(files::RECORDING),
+            file(files::SUMMARY)
         );
     }
     Ok(())

@@ -135,8 +135,9 @@ fn odometry_jpeg_flight_decodes_every_value() {
     }
 
     // The recorded map, read back lazily from the recording.
-    let flight = ingest::Flight::load(&run).unwrap();
-    let map = flight.recorded_map().unwrap().unwrap();
+    let flight = postflight_core::Flight::load(&run).unwrap();
+    let recording = ingest::Recording::reopen(&flight).unwrap();
+    let map = recording.recorded_map(&flight).unwrap().unwrap();
     let em = &expected["map"];
     assert_eq!(map.points.len() as u64, em["points"].as_u64().unwrap());
     for (p, q) in map.points.iter().zip(em["first"].as_array().unwrap()) {
@@ -145,7 +146,7 @@ fn odometry_jpeg_flight_decodes_every_value() {
     assert_eq!(summary["map"]["bounds"], em["bounds"]);
 
     // JPEG pixels decode close to the pattern written (lossy, so loosely).
-    let img = flight.image(&flight.frames[0]).unwrap().to_rgb8();
+    let img = recording.image(&flight.frames[0]).unwrap().to_rgb8();
     let mut total_error = 0.0;
     let pixels = expected["pixels"].as_array().unwrap();
     for p in pixels {
@@ -210,10 +211,13 @@ fn raw_and_png_images_decode_exactly() {
         let summary = ingest_ok(&mcap, &run, &[]);
         check_summary(&summary, &expected);
         check_frames(&run, &expected);
-        let flight = ingest::Flight::load(&run).unwrap();
+        let flight = postflight_core::Flight::load(&run).unwrap();
         let frame = &flight.frames[3];
         assert_eq!(frame.encoding, kind);
-        let img = flight.image(frame).unwrap();
+        let img = ingest::Recording::reopen(&flight)
+            .unwrap()
+            .image(frame)
+            .unwrap();
         for p in expected["pixels"].as_array().unwrap() {
             let (x, y) = (p[0].as_u64().unwrap() as u32, p[1].as_u64().unwrap() as u32);
             let want: Vec<u64> = p[2]
@@ -262,8 +266,12 @@ fn equidistant_lz4_uncompressed_and_big_endian_float64_clouds() {
             expected["camera"]["distortion_model"].as_str().unwrap()
         );
         assert_eq!(cam["distortion"]["coefficients"], expected["camera"]["d"]);
-        let flight = ingest::Flight::load(&run).unwrap();
-        let map = flight.recorded_map().unwrap().unwrap();
+        let flight = postflight_core::Flight::load(&run).unwrap();
+        let map = ingest::Recording::reopen(&flight)
+            .unwrap()
+            .recorded_map(&flight)
+            .unwrap()
+            .unwrap();
         for (p, q) in map
             .points
             .iter()

@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 
 use common::*;
-use ingest::map::{PointCloud, VoxelGrid, VoxelIndex, VoxelMap};
 use nalgebra::{Point3, Vector3};
+use postflight_core::map::{PointCloud, VoxelGrid, VoxelIndex, VoxelMap};
 use serde_json::Value;
 
 type Voxel = [i64; 3];

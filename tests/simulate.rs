@@ -7,8 +7,8 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use common::*;
-use ingest::Flight;
 use nalgebra::{Point3, UnitQuaternion, Vector3};
+use postflight_core::Flight;
 use serde_json::Value;
 
 /// One simulated bridge flight, ingested, shared by the tests of this file.
@@ -114,11 +114,15 @@ fn ingest_recovers_poses_intrinsics_and_extrinsics_of_the_truth() {
     );
 
     // The plan and the map files load, and the map matches the recorded one.
-    let plan = ingest::InspectionPlan::load(&dir.join("sim/plan.json")).unwrap();
+    let plan = postflight_core::InspectionPlan::load(&dir.join("sim/plan.json")).unwrap();
     assert!(plan.target_voxels.len() > 100 && plan.viewpoints.len() > 50);
-    let ply = ingest::map::PointCloud::load(&dir.join("sim/map.ply")).unwrap();
+    let ply = postflight_core::map::PointCloud::load(&dir.join("sim/map.ply")).unwrap();
     assert_eq!(ply.len() as u64, summary["map"]["points"].as_u64().unwrap());
-    let recorded = flight.recorded_map().unwrap().unwrap();
+    let recorded = ingest::Recording::reopen(&flight)
+        .unwrap()
+        .recorded_map(&flight)
+        .unwrap()
+        .unwrap();
     assert_eq!(recorded.points[10], ply.points[10]);
 }
 
@@ -164,6 +168,7 @@ fn darkness(img: &image::GrayImage, points: &[(f64, f64)], dx: i32, dy: i32) -> 
 fn truth_cracks_are_drawn_where_the_recovered_camera_projects_them() {
     let (dir, truth) = bridge();
     let flight = Flight::load(&dir.join("run")).unwrap();
+    let recording = ingest::Recording::reopen(&flight).unwrap();
     let cracks = truth["cracks"].as_array().unwrap();
     let mut checked = 0;
     for t in truth["frames"]
@@ -209,7 +214,7 @@ fn truth_cracks_are_drawn_where_the_recovered_camera_projects_them() {
                     }
                 }
             }
-            let img = flight.image(frame).unwrap().to_luma8();
+            let img = recording.image(frame).unwrap().to_luma8();
             // Pose noise moves the projection by a few pixels: search nearby.
             let best = |ox: i32, oy: i32| {
                 (-12..=12)
@@ -298,7 +303,7 @@ fn a_mesh_from_an_obj_file_flies_end_to_end() {
     let summary = ingest_ok(&sim.join("flight.mcap"), &run, &[]);
     assert_eq!(summary["warnings"], Value::Array(vec![]));
     assert_eq!(summary["frames_with_pose"], summary["frames"]);
-    let plan = ingest::InspectionPlan::load(&sim.join("plan.json")).unwrap();
+    let plan = postflight_core::InspectionPlan::load(&sim.join("plan.json")).unwrap();
     // The footbridge's surface fits in a 13 x 2.5 x 4 m box: at most that many 0.5 m voxels.
     assert!(!plan.target_voxels.is_empty() && plan.target_voxels.len() <= 26 * 5 * 8);
 

@@ -13,9 +13,9 @@
 use std::time::Instant;
 
 use coverage::{Face, Shot, cover, cover_naive, exposed_faces};
-use ingest::map::{PointCloud, SlamMap, VoxelGrid, VoxelIndex};
-use ingest::{Distortion, Intrinsics, ViewModel};
 use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
+use postflight_core::map::{PointCloud, SlamMap, VoxelGrid, VoxelIndex};
+use postflight_core::{Distortion, Intrinsics, ViewModel};
 
 const WALLS: i32 = 10;
 /// Wall spacing, voxels (20 m).

@@ -3,10 +3,10 @@
 //! [`cover_naive`] checks every face against every shot, as the baseline
 //! the benchmark compares with.
 
-use ingest::map::SlamMap;
-use ingest::{Intrinsics, ViewModel};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::{Isometry3, Point3};
+use postflight_core::map::SlamMap;
+use postflight_core::{Intrinsics, ViewModel};
 use rayon::prelude::*;
 
 use crate::face::Face;
@@ -156,9 +156,9 @@ pub fn cover_naive(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ingest::Distortion;
-    use ingest::map::{PointCloud, VoxelGrid, VoxelIndex};
     use nalgebra::{Translation3, UnitQuaternion, Vector3};
+    use postflight_core::Distortion;
+    use postflight_core::map::{FaceSide, PointCloud, VoxelGrid, VoxelIndex};
 
     /// A wall in the plane x = 0 (voxel column x = 0 facing +x), cameras
     /// 3.5 m out looking back at it, and the faces of the wall.
@@ -171,7 +171,7 @@ mod tests {
             .collect();
         let faces = (0..10)
             .flat_map(|y| (0..5).map(move |z| VoxelIndex([0, y, z])))
-            .map(|v| Face::new(&grid, v, 0))
+            .map(|v| Face::new(&grid, v, FaceSide::PosX))
             .collect();
         let map = SlamMap::on_grid(
             PointCloud {

@@ -4,18 +4,14 @@
 
 use std::collections::HashSet;
 
-use ingest::map::{VoxelGrid, VoxelIndex};
 use nalgebra::{Point3, Vector3};
-
-/// Names of the six sides, in the order of [`VoxelIndex::face_neighbours`].
-pub const SIDES: [&str; 6] = ["+x", "-x", "+y", "-y", "+z", "-z"];
+use postflight_core::map::{FaceSide, VoxelGrid, VoxelIndex};
 
 /// One exposed face of a target voxel.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Face {
     pub voxel: VoxelIndex,
-    /// Index into [`SIDES`].
-    pub side: u8,
+    pub side: FaceSide,
     /// Centre of the face, world frame, metres.
     pub centre: Point3<f64>,
     /// Outward unit normal.
@@ -23,10 +19,9 @@ pub struct Face {
 }
 
 impl Face {
-    /// The face of `voxel` on `side` (index into [`SIDES`]).
-    pub fn new(grid: &VoxelGrid, voxel: VoxelIndex, side: u8) -> Self {
-        let step = Vector3::from(voxel.face_neighbours()[side as usize].0) - Vector3::from(voxel.0);
-        let normal = step.map(f64::from);
+    /// The face of `voxel` on `side`.
+    pub fn new(grid: &VoxelGrid, voxel: VoxelIndex, side: FaceSide) -> Self {
+        let normal = side.normal();
         Self {
             voxel,
             side,
@@ -36,7 +31,7 @@ impl Face {
     }
 
     pub fn name(&self) -> &'static str {
-        SIDES[self.side as usize]
+        self.side.name()
     }
 }
 
@@ -49,11 +44,10 @@ pub fn exposed_faces(
     targets
         .iter()
         .flat_map(|&v| {
-            v.face_neighbours()
+            FaceSide::ALL
                 .into_iter()
-                .enumerate()
-                .filter(|(_, n)| !solid.contains(n))
-                .map(move |(side, _)| Face::new(grid, v, side as u8))
+                .filter(move |side| !solid.contains(&side.neighbour(v)))
+                .map(move |side| Face::new(grid, v, side))
         })
         .collect()
 }

@@ -1,18 +1,30 @@
-//! Inspection coverage and replanning: recomputes, voxel by voxel, what the
-//! flight actually inspected under the View model (viewing cone, distance
-//! band, incidence, occlusion, image quality) against the plan, and plans a
-//! follow-up flight for the gaps as a Generalized TSP with its own solver. It
-//! owns the coverage tables and the follow-up plan; it reads only the flight
-//! model from `ingest`.
+//! Inspection coverage: recomputes, voxel by voxel, what the flight
+//! actually inspected under the View model (viewing cone, distance band,
+//! incidence, occlusion, image quality) against the plan.
+//!
+//! Coverage is counted on the exposed faces of the target voxels ([`face`]).
+//! [`cover`] puts the shots (flight frames with a pose, or a plan's
+//! viewpoints) in a KD-tree of camera centres; each face, in parallel,
+//! takes the shots within the band's outer distance and runs the [`view`]
+//! rules in order, keeping the view count, the finest-GSD view and, when it
+//! is not inspected, the furthest rule any shot got to. Occlusion walks the
+//! voxel map by DDA and searches only occupied voxels for map points near
+//! the line of sight, so a ray that passes beside a surface inside a voxel
+//! is not stopped by the voxel. [`motion`] judges blur from the fitted
+//! camera velocity; [`reach`] tries standpoints across the band and the
+//! incidence limit for faces nobody inspected, to tell gaps from the
+//! uninspectable; [`targets`] says which voxels are the structure. The
+//! stage ([`stage`]) writes `coverage.parquet` and `coverage.json` (laid
+//! out in `postflight_core::outputs::coverage`). The follow-up flight for
+//! the gaps is the `replan` crate's; it asks these same rules which gaps a
+//! viewpoint inspects.
 
 pub mod cover;
 pub mod error;
 pub mod face;
-pub mod gtsp;
 pub mod motion;
 pub mod reach;
 pub mod records;
-pub mod replan;
 pub mod settings;
 pub mod stage;
 pub mod targets;
@@ -21,7 +33,6 @@ pub mod view;
 pub use cover::{FaceCover, Shot, cover, cover_naive};
 pub use error::CoverageError;
 pub use face::{Face, exposed_faces};
-pub use replan::{ReplanOptions, ReplanSummary, Unplannable, replan};
 pub use settings::{CoverageSettings, ViewSettings};
-pub use stage::{CoverageOptions, CoverageSummary, Targets, coverage};
+pub use stage::{CoverageOptions, Targets, coverage};
 pub use view::{Miss, Sight};

@@ -5,10 +5,10 @@
 //! carry centimetres of noise, which over one pose interval would read as
 //! metres per second.
 
-use ingest::map::VoxelMap;
-use ingest::pose::StampedPose;
-use ingest::{Intrinsics, Trajectory};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use postflight_core::map::VoxelMap;
+use postflight_core::pose::StampedPose;
+use postflight_core::{Intrinsics, Trajectory};
 
 /// Poses within this time of the frame feed the velocity fit, seconds.
 const FIT_HALF_WINDOW_S: f64 = 0.2;
@@ -102,8 +102,8 @@ pub fn blur_px(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ingest::Distortion;
-    use ingest::map::VoxelGrid;
+    use postflight_core::Distortion;
+    use postflight_core::map::VoxelGrid;
 
     fn lens() -> Intrinsics {
         Intrinsics {
@@ -151,7 +151,7 @@ mod tests {
         for (speed, exposure) in [(0.0, 0.008), (1.0, 0.008), (2.0, 0.008), (2.0, 0.004)] {
             let (trajectory, extrinsic, map) = flight(speed);
             let v = velocity(&trajectory, t).unwrap();
-            let ingest::PoseAt::Pose(body) = trajectory.at(t, i64::MAX) else {
+            let postflight_core::PoseAt::Pose(body) = trajectory.at(t, i64::MAX) else {
                 panic!("pose")
             };
             let blur = blur_px(&body, &extrinsic, &lens(), &v, exposure, &map);

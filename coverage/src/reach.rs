@@ -3,9 +3,9 @@
 //! clear line of sight. A face no standpoint satisfies is uninspectable (as
 //! GATSBI reports them) rather than a gap to replan forever.
 
-use ingest::ViewModel;
-use ingest::map::{SlamMap, VoxelMap};
 use nalgebra::{Point3, Vector3};
+use postflight_core::ViewModel;
+use postflight_core::map::{SlamMap, VoxelMap};
 
 use crate::face::Face;
 use crate::view::occluded;
@@ -64,7 +64,7 @@ pub fn inspectable(face: &Face, map: &SlamMap, view: &ViewModel, max_distance_m:
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ingest::map::{VoxelGrid, VoxelIndex};
+    use postflight_core::map::{FaceSide, VoxelGrid, VoxelIndex};
 
     #[test]
     fn a_face_walled_in_is_uninspectable_and_an_open_one_is_not() {
@@ -74,11 +74,11 @@ mod tests {
                 (-30..30).map(move |y| Point3::new(f64::from(x) * 0.5, f64::from(y) * 0.5, -5.0))
             })
             .collect();
-        let face = Face::new(&grid, VoxelIndex([0, 0, 0]), 0);
+        let face = Face::new(&grid, VoxelIndex([0, 0, 0]), FaceSide::PosX);
         let view = ViewModel::default();
         let slam = |points: Vec<Point3<f64>>| {
             SlamMap::on_grid(
-                ingest::map::PointCloud {
+                postflight_core::map::PointCloud {
                     frame_id: "map".into(),
                     points,
                 },

@@ -3,7 +3,7 @@
 //! over `postflight.toml`'s `[view]` and `[coverage]` tables, and the stage
 //! applies the result over the plan's View model and the defaults.
 
-use ingest::ViewModel;
+use postflight_core::ViewModel;
 use serde::{Deserialize, Serialize};
 
 /// View model settings; unset ones keep the plan's (or the defaults).

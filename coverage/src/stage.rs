@@ -3,33 +3,50 @@
 //! flight (and against the plan's viewpoints, for what was planned), and
 //! writes `coverage.parquet` (one row per target voxel) and `coverage.json`.
 
-use std::collections::{BTreeMap, HashSet};
-use std::path::{Path, PathBuf};
+use std::collections::{BTreeSet, HashSet};
+use std::path::PathBuf;
 use std::time::Instant;
 
-use ingest::map::{DEFAULT_RESOLUTION, PointCloud, SlamMap, VoxelGrid, VoxelIndex};
-use ingest::{Flight, InspectionPlan, Intrinsics, PoseAt, ViewModel, Viewpoint};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use postflight_core::map::{PointCloud, SlamMap, VoxelGrid, VoxelIndex};
+use postflight_core::outputs::coverage::{
+    self as outputs, CoverageSummary, ReasonCounts, VoxelRecord, files,
+};
+use postflight_core::outputs::localise::read_defects;
+use postflight_core::{
+    Flight, InspectionPlan, Intrinsics, InvalidSetting, Key, PoseAt, RunDir, Stage, ViewModel,
+    Viewpoint,
+};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
 use crate::cover::{FaceCover, Shot, cover};
 use crate::error::CoverageError;
-use crate::face::exposed_faces;
+use crate::face::{Face, exposed_faces};
 use crate::motion::{blur_px, velocity};
 use crate::reach::inspectable;
-use crate::records::{coverage_table, voxel_records};
+use crate::records::voxel_records;
 use crate::settings::{CoverageSettings, ViewSettings};
 use crate::targets;
 use crate::view::Miss;
 
-/// Files this stage writes in the run directory.
-pub mod files {
-    pub const TABLE: &str = "coverage.parquet";
-    pub const SUMMARY: &str = "coverage.json";
-    /// With `--viewpoints`: a plan checked before flying it.
-    pub const VIEWPOINTS_TABLE: &str = "coverage-viewpoints.parquet";
-    pub const VIEWPOINTS_SUMMARY: &str = "coverage-viewpoints.json";
+/// The stage's settings, by their key in `postflight.toml`: the View
+/// model's in `[view]`, the others in `[coverage]`.
+pub mod keys {
+    use postflight_core::Key;
+
+    pub const CONE_APEX: Key = Key::setting("view", "cone_apex_deg");
+    pub const MIN_DISTANCE: Key = Key::setting("view", "min_distance_m");
+    pub const MAX_DISTANCE: Key = Key::setting("view", "max_distance_m");
+    pub const MAX_INCIDENCE: Key = Key::setting("view", "max_incidence_deg");
+    pub const MAX_BLUR: Key = Key::setting("view", "max_blur_px");
+    pub const MAX_GSD: Key = Key::setting("view", "max_gsd_mm");
+    pub const VIEWS_REQUIRED: Key = Key::setting("view", "views_required");
+    pub const VIEWS_NEAR_DEFECTS: Key = Key::setting("coverage", "views_near_defects");
+    pub const DEFECT_RADIUS: Key = Key::setting("coverage", "defect_radius_m");
+    pub const EXPOSURE: Key = Key::setting("coverage", "exposure_s");
+    /// Inputs only `postflight coverage` takes.
+    pub const TARGET_BOXES: Key = Key::input("--target-boxes");
+    pub const TARGET_CLOUD: Key = Key::input("--target-cloud");
 }
 
 /// Where the target voxels come from.
@@ -70,51 +87,6 @@ impl CoverageOptions {
             settings: CoverageSettings::default(),
         }
     }
-}
-
-/// Voxel counts by reason for not being inspected.
-pub type ReasonCounts = BTreeMap<String, usize>;
-
-/// `coverage.json`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct CoverageSummary {
-    pub run: PathBuf,
-    /// `flight`, or the viewpoints file judged instead.
-    pub shots: String,
-    pub view: ViewModel,
-    pub resolution_m: f64,
-    /// World position of the corner of voxel `[0, 0, 0]`.
-    pub grid_origin: [f64; 3],
-    /// The map judged against: a file, or `None` for the flight's recorded map.
-    pub map: Option<PathBuf>,
-    pub targets: String,
-    pub target_voxels: usize,
-    pub planned_voxels: Option<usize>,
-    pub inspected_voxels: usize,
-    pub inspected_pct: f64,
-    /// Of the planned voxels, the share inspected.
-    pub planned_inspected_pct: Option<f64>,
-    /// Planned voxels not inspected.
-    pub planned_missed_voxels: Option<usize>,
-    /// Target voxels not inspected that a follow-up flight could inspect.
-    pub gap_voxels: usize,
-    /// Target voxels no free standpoint can inspect under the View model.
-    pub uninspectable_voxels: usize,
-    pub exposed_faces: usize,
-    pub inspected_faces: usize,
-    pub face_area_coverage_pct: f64,
-    /// Occupied map voxels that are not targets (GATSBI's V_O).
-    pub obstacle_voxels: usize,
-    /// Not-inspected voxels by the furthest rule any frame reached.
-    pub reasons: ReasonCounts,
-    pub shots_total: usize,
-    pub shots_usable: usize,
-    pub shots_blurred: usize,
-    pub frames_without_pose: usize,
-    pub frames_without_exposure: usize,
-    pub faces_needing_more_views: usize,
-    pub seconds: f64,
-    pub warnings: Vec<String>,
 }
 
 /// Camera pose for a plan viewpoint: the body at the viewpoint, the camera
@@ -172,6 +144,7 @@ fn span(points: impl Iterator<Item = Point3<f64>>) -> String {
     )
 }
 
+/// Judge the flight (or a plan's viewpoints) against the targets.
 pub fn coverage(
     options: &CoverageOptions,
     progress: &mut dyn FnMut(u64, u64),
@@ -195,46 +168,18 @@ pub fn coverage(
         .view
         .apply(plan.as_ref().map_or_else(ViewModel::default, |p| p.view));
     check_view(&view)?;
-    let grid = plan.as_ref().map_or(
-        VoxelGrid::new(DEFAULT_RESOLUTION, Point3::origin()),
-        InspectionPlan::grid,
-    );
-    let cloud = match &options.map {
-        Some(path) => PointCloud::load(path)?,
-        None => flight.recorded_map()?.ok_or(CoverageError::NoMap)?,
-    };
-    let map = SlamMap::on_grid(cloud, grid).ok_or_else(|| {
-        CoverageError::Option("the map has no points; pass a map with --map".into())
-    })?;
-
+    let grid = plan
+        .as_ref()
+        .map_or_else(VoxelGrid::default, InspectionPlan::grid);
+    let (map, _) = ingest::load_map(&flight, options.map.as_deref(), grid)?;
     let (targets, targets_name) = load_targets(&options.targets, plan.as_ref(), &map)?;
     let target_set: HashSet<VoxelIndex> = targets.iter().copied().collect();
     let faces = exposed_faces(&grid, &targets, &target_set);
-
-    let mut warnings = Vec::new();
-    if flight.cameras.is_empty() {
-        return Err(CoverageError::Option(
-            "the flight has no camera (no image topic was ingested); check `postflight ingest`'s image topics".into(),
-        ));
-    }
-    let lenses: Vec<Intrinsics> = flight
-        .cameras
-        .iter()
-        .map(|c| c.intrinsics.clone())
-        .collect::<Option<Vec<_>>>()
-        .ok_or_else(|| {
-            CoverageError::Option(
-                "a camera of the flight has no intrinsics; rerun `postflight ingest` with --camera-info FILE".into(),
-            )
-        })?;
+    let lenses = lenses(&flight)?;
 
     // The shots: the flight's frames, or the viewpoints of a plan to check.
     let extrinsic = camera_mount(&flight);
-    let FlightShots {
-        shots,
-        without_pose: frames_without_pose,
-        without_exposure: frames_without_exposure,
-    } = match &options.viewpoints {
+    let shots = match &options.viewpoints {
         Some(path) => FlightShots {
             shots: viewpoint_shots(&InspectionPlan::load(path)?, &extrinsic),
             without_pose: 0,
@@ -242,116 +187,50 @@ pub fn coverage(
         },
         None => flight_shots(&flight, &lenses, &map, options.settings.exposure_s),
     };
-    if frames_without_pose > 0 {
-        warnings.push(format!(
-            "{frames_without_pose} frames have no pose and count for nothing (ingest.json says why)"
-        ));
+    if !checking_plan && shots.shots.is_empty() {
+        return Err(CoverageError::NoPoses);
     }
-    if frames_without_exposure > 0 {
-        warnings.push(format!(
-            "{frames_without_exposure} frames recorded no exposure time, so their blur was not judged; pass --exposure SECONDS"
-        ));
-    }
-    if !checking_plan && shots.is_empty() {
-        return Err(CoverageError::Option(
-            "no frame of the flight has a pose, so nothing can be judged; check the pose source with `postflight ingest`".into(),
-        ));
-    }
-    let shots_blurred = shots
-        .iter()
-        .filter(|s| s.is_blurred(view.max_blur_px))
-        .count();
-
-    // Views each face needs: more around defect candidates, if asked.
-    let defects = match options.settings.views_near_defects {
-        Some(_) => defect_positions(&flight.run.file("defects.json"))?,
-        None => Vec::new(),
-    };
-    let radius = options
-        .settings
-        .defect_radius_m
-        .unwrap_or(CoverageOptions::DEFAULT_DEFECT_RADIUS_M);
-    let need: Vec<u32> = faces
-        .iter()
-        .map(|f| {
-            match options.settings.views_near_defects {
-                Some(n) if defects.iter().any(|d| (d - f.centre).norm() <= radius) => n,
-                _ => view.views_required,
-            }
-            .max(1)
-        })
-        .collect();
-
+    let need = views_needed(&faces, &view, &options.settings, &flight.run)?;
     let plan_shots: Option<Vec<Shot>> = plan.as_ref().map(|p| viewpoint_shots(p, &extrinsic));
-
-    let total = faces.len() as u64;
-    progress(0, total);
-    let mut flown: Vec<FaceCover> = Vec::with_capacity(faces.len());
-    let mut planned: Vec<FaceCover> = Vec::new();
-    let mut reachable: Vec<bool> = Vec::with_capacity(faces.len());
-    let max_gsd_distance = view.max_gsd_mm / 1000.0 * lenses[0].fx.min(lenses[0].fy);
-    for (chunk, need) in faces.chunks(CHUNK).zip(need.chunks(CHUNK)) {
-        let got = cover(chunk, need, &shots, &lenses, &map, &view);
-        reachable.extend(
-            chunk
-                .par_iter()
-                .zip(&got)
-                .map(|(f, c)| c.miss.is_none() || inspectable(f, &map, &view, max_gsd_distance))
-                .collect::<Vec<bool>>(),
-        );
-        flown.extend(got);
-        if let Some(ps) = &plan_shots {
-            planned.extend(cover(chunk, need, ps, &lenses, &map, &view));
-        }
-        progress(flown.len() as u64, total);
-    }
-
-    if !shots.is_empty() && flown.iter().all(|c| c.miss == Some(Miss::TooFar)) {
-        return Err(CoverageError::Option(format!(
-            "no camera came within {} m of any target voxel (cameras span {}, targets span {}); check that the poses and the targets are in the same world frame",
-            view.max_distance_m,
-            span(
+    let judged = judge(
+        &faces,
+        &need,
+        &shots.shots,
+        plan_shots.as_deref(),
+        &lenses,
+        &map,
+        &view,
+        progress,
+    );
+    if !shots.shots.is_empty() && judged.flown.iter().all(|c| c.miss == Some(Miss::TooFar)) {
+        return Err(CoverageError::CamerasTooFar {
+            max_distance_m: view.max_distance_m,
+            cameras: span(
                 shots
+                    .shots
                     .iter()
-                    .map(|s| Point3::from(s.camera.translation.vector))
+                    .map(|s| Point3::from(s.camera.translation.vector)),
             ),
-            span(targets.iter().map(|v| grid.center(*v))),
-        )));
+            targets: span(targets.iter().map(|v| grid.center(*v))),
+        });
     }
     let records = voxel_records(
         &grid,
         &targets,
         &faces,
         &need,
-        &flown,
-        &planned,
-        &reachable,
+        &judged.flown,
+        &judged.planned,
+        &judged.reachable,
         plan_shots.is_some(),
     );
     let n = records.len();
-    let inspected = records.iter().filter(|r| r.inspected).count();
-    let planned_voxels = plan_shots
-        .as_ref()
-        .map(|_| records.iter().filter(|r| r.planned == Some(true)).count());
-    let planned_inspected = records
+    let counts = Counts::of(&records, &judged.flown, plan_shots.is_some());
+    let shots_blurred = shots
+        .shots
         .iter()
-        .filter(|r| r.planned == Some(true) && r.inspected)
+        .filter(|s| s.is_blurred(view.max_blur_px))
         .count();
-    let uninspectable = records.iter().filter(|r| r.uninspectable).count();
-    let mut reasons = ReasonCounts::new();
-    for r in &records {
-        if let Some(m) = r.reason {
-            *reasons.entry(m.to_string()).or_default() += 1;
-        }
-    }
-    let inspected_faces = flown.iter().filter(|c| c.miss.is_none()).count();
-    let pct = |a: usize, b: usize| {
-        if b == 0 {
-            0.0
-        } else {
-            100.0 * a as f64 / b as f64
-        }
-    };
     let summary = CoverageSummary {
         run: options.run.clone(),
         shots: options
@@ -364,43 +243,192 @@ pub fn coverage(
         map: options.map.clone(),
         targets: targets_name,
         target_voxels: n,
-        planned_voxels,
-        inspected_voxels: inspected,
-        inspected_pct: pct(inspected, n),
-        planned_inspected_pct: planned_voxels.map(|p| pct(planned_inspected, p)),
-        planned_missed_voxels: planned_voxels.map(|p| p - planned_inspected),
-        gap_voxels: n - inspected - uninspectable,
-        uninspectable_voxels: uninspectable,
+        planned_voxels: counts.planned,
+        inspected_voxels: counts.inspected,
+        inspected_pct: pct(counts.inspected, n),
+        planned_inspected_pct: counts.planned.map(|p| pct(counts.planned_inspected, p)),
+        planned_missed_voxels: counts.planned.map(|p| p - counts.planned_inspected),
+        gap_voxels: n - counts.inspected - counts.uninspectable,
+        uninspectable_voxels: counts.uninspectable,
         exposed_faces: faces.len(),
-        inspected_faces,
+        inspected_faces: counts.inspected_faces,
         // Every face of a voxel grid has the same area.
-        face_area_coverage_pct: pct(inspected_faces, faces.len()),
+        face_area_coverage_pct: pct(counts.inspected_faces, faces.len()),
         obstacle_voxels: map
             .voxels
             .voxels()
             .filter(|v| !target_set.contains(v))
             .count(),
-        reasons,
-        shots_total: shots.len(),
-        shots_usable: shots.len() - shots_blurred,
+        reasons: counts.reasons,
+        shots_total: shots.shots.len(),
+        shots_usable: shots.shots.len() - shots_blurred,
         shots_blurred,
-        frames_without_pose,
-        frames_without_exposure,
+        frames_without_pose: shots.without_pose,
+        frames_without_exposure: shots.without_exposure,
         faces_needing_more_views: need
             .iter()
             .filter(|n| **n > view.views_required.max(1))
             .count(),
         seconds: start.elapsed().as_secs_f64(),
-        warnings,
+        warnings: shot_warnings(&shots),
     };
-    let mut table =
-        coverage_table(&records, grid.resolution).map_err(|e| CoverageError::Write {
-            path: flight.run.file(table_name),
-            why: e.to_string(),
-        })?;
-    flight.run.write_table(table_name, &mut table)?;
+    outputs::write_coverage(&flight.run, table_name, &records, grid.resolution)?;
     flight.run.write_json(summary_name, &summary)?;
     Ok(summary)
+}
+
+/// The flight's lenses, one per camera.
+fn lenses(flight: &Flight) -> Result<Vec<Intrinsics>, CoverageError> {
+    if flight.cameras.is_empty() {
+        return Err(CoverageError::NoCamera);
+    }
+    flight
+        .cameras
+        .iter()
+        .map(|c| c.intrinsics.clone())
+        .collect::<Option<Vec<_>>>()
+        .ok_or(CoverageError::NoIntrinsics)
+}
+
+/// Views each face needs: more around defect candidates, if asked.
+fn views_needed(
+    faces: &[Face],
+    view: &ViewModel,
+    settings: &CoverageSettings,
+    run: &RunDir,
+) -> Result<Vec<u32>, CoverageError> {
+    let defects: Vec<Point3<f64>> = match settings.views_near_defects {
+        Some(_) => {
+            run.require(Stage::Localise)
+                .map_err(|_| CoverageError::NoDefects)?;
+            read_defects(run)?
+                .iter()
+                .map(|d| Point3::from(d.position))
+                .collect()
+        }
+        None => Vec::new(),
+    };
+    let radius = settings
+        .defect_radius_m
+        .unwrap_or(CoverageOptions::DEFAULT_DEFECT_RADIUS_M);
+    Ok(faces
+        .iter()
+        .map(|f| {
+            match settings.views_near_defects {
+                Some(n) if defects.iter().any(|d| (d - f.centre).norm() <= radius) => n,
+                _ => view.views_required,
+            }
+            .max(1)
+        })
+        .collect())
+}
+
+/// Every face judged against the flight's shots (and the plan's, for
+/// what was planned), with whether a free standpoint could inspect it.
+struct Judged {
+    flown: Vec<FaceCover>,
+    /// Empty without a plan.
+    planned: Vec<FaceCover>,
+    reachable: Vec<bool>,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn judge(
+    faces: &[Face],
+    need: &[u32],
+    shots: &[Shot],
+    plan_shots: Option<&[Shot]>,
+    lenses: &[Intrinsics],
+    map: &SlamMap,
+    view: &ViewModel,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Judged {
+    let total = faces.len() as u64;
+    progress(0, total);
+    let mut judged = Judged {
+        flown: Vec::with_capacity(faces.len()),
+        planned: Vec::new(),
+        reachable: Vec::with_capacity(faces.len()),
+    };
+    let max_gsd_distance = view.max_gsd_mm / 1000.0 * lenses[0].fx.min(lenses[0].fy);
+    for (chunk, need) in faces.chunks(CHUNK).zip(need.chunks(CHUNK)) {
+        let got = cover(chunk, need, shots, lenses, map, view);
+        judged.reachable.extend(
+            chunk
+                .par_iter()
+                .zip(&got)
+                .map(|(f, c)| c.miss.is_none() || inspectable(f, map, view, max_gsd_distance))
+                .collect::<Vec<bool>>(),
+        );
+        judged.flown.extend(got);
+        if let Some(ps) = plan_shots {
+            judged
+                .planned
+                .extend(cover(chunk, need, ps, lenses, map, view));
+        }
+        progress(judged.flown.len() as u64, total);
+    }
+    judged
+}
+
+/// Voxel and face counts of the judged targets.
+struct Counts {
+    inspected: usize,
+    planned: Option<usize>,
+    planned_inspected: usize,
+    uninspectable: usize,
+    reasons: ReasonCounts,
+    inspected_faces: usize,
+}
+
+impl Counts {
+    fn of(records: &[VoxelRecord], flown: &[FaceCover], has_plan: bool) -> Self {
+        let mut reasons = ReasonCounts::new();
+        for r in records {
+            if let Some(m) = &r.reason {
+                *reasons.entry(m.clone()).or_default() += 1;
+            }
+        }
+        Self {
+            inspected: records.iter().filter(|r| r.inspected).count(),
+            planned: has_plan.then(|| records.iter().filter(|r| r.planned == Some(true)).count()),
+            planned_inspected: records
+                .iter()
+                .filter(|r| r.planned == Some(true) && r.inspected)
+                .count(),
+            uninspectable: records.iter().filter(|r| r.uninspectable).count(),
+            reasons,
+            inspected_faces: flown.iter().filter(|c| c.miss.is_none()).count(),
+        }
+    }
+}
+
+/// `a` as a percentage of `b` (0 of nothing).
+fn pct(a: usize, b: usize) -> f64 {
+    if b == 0 {
+        0.0
+    } else {
+        100.0 * a as f64 / b as f64
+    }
+}
+
+/// What the summary warns of frames that count for less.
+fn shot_warnings(shots: &FlightShots) -> Vec<String> {
+    let mut warnings = Vec::new();
+    if shots.without_pose > 0 {
+        warnings.push(format!(
+            "{} frames have no pose and count for nothing (ingest.json says why)",
+            shots.without_pose
+        ));
+    }
+    if shots.without_exposure > 0 {
+        warnings.push(format!(
+            "{} frames recorded no exposure time, so their blur was not judged; pass {} SECONDS",
+            shots.without_exposure,
+            keys::EXPOSURE
+        ));
+    }
+    warnings
 }
 
 /// The target voxels (deduplicated, in index order) and where they came
@@ -412,11 +440,7 @@ fn load_targets(
 ) -> Result<(Vec<VoxelIndex>, String), CoverageError> {
     let (targets, targets_name): (Vec<VoxelIndex>, String) = match source {
         Targets::Plan => {
-            let plan = plan.ok_or_else(|| {
-                CoverageError::Option(
-                    "no target voxels: pass the plan with --plan, or the structure with --target-boxes or --target-cloud".into(),
-                )
-            })?;
+            let plan = plan.ok_or(CoverageError::NoTargets)?;
             (plan.target_voxels.clone(), "plan".into())
         }
         Targets::Boxes(path) => (
@@ -430,25 +454,26 @@ fn load_targets(
     };
     let targets: Vec<VoxelIndex> = targets
         .into_iter()
-        .collect::<std::collections::BTreeSet<_>>()
+        .collect::<BTreeSet<_>>()
         .into_iter()
         .collect();
     if targets.is_empty() {
-        return Err(CoverageError::Option(format!(
-            "the targets ({targets_name}) hold no voxel of the map; check that they are in the map's world frame and metres"
-        )));
+        return Err(CoverageError::TargetsOffMap {
+            targets: targets_name,
+        });
     }
     let mapped = targets
         .iter()
         .filter(|v| map.voxels.is_occupied(**v))
         .count();
     if (mapped as f64) < MIN_MAPPED_SHARE * targets.len() as f64 {
-        return Err(CoverageError::Option(format!(
-            "the targets ({targets_name}) do not overlap the map: {mapped} of {} target voxels hold map points (targets span {}, map spans {}); check that both are in the same world frame and in metres",
-            targets.len(),
-            span(targets.iter().map(|v| map.voxels.grid.center(*v))),
-            span(map.cloud.points.iter().copied()),
-        )));
+        return Err(CoverageError::TargetsMissMap {
+            mapped,
+            total: targets.len(),
+            targets_span: span(targets.iter().map(|v| map.voxels.grid.center(*v))),
+            map_span: span(map.cloud.points.iter().copied()),
+            targets: targets_name,
+        });
     }
     Ok((targets, targets_name))
 }
@@ -527,44 +552,36 @@ fn flight_shots(
     out
 }
 
-pub(crate) fn check_view(view: &ViewModel) -> Result<(), CoverageError> {
-    let bad = |what: &str| Err(CoverageError::Option(format!("invalid View model: {what}")));
-    if !(view.min_distance_m >= 0.0 && view.min_distance_m < view.max_distance_m) {
-        return bad("the distance band needs 0 <= min < max (--min-distance, --max-distance)");
-    }
-    if !(view.cone_apex_deg > 0.0 && view.cone_apex_deg <= 180.0) {
-        return bad("the cone apex angle must be in (0, 180] degrees (--cone-apex)");
-    }
-    if !(view.max_incidence_deg > 0.0 && view.max_incidence_deg <= 90.0) {
-        return bad("the largest incidence must be in (0, 90] degrees (--max-incidence)");
-    }
-    if !(view.max_blur_px >= 0.0 && view.max_gsd_mm > 0.0) {
-        return bad("blur and GSD limits must be positive (--max-blur, --max-gsd)");
-    }
-    Ok(())
-}
-
-/// Positions of the defect candidates in `defects.json` (written by localise).
-fn defect_positions(path: &Path) -> Result<Vec<Point3<f64>>, CoverageError> {
-    #[derive(Deserialize)]
-    struct Defects {
-        defects: Vec<Defect>,
-    }
-    #[derive(Deserialize)]
-    struct Defect {
-        position: [f64; 3],
-    }
-    let text = std::fs::read_to_string(path).map_err(|e| {
-        CoverageError::Option(format!(
-            "views near defects need {} ({e}); run `postflight localise` first",
-            path.display()
-        ))
-    })?;
-    let d: Defects = serde_json::from_str(&text).map_err(|e| {
-        CoverageError::Option(format!(
-            "{} is unreadable ({e}); rerun `postflight localise`",
-            path.display()
-        ))
-    })?;
-    Ok(d.defects.iter().map(|d| Point3::from(d.position)).collect())
+/// Refuse a View model that cannot work.
+pub fn check_view(view: &ViewModel) -> Result<(), InvalidSetting> {
+    let positive = |key: Key, v: f64| InvalidSetting::check(v > 0.0, key, v, "positive");
+    InvalidSetting::check(
+        view.min_distance_m >= 0.0 && view.min_distance_m < view.max_distance_m,
+        keys::MIN_DISTANCE,
+        view.min_distance_m,
+        &format!(
+            "at least 0 and below the distance band's far edge ({} {})",
+            keys::MAX_DISTANCE,
+            view.max_distance_m
+        ),
+    )?;
+    InvalidSetting::check(
+        view.cone_apex_deg > 0.0 && view.cone_apex_deg <= 180.0,
+        keys::CONE_APEX,
+        view.cone_apex_deg,
+        "in (0, 180] degrees",
+    )?;
+    InvalidSetting::check(
+        view.max_incidence_deg > 0.0 && view.max_incidence_deg <= 90.0,
+        keys::MAX_INCIDENCE,
+        view.max_incidence_deg,
+        "in (0, 90] degrees",
+    )?;
+    InvalidSetting::check(
+        view.max_blur_px >= 0.0,
+        keys::MAX_BLUR,
+        view.max_blur_px,
+        "0 or more pixels",
+    )?;
+    positive(keys::MAX_GSD, view.max_gsd_mm)
 }

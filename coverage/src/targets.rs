@@ -6,8 +6,8 @@
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use ingest::map::{PointCloud, VoxelGrid, VoxelIndex, VoxelMap};
 use nalgebra::Point3;
+use postflight_core::map::{PointCloud, VoxelGrid, VoxelIndex, VoxelMap};
 use serde::Deserialize;
 
 use crate::error::CoverageError;

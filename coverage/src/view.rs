@@ -3,9 +3,9 @@
 //! image, within the distance band, facing the camera, fine enough (GSD),
 //! not hidden behind another occupied voxel, and the frame is sharp.
 
-use ingest::map::SlamMap;
-use ingest::{Intrinsics, ViewModel};
 use nalgebra::{Isometry3, Point3};
+use postflight_core::map::SlamMap;
+use postflight_core::{Intrinsics, ViewModel};
 
 use crate::face::Face;
 
@@ -151,9 +151,9 @@ pub fn occluded(map: &SlamMap, origin: &Point3<f64>, face: &Face) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ingest::Distortion;
-    use ingest::map::{VoxelGrid, VoxelIndex};
     use nalgebra::{Translation3, UnitQuaternion, Vector3};
+    use postflight_core::Distortion;
+    use postflight_core::map::{FaceSide, VoxelGrid, VoxelIndex};
 
     fn lens() -> Intrinsics {
         Intrinsics {
@@ -184,7 +184,7 @@ mod tests {
         Face::new(
             &VoxelGrid::new(0.5, Point3::origin()),
             VoxelIndex([0, 0, 0]),
-            0,
+            FaceSide::PosX,
         )
     }
 
@@ -271,7 +271,7 @@ mod tests {
     }
 
     fn map(points: &[Point3<f64>]) -> SlamMap {
-        let cloud = ingest::map::PointCloud {
+        let cloud = postflight_core::map::PointCloud {
             frame_id: "map".into(),
             points: points.to_vec(),
         };

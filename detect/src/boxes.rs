@@ -1,71 +1,7 @@
-//! Axis-aligned boxes and the detections they carry, with class-aware
-//! non-maximum suppression.
+//! Class-aware non-maximum suppression of detections, and merging of
+//! boxes a crack was reported in piecewise.
 
-/// A box in pixels: `x0, y0` top-left, `x1, y1` bottom-right (exclusive edges).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BoxXyxy {
-    pub x0: f32,
-    pub y0: f32,
-    pub x1: f32,
-    pub y1: f32,
-}
-
-impl BoxXyxy {
-    /// From YOLO's centre and size.
-    pub fn from_cxcywh(cx: f32, cy: f32, w: f32, h: f32) -> Self {
-        Self {
-            x0: cx - w / 2.0,
-            y0: cy - h / 2.0,
-            x1: cx + w / 2.0,
-            y1: cy + h / 2.0,
-        }
-    }
-
-    pub fn width(&self) -> f32 {
-        (self.x1 - self.x0).max(0.0)
-    }
-
-    pub fn height(&self) -> f32 {
-        (self.y1 - self.y0).max(0.0)
-    }
-
-    pub fn area(&self) -> f32 {
-        self.width() * self.height()
-    }
-
-    /// Intersection over union; 0 for disjoint or empty boxes.
-    pub fn iou(&self, other: &Self) -> f32 {
-        let inter = Self {
-            x0: self.x0.max(other.x0),
-            y0: self.y0.max(other.y0),
-            x1: self.x1.min(other.x1),
-            y1: self.y1.min(other.y1),
-        }
-        .area();
-        let union = self.area() + other.area() - inter;
-        if union <= 0.0 { 0.0 } else { inter / union }
-    }
-
-    /// Clip to an image of `width` x `height` pixels.
-    pub fn clip(&self, width: f32, height: f32) -> Self {
-        Self {
-            x0: self.x0.clamp(0.0, width),
-            y0: self.y0.clamp(0.0, height),
-            x1: self.x1.clamp(0.0, width),
-            y1: self.y1.clamp(0.0, height),
-        }
-    }
-}
-
-/// One detection in one image.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Detection {
-    pub bbox: BoxXyxy,
-    pub score: f32,
-    pub class: u32,
-    /// Tile that found it (see [`crate::tiles::Window`]), -1 for the whole frame.
-    pub tile: i32,
-}
+use postflight_core::detection::{BoxXyxy, Detection};
 
 /// Class-aware non-maximum suppression: keep the best-scoring boxes, dropping
 /// any that overlap a kept box of the same class by more than `iou`.

@@ -1,7 +1,7 @@
 //! Decoding YOLO output `[batch, 4 + nc, anchors]` (centre, size, then class
 //! scores, in model input pixels) into detections.
 
-use crate::boxes::{BoxXyxy, Detection};
+use postflight_core::detection::{BoxXyxy, Detection};
 
 /// Detections of image `b` of a `[batch, 4 + classes, anchors]` output laid
 /// out row-major in `data`, keeping each anchor's best class when its score

@@ -4,8 +4,11 @@ use std::path::PathBuf;
 
 #[derive(Debug, thiserror::Error)]
 pub enum DetectError {
-    #[error("{0}")]
-    Option(String),
+    #[error(transparent)]
+    Setting(#[from] postflight_core::InvalidSetting),
+    #[error(transparent)]
+    Run(#[from] postflight_core::Error),
+    /// Finding or starting ONNX Runtime.
     #[error("{0}")]
     Runtime(String),
     #[error("model {}: {why}", path.display())]
@@ -24,8 +27,4 @@ pub enum DetectError {
     },
     #[error("inference failed on frame {frame}: {why}")]
     Inference { frame: u32, why: String },
-    #[error("cannot read {}: {why}; rerun `postflight detect`", path.display())]
-    Table { path: PathBuf, why: String },
-    #[error("cannot write {}: {why}", path.display())]
-    Write { path: PathBuf, why: String },
 }

@@ -9,7 +9,7 @@
 
 use image::RgbImage;
 
-use crate::boxes::BoxXyxy;
+use postflight_core::detection::BoxXyxy;
 
 /// Gray of the padding, as Ultralytics pads.
 pub const PAD: u8 = 114;

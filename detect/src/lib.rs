@@ -12,10 +12,8 @@ pub mod prompts;
 pub mod runtime;
 pub mod signature;
 pub mod stage;
-pub mod table;
 pub mod tiles;
 
 pub use error::DetectError;
 pub use runtime::{Device, Library, Runtime, locate};
-pub use stage::{DetectOptions, DetectSummary, detect};
-pub use table::{FrameDetection, read_detections};
+pub use stage::{DetectOptions, detect};

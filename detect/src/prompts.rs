@@ -20,8 +20,12 @@ impl Embeddings {
             path: path.to_owned(),
             why,
         };
-        let bytes = std::fs::read(path)
-            .map_err(|e| bad(format!("{e}; check the path given to --embeddings")))?;
+        let bytes = std::fs::read(path).map_err(|e| {
+            bad(format!(
+                "{e}; check the path given to {}",
+                crate::stage::keys::EMBEDDINGS
+            ))
+        })?;
         let map = if path.extension().is_some_and(|e| e == "npy") {
             named_rows(path, &bytes).map_err(bad)?
         } else {

@@ -5,6 +5,8 @@
 //! air-gapped sites. The library comes from the `onnxruntime` Python wheel;
 //! [`locate`] looks for it in a fixed order and says exactly where it looked.
 
+use postflight_core::setting::inputs::{self, ONNXRUNTIME};
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::Mutex;
@@ -13,6 +15,7 @@ use ort::ep::{self, ExecutionProvider};
 use ort::session::builder::SessionBuilder;
 
 use crate::error::DetectError;
+use crate::stage::keys;
 
 /// Where the ONNX Runtime library was found.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -35,7 +38,7 @@ pub fn locate(explicit: Option<&Path>) -> Result<Library, DetectError> {
             })
         } else {
             Err(DetectError::Runtime(format!(
-                "--onnxruntime {} is not a file; give the path of libonnxruntime.so",
+                "{ONNXRUNTIME} {} is not a file; give the path of libonnxruntime.so",
                 path.display()
             )))
         };
@@ -85,7 +88,7 @@ pub fn locate(explicit: Option<&Path>) -> Result<Library, DetectError> {
         None => tried.push("python3 on PATH (no onnxruntime package)".into()),
     }
     Err(DetectError::Runtime(format!(
-        "ONNX Runtime not found (no --onnxruntime; {}); run scripts/setup, or `pip install onnxruntime==1.31.1`, or pass --onnxruntime /path/to/libonnxruntime.so",
+        "ONNX Runtime not found (no {ONNXRUNTIME}; {}); run scripts/setup, or `pip install onnxruntime==1.31.1`, or pass {ONNXRUNTIME} /path/to/libonnxruntime.so",
         tried.join(", ")
     )))
 }
@@ -225,7 +228,7 @@ impl Runtime {
         if !model.is_file() {
             return Err(DetectError::Model {
                 path: model.to_owned(),
-                why: "no such file; check the path given to --model".into(),
+                why: format!("no such file; check the path given to {}", inputs::MODEL),
             });
         }
         let builder = ort::session::Session::builder(&self.environment).map_err(bad)?;
@@ -251,7 +254,8 @@ impl Runtime {
         };
         let fallback = |why: String| {
             Some(format!(
-                "--device {}: {why}; running on the CPU (install the onnxruntime-gpu wheel with CUDA and cuDNN for GPU inference)",
+                "{} {}: {why}; running on the CPU (install the onnxruntime-gpu wheel with CUDA and cuDNN for GPU inference)",
+                keys::DEVICE,
                 device.as_str()
             ))
         };

@@ -7,27 +7,38 @@ use std::path::PathBuf;
 use std::sync::mpsc::sync_channel;
 use std::time::Instant;
 
-use ingest::{Flight, Frame, ImageStatus, RunDir};
+use ingest::Recording;
 use ort::session::SessionInputValue;
 use ort::value::{Tensor, TensorRef};
+use postflight_core::detection::{BoxXyxy, Detection, FrameDetection};
+use postflight_core::outputs::detect::{self as outputs, DetectSummary, FailedFrame, files};
+use postflight_core::run_log::sha256_file;
+use postflight_core::{Flight, Frame, ImageStatus, InvalidSetting, Key, RunDir};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
-use crate::boxes::{BoxXyxy, Detection, merge_touching, nms};
+use crate::boxes::{merge_touching, nms};
 use crate::decode::decode;
 use crate::error::DetectError;
 use crate::letterbox::{PAD, Placement, letterbox};
 use crate::prompts::Embeddings;
 use crate::runtime::{Device, Runtime, locate};
 use crate::signature::{Signature, Vocabulary};
-use crate::table::{self, FrameDetection};
 use crate::tiles::{Window, windows};
 
-/// Files of the detect stage.
-pub mod files {
-    pub const DETECTIONS: &str = "detections.parquet";
-    pub const COCO: &str = "detections.coco.json";
-    pub const SUMMARY: &str = "detect.json";
+/// The stage's settings, by their key in `postflight.toml`'s `[detect]`.
+pub mod keys {
+    use postflight_core::Key;
+
+    pub const PROMPTS: Key = Key::setting("detect", "prompts");
+    pub const EMBEDDINGS: Key = Key::setting("detect", "embeddings");
+    pub const CONFIDENCE: Key = Key::setting("detect", "confidence");
+    pub const IOU: Key = Key::setting("detect", "iou");
+    pub const MERGE_GAP: Key = Key::setting("detect", "merge_gap");
+    pub const IMAGE_SIZE: Key = Key::setting("detect", "image_size");
+    pub const TILE: Key = Key::setting("detect", "tile");
+    pub const TILE_OVERLAP: Key = Key::setting("detect", "tile_overlap");
+    pub const BATCH: Key = Key::setting("detect", "batch");
+    pub const DEVICE: Key = Key::setting("detect", "device");
 }
 
 #[derive(Debug, Clone)]
@@ -87,72 +98,41 @@ impl DetectOptions {
         }
     }
 
-    /// Refuse settings that cannot work, naming the flag.
-    fn check(&self) -> Result<(), DetectError> {
-        let bad = |why: &str| Err(DetectError::Option(why.into()));
-        if !(0.0..0.9).contains(&self.tile_overlap) {
-            return bad("--tile-overlap must be at least 0 and below 0.9");
+    /// Refuse settings that cannot work.
+    fn check(&self) -> Result<(), InvalidSetting> {
+        let share = |key: Key, v: f32| {
+            InvalidSetting::check((0.0..=1.0).contains(&v), key, v, "between 0 and 1")
+        };
+        InvalidSetting::check(
+            (0.0..0.9).contains(&self.tile_overlap),
+            keys::TILE_OVERLAP,
+            self.tile_overlap,
+            "at least 0 and below 0.9",
+        )?;
+        if let Some(tile) = self.tile {
+            InvalidSetting::check(tile >= 32, keys::TILE, tile, "at least 32 pixels")?;
         }
-        if self.tile.is_some_and(|t| t < 32) {
-            return bad("--tile must be at least 32 pixels");
-        }
-        if !(0.0..=1.0).contains(&self.confidence) || !(0.0..=1.0).contains(&self.iou) {
-            return bad("--confidence and --iou must be between 0 and 1");
-        }
-        if self.image_size < 32 || !self.image_size.is_multiple_of(32) {
-            return bad("--imgsz must be a multiple of 32");
-        }
-        if !(0.0..=10_000.0).contains(&self.merge_gap) {
-            return bad("--merge-gap must be 0 or more pixels");
-        }
-        if !(1..=256).contains(&self.batch) {
-            return bad("--batch must be between 1 and 256");
-        }
-        Ok(())
+        share(keys::CONFIDENCE, self.confidence)?;
+        share(keys::IOU, self.iou)?;
+        InvalidSetting::check(
+            self.image_size >= 32 && self.image_size.is_multiple_of(32),
+            keys::IMAGE_SIZE,
+            self.image_size,
+            "a multiple of 32",
+        )?;
+        InvalidSetting::check(
+            (0.0..=10_000.0).contains(&self.merge_gap),
+            keys::MERGE_GAP,
+            self.merge_gap,
+            "0 or more pixels",
+        )?;
+        InvalidSetting::check(
+            (1..=256).contains(&self.batch),
+            keys::BATCH,
+            self.batch,
+            "between 1 and 256",
+        )
     }
-}
-
-/// A frame that could not be run, and why.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct FailedFrame {
-    pub frame: u32,
-    pub why: String,
-}
-
-/// `detect.json`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct DetectSummary {
-    pub model: PathBuf,
-    pub model_bytes: u64,
-    /// SHA-256 of the model file, as `sha256sum` prints it.
-    #[serde(default)]
-    pub model_sha256: String,
-    pub onnxruntime: PathBuf,
-    /// ONNX Runtime's version (`1.31.1`).
-    #[serde(default)]
-    pub onnxruntime_version: String,
-    /// Device inference ran on (`cpu` when a GPU was asked for but unavailable).
-    pub device: String,
-    /// Views per inference call.
-    pub batch: usize,
-    /// `baked` or `embeddings`.
-    pub vocabulary: String,
-    pub classes: Vec<String>,
-    pub input_size: [u32; 2],
-    /// Tile size, when tiles were run besides the whole frame.
-    pub tile: Option<u32>,
-    pub confidence: f32,
-    pub iou: f32,
-    pub merge_gap: f32,
-    pub frames: u64,
-    pub frames_run: u64,
-    pub detections: u64,
-    pub failed_frames: Vec<FailedFrame>,
-    pub seconds: f64,
-    pub frames_per_s: f64,
-    /// Share of `seconds` spent inside ONNX Runtime's `run`.
-    pub inference_share: f64,
-    pub warnings: Vec<String>,
 }
 
 /// A frame ready for the model.
@@ -173,12 +153,12 @@ struct View {
 }
 
 fn prepare(
-    flight: &Flight,
+    recording: &Recording,
     frame: &Frame,
     (w, h): (u32, u32),
     options: &DetectOptions,
 ) -> Result<Prepared, FailedFrame> {
-    let img = flight
+    let img = recording
         .image(frame)
         .map_err(|e| FailedFrame {
             frame: frame.index,
@@ -247,6 +227,7 @@ pub fn detect(
     options.check()?;
     let start = Instant::now();
     let flight = Flight::load(&options.run)?;
+    let recording = Recording::reopen(&flight)?;
     let library = locate(options.onnxruntime.as_deref())?;
     let runtime = Runtime::start(library)?;
     let session = runtime.session(&options.model, options.device)?;
@@ -273,13 +254,13 @@ pub fn detect(
     std::thread::scope(|scope| {
         // Workers decode and letterbox the next frames while the runtime infers.
         let (tx, rx) = sync_channel::<Result<Prepared, FailedFrame>>(8);
-        let flight = &flight;
+        let recording = &recording;
         let runnable = &runnable;
         scope.spawn(move || {
             for chunk in runnable.chunks(8) {
                 let prepared: Vec<_> = chunk
                     .par_iter()
-                    .map(|f| prepare(flight, f, (w, h), options))
+                    .map(|f| prepare(recording, f, (w, h), options))
                     .collect();
                 for p in prepared {
                     if tx.send(p).is_err() {
@@ -336,7 +317,7 @@ pub fn detect(
         model_bytes: std::fs::metadata(&options.model)
             .map(|m| m.len())
             .unwrap_or(0),
-        model_sha256: ingest::run_log::sha256_file(&options.model)?,
+        model_sha256: sha256_file(&options.model)?,
         onnxruntime: runtime.library.path.clone(),
         onnxruntime_version: runtime.version(),
         vocabulary: match detector.signature.vocabulary {
@@ -403,9 +384,10 @@ impl Detector {
             ),
             Vocabulary::Embeddings { input, dim } => {
                 let path = options.embeddings.as_deref().ok_or_else(|| {
-                    model_error(
-                        "takes text embeddings; give them with --embeddings prompts.json".into(),
-                    )
+                    model_error(format!(
+                        "takes text embeddings; give them (prompts.json) as {}",
+                        keys::EMBEDDINGS
+                    ))
                 })?;
                 let (rows, n) = Embeddings::load(path)?
                     .input(&options.prompts, signature.classes, *dim)
@@ -557,11 +539,7 @@ fn write_outputs(
     summary: &DetectSummary,
 ) -> Result<(), DetectError> {
     run.remove(files::SUMMARY)?;
-    let mut df = table::detections_to_table(found, classes).map_err(|e| DetectError::Write {
-        path: run.file(files::DETECTIONS),
-        why: e.to_string(),
-    })?;
-    run.write_table(files::DETECTIONS, &mut df)?;
+    outputs::write_detections(run, found, classes)?;
     run.write_json(files::COCO, &coco(frames, found, classes))?;
     run.write_json(files::SUMMARY, summary)?;
     Ok(())

@@ -200,7 +200,7 @@ fn time_cat(path: &Path) -> f64 {
     start.elapsed().as_secs_f64()
 }
 
-fn time_ingest(path: &Path, out: &Path) -> (f64, ingest::IngestSummary) {
+fn time_ingest(path: &Path, out: &Path) -> (f64, postflight_core::outputs::ingest::IngestSummary) {
     let options = ingest::IngestOptions::new(path.to_owned(), out.to_owned());
     let start = Instant::now();
     let summary = ingest::ingest(&options, &mut |_: u64, _: u64| {}).unwrap();

@@ -3,18 +3,17 @@
 
 use std::path::PathBuf;
 
-use crate::recording::MessageLocation;
+use postflight_core::{Key, MessageLocation};
+
+use crate::stage::keys;
 
 #[derive(Debug, thiserror::Error)]
 pub enum IngestError {
-    #[error("{0}")]
-    Option(String),
+    #[error(transparent)]
+    Core(#[from] postflight_core::Error),
 
-    #[error("cannot open {}: {source}; check the path", path.display())]
-    Open {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Setting(#[from] postflight_core::InvalidSetting),
 
     #[error(
         "{} is not an MCAP recording ({why}); record with `ros2 bag record -s mcap` or convert the bag with `ros2 bag convert`",
@@ -23,8 +22,9 @@ pub enum IngestError {
     NotMcap { path: PathBuf, why: String },
 
     #[error(
-        "{} is truncated at byte {offset} (--strict): {salvaged} complete messages are readable; drop --strict to ingest them",
-        path.display()
+        "{} is truncated at byte {offset} ({strict}): {salvaged} complete messages are readable; drop {strict} to ingest them",
+        path.display(),
+        strict = keys::STRICT
     )]
     Truncated {
         path: PathBuf,
@@ -33,35 +33,38 @@ pub enum IngestError {
     },
 
     #[error(
-        "no usable pose topic in {}: found no geometry_msgs/msg/PoseStamped, nav_msgs/msg/Odometry or /tf messages{hint}; record the SLAM pose or name its topic with --pose-topic",
-        path.display()
+        "no usable pose topic in {}: found no geometry_msgs/msg/PoseStamped, nav_msgs/msg/Odometry or /tf messages{hint}; record the SLAM pose or name its topic with {}",
+        path.display(),
+        keys::POSE_TOPIC
     )]
     NoPoses { path: PathBuf, hint: String },
 
     #[error(
-        "no camera images in {}: found no sensor_msgs/msg/Image or sensor_msgs/msg/CompressedImage messages; record the camera or name its topic with --image-topic",
-        path.display()
+        "no camera images in {}: found no sensor_msgs/msg/Image or sensor_msgs/msg/CompressedImage messages; record the camera or name its topic with {}",
+        path.display(),
+        keys::IMAGE_TOPICS
     )]
     NoImages { path: PathBuf },
 
-    #[error("{flag} {topic:?} is not in the recording; its topics are: {available}")]
+    #[error("{key} {topic:?} is not in the recording; its topics are: {available}")]
     TopicNotFound {
-        flag: &'static str,
+        key: Key,
         topic: String,
         available: String,
     },
 
-    #[error("{flag} {topic:?} has schema {schema}, expected {expected}")]
+    #[error("{key} {topic:?} has schema {schema}, expected {expected}")]
     TopicSchema {
-        flag: &'static str,
+        key: Key,
         topic: String,
         schema: String,
         expected: String,
     },
 
     #[error(
-        "{} has no camera intrinsics for {topic} (no sensor_msgs/msg/CameraInfo for frame {frame_id:?}); pass a ROS calibration file with --camera-info FILE.yaml",
-        path.display()
+        "{} has no camera intrinsics for {topic} (no sensor_msgs/msg/CameraInfo for frame {frame_id:?}); pass a ROS calibration file (YAML) as {}",
+        path.display(),
+        keys::CAMERA_INFO_FILE
     )]
     NoIntrinsics {
         path: PathBuf,
@@ -72,31 +75,16 @@ pub enum IngestError {
     #[error("camera calibration file {}: {why}", path.display())]
     Calibration { path: PathBuf, why: String },
 
-    #[error("map {}: {why}", path.display())]
-    Map { path: PathBuf, why: String },
-
-    #[error("plan {}: {why}", path.display())]
-    Plan { path: PathBuf, why: String },
+    #[error(
+        "the flight has no SLAM map (no PointCloud2 topic was recorded); pass the map with {} (PLY or PCD, in the world frame of the poses)",
+        postflight_core::setting::inputs::MAP
+    )]
+    NoMap,
 
     #[error("cannot read message at {location:?} of {}: {why}; was the recording changed after ingest?", path.display())]
     BadLocation {
         path: PathBuf,
         location: MessageLocation,
         why: String,
-    },
-
-    #[error("run directory {}: {why}", path.display())]
-    RunDir { path: PathBuf, why: String },
-
-    #[error("cannot write {}: {source}", path.display())]
-    Write {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-
-    #[error("table {}: {source}", path.display())]
-    Table {
-        path: PathBuf,
-        source: polars::error::PolarsError,
     },
 }

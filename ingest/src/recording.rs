@@ -14,20 +14,10 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use mcap::records::op;
-use serde::{Deserialize, Serialize};
+
+use postflight_core::frame::MessageLocation;
 
 use crate::error::IngestError;
-
-/// Where a message lives in the recording.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub struct MessageLocation {
-    /// File offset of the chunk record holding the message, or `None` for a
-    /// message record outside any chunk.
-    pub chunk_offset: Option<u64>,
-    /// Offset of the message record: within the chunk's uncompressed records
-    /// when `chunk_offset` is set, else within the file.
-    pub record_offset: u64,
-}
 
 /// A channel (topic) of the recording with its schema.
 #[derive(Debug, Clone)]
@@ -92,7 +82,7 @@ const RECORD_PREFIX: usize = 9; // opcode u8 + length u64
 impl Recording {
     /// Open and map `path`, checking it is an MCAP file.
     pub fn open(path: &Path) -> Result<Self, IngestError> {
-        let file = File::open(path).map_err(|source| IngestError::Open {
+        let file = File::open(path).map_err(|source| postflight_core::Error::Open {
             path: path.to_owned(),
             source,
         })?;
@@ -104,9 +94,11 @@ impl Recording {
         }
         // SAFETY: the map is read-only; a file changed underneath us by another
         // process is outside what a post-flight tool can defend against.
-        let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|source| IngestError::Open {
-            path: path.to_owned(),
-            source,
+        let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|source| {
+            postflight_core::Error::Open {
+                path: path.to_owned(),
+                source,
+            }
         })?;
         #[cfg(unix)]
         let _ = map.advise(memmap2::Advice::Sequential);

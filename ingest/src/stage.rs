@@ -6,22 +6,39 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use nalgebra::{Isometry3, Point3};
-use serde::{Deserialize, Serialize};
 
-use crate::camera::{Camera, Intrinsics};
-use crate::error::IngestError;
-use crate::frame::{EXPOSURE_TOPIC, Frame, ImageStatus, PoseStatus, camera_namespace};
-use crate::image::{Compression, RAW_ENCODINGS, compressed_size};
-use crate::map::pointcloud2;
-use crate::pose::{self, StampedPose};
-use crate::recording::{
-    Channel, MessageLocation, RecordedMessage, Recording, ScanEvent, ScanReport,
+use postflight_core::frame::{EXPOSURE_TOPIC, camera_namespace};
+use postflight_core::outputs::ingest::{
+    self as outputs, FlightFile, IngestSummary, PoseSource, RecordedMap, TopicSummary, files,
 };
-use crate::ros::{cdr, msg, schema};
-use crate::run_dir::{RunDir, files};
-use crate::tables;
+use postflight_core::pose::StampedPose;
+use postflight_core::time::rfc3339;
+use postflight_core::{
+    Camera, Frame, ImageStatus, MessageLocation, PoseAt, PoseStatus, RunDir, Trajectory,
+};
+use postflight_core::{InvalidSetting, Key};
+
+use crate::calibration;
+use crate::error::IngestError;
+use crate::image::{Compression, RAW_ENCODINGS, compressed_size};
+use crate::recording::{Channel, RecordedMessage, Recording, ScanEvent, ScanReport};
+use crate::ros::{self, cdr, msg, pointcloud2, schema};
 use crate::tf::TransformTree;
-use crate::trajectory::{PoseAt, Trajectory};
+
+/// The stage's settings, by their key in `postflight.toml`'s `[ingest]`.
+pub mod keys {
+    use postflight_core::Key;
+
+    pub const IMAGE_TOPICS: Key = Key::setting("ingest", "image_topics");
+    pub const POSE_TOPIC: Key = Key::setting("ingest", "pose_topic");
+    pub const CAMERA_INFO_TOPIC: Key = Key::setting("ingest", "camera_info_topic");
+    pub const CAMERA_INFO_FILE: Key = Key::setting("ingest", "camera_info_file");
+    pub const MAP_TOPIC: Key = Key::setting("ingest", "map_topic");
+    pub const BODY_FRAME: Key = Key::setting("ingest", "body_frame");
+    pub const WORLD_FRAME: Key = Key::setting("ingest", "world_frame");
+    pub const MAX_POSE_GAP: Key = Key::setting("ingest", "max_pose_gap_s");
+    pub const STRICT: Key = Key::setting("ingest", "strict");
+}
 
 /// What to ingest and how.
 #[derive(Debug, Clone)]
@@ -67,69 +84,6 @@ impl IngestOptions {
             strict: false,
         }
     }
-}
-
-/// Messages on one topic.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct TopicSummary {
-    pub schema: String,
-    pub count: u64,
-}
-
-/// Where the poses came from.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct PoseSource {
-    /// Topic, or `/tf`.
-    pub topic: String,
-    pub frame_id: String,
-    pub child_frame_id: String,
-}
-
-/// The SLAM map found in the recording.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct RecordedMap {
-    pub topic: String,
-    pub frame_id: String,
-    pub points: u64,
-    /// Axis-aligned bounds `[min, max]`.
-    pub bounds: [[f64; 3]; 2],
-    /// The (last) map message, for loading it again.
-    pub location: MessageLocation,
-}
-
-/// The flight recording ingested.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct FlightFile {
-    pub path: PathBuf,
-    pub size_bytes: u64,
-}
-
-/// `ingest.json`: what the recording held and what ingest made of it.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct IngestSummary {
-    pub postflight_version: String,
-    pub flight: FlightFile,
-    /// Messages per topic.
-    pub messages: BTreeMap<String, TopicSummary>,
-    pub frames: u64,
-    pub frames_with_pose: u64,
-    /// Frames per `pose_status`.
-    pub frames_by_pose_status: BTreeMap<String, u64>,
-    pub image_topics: Vec<String>,
-    pub poses: u64,
-    pub pose_source: PoseSource,
-    /// Span of the recorded messages (log time), seconds.
-    pub duration_s: f64,
-    pub start_time: String,
-    pub end_time: String,
-    pub start_time_ns: i64,
-    pub end_time_ns: i64,
-    pub truncated: bool,
-    pub truncated_at_byte: Option<u64>,
-    pub corrupt_chunks: u64,
-    pub map: Option<RecordedMap>,
-    pub max_pose_gap_s: f64,
-    pub warnings: Vec<String>,
 }
 
 /// Progress of an ingest, for progress bars.
@@ -421,7 +375,7 @@ impl Scan {
     }
 
     fn pose(&mut self, topic: &str, time_ns: i64, p: &msg::Pose, frame: String, child: String) {
-        let Some(pose) = pose::from_ros(p.position, p.orientation) else {
+        let Some(pose) = ros::pose(p.position, p.orientation) else {
             return;
         };
         let entry = self.poses.entry(topic.to_string()).or_default();
@@ -440,11 +394,12 @@ pub fn ingest(
     options: &IngestOptions,
     progress: &mut dyn Progress,
 ) -> Result<IngestSummary, IngestError> {
-    if !options.max_pose_gap_s.is_finite() || options.max_pose_gap_s <= 0.0 {
-        return Err(IngestError::Option(
-            "--max-pose-gap must be a positive number of seconds".into(),
-        ));
-    }
+    InvalidSetting::check(
+        options.max_pose_gap_s.is_finite() && options.max_pose_gap_s > 0.0,
+        keys::MAX_POSE_GAP,
+        options.max_pose_gap_s,
+        "a positive number of seconds",
+    )?;
     let recording = Recording::open(&options.flight)?;
     let total = recording.len();
     let mut scan = Scan::default();
@@ -571,35 +526,34 @@ fn check_topic_flags(
     topics: &BTreeMap<String, TopicSummary>,
 ) -> Result<(), IngestError> {
     let available = || topics.keys().cloned().collect::<Vec<_>>().join(", ");
-    let check =
-        |flag: &'static str, topic: &String, expected: &[&str]| -> Result<(), IngestError> {
-            let Some(TopicSummary { schema, .. }) = topics.get(topic) else {
-                return Err(IngestError::TopicNotFound {
-                    flag,
-                    topic: topic.clone(),
-                    available: available(),
-                });
-            };
-            if !expected.contains(&schema.as_str()) {
-                return Err(IngestError::TopicSchema {
-                    flag,
-                    topic: topic.clone(),
-                    schema: schema.clone(),
-                    expected: expected.join(" or "),
-                });
-            }
-            Ok(())
+    let check = |key: Key, topic: &String, expected: &[&str]| -> Result<(), IngestError> {
+        let Some(TopicSummary { schema, .. }) = topics.get(topic) else {
+            return Err(IngestError::TopicNotFound {
+                key,
+                topic: topic.clone(),
+                available: available(),
+            });
         };
+        if !expected.contains(&schema.as_str()) {
+            return Err(IngestError::TopicSchema {
+                key,
+                topic: topic.clone(),
+                schema: schema.clone(),
+                expected: expected.join(" or "),
+            });
+        }
+        Ok(())
+    };
     for t in &options.image_topics {
         check(
-            "--image-topic",
+            keys::IMAGE_TOPICS,
             t,
             &[schema::IMAGE, schema::COMPRESSED_IMAGE],
         )?;
     }
     if let Some(t) = &options.pose_topic {
         check(
-            "--pose-topic",
+            keys::POSE_TOPIC,
             t,
             &[
                 schema::POSE_STAMPED,
@@ -609,10 +563,10 @@ fn check_topic_flags(
         )?;
     }
     if let Some(t) = &options.camera_info_topic {
-        check("--camera-info-topic", t, &[schema::CAMERA_INFO])?;
+        check(keys::CAMERA_INFO_TOPIC, t, &[schema::CAMERA_INFO])?;
     }
     if let Some(t) = &options.map_topic {
-        check("--map-topic", t, &[schema::POINT_CLOUD2])?;
+        check(keys::MAP_TOPIC, t, &[schema::POINT_CLOUD2])?;
     }
     Ok(())
 }
@@ -669,8 +623,13 @@ fn choose_trajectory(
         let others: Vec<&String> = scan.poses.keys().filter(|t| **t != topic).collect();
         if !others.is_empty() {
             warnings.push(format!(
-                "several pose topics; using {topic} (most messages), not {}; choose with --pose-topic",
-                others.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+                "several pose topics; using {topic} (most messages), not {}; choose with {}",
+                others
+                    .iter()
+                    .map(|s| s.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                keys::POSE_TOPIC
             ));
         }
         let PoseTopic {
@@ -715,8 +674,10 @@ fn choose_trajectory(
         String::new()
     } else {
         format!(
-            " (/tf has frames {} but no time-varying chain from the world frame to the body; set --world-frame and --body-frame)",
-            scan.tf.frames().into_iter().collect::<Vec<_>>().join(", ")
+            " (/tf has frames {} but no time-varying chain from the world frame to the body; set {} and {})",
+            scan.tf.frames().into_iter().collect::<Vec<_>>().join(", "),
+            keys::WORLD_FRAME,
+            keys::BODY_FRAME
         )
     };
     Err(IngestError::NoPoses {
@@ -751,7 +712,7 @@ fn cameras(
     let file_intrinsics = options
         .camera_info_file
         .as_deref()
-        .map(Intrinsics::from_calibration_file)
+        .map(calibration::from_calibration_file)
         .transpose()?;
     let mut first_frame: BTreeMap<&str, &Frame> = BTreeMap::new();
     for f in &scan.frames {
@@ -767,8 +728,9 @@ fn cameras(
     for (frame, topics) in &frame_topics {
         if topics.len() > 1 {
             warnings.push(format!(
-                "image topics {} share the camera frame {frame:?} (raw and compressed copies?); select one with --image-topic",
-                topics.join(", ")
+                "image topics {} share the camera frame {frame:?} (raw and compressed copies?); select one with {}",
+                topics.join(", "),
+                keys::IMAGE_TOPICS
             ));
         }
     }
@@ -801,13 +763,15 @@ fn cameras(
                 (i.clone(), source)
             }
             (None, Some((t, info))) => {
-                let i =
-                    Intrinsics::from_camera_info(info).map_err(|why| IngestError::Calibration {
+                let i = calibration::from_camera_info(info).map_err(|why| {
+                    IngestError::Calibration {
                         path: options.flight.clone(),
                         why: format!(
-                            "CameraInfo on {t}: {why}; pass a calibration file with --camera-info"
+                            "CameraInfo on {t}: {why}; pass a calibration file as {}",
+                            keys::CAMERA_INFO_FILE
                         ),
-                    })?;
+                    }
+                })?;
                 (i, format!("topic {t}"))
             }
             (None, None) => {
@@ -953,58 +917,10 @@ fn write_outputs(
     summary: &IngestSummary,
 ) -> Result<(), IngestError> {
     let run = RunDir::create(out)?;
-    run.remove(files::INGEST)?;
-    let table_error = |name: &str| {
-        let path = run.file(name);
-        move |source| IngestError::Table { path, source }
-    };
-    let mut frames_df = tables::frames_to_table(frames).map_err(table_error(files::FRAMES))?;
-    run.write_table(files::FRAMES, &mut frames_df)?;
-    let mut traj_df =
-        tables::trajectory_to_table(trajectory).map_err(table_error(files::TRAJECTORY))?;
-    run.write_table(files::TRAJECTORY, &mut traj_df)?;
+    run.remove(files::SUMMARY)?;
+    outputs::write_frames(&run, frames)?;
+    outputs::write_trajectory(&run, trajectory)?;
     run.write_json(files::CAMERAS, &cameras)?;
-    run.write_json(files::INGEST, summary)
-}
-
-/// UTC time as RFC 3339 with nanoseconds.
-pub(crate) fn rfc3339(ns: i64) -> String {
-    let secs = ns.div_euclid(1_000_000_000);
-    let nanos = ns.rem_euclid(1_000_000_000);
-    let days = secs.div_euclid(86_400);
-    let rem = secs.rem_euclid(86_400);
-    // Civil date from days since 1970-01-01 (H. Hinnant's algorithm).
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z.rem_euclid(146_097);
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + i64::from(month <= 2);
-    format!(
-        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}.{nanos:09}Z",
-        rem / 3600,
-        rem / 60 % 60,
-        rem % 60
-    )
-}
-
-#[cfg(test)]
-mod tests {
-    use super::rfc3339;
-
-    #[test]
-    fn formats_utc_times() {
-        assert_eq!(rfc3339(0), "1970-01-01T00:00:00.000000000Z");
-        assert_eq!(
-            rfc3339(1_700_000_000_123_456_789),
-            "2023-11-14T22:13:20.123456789Z"
-        );
-        assert_eq!(
-            rfc3339(951_782_400_000_000_000),
-            "2000-02-29T00:00:00.000000000Z"
-        );
-    }
+    run.write_json(files::SUMMARY, summary)?;
+    Ok(())
 }

@@ -5,9 +5,9 @@ use std::collections::{BTreeSet, HashMap};
 
 use nalgebra::Isometry3;
 
-use crate::pose::{self, StampedPose};
 use crate::ros::msg::TransformStamped;
-use crate::trajectory::{PoseAt, Trajectory, pose_at};
+use postflight_core::pose::StampedPose;
+use postflight_core::trajectory::{PoseAt, Trajectory, pose_at};
 
 /// The edge from a child frame to its parent: `T_parent_child`, fixed or over time.
 #[derive(Debug, Clone)]
@@ -35,7 +35,7 @@ impl TransformTree {
     /// Add a transform from `/tf_static` (`is_static`) or `/tf`. Invalid
     /// rotations are ignored; returns whether the transform was kept.
     pub fn add(&mut self, t: &TransformStamped, is_static: bool) -> bool {
-        let Some(pose) = pose::from_ros(t.transform.translation, t.transform.rotation) else {
+        let Some(pose) = crate::ros::pose(t.transform.translation, t.transform.rotation) else {
             return false;
         };
         let parent = strip_slash(&t.header.frame_id).to_string();

@@ -6,14 +6,15 @@
 
 use std::time::Instant;
 
-use detect::FrameDetection;
-use detect::boxes::{BoxXyxy, Detection};
-use ingest::map::{PointCloud, SlamMap};
-use ingest::{Distortion, Intrinsics};
 use localise::fusion::{FusionOptions, fuse};
-use localise::observation::{Observation, Outcome, Scene};
+use localise::observation::{Observation, Scene};
 use localise::trace::CrackTrace;
 use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector3};
+use postflight_core::detection::FrameDetection;
+use postflight_core::detection::{BoxXyxy, Detection};
+use postflight_core::map::{PointCloud, SlamMap};
+use postflight_core::outputs::localise::Outcome;
+use postflight_core::{Distortion, Intrinsics};
 use rayon::prelude::*;
 use sim::rng::Rng;
 

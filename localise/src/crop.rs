@@ -4,7 +4,8 @@
 use std::path::Path;
 
 use image::{DynamicImage, Rgb, RgbImage};
-use ingest::{Flight, Frame};
+use ingest::Recording;
+use postflight_core::Frame;
 
 use crate::observation::Observation;
 
@@ -39,12 +40,12 @@ pub fn draw_box(img: &mut RgbImage, bbox: [f32; 4], thickness: u32) {
 /// The frame is decoded again: keeping every frame's image until fusion
 /// picks the best views would hold the whole flight in memory.
 pub(crate) fn write_crop(
-    flight: &Flight,
+    recording: &Recording,
     frame: &Frame,
     best: &Observation,
     path: &Path,
-) -> Result<bool, String> {
-    let Ok(img) = flight.image(frame) else {
+) -> Result<bool, postflight_core::Error> {
+    let Ok(img) = recording.image(frame) else {
         return Ok(false);
     };
     let img = img.to_rgb8();
@@ -59,9 +60,13 @@ pub(crate) fn write_crop(
     let (dx, dy) = (x0 as f32, y0 as f32);
     draw_box(&mut crop, [b.x0 - dx, b.y0 - dy, b.x1 - dx, b.y1 - dy], 1);
     let tmp = path.with_extension("jpg.tmp");
+    let write_error = |source| postflight_core::Error::Write {
+        path: path.to_owned(),
+        source,
+    };
     DynamicImage::ImageRgb8(crop)
         .save_with_format(&tmp, image::ImageFormat::Jpeg)
-        .map_err(|e| e.to_string())?;
-    std::fs::rename(&tmp, path).map_err(|e| e.to_string())?;
+        .map_err(|e| write_error(std::io::Error::other(e)))?;
+    std::fs::rename(&tmp, path).map_err(write_error)?;
     Ok(true)
 }

@@ -6,12 +6,13 @@
 
 use std::collections::BTreeMap;
 
-use ingest::map::VoxelIndex;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::{Point3, Vector3};
+use postflight_core::map::{FaceSide, VoxelIndex};
 
-use crate::observation::{Observation, Outcome};
-use crate::surface::face_name;
+use crate::observation::Observation;
+use crate::union_find::UnionFind;
+use postflight_core::outputs::localise::Outcome;
 
 /// How far apart observations of one crack may be.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -45,7 +46,7 @@ pub struct DefectCandidate {
     /// Corners of the axis-aligned box around its observed extent.
     pub extent: [Point3<f64>; 2],
     pub voxel: VoxelIndex,
-    pub face: &'static str,
+    pub face: FaceSide,
     /// Estimated length, metres: the longest measurement of its views from
     /// [`LENGTH_RANGE_M`] or closer, complete or cut by the image border
     /// (a view shows at most the whole crack: faint or hidden stretches and
@@ -208,7 +209,11 @@ fn candidate(observations: &[Observation], group: Vec<usize>) -> DefectCandidate
         .reduce(f64::max);
     let best = *basis
         .iter()
-        .min_by(|a, b| placement(**a).gsd_mm.total_cmp(&placement(**b).gsd_mm))
+        .min_by(|a, b| {
+            placement(**a)
+                .oblique_gsd_mm
+                .total_cmp(&placement(**b).oblique_gsd_mm)
+        })
         .expect("a member");
     // Best score per frame.
     let mut per_frame: BTreeMap<u32, f64> = BTreeMap::new();
@@ -227,7 +232,7 @@ fn candidate(observations: &[Observation], group: Vec<usize>) -> DefectCandidate
         normal,
         extent,
         voxel,
-        face: face_name(&normal),
+        face: FaceSide::nearest(&normal),
         length_m,
         length_partial,
         length_views,
@@ -242,7 +247,7 @@ fn candidate(observations: &[Observation], group: Vec<usize>) -> DefectCandidate
 /// Ids from the voxel and face, numbered in position order within one.
 fn name(candidates: &mut [DefectCandidate]) {
     let mut order: Vec<usize> = (0..candidates.len()).collect();
-    let key = |c: &DefectCandidate| (c.voxel.0, c.face);
+    let key = |c: &DefectCandidate| (c.voxel.0, c.face.name());
     order.sort_by(|a, b| {
         let (ca, cb) = (&candidates[*a], &candidates[*b]);
         key(ca).cmp(&key(cb)).then(
@@ -283,34 +288,13 @@ fn median(mut values: Vec<f64>) -> Option<f64> {
     })
 }
 
-struct UnionFind(Vec<usize>);
-
-impl UnionFind {
-    fn new(n: usize) -> Self {
-        Self((0..n).collect())
-    }
-
-    fn root(&mut self, mut i: usize) -> usize {
-        while self.0[i] != i {
-            self.0[i] = self.0[self.0[i]];
-            i = self.0[i];
-        }
-        i
-    }
-
-    fn join(&mut self, a: usize, b: usize) {
-        let (ra, rb) = (self.root(a), self.root(b));
-        self.0[ra.max(rb)] = ra.min(rb);
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::observation::Placement;
     use crate::surface::SurfaceHit;
-    use detect::FrameDetection;
-    use detect::boxes::{BoxXyxy, Detection};
+    use postflight_core::detection::FrameDetection;
+    use postflight_core::detection::{BoxXyxy, Detection};
 
     fn observation(frame: u32, centre: [f64; 3], normal: [f64; 3], radius: f64) -> Observation {
         let centre = Point3::from(centre);
@@ -345,7 +329,7 @@ mod tests {
                 extent: [centre - r, centre + r],
                 radius,
                 length_m: Some(2.0 * radius),
-                gsd_mm: 4.0 + f64::from(frame),
+                oblique_gsd_mm: 4.0 + f64::from(frame),
             }),
             traced_px: 30,
             clipped: false,

@@ -3,9 +3,10 @@
 //! image, or its box) into the voxel map and refining the hit against the
 //! map points, measures the crack on that surface, and fuses observations of
 //! the same crack across frames into defect candidates (position, extent,
-//! length, supporting views, best view). It owns the observations and
-//! defects tables; it reads the flight model from `ingest` and detections
-//! from `detect`.
+//! length, supporting views, best view). It writes the observations and
+//! defects tables (laid out in `postflight_core::outputs::localise`); it
+//! reads the flight and the detections from the run directory, and frames'
+//! images from the recording through `ingest`.
 
 pub mod crop;
 pub mod error;
@@ -15,9 +16,9 @@ pub mod records;
 pub mod stage;
 pub mod surface;
 pub mod trace;
+pub mod union_find;
 
 pub use error::LocaliseError;
 pub use fusion::{DefectCandidate, FusionOptions};
-pub use observation::{Observation, Outcome};
-pub use records::{DefectRecord, ViewRecord};
-pub use stage::{LocaliseOptions, LocaliseSummary, localise};
+pub use observation::Observation;
+pub use stage::{LocaliseOptions, localise};

@@ -5,40 +5,14 @@
 
 use std::collections::HashSet;
 
-use detect::FrameDetection;
-use ingest::Intrinsics;
-use ingest::map::{SlamMap, VoxelIndex};
 use nalgebra::{Isometry3, Point2, Point3, Vector3};
+use postflight_core::Intrinsics;
+use postflight_core::detection::FrameDetection;
+use postflight_core::map::{SlamMap, VoxelIndex};
+use postflight_core::outputs::localise::Outcome;
 
 use crate::surface::{self, SurfaceHit};
 use crate::trace::CrackTrace;
-
-/// What became of a detection.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Outcome {
-    /// Placed on the structure.
-    Placed,
-    /// Its frame has no pose (none recorded near the frame time).
-    NoPose,
-    /// Its camera has no intrinsics.
-    NoIntrinsics,
-    /// Its rays met no mapped surface within range.
-    NoSurface,
-    /// Its rays met a mapped surface that is not the structure to inspect.
-    Obstacle,
-}
-
-impl Outcome {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Outcome::Placed => "placed",
-            Outcome::NoPose => "no_pose",
-            Outcome::NoIntrinsics => "no_intrinsics",
-            Outcome::NoSurface => "no_surface",
-            Outcome::Obstacle => "obstacle",
-        }
-    }
-}
 
 /// A detection and where it lies on the structure.
 #[derive(Debug, Clone)]
@@ -67,8 +41,9 @@ pub struct Placement {
     pub radius: f64,
     /// Length of the traced centre line on the surface, metres.
     pub length_m: Option<f64>,
-    /// Ground sampling distance of the view, millimetres per pixel.
-    pub gsd_mm: f64,
+    /// Oblique ground sampling distance of the view, millimetres per pixel
+    /// (see [`SurfaceHit::oblique_gsd_mm`]).
+    pub oblique_gsd_mm: f64,
 }
 
 /// What a detection is placed against.
@@ -185,7 +160,7 @@ impl Scene<'_> {
             _ => Outcome::Placed,
         };
         observation.placement = Some(Placement {
-            gsd_mm: hit.gsd_mm(k.fx.min(k.fy)),
+            oblique_gsd_mm: hit.oblique_gsd_mm(k.fx.min(k.fy)),
             hit,
             centre,
             extent,
@@ -266,9 +241,9 @@ fn intersect(
 mod tests {
     use super::*;
     use crate::surface::tests::wall;
-    use detect::boxes::{BoxXyxy, Detection};
-    use ingest::Distortion;
     use nalgebra::{Translation3, UnitQuaternion};
+    use postflight_core::Distortion;
+    use postflight_core::detection::{BoxXyxy, Detection};
 
     fn detection(bbox: [f32; 4]) -> FrameDetection {
         FrameDetection {

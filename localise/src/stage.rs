@@ -3,32 +3,35 @@
 //! `defects.parquet`, `defects.json`, a JPEG crop per candidate and
 //! `localise.json`.
 
-use std::collections::{BTreeMap, HashMap, HashSet};
+use std::collections::{BTreeMap, HashSet};
 use std::path::PathBuf;
 use std::time::Instant;
 
-use detect::FrameDetection;
-use ingest::map::{DEFAULT_RESOLUTION, PointCloud, SlamMap, VoxelGrid, VoxelIndex};
-use ingest::{Flight, Frame, InspectionPlan};
+use ingest::Recording;
 use nalgebra::Point3;
+use postflight_core::detection::FrameDetection;
+use postflight_core::map::{SlamMap, VoxelGrid, VoxelIndex};
+use postflight_core::outputs::detect::read_detections;
+use postflight_core::outputs::localise::{
+    self as outputs, LocaliseSummary, Outcome, Outcomes, files,
+};
+use postflight_core::{Flight, Frame, InspectionPlan, InvalidSetting, RunDir, Stage};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
 use crate::crop::write_crop;
 use crate::error::LocaliseError;
 use crate::fusion::{DefectCandidate, FusionOptions, fuse};
-use crate::observation::{Observation, Outcome, Scene};
-use crate::records::{DefectRecord, defects_table, observations_table};
+use crate::observation::{Observation, Scene};
+use crate::records::{defect_record, observation_record};
 use crate::trace::trace;
 
-/// Files of the localise stage.
-pub mod files {
-    pub const OBSERVATIONS: &str = "observations.parquet";
-    pub const DEFECTS: &str = "defects.parquet";
-    pub const DEFECTS_JSON: &str = "defects.json";
-    /// Directory of candidate crops, `<id>.jpg`.
-    pub const CROPS: &str = "defects";
-    pub const SUMMARY: &str = "localise.json";
+/// The stage's settings, by their key in `postflight.toml`'s `[localise]`.
+pub mod keys {
+    use postflight_core::Key;
+
+    pub const MAX_RANGE: Key = Key::setting("localise", "max_range_m");
+    pub const LINK_DISTANCE: Key = Key::setting("localise", "link_distance_m");
+    pub const MAX_NORMAL_ANGLE: Key = Key::setting("localise", "max_normal_angle_deg");
 }
 
 #[derive(Debug, Clone)]
@@ -57,52 +60,27 @@ impl LocaliseOptions {
         }
     }
 
-    fn check(&self) -> Result<(), LocaliseError> {
-        let bad = |why: &str| Err(LocaliseError::Option(why.into()));
-        if !(self.max_range_m > 0.0 && self.max_range_m <= 1000.0) {
-            return bad("--max-range must be between 0 and 1000 metres");
-        }
-        if !(0.0..=5.0).contains(&self.fusion.link_distance) {
-            return bad("--link-distance must be between 0 and 5 metres");
-        }
-        if !(0.0..=90.0).contains(&self.fusion.max_normal_angle_deg) {
-            return bad("--max-normal-angle must be between 0 and 90 degrees");
-        }
-        Ok(())
+    /// Refuse settings that cannot work.
+    fn check(&self) -> Result<(), InvalidSetting> {
+        InvalidSetting::check(
+            self.max_range_m > 0.0 && self.max_range_m <= 1000.0,
+            keys::MAX_RANGE,
+            self.max_range_m,
+            "between 0 and 1000 metres",
+        )?;
+        InvalidSetting::check(
+            (0.0..=5.0).contains(&self.fusion.link_distance),
+            keys::LINK_DISTANCE,
+            self.fusion.link_distance,
+            "between 0 and 5 metres",
+        )?;
+        InvalidSetting::check(
+            (0.0..=90.0).contains(&self.fusion.max_normal_angle_deg),
+            keys::MAX_NORMAL_ANGLE,
+            self.fusion.max_normal_angle_deg,
+            "between 0 and 90 degrees",
+        )
     }
-}
-
-/// Detections of each outcome.
-#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
-pub struct Outcomes {
-    pub placed: u64,
-    pub no_pose: u64,
-    pub no_intrinsics: u64,
-    pub no_surface: u64,
-    pub obstacle: u64,
-}
-
-/// `localise.json`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct LocaliseSummary {
-    /// The map file, or the recorded topic.
-    pub map: String,
-    pub map_points: usize,
-    pub map_voxels: usize,
-    pub voxel_size_m: f64,
-    /// The plan whose target voxels are the structure, if one was given.
-    pub plan: Option<PathBuf>,
-    pub max_range_m: f64,
-    pub link_distance_m: f64,
-    pub detections: u64,
-    pub outcomes: Outcomes,
-    /// Detections placed by their traced centre line (the rest by their box).
-    pub traced: u64,
-    /// Share of cast detections (pose and intrinsics known) whose rays met the map.
-    pub hit_share: f64,
-    pub defects: u64,
-    pub seconds: f64,
-    pub warnings: Vec<String>,
 }
 
 /// Below this share of rays meeting the map, the map is not the flight's.
@@ -120,7 +98,7 @@ pub fn localise(
     options.check()?;
     let start = Instant::now();
     let flight = Flight::load(&options.run)?;
-    let detections = detect::read_detections(&options.run)?;
+    let detections = read_detections(&RunDir::open(&options.run, Stage::Detect)?)?;
     // A failed rerun must not leave the last run's results looking current.
     flight.run.remove(files::SUMMARY)?;
     let plan = options
@@ -128,23 +106,10 @@ pub fn localise(
         .as_deref()
         .map(InspectionPlan::load)
         .transpose()?;
-    let grid = plan.as_ref().map_or(
-        VoxelGrid::new(DEFAULT_RESOLUTION, Point3::origin()),
-        InspectionPlan::grid,
-    );
-    let (cloud, map_name) = match &options.map {
-        Some(path) => (PointCloud::load(path)?, path.display().to_string()),
-        None => {
-            let cloud = flight.recorded_map()?.ok_or(LocaliseError::NoMap)?;
-            let topic = flight.summary.map.as_ref().map(|m| m.topic.clone());
-            (cloud, format!("recorded {}", topic.unwrap_or_default()))
-        }
-    };
-    let map = SlamMap::on_grid(cloud, grid).ok_or_else(|| {
-        LocaliseError::Option(format!(
-            "the map ({map_name}) has no points; pass a map with --map"
-        ))
-    })?;
+    let grid = plan
+        .as_ref()
+        .map_or_else(VoxelGrid::default, InspectionPlan::grid);
+    let (map, map_name) = ingest::load_map(&flight, options.map.as_deref(), grid)?;
     let structure: Option<HashSet<VoxelIndex>> = plan
         .as_ref()
         .map(|p| p.target_voxels.iter().copied().collect());
@@ -153,64 +118,19 @@ pub fn localise(
         structure: structure.as_ref(),
         max_range: options.max_range_m,
     };
+    let recording = Recording::reopen(&flight)?;
 
-    let frames: HashMap<u32, &Frame> = flight.frames.iter().map(|f| (f.index, f)).collect();
-    let mut by_frame: BTreeMap<u32, Vec<FrameDetection>> = BTreeMap::new();
-    for d in detections {
-        if !frames.contains_key(&d.frame) {
-            return Err(LocaliseError::Option(format!(
-                "detections.parquet names frame {} which the ingest has no record of; rerun `postflight detect` after `postflight ingest`",
-                d.frame
-            )));
-        }
-        by_frame.entry(d.frame).or_default().push(d);
-    }
-    let total = by_frame.values().map(Vec::len).sum::<usize>() as u64;
-    let groups: Vec<(u32, Vec<FrameDetection>)> = by_frame.into_iter().collect();
-    let mut observations = Vec::new();
-    let mut warnings = Vec::new();
-    progress(0, total);
-    for chunk in groups.chunks(CHUNK) {
-        let placed: Vec<(Vec<Observation>, Option<String>)> = chunk
-            .par_iter()
-            .map(|(index, dets)| place_frame(&flight, frames[index], dets, &scene))
-            .collect();
-        for (obs, warning) in placed {
-            observations.extend(obs);
-            warnings.extend(warning);
-        }
-        progress(observations.len() as u64, total);
-    }
-
-    let mut outcomes = Outcomes::default();
-    for o in &observations {
-        *match o.outcome {
-            Outcome::Placed => &mut outcomes.placed,
-            Outcome::NoPose => &mut outcomes.no_pose,
-            Outcome::NoIntrinsics => &mut outcomes.no_intrinsics,
-            Outcome::NoSurface => &mut outcomes.no_surface,
-            Outcome::Obstacle => &mut outcomes.obstacle,
-        } += 1;
-    }
+    let by_frame = detections_by_frame(&flight, detections)?;
+    let (observations, mut warnings) = place(&flight, &recording, by_frame, &scene, progress);
+    let outcomes = count_outcomes(&observations);
+    let total = observations.len() as u64;
     let cast = (outcomes.placed + outcomes.no_surface + outcomes.obstacle) as usize;
     let hit = (outcomes.placed + outcomes.obstacle) as usize;
     if outcomes.no_pose > 0 && outcomes.no_pose == total {
         return Err(LocaliseError::NoPoses { detections: total });
     }
     check_overlap(&flight, &map, options.max_range_m, hit, cast)?;
-    if outcomes.no_pose > 0 {
-        warnings.push(format!(
-            "{} detections are in frames without a pose and were not placed (see outcome = no_pose in {})",
-            outcomes.no_pose,
-            files::OBSERVATIONS
-        ));
-    }
-    if outcomes.no_intrinsics > 0 {
-        warnings.push(format!(
-            "{} detections are from a camera without intrinsics; give them with `postflight ingest --camera-info`",
-            outcomes.no_intrinsics
-        ));
-    }
+    warnings.extend(unplaced_warnings(&outcomes));
 
     let candidates = fuse(&observations, &options.fusion);
     let traced = observations.iter().filter(|o| o.traced_px > 0).count() as u64;
@@ -234,13 +154,94 @@ pub fn localise(
         seconds: start.elapsed().as_secs_f64(),
         warnings,
     };
-    write_outputs(&flight, &frames, &observations, &candidates, &summary)?;
+    write_outputs(&flight, &recording, &observations, &candidates, &summary)?;
     Ok(summary)
+}
+
+/// The detections grouped by frame, in frame order; an error for a frame
+/// the ingest does not know.
+fn detections_by_frame(
+    flight: &Flight,
+    detections: Vec<FrameDetection>,
+) -> Result<Vec<(u32, Vec<FrameDetection>)>, LocaliseError> {
+    let mut by_frame: BTreeMap<u32, Vec<FrameDetection>> = BTreeMap::new();
+    for d in detections {
+        if flight.frame(d.frame).is_none() {
+            return Err(LocaliseError::UnknownFrame { frame: d.frame });
+        }
+        by_frame.entry(d.frame).or_default().push(d);
+    }
+    Ok(by_frame.into_iter().collect())
+}
+
+/// Every detection placed (or why not), frame by frame in parallel; with a
+/// warning for each frame whose image could not be decoded.
+fn place(
+    flight: &Flight,
+    recording: &Recording,
+    by_frame: Vec<(u32, Vec<FrameDetection>)>,
+    scene: &Scene,
+    progress: &mut dyn FnMut(u64, u64),
+) -> (Vec<Observation>, Vec<String>) {
+    let total = by_frame.iter().map(|(_, d)| d.len()).sum::<usize>() as u64;
+    let mut observations = Vec::new();
+    let mut warnings = Vec::new();
+    progress(0, total);
+    for chunk in by_frame.chunks(CHUNK) {
+        let placed: Vec<(Vec<Observation>, Option<String>)> = chunk
+            .par_iter()
+            .map(|(index, dets)| {
+                let frame = flight.frame(*index).expect("frames were checked");
+                place_frame(flight, recording, frame, dets, scene)
+            })
+            .collect();
+        for (obs, warning) in placed {
+            observations.extend(obs);
+            warnings.extend(warning);
+        }
+        progress(observations.len() as u64, total);
+    }
+    (observations, warnings)
+}
+
+fn count_outcomes(observations: &[Observation]) -> Outcomes {
+    let mut outcomes = Outcomes::default();
+    for o in observations {
+        *match o.outcome {
+            Outcome::Placed => &mut outcomes.placed,
+            Outcome::NoPose => &mut outcomes.no_pose,
+            Outcome::NoIntrinsics => &mut outcomes.no_intrinsics,
+            Outcome::NoSurface => &mut outcomes.no_surface,
+            Outcome::Obstacle => &mut outcomes.obstacle,
+        } += 1;
+    }
+    outcomes
+}
+
+/// What the summary says of detections that could not be placed.
+fn unplaced_warnings(outcomes: &Outcomes) -> Vec<String> {
+    let mut warnings = Vec::new();
+    if outcomes.no_pose > 0 {
+        warnings.push(format!(
+            "{} detections are in frames without a pose and were not placed (see outcome = no_pose in {})",
+            outcomes.no_pose,
+            files::OBSERVATIONS
+        ));
+    }
+    if outcomes.no_intrinsics > 0 {
+        warnings.push(format!(
+            "{} detections are from a camera without intrinsics; give them to `postflight ingest` as {}",
+            outcomes.no_intrinsics,
+            ingest::stage::keys::CAMERA_INFO_FILE
+        ));
+    }
+    warnings
 }
 
 /// Place one frame's detections, decoding its image once for their traces.
 fn place_frame(
     flight: &Flight,
+    recording: &Recording,
     frame: &Frame,
     detections: &[FrameDetection],
     scene: &Scene,
@@ -263,7 +264,7 @@ fn place_frame(
     let Some(k) = flight.camera(frame).and_then(|c| c.intrinsics.as_ref()) else {
         return (unplaced(Outcome::NoIntrinsics), None);
     };
-    let (gray, warning) = match flight.image(frame) {
+    let (gray, warning) = match recording.image(frame) {
         Ok(img) => (Some(img.to_luma8()), None),
         Err(e) => (
             None,
@@ -347,48 +348,46 @@ fn check_overlap(
 
 fn write_outputs(
     flight: &Flight,
-    frames: &HashMap<u32, &Frame>,
+    recording: &Recording,
     observations: &[Observation],
     candidates: &[DefectCandidate],
     summary: &LocaliseSummary,
 ) -> Result<(), LocaliseError> {
     let run = &flight.run;
-    let write_error = |name: &str| {
-        let path = run.file(name);
-        move |e: String| LocaliseError::Write { path, why: e }
-    };
     let crops = run.file(files::CROPS);
+    let write_error = |source| postflight_core::Error::Write {
+        path: crops.clone(),
+        source,
+    };
     if crops.exists() {
-        std::fs::remove_dir_all(&crops).map_err(|e| write_error(files::CROPS)(e.to_string()))?;
+        std::fs::remove_dir_all(&crops).map_err(write_error)?;
     }
-    std::fs::create_dir_all(&crops).map_err(|e| write_error(files::CROPS)(e.to_string()))?;
-    let records: Vec<DefectRecord> = candidates
+    std::fs::create_dir_all(&crops).map_err(write_error)?;
+    let defects = candidates
         .par_iter()
         .map(|c| {
             let name = format!("{}/{}.jpg", files::CROPS, c.id);
             let best = &observations[c.best];
-            let frame = frames[&best.detection.frame];
-            let written =
-                write_crop(flight, frame, best, &run.file(&name)).map_err(write_error(&name))?;
-            Ok(DefectRecord::new(c, observations, written.then_some(name)))
+            let frame = flight
+                .frame(best.detection.frame)
+                .expect("detections are of known frames");
+            let written = write_crop(recording, frame, best, &run.file(&name))?;
+            Ok(defect_record(c, observations, written.then_some(name)))
         })
-        .collect::<Result<_, LocaliseError>>()?;
+        .collect::<Result<Vec<_>, postflight_core::Error>>()?;
     let mut defect_of: Vec<Option<String>> = vec![None; observations.len()];
     for c in candidates {
         for i in &c.observations {
             defect_of[*i] = Some(c.id.clone());
         }
     }
-    let mut table = observations_table(observations, &defect_of)
-        .map_err(|e| write_error(files::OBSERVATIONS)(e.to_string()))?;
-    run.write_table(files::OBSERVATIONS, &mut table)?;
-    let mut table =
-        defects_table(&records).map_err(|e| write_error(files::DEFECTS)(e.to_string()))?;
-    run.write_table(files::DEFECTS, &mut table)?;
-    run.write_json(
-        files::DEFECTS_JSON,
-        &serde_json::json!({ "defects": records }),
-    )?;
+    let records: Vec<_> = observations
+        .iter()
+        .zip(defect_of)
+        .map(|(o, defect)| observation_record(o, defect))
+        .collect();
+    outputs::write_observations(run, &records)?;
+    outputs::write_defects(run, &defects)?;
     run.write_json(files::SUMMARY, summary)?;
     Ok(())
 }

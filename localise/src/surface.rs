@@ -3,8 +3,8 @@
 //! to the map points there (KD-tree neighbours, least squares). A voxel is
 //! half a metre; the plane puts the hit within the map's own noise.
 
-use ingest::map::{SlamMap, VoxelIndex};
 use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
+use postflight_core::map::{FaceSide, SlamMap, VoxelIndex};
 
 /// A ray's hit on the mapped surface.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -40,25 +40,19 @@ impl SurfaceHit {
         }
     }
 
-    /// The voxel face the surface lies on: the axis the normal is closest
+    /// The voxel side the surface lies on: the axis the normal is closest
     /// to, with its sign (`+x`, `-z`, ...).
-    pub fn face(&self) -> &'static str {
-        face_name(&self.normal)
+    pub fn face(&self) -> FaceSide {
+        FaceSide::nearest(&self.normal)
     }
 
-    /// Ground sampling distance of a camera with focal length `f_px` pixels:
-    /// the pixel's footprint on the surface along its most stretched
-    /// direction, millimetres.
-    pub fn gsd_mm(&self, f_px: f64) -> f64 {
+    /// Oblique ground sampling distance of a camera with focal length
+    /// `f_px` pixels: the pixel's footprint on the surface along its most
+    /// stretched direction, millimetres (the View model's GSD is the
+    /// fronto-parallel one, `range / f`).
+    pub fn oblique_gsd_mm(&self, f_px: f64) -> f64 {
         1000.0 * self.range / f_px / self.incidence.cos().max(0.05)
     }
-}
-
-/// `+x`, `-y`, ...: the axis-aligned face whose outward normal is closest to `n`.
-pub fn face_name(n: &Vector3<f64>) -> &'static str {
-    let axis = n.iamax();
-    const NAMES: [[&str; 3]; 2] = [["+x", "+y", "+z"], ["-x", "-y", "-z"]];
-    NAMES[usize::from(n[axis] < 0.0)][axis]
 }
 
 /// Map points closer than this to a ray are where it meets the surface, metres.
@@ -304,7 +298,7 @@ fn fit_plane(points: &[Point3<f64>]) -> Option<(Point3<f64>, Vector3<f64>)> {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use ingest::map::PointCloud;
+    use postflight_core::map::PointCloud;
 
     /// A wall in the plane x = 3 (points 5 cm apart, with 1 cm noise) and a
     /// post in front of part of it.
@@ -363,6 +357,6 @@ pub(crate) mod tests {
         assert!(cast(&map, &origin, &Vector3::x(), 2.0).is_none());
         // GSD: 3 m at 1000 px focal length, face on, is 3 mm per pixel.
         let hit = cast(&map, &origin, &Vector3::x(), 20.0).unwrap();
-        assert!((hit.gsd_mm(1000.0) - 3.0).abs() < 0.03);
+        assert!((hit.oblique_gsd_mm(1000.0) - 3.0).abs() < 0.03);
     }
 }

@@ -9,6 +9,8 @@
 use image::GrayImage;
 use nalgebra::{Point2, SVector};
 
+use crate::union_find::UnionFind;
+
 /// A crack's centre line in one image.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CrackTrace {
@@ -430,10 +432,9 @@ fn bridge_gaps(pixels: &[Point2<f64>], edges: &[(u32, u32)]) -> Vec<(u32, u32)> 
         neighbours[a as usize].push(b);
         neighbours[b as usize].push(a);
     }
-    let mut parent: Vec<u32> = (0..n as u32).collect();
+    let mut pieces = UnionFind::new(n);
     for &(a, b) in edges {
-        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-        parent[ra as usize] = rb;
+        pieces.join(a as usize, b as usize);
     }
     // Each end with the direction its piece runs out of it.
     let ends: Vec<(u32, nalgebra::Vector2<f64>)> = (0..n)
@@ -468,9 +469,7 @@ fn bridge_gaps(pixels: &[Point2<f64>], edges: &[(u32, u32)]) -> Vec<(u32, u32)> 
     let mut used = vec![false; n];
     let mut bridges = Vec::new();
     for (_, a, b) in gaps {
-        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-        if ra != rb && !used[a as usize] && !used[b as usize] {
-            parent[ra as usize] = rb;
+        if !used[a as usize] && !used[b as usize] && pieces.join(a as usize, b as usize) {
             used[a as usize] = true;
             used[b as usize] = true;
             bridges.push((a, b));
@@ -479,19 +478,10 @@ fn bridge_gaps(pixels: &[Point2<f64>], edges: &[(u32, u32)]) -> Vec<(u32, u32)> 
     bridges
 }
 
-/// Union-find: the representative of `i`'s set (halving paths on the way).
-fn root(parent: &mut [u32], mut i: u32) -> u32 {
-    while parent[i as usize] != i {
-        parent[i as usize] = parent[parent[i as usize] as usize];
-        i = parent[i as usize];
-    }
-    i
-}
-
 /// Kruskal over the 8-neighbour grid graph: straight steps (length 1)
 /// before diagonal ones (length sqrt 2), so a staircase is not counted twice.
 fn spanning_forest(index: &[Option<u32>], w: usize, h: usize, n: usize) -> Vec<(u32, u32)> {
-    let mut parent: Vec<u32> = (0..n as u32).collect();
+    let mut pieces = UnionFind::new(n);
     let mut edges = Vec::new();
     for steps in [[(1, 0), (0, 1)], [(1, 1), (-1, 1)]] {
         for y in 0..h {
@@ -505,9 +495,7 @@ fn spanning_forest(index: &[Option<u32>], w: usize, h: usize, n: usize) -> Vec<(
                     let Some(b) = index[ny as usize * w + nx as usize] else {
                         continue;
                     };
-                    let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-                    if ra != rb {
-                        parent[ra as usize] = rb;
+                    if pieces.join(a as usize, b as usize) {
                         edges.push((a, b));
                     }
                 }

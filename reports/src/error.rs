@@ -5,9 +5,9 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
     #[error(transparent)]
-    Run(#[from] ingest::IngestError),
-    #[error("{}: {why}", path.display())]
-    Table { path: PathBuf, why: String },
+    Run(#[from] postflight_core::Error),
+    #[error(transparent)]
+    Flight(#[from] ingest::IngestError),
     #[error("cannot write the Rerun recording {}: {why}", path.display())]
     Recording { path: PathBuf, why: String },
 }

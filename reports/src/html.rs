@@ -6,10 +6,11 @@
 use std::fmt::Write;
 
 use base64::Engine;
-use localise::DefectRecord;
+use postflight_core::outputs::localise::DefectRecord;
+use postflight_core::outputs::replan::Unplannable;
+use postflight_core::outputs::report::RunSummary;
 
 use crate::results::{RunResults, VoxelStatus, review_priority};
-use crate::summary::RunSummary;
 use crate::svg::{bar_chart, escape};
 use crate::views::{Overlay, Side, colour, view};
 
@@ -269,10 +270,10 @@ fn defects_section(h: &mut String, r: &RunResults) {
             x = p[0],
             y = p[1],
             z = p[2],
-            face = escape(&d.face),
+            face = d.face,
             views = d.frames,
             best = d.best.frame,
-            gsd = d.best.gsd_mm,
+            gsd = d.best.oblique_gsd_mm,
             range = d.best.range_m,
             conf = d.confidence,
             prio = review_priority(d),
@@ -327,8 +328,8 @@ fn replan_section(h: &mut String, r: &RunResults) {
             h,
             "<p class=\"warn\">{} gap voxels cannot be planned: {} with no viewpoint that keeps the clearance, {} unreachable from home.</p>",
             p.uninspectable_gaps.len(),
-            count(coverage::Unplannable::NoClearViewpoint),
-            count(coverage::Unplannable::Unreachable)
+            count(Unplannable::NoClearViewpoint),
+            count(Unplannable::Unreachable)
         );
     }
     let overlay = Overlay {

@@ -7,8 +7,11 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use ingest::map::PointCloud;
+use ingest::Recording;
 use nalgebra::Isometry3;
+use postflight_core::detection::FrameDetection;
+use postflight_core::outputs::detect::read_detections;
+use postflight_core::{Camera, Frame};
 
 use crate::error::ReportError;
 use crate::results::{RunResults, VoxelStatus};
@@ -23,35 +26,75 @@ pub fn write_recording(
     path: &Path,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<(), ReportError> {
-    let rerun_error = |e: &dyn std::fmt::Display| ReportError::Recording {
-        path: path.to_owned(),
-        why: e.to_string(),
-    };
-    let flight = &results.flight;
     let rec = rerun::RecordingStreamBuilder::new("postflight")
         .save(path)
-        .map_err(|e| rerun_error(&e))?;
-    let log = |entity: &str, what: &dyn rerun::AsComponents| {
-        rec.log_static(entity, what).map_err(|e| rerun_error(&e))
-    };
-    log("world", &rerun::ViewCoordinates::RIGHT_HAND_Z_UP())?;
+        .map_err(|e| rerun_error(path, &e))?;
+    let out = Out { rec: &rec, path };
+    out.log("world", &rerun::ViewCoordinates::RIGHT_HAND_Z_UP())?;
+    log_map(&out, results)?;
+    log_coverage(&out, results)?;
+    log_trajectory(&out, results)?;
+    log_defects(&out, results)?;
+    log_follow_up(&out, results)?;
+    log_frames(&out, results, progress)?;
+    rec.flush_blocking().map_err(|e| rerun_error(path, &e))?;
+    drop(rec);
+    Ok(())
+}
 
-    if let Some(cloud) = map_cloud(results, flight)? {
-        let step = cloud.points.len().div_ceil(MAX_MAP_POINTS).max(1);
-        let points: Vec<[f32; 3]> = cloud
-            .points
-            .iter()
-            .step_by(step)
-            .map(|p| f32x3(p.coords.into()))
-            .collect();
-        log(
-            "world/map",
-            &rerun::Points3D::new(points)
-                .with_colors([rerun::Color::from_rgb(150, 150, 150)])
-                .with_radii([rerun::Radius::new_ui_points(1.0)]),
-        )?;
+/// The recording being written, and where (for errors).
+struct Out<'a> {
+    rec: &'a rerun::RecordingStream,
+    path: &'a Path,
+}
+
+impl Out<'_> {
+    /// Log for the whole recording.
+    fn log(&self, entity: &str, what: &dyn rerun::AsComponents) -> Result<(), ReportError> {
+        self.rec
+            .log_static(entity, what)
+            .map_err(|e| rerun_error(self.path, &e))
     }
 
+    /// Log at the current time.
+    fn log_now(&self, entity: &str, what: &dyn rerun::AsComponents) -> Result<(), ReportError> {
+        self.rec
+            .log(entity, what)
+            .map_err(|e| rerun_error(self.path, &e))
+    }
+}
+
+fn rerun_error(path: &Path, e: &dyn std::fmt::Display) -> ReportError {
+    ReportError::Recording {
+        path: path.to_owned(),
+        why: e.to_string(),
+    }
+}
+
+/// The map coverage judged against (its file, else the one in the flight),
+/// thinned to [`MAX_MAP_POINTS`].
+fn log_map(out: &Out, results: &RunResults) -> Result<(), ReportError> {
+    let given = results.coverage.as_ref().and_then(|c| c.map.as_deref());
+    let Some((cloud, _)) = ingest::map_cloud(&results.flight, given)? else {
+        return Ok(());
+    };
+    let step = cloud.points.len().div_ceil(MAX_MAP_POINTS).max(1);
+    let points: Vec<[f32; 3]> = cloud
+        .points
+        .iter()
+        .step_by(step)
+        .map(|p| f32x3(p.coords.into()))
+        .collect();
+    out.log(
+        "world/map",
+        &rerun::Points3D::new(points)
+            .with_colors([rerun::Color::from_rgb(150, 150, 150)])
+            .with_radii([rerun::Radius::new_ui_points(1.0)]),
+    )
+}
+
+/// The target voxels, one entity per coverage status.
+fn log_coverage(out: &Out, results: &RunResults) -> Result<(), ReportError> {
     let resolution = results.coverage.as_ref().map_or(0.5, |c| c.resolution_m);
     for status in VoxelStatus::ALL {
         let centres: Vec<[f32; 3]> = results
@@ -64,7 +107,7 @@ pub fn write_recording(
             continue;
         }
         let half = (resolution / 2.0 * 0.95) as f32;
-        log(
+        out.log(
             &format!("world/coverage/{}", status.key()),
             &rerun::Boxes3D::from_centers_and_half_sizes(
                 centres.clone(),
@@ -74,70 +117,92 @@ pub fn write_recording(
             .with_fill_mode(rerun::FillMode::Solid),
         )?;
     }
+    Ok(())
+}
 
-    let trajectory: Vec<[f32; 3]> = flight
+fn log_trajectory(out: &Out, results: &RunResults) -> Result<(), ReportError> {
+    let trajectory: Vec<[f32; 3]> = results
+        .flight
         .trajectory
         .poses()
         .iter()
         .map(|p| f32x3(p.pose.translation.vector.into()))
         .collect();
-    if trajectory.len() > 1 {
-        log(
-            "world/trajectory",
-            &rerun::LineStrips3D::new([trajectory])
-                .with_colors([rerun::Color::from_rgb(240, 240, 240)]),
-        )?;
+    if trajectory.len() < 2 {
+        return Ok(());
     }
+    out.log(
+        "world/trajectory",
+        &rerun::LineStrips3D::new([trajectory])
+            .with_colors([rerun::Color::from_rgb(240, 240, 240)]),
+    )
+}
 
+/// The defect candidates, labelled in review order.
+fn log_defects(out: &Out, results: &RunResults) -> Result<(), ReportError> {
     let review = results.defects_for_review();
-    if !review.is_empty() {
-        log(
-            "world/defects",
-            &rerun::Points3D::new(review.iter().map(|d| f32x3(d.position)))
-                .with_radii([0.12])
-                .with_colors([rerun::Color::from_rgb(17, 24, 39)])
-                .with_labels(review.iter().enumerate().map(|(i, d)| {
-                    let length = d.length_m.map_or(String::new(), |l| format!(", {l:.2} m"));
-                    format!("#{} {}{length}", i + 1, d.id)
-                })),
-        )?;
+    if review.is_empty() {
+        return Ok(());
     }
+    out.log(
+        "world/defects",
+        &rerun::Points3D::new(review.iter().map(|d| f32x3(d.position)))
+            .with_radii([0.12])
+            .with_colors([rerun::Color::from_rgb(17, 24, 39)])
+            .with_labels(review.iter().enumerate().map(|(i, d)| {
+                let length = d.length_m.map_or(String::new(), |l| format!(", {l:.2} m"));
+                format!("#{} {}{length}", i + 1, d.id)
+            })),
+    )
+}
 
-    if let Some(plan) = &results.replan {
-        let strips: Vec<Vec<[f32; 3]>> = plan
-            .sorties
-            .iter()
-            .map(|s| s.path.iter().map(|p| f32x3(*p)).collect())
-            .collect();
-        let waypoints: Vec<[f32; 3]> = plan
-            .sorties
-            .iter()
-            .flat_map(|s| s.waypoints.iter().map(|w| f32x3([w.x, w.y, w.z])))
-            .collect();
-        if !strips.is_empty() {
-            log(
-                "world/replan/path",
-                &rerun::LineStrips3D::new(strips).with_colors([rgb("#1f4fd1")]),
-            )?;
-            log(
-                "world/replan/waypoints",
-                &rerun::Points3D::new(waypoints)
-                    .with_colors([rgb("#1f4fd1")])
-                    .with_radii([0.08]),
-            )?;
-            log(
-                "world/replan/home",
-                &rerun::Points3D::new([f32x3(plan.home)])
-                    .with_radii([0.25])
-                    .with_labels(["home"]),
-            )?;
-        }
+/// The follow-up flight: its paths, waypoints and home.
+fn log_follow_up(out: &Out, results: &RunResults) -> Result<(), ReportError> {
+    let Some(plan) = &results.replan else {
+        return Ok(());
+    };
+    let strips: Vec<Vec<[f32; 3]>> = plan
+        .sorties
+        .iter()
+        .map(|s| s.path.iter().map(|p| f32x3(*p)).collect())
+        .collect();
+    if strips.is_empty() {
+        return Ok(());
     }
+    let waypoints: Vec<[f32; 3]> = plan
+        .sorties
+        .iter()
+        .flat_map(|s| s.waypoints.iter().map(|w| f32x3([w.x, w.y, w.z])))
+        .collect();
+    out.log(
+        "world/replan/path",
+        &rerun::LineStrips3D::new(strips).with_colors([rgb("#1f4fd1")]),
+    )?;
+    out.log(
+        "world/replan/waypoints",
+        &rerun::Points3D::new(waypoints)
+            .with_colors([rgb("#1f4fd1")])
+            .with_radii([0.08]),
+    )?;
+    out.log(
+        "world/replan/home",
+        &rerun::Points3D::new([f32x3(plan.home)])
+            .with_radii([0.25])
+            .with_labels(["home"]),
+    )
+}
 
-    // Detections by frame index.
-    let mut boxes: BTreeMap<u32, Vec<detect::FrameDetection>> = BTreeMap::new();
+/// Every posed frame on the `time` and `frame` timelines: its camera's
+/// pose and pinhole, its image, and the detector's boxes.
+fn log_frames(
+    out: &Out,
+    results: &RunResults,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<(), ReportError> {
+    let flight = &results.flight;
+    let mut boxes: BTreeMap<u32, Vec<FrameDetection>> = BTreeMap::new();
     if results.detect.is_some() {
-        for d in detect::read_detections(results.dir().path()).map_err(|e| rerun_error(&e))? {
+        for d in read_detections(results.dir())? {
             boxes.entry(d.frame).or_default().push(d);
         }
     }
@@ -146,97 +211,99 @@ pub fn write_recording(
         .as_ref()
         .map(|d| d.classes.clone())
         .unwrap_or_default();
+    let recording = Recording::reopen(flight)?;
     let total = flight.frames.len() as u64;
     for (done, frame) in flight.frames.iter().enumerate() {
         progress(done as u64, total);
         let (Some(pose), Some(camera)) = (frame.camera_pose, flight.camera(frame)) else {
             continue;
         };
+        out.rec
+            .set_timestamp_nanos_since_epoch("time", frame.time_ns);
+        out.rec.set_time_sequence("frame", i64::from(frame.index));
         let entity = format!("world/cameras/{}", entity_name(&camera.topic));
+        out.log_now(&entity, &transform(&pose))?;
         let image_entity = format!("{entity}/image");
-        rec.set_timestamp_nanos_since_epoch("time", frame.time_ns);
-        rec.set_time_sequence("frame", i64::from(frame.index));
-        let timed = |path: &str, what: &dyn rerun::AsComponents| {
-            rec.log(path, what).map_err(|e| rerun_error(&e))
-        };
-        timed(&entity, &transform(&pose))?;
-        if let Some(k) = &camera.intrinsics {
-            timed(
-                &image_entity,
-                &rerun::Pinhole::from_focal_length_and_resolution(
-                    [k.fx as f32, k.fy as f32],
-                    [k.width as f32, k.height as f32],
-                )
-                .with_principal_point([k.cx as f32, k.cy as f32])
-                .with_image_plane_distance(1.0),
-            )?;
-        }
-        match flight.compressed_image(frame) {
-            Ok(Some(bytes)) => {
-                let media = if frame.encoding == "png" {
-                    rerun::MediaType::png()
-                } else {
-                    rerun::MediaType::jpeg()
-                };
-                timed(
-                    &image_entity,
-                    &rerun::EncodedImage::new(bytes).with_media_type(media),
-                )?;
-            }
-            Ok(None) => {
-                if let Ok(image) = flight.image(frame) {
-                    let rgb = image.to_rgb8();
-                    let (w, h) = rgb.dimensions();
-                    timed(
-                        &image_entity,
-                        &rerun::Image::from_rgb24(rgb.into_raw(), [w, h]),
-                    )?;
-                }
-            }
-            // An unreadable image is already reported by ingest and detect.
-            Err(_) => {}
-        }
+        log_image(out, &recording, frame, camera, &image_entity)?;
         let found = boxes
             .get(&frame.index)
             .map(Vec::as_slice)
             .unwrap_or_default();
-        timed(
-            &format!("{image_entity}/detections"),
-            &rerun::Boxes2D::from_mins_and_sizes(
-                found
-                    .iter()
-                    .map(|d| [d.detection.bbox.x0, d.detection.bbox.y0]),
-                found.iter().map(|d| {
-                    [
-                        d.detection.bbox.x1 - d.detection.bbox.x0,
-                        d.detection.bbox.y1 - d.detection.bbox.y0,
-                    ]
-                }),
-            )
-            .with_labels(found.iter().map(|d| {
-                let class = classes
-                    .get(d.detection.class as usize)
-                    .map_or("crack", String::as_str);
-                format!("{class} {:.2}", d.detection.score)
-            }))
-            .with_colors([rgb("#d7301f")]),
-        )?;
+        log_boxes(out, found, &classes, &format!("{image_entity}/detections"))?;
     }
     progress(total, total);
-    rec.flush_blocking().map_err(|e| rerun_error(&e))?;
-    drop(rec);
     Ok(())
 }
 
-/// The map coverage judged against: its file, else the one in the flight.
-fn map_cloud(
-    results: &RunResults,
-    flight: &ingest::Flight,
-) -> Result<Option<PointCloud>, ReportError> {
-    if let Some(path) = results.coverage.as_ref().and_then(|c| c.map.as_ref()) {
-        return Ok(Some(PointCloud::load(path)?));
+/// A frame's pinhole and image (passed on compressed when it was recorded so).
+fn log_image(
+    out: &Out,
+    recording: &Recording,
+    frame: &Frame,
+    camera: &Camera,
+    entity: &str,
+) -> Result<(), ReportError> {
+    if let Some(k) = &camera.intrinsics {
+        out.log_now(
+            entity,
+            &rerun::Pinhole::from_focal_length_and_resolution(
+                [k.fx as f32, k.fy as f32],
+                [k.width as f32, k.height as f32],
+            )
+            .with_principal_point([k.cx as f32, k.cy as f32])
+            .with_image_plane_distance(1.0),
+        )?;
     }
-    Ok(flight.recorded_map()?)
+    match recording.compressed_image(frame) {
+        Ok(Some(bytes)) => {
+            let media = if frame.encoding == "png" {
+                rerun::MediaType::png()
+            } else {
+                rerun::MediaType::jpeg()
+            };
+            out.log_now(
+                entity,
+                &rerun::EncodedImage::new(bytes).with_media_type(media),
+            )
+        }
+        Ok(None) => match recording.image(frame) {
+            Ok(image) => {
+                let rgb = image.to_rgb8();
+                let (w, h) = rgb.dimensions();
+                out.log_now(entity, &rerun::Image::from_rgb24(rgb.into_raw(), [w, h]))
+            }
+            Err(_) => Ok(()),
+        },
+        // An unreadable image is already reported by ingest and detect.
+        Err(_) => Ok(()),
+    }
+}
+
+/// A frame's detections, labelled with class and score.
+fn log_boxes(
+    out: &Out,
+    found: &[FrameDetection],
+    classes: &[String],
+    entity: &str,
+) -> Result<(), ReportError> {
+    out.log_now(
+        entity,
+        &rerun::Boxes2D::from_mins_and_sizes(
+            found
+                .iter()
+                .map(|d| [d.detection.bbox.x0, d.detection.bbox.y0]),
+            found
+                .iter()
+                .map(|d| [d.detection.bbox.width(), d.detection.bbox.height()]),
+        )
+        .with_labels(found.iter().map(|d| {
+            let class = classes
+                .get(d.detection.class as usize)
+                .map_or("crack", String::as_str);
+            format!("{class} {:.2}", d.detection.score)
+        }))
+        .with_colors([rgb("#d7301f")]),
+    )
 }
 
 fn transform(pose: &Isometry3<f64>) -> rerun::Transform3D {

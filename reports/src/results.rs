@@ -4,12 +4,11 @@
 
 use std::path::{Path, PathBuf};
 
-use coverage::{CoverageSummary, ReplanSummary};
-use detect::DetectSummary;
-use ingest::{Flight, IngestError, RunDir, RunLog};
-use localise::{DefectRecord, LocaliseSummary};
-use polars::prelude::*;
-use serde::Deserialize;
+use postflight_core::outputs::coverage::{self, CoverageSummary, VoxelRecord};
+use postflight_core::outputs::detect::DetectSummary;
+use postflight_core::outputs::localise::{DefectRecord, LocaliseSummary, read_defects};
+use postflight_core::outputs::replan::ReplanSummary;
+use postflight_core::{Flight, RunDir, RunLog, Stage};
 
 use crate::error::ReportError;
 
@@ -53,13 +52,31 @@ impl VoxelStatus {
     }
 }
 
-/// One target voxel of `coverage.parquet`.
+/// One target voxel of `coverage.parquet`, as the reports colour it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TargetVoxel {
     pub index: [i32; 3],
     /// Centre, world frame, metres.
     pub centre: [f64; 3],
     pub status: VoxelStatus,
+}
+
+impl TargetVoxel {
+    pub fn of(r: &VoxelRecord) -> Self {
+        Self {
+            index: r.voxel.0,
+            centre: r.centre,
+            status: if r.inspected {
+                VoxelStatus::Inspected
+            } else if r.uninspectable {
+                VoxelStatus::Uninspectable
+            } else if r.planned == Some(true) {
+                VoxelStatus::PlannedMissed
+            } else {
+                VoxelStatus::NotPlanned
+            },
+        }
+    }
 }
 
 /// Everything the stages of one run wrote.
@@ -77,44 +94,32 @@ pub struct RunResults {
     pub log: RunLog,
 }
 
-#[derive(Deserialize)]
-struct DefectsFile {
-    defects: Vec<DefectRecord>,
-}
-
 impl RunResults {
     /// Read the run directory at `path` (ingest must have completed).
     pub fn read(path: &Path) -> Result<Self, ReportError> {
         let flight = Flight::load(path)?;
         let dir = &flight.run;
         // A stage's other files count only once its summary says it completed.
-        let localise: Option<LocaliseSummary> =
-            optional_json(dir, localise::stage::files::SUMMARY)?;
+        let localise: Option<LocaliseSummary> = dir.summary(Stage::Localise)?;
         let defects = match localise {
-            Some(_) => {
-                dir.read_json::<DefectsFile>(localise::stage::files::DEFECTS_JSON)?
-                    .defects
-            }
+            Some(_) => read_defects(dir)?,
             None => Vec::new(),
         };
-        let coverage: Option<CoverageSummary> =
-            optional_json(dir, coverage::stage::files::SUMMARY)?;
-        let voxels = if coverage.is_some() {
-            let table = dir.read_table(coverage::stage::files::TABLE)?;
-            target_voxels(&table).map_err(|why| ReportError::Table {
-                path: dir.file(coverage::stage::files::TABLE),
-                why: format!("{why}; rerun `postflight coverage`"),
-            })?
-        } else {
-            Vec::new()
+        let coverage: Option<CoverageSummary> = dir.summary(Stage::Coverage)?;
+        let voxels = match coverage {
+            Some(_) => coverage::read_coverage(dir, coverage::files::TABLE)?
+                .iter()
+                .map(TargetVoxel::of)
+                .collect(),
+            None => Vec::new(),
         };
         Ok(Self {
-            detect: optional_json(dir, detect::stage::files::SUMMARY)?,
+            detect: dir.summary(Stage::Detect)?,
             localise,
             defects,
             coverage,
             voxels,
-            replan: optional_json(dir, coverage::replan::files::PLAN)?,
+            replan: dir.summary(Stage::Replan)?,
             log: RunLog::read(dir)?,
             flight,
         })
@@ -152,51 +157,7 @@ impl RunResults {
     }
 }
 
-/// A stage's JSON file, `None` when the stage has not written it.
-fn optional_json<T: serde::de::DeserializeOwned>(
-    dir: &RunDir,
-    name: &str,
-) -> Result<Option<T>, IngestError> {
-    if dir.file(name).is_file() {
-        dir.read_json(name).map(Some)
-    } else {
-        Ok(None)
-    }
-}
-
 /// How urgently a candidate needs a reviewer's eye.
 pub fn review_priority(d: &DefectRecord) -> f64 {
     d.confidence * d.length_m.unwrap_or(0.0).max(0.05)
-}
-
-fn target_voxels(df: &DataFrame) -> Result<Vec<TargetVoxel>, PolarsError> {
-    let int = |name: &str| -> Result<Vec<i32>, PolarsError> {
-        let c = df.column(name)?.cast(&DataType::Int32)?;
-        Ok(c.i32()?.into_no_null_iter().collect())
-    };
-    let float = |name: &str| -> Result<Vec<f64>, PolarsError> {
-        Ok(df.column(name)?.f64()?.into_no_null_iter().collect())
-    };
-    let flag = |name: &str| -> Result<Vec<Option<bool>>, PolarsError> {
-        Ok(df.column(name)?.bool()?.iter().collect())
-    };
-    let (ix, iy, iz) = (int("voxel_x")?, int("voxel_y")?, int("voxel_z")?);
-    let (x, y, z) = (float("x")?, float("y")?, float("z")?);
-    let (planned, inspected, uninspectable) =
-        (flag("planned")?, flag("inspected")?, flag("uninspectable")?);
-    Ok((0..df.height())
-        .map(|i| TargetVoxel {
-            index: [ix[i], iy[i], iz[i]],
-            centre: [x[i], y[i], z[i]],
-            status: if inspected[i] == Some(true) {
-                VoxelStatus::Inspected
-            } else if uninspectable[i] == Some(true) {
-                VoxelStatus::Uninspectable
-            } else if planned[i] == Some(true) {
-                VoxelStatus::PlannedMissed
-            } else {
-                VoxelStatus::NotPlanned
-            },
-        })
-        .collect())
 }

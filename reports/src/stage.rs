@@ -5,18 +5,13 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use postflight_core::outputs::report::{RunSummary, files};
+
 use crate::error::ReportError;
 use crate::html;
 use crate::recording::write_recording;
 use crate::results::RunResults;
-use crate::summary::RunSummary;
-
-/// Files of the report stage.
-pub mod files {
-    pub const REPORT: &str = "report.html";
-    pub const RECORDING: &str = "flight.rrd";
-    pub const SUMMARY: &str = "summary.json";
-}
+use crate::summary::run_summary;
 
 #[derive(Debug, Clone)]
 pub struct ReportOptions {
@@ -53,12 +48,12 @@ pub fn report(
     let partial = results.file(&format!(".{}.tmp", files::RECORDING));
     write_recording(&results, &partial, progress)?;
     std::fs::rename(&partial, results.file(files::RECORDING)).map_err(|source| {
-        ingest::IngestError::Write {
+        postflight_core::Error::Write {
             path: results.file(files::RECORDING),
             source,
         }
     })?;
-    let mut summary = RunSummary::new(&results, timings);
+    let mut summary = run_summary(&results, timings);
     let page = html::page(&results, &summary);
     results.dir().write_text(files::REPORT, &page)?;
     summary

@@ -4,9 +4,9 @@
 
 use std::collections::HashSet;
 
-use ingest::map::{VoxelGrid, VoxelIndex};
-use ingest::{Intrinsics, ViewModel};
 use nalgebra::{Isometry3, Point3, Vector3};
+use postflight_core::map::{VoxelGrid, VoxelIndex};
+use postflight_core::{Intrinsics, ViewModel};
 use rayon::prelude::*;
 use serde::Serialize;
 

@@ -5,7 +5,7 @@
 
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 
-use ingest::InspectionPlan;
+use postflight_core::InspectionPlan;
 
 use crate::rng::Rng;
 use crate::scene::Scene;

@@ -26,8 +26,8 @@ use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
 use ingest::ros::msg;
-use ingest::{Distortion, Intrinsics};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use postflight_core::{Distortion, Intrinsics};
 
 use crate::crack::Cracks;
 use crate::flight::Flight;
@@ -36,7 +36,7 @@ use crate::render::RayTable;
 use crate::rng::Rng;
 use crate::scene::{Class, Scene, area};
 use crate::truth::{CrackTruth, FrameTruth, Truth};
-use ingest::serde_pose::PoseJson;
+use postflight_core::serde_pose::PoseJson;
 
 /// Which structure to fly around.
 #[derive(Debug, Clone)]
@@ -183,7 +183,7 @@ pub fn simulate(
     let cracks = Cracks::generate(&scene, options.cracks, &mut Rng::stream(seed, "cracks"));
     let plan = planner::plan(
         &scene,
-        ingest::map::DEFAULT_RESOLUTION,
+        postflight_core::map::DEFAULT_RESOLUTION,
         CAMERA_PITCH_DEG.to_radians(),
     );
     if plan.viewpoints.len() < 3 {

@@ -8,9 +8,9 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use ingest::map::{VoxelGrid, VoxelIndex};
-use ingest::{InspectionPlan, ViewModel, Viewpoint};
 use nalgebra::{Point3, Vector3};
+use postflight_core::map::{VoxelGrid, VoxelIndex};
+use postflight_core::{InspectionPlan, ViewModel, Viewpoint};
 
 use crate::scene::{Scene, area};
 

@@ -3,8 +3,8 @@
 //! crack fades with distance), then motion blur along the image motion.
 
 use image::RgbImage;
-use ingest::Intrinsics;
 use nalgebra::{Isometry3, Point2, Point3, Vector3};
+use postflight_core::Intrinsics;
 use rayon::prelude::*;
 
 use crate::crack::Cracks;

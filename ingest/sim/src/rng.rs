@@ -1,11 +1,15 @@
-//! A small seeded random number generator (SplitMix64): the simulator's
-//! output depends only on the seed, never on a library's version.
+//! The simulator's random numbers: SplitMix64 (a generator fixed by its
+//! definition, so the output depends only on the seed, never on a library's
+//! version), with the draws the simulator makes.
 
-pub struct Rng(u64);
+use rand_core::{Rng as _, SeedableRng};
+use rand_xoshiro::SplitMix64;
+
+pub struct Rng(SplitMix64);
 
 impl Rng {
     pub fn new(seed: u64) -> Self {
-        Self(seed ^ 0x9e37_79b9_7f4a_7c15)
+        Self(SplitMix64::seed_from_u64(seed ^ 0x9e37_79b9_7f4a_7c15))
     }
 
     /// An independent stream for a named purpose, so adding draws in one
@@ -18,11 +22,7 @@ impl Rng {
     }
 
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
 
     /// Uniform in [0, 1).

@@ -1,9 +1,9 @@
 //! Ground truth: what really is where, and what each frame really saw.
 
-use ingest::Intrinsics;
-use ingest::map::{VoxelGrid, VoxelIndex};
-use ingest::serde_pose::PoseJson;
 use nalgebra::{Isometry3, Point3};
+use postflight_core::Intrinsics;
+use postflight_core::map::{VoxelGrid, VoxelIndex};
+use postflight_core::serde_pose::PoseJson;
 use serde::Serialize;
 
 use crate::crack::Crack;

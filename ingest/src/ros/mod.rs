@@ -3,6 +3,18 @@
 pub mod cdr;
 pub mod definitions;
 pub mod msg;
+pub mod pointcloud2;
+
+use nalgebra::Isometry3;
+
+/// A pose from a ROS position and quaternion; `None` for a zero or
+/// non-finite quaternion (drivers' "unset").
+pub fn pose(position: msg::Vector3, q: msg::Quaternion) -> Option<Isometry3<f64>> {
+    postflight_core::pose::from_parts_xyzw(
+        [position.x, position.y, position.z],
+        [q.x, q.y, q.z, q.w],
+    )
+}
 
 /// ROS 2 schema names postflight understands, as they appear in MCAP schema records.
 pub mod schema {

@@ -1,0 +1,38 @@
+//! Errors of reading and writing a run directory and the shared inputs
+//! (maps, plans), worded for the person running postflight: each names the
+//! problem and what to do about it.
+
+use std::path::PathBuf;
+
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error("cannot open {}: {source}; check the path", path.display())]
+    Open {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+
+    #[error("cannot write {}: {source}", path.display())]
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+
+    #[error("table {}: {source}; rerun the stage that wrote it", path.display())]
+    Table {
+        path: PathBuf,
+        source: polars::error::PolarsError,
+    },
+
+    #[error("run directory {}: {why}", path.display())]
+    RunDir { path: PathBuf, why: String },
+
+    #[error("map {}: {why}", path.display())]
+    Map { path: PathBuf, why: String },
+
+    #[error("plan {}: {why}", path.display())]
+    Plan { path: PathBuf, why: String },
+
+    #[error(transparent)]
+    Setting(#[from] crate::setting::InvalidSetting),
+}

@@ -1,0 +1,120 @@
+//! Frames: the camera images of a flight, each with its time, camera pose and
+//! where to find its pixels in the recording.
+
+use nalgebra::Isometry3;
+use serde::{Deserialize, Serialize};
+
+/// Where a message lives in the recording: how a frame finds its pixels
+/// (and `ingest.json` the recorded map) without holding the flight in memory.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MessageLocation {
+    /// File offset of the chunk record holding the message, or `None` for a
+    /// message record outside any chunk.
+    pub chunk_offset: Option<u64>,
+    /// Offset of the message record: within the chunk's uncompressed records
+    /// when `chunk_offset` is set, else within the file.
+    pub record_offset: u64,
+}
+
+/// Whether and why a frame has a camera pose.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PoseStatus {
+    /// Interpolated from the trajectory and the camera extrinsic.
+    Ok,
+    /// Taken before the first pose of the trajectory.
+    BeforeTrajectory,
+    /// Taken after the last pose of the trajectory.
+    AfterTrajectory,
+    /// The poses either side are further apart than the allowed gap.
+    PoseGap,
+    /// No transform chain from the body to the image's frame.
+    NoExtrinsic,
+}
+
+impl PoseStatus {
+    pub const ALL: [Self; 5] = [
+        Self::Ok,
+        Self::BeforeTrajectory,
+        Self::AfterTrajectory,
+        Self::PoseGap,
+        Self::NoExtrinsic,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Ok => "ok",
+            Self::BeforeTrajectory => "before_trajectory",
+            Self::AfterTrajectory => "after_trajectory",
+            Self::PoseGap => "pose_gap",
+            Self::NoExtrinsic => "no_extrinsic",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|v| v.as_str() == s)
+    }
+}
+
+/// Whether the frame's image header could be read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ImageStatus {
+    Ok,
+    /// The compressed data is not JPEG or PNG, or its header is damaged.
+    Unreadable,
+    /// A raw encoding postflight cannot decode.
+    UnsupportedEncoding,
+}
+
+impl ImageStatus {
+    pub const ALL: [Self; 3] = [Self::Ok, Self::Unreadable, Self::UnsupportedEncoding];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Ok => "ok",
+            Self::Unreadable => "unreadable",
+            Self::UnsupportedEncoding => "unsupported_encoding",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|v| v.as_str() == s)
+    }
+}
+
+/// One camera image of the flight.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    /// Position in time order among all frames of the flight, from 0.
+    pub index: u32,
+    /// Capture time (`header.stamp`; the log time when the stamp is unset), ns.
+    pub time_ns: i64,
+    /// Time the recorder logged the message, ns.
+    pub log_time_ns: i64,
+    pub topic: String,
+    /// Optical frame (`header.frame_id`).
+    pub frame_id: String,
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    /// `jpeg`, `png`, or the raw encoding (`rgb8`, `mono16`, ...).
+    pub encoding: String,
+    /// Pose of the camera's optical frame in the world (`T_world_camera`).
+    pub camera_pose: Option<Isometry3<f64>>,
+    pub pose_status: PoseStatus,
+    pub image_status: ImageStatus,
+    pub location: MessageLocation,
+    /// Exposure time, seconds, when the recording has it (see [`EXPOSURE_TOPIC`]).
+    pub exposure_s: Option<f64>,
+}
+
+/// Name (last path element) of a `std_msgs/msg/Float64` topic carrying each
+/// image's exposure time in seconds, published beside the image topic (for
+/// `/camera/image_raw/compressed`: `/camera/exposure_time`), with the
+/// image's log time.
+pub const EXPOSURE_TOPIC: &str = "exposure_time";
+
+/// The namespace of a camera topic: `/cam/image_raw/compressed`,
+/// `/cam/image_raw` and `/cam/camera_info` all live in `/cam`.
+pub fn camera_namespace(topic: &str) -> &str {
+    let topic = topic.strip_suffix("/compressed").unwrap_or(topic);
+    topic.rsplit_once('/').map_or("", |(ns, _)| ns)
+}

@@ -1,0 +1,47 @@
+//! The model every postflight stage shares, and the run directory they
+//! share it through.
+//!
+//! - The flight: [`Flight`] (what ingest found, loaded from a run
+//!   directory), its [`Frame`]s, [`Camera`]s and body [`Trajectory`], and
+//!   rigid [`pose`]s.
+//! - The map: point clouds (PLY, PCD), voxel occupancy, the KD-tree of map
+//!   points and ray casting through voxels ([`map`]), with one
+//!   [`FaceSide`] for a voxel's sides.
+//! - The plan that was flown and the View model it was made for ([`plan`]).
+//! - Detections: boxes with their scores ([`detection`]).
+//! - The run directory ([`RunDir`]: atomic writes), the run log of
+//!   `postflight run` ([`RunLog`]), and the file contract ([`outputs`]):
+//!   for every stage its files, its summary and one typed writer and reader
+//!   per table.
+//! - Settings named by their key in `postflight.toml` ([`setting`]).
+//!
+//! Nothing heavy: no ONNX Runtime, Rerun, web server or recording format;
+//! those belong to the stages that need them.
+
+pub mod camera;
+pub mod detection;
+pub mod error;
+pub mod flight;
+pub mod frame;
+pub mod map;
+pub mod outputs;
+pub mod plan;
+pub mod pose;
+pub mod run_dir;
+pub mod run_log;
+pub mod serde_pose;
+pub mod setting;
+pub mod time;
+pub mod trajectory;
+
+pub use camera::{Camera, Distortion, Intrinsics};
+pub use error::Error;
+pub use flight::Flight;
+pub use frame::{Frame, ImageStatus, MessageLocation, PoseStatus};
+pub use map::FaceSide;
+pub use outputs::Stage;
+pub use plan::{InspectionPlan, ViewModel, Viewpoint};
+pub use run_dir::RunDir;
+pub use run_log::{InputFile, RunLog, StageRecord};
+pub use setting::{InvalidSetting, Key};
+pub use trajectory::{PoseAt, Trajectory};

@@ -1,0 +1,65 @@
+//! Point clouds of the SLAM map, loaded from PLY, PCD or a recorded
+//! `sensor_msgs/msg/PointCloud2`.
+
+use std::path::Path;
+
+use nalgebra::Point3;
+
+use crate::error::Error;
+
+/// The points of a map in its frame (usually the SLAM `map` frame).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PointCloud {
+    pub frame_id: String,
+    pub points: Vec<Point3<f64>>,
+}
+
+impl PointCloud {
+    /// Load a PLY or PCD file, chosen by its extension.
+    pub fn load(path: &Path) -> Result<Self, Error> {
+        let error = |why: String| Error::Map {
+            path: path.to_owned(),
+            why,
+        };
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .unwrap_or_default();
+        let bytes = std::fs::read(path).map_err(|e| error(format!("{e}; check the path")))?;
+        let points = match ext.as_str() {
+            "ply" => super::ply::parse(&bytes),
+            "pcd" => super::pcd::parse(&bytes),
+            _ => Err("unknown map format; give a .ply or .pcd file".into()),
+        }
+        .map_err(error)?;
+        if points.is_empty() {
+            return Err(Error::Map {
+                path: path.to_owned(),
+                why: "the map has no points".into(),
+            });
+        }
+        Ok(Self {
+            frame_id: String::new(),
+            points,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Axis-aligned bounds `(min, max)`; `None` when empty.
+    pub fn bounds(&self) -> Option<(Point3<f64>, Point3<f64>)> {
+        let first = *self.points.first()?;
+        Some(
+            self.points
+                .iter()
+                .fold((first, first), |(lo, hi), p| (lo.inf(p), hi.sup(p))),
+        )
+    }
+}

@@ -1,0 +1,454 @@
+//! What the localise stage writes: `observations.parquet` (one row per
+//! detection, placed or not, with the reason), `defects.parquet` (one row
+//! per candidate, its best view inline), `defects.json` (the candidates
+//! with every supporting view, for people, coverage and the review queue),
+//! a JPEG crop per candidate, and its summary `localise.json`. Columns are
+//! flat, angles in degrees, lengths in metres.
+//!
+//! A `gsd_mm` here is a view's oblique GSD (see
+//! [`ViewRecord::oblique_gsd_mm`]), coarser than the View model's
+//! fronto-parallel GSD of the coverage tables for any view not face on.
+
+use std::path::PathBuf;
+
+use polars::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::detection::BoxXyxy;
+use crate::error::Error;
+use crate::map::{FaceSide, VoxelIndex};
+use crate::run_dir::RunDir;
+
+/// Files of the localise stage.
+pub mod files {
+    pub const OBSERVATIONS: &str = "observations.parquet";
+    pub const DEFECTS: &str = "defects.parquet";
+    pub const DEFECTS_JSON: &str = "defects.json";
+    /// Directory of candidate crops, `<id>.jpg`.
+    pub const CROPS: &str = "defects";
+    pub const SUMMARY: &str = "localise.json";
+}
+
+/// What became of a detection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Outcome {
+    /// Placed on the structure.
+    Placed,
+    /// Its frame has no pose (none recorded near the frame time).
+    NoPose,
+    /// Its camera has no intrinsics.
+    NoIntrinsics,
+    /// Its rays met no mapped surface within range.
+    NoSurface,
+    /// Its rays met a mapped surface that is not the structure to inspect.
+    Obstacle,
+}
+
+impl Outcome {
+    pub const ALL: [Self; 5] = [
+        Self::Placed,
+        Self::NoPose,
+        Self::NoIntrinsics,
+        Self::NoSurface,
+        Self::Obstacle,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Outcome::Placed => "placed",
+            Outcome::NoPose => "no_pose",
+            Outcome::NoIntrinsics => "no_intrinsics",
+            Outcome::NoSurface => "no_surface",
+            Outcome::Obstacle => "obstacle",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|o| o.as_str() == s)
+    }
+}
+
+/// Detections of each outcome.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct Outcomes {
+    pub placed: u64,
+    pub no_pose: u64,
+    pub no_intrinsics: u64,
+    pub no_surface: u64,
+    pub obstacle: u64,
+}
+
+/// `localise.json`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct LocaliseSummary {
+    /// The map file, or the recorded topic.
+    pub map: String,
+    pub map_points: usize,
+    pub map_voxels: usize,
+    pub voxel_size_m: f64,
+    /// The plan whose target voxels are the structure, if one was given.
+    pub plan: Option<PathBuf>,
+    pub max_range_m: f64,
+    pub link_distance_m: f64,
+    pub detections: u64,
+    pub outcomes: Outcomes,
+    /// Detections placed by their traced centre line (the rest by their box).
+    pub traced: u64,
+    /// Share of cast detections (pose and intrinsics known) whose rays met the map.
+    pub hit_share: f64,
+    pub defects: u64,
+    pub seconds: f64,
+    pub warnings: Vec<String>,
+}
+
+/// One detection as `observations.parquet` holds it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObservationRecord {
+    pub frame: u32,
+    pub time_ns: i64,
+    /// The detection's box, frame pixels.
+    pub bbox: BoxXyxy,
+    /// The detector's score.
+    pub score: f32,
+    pub outcome: Outcome,
+    /// Where it lies on the structure, for a placed detection.
+    pub placed: Option<PlacedRecord>,
+    /// Centre-line pixels traced in the image (0: placed by its box).
+    pub traced_px: u32,
+    /// The box or the traced crack touches the image border.
+    pub clipped: bool,
+    /// The candidate it supports.
+    pub defect: Option<String>,
+}
+
+/// A placed detection's crack on the surface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlacedRecord {
+    /// Centroid of the crack on the surface, world frame, metres.
+    pub centre: [f64; 3],
+    /// Unit normal of the surface, facing the camera.
+    pub normal: [f64; 3],
+    pub voxel: VoxelIndex,
+    pub face: FaceSide,
+    pub range_m: f64,
+    pub incidence_deg: f64,
+    /// See [`ViewRecord::oblique_gsd_mm`].
+    pub oblique_gsd_mm: f64,
+    pub length_m: Option<f64>,
+    /// Farthest crack point from the centre, metres.
+    pub radius_m: f64,
+}
+
+/// One view of a defect candidate.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct ViewRecord {
+    pub frame: u32,
+    pub time_ns: i64,
+    /// `[x0, y0, x1, y1]`, frame pixels.
+    pub bbox: [f32; 4],
+    pub score: f32,
+    pub range_m: f64,
+    pub incidence_deg: f64,
+    /// The view's oblique GSD: the pixel's footprint on the surface along
+    /// its most stretched direction, millimetres (`gsd_mm` in the files).
+    #[serde(rename = "gsd_mm")]
+    pub oblique_gsd_mm: f64,
+    pub length_m: Option<f64>,
+    /// The box touches the image border.
+    pub clipped: bool,
+}
+
+/// One defect candidate in `defects.json`.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct DefectRecord {
+    pub id: String,
+    /// World frame, metres.
+    pub position: [f64; 3],
+    pub normal: [f64; 3],
+    pub extent_min: [f64; 3],
+    pub extent_max: [f64; 3],
+    pub voxel: [i32; 3],
+    pub face: FaceSide,
+    pub length_m: Option<f64>,
+    pub length_views: u32,
+    /// The length is a lower bound from views the image border cuts.
+    pub length_partial: bool,
+    pub frames: u32,
+    pub confidence: f64,
+    pub max_score: f64,
+    /// JPEG of the best view, relative to the run directory (none when its
+    /// image could not be decoded).
+    pub crop: Option<String>,
+    pub best: ViewRecord,
+    /// Every supporting view, in frame order.
+    pub views: Vec<ViewRecord>,
+}
+
+/// Write `defects.parquet` and `defects.json` (the same candidates; the
+/// JSON with every supporting view).
+pub fn write_defects(run: &RunDir, defects: &[DefectRecord]) -> Result<(), Error> {
+    run.write_table(files::DEFECTS, defects_table(defects))?;
+    run.write_json(
+        files::DEFECTS_JSON,
+        &DefectsFile {
+            defects: defects.to_vec(),
+        },
+    )
+}
+
+/// Read `defects.json`: the candidates with every supporting view.
+pub fn read_defects(run: &RunDir) -> Result<Vec<DefectRecord>, Error> {
+    run.read_json::<DefectsFile>(files::DEFECTS_JSON)
+        .map(|f| f.defects)
+}
+
+#[derive(Serialize, Deserialize)]
+struct DefectsFile {
+    defects: Vec<DefectRecord>,
+}
+
+/// Write `observations.parquet`.
+pub fn write_observations(run: &RunDir, observations: &[ObservationRecord]) -> Result<(), Error> {
+    run.write_table(files::OBSERVATIONS, observations_table(observations))
+}
+
+/// Read `observations.parquet`.
+pub fn read_observations(run: &RunDir) -> Result<Vec<ObservationRecord>, Error> {
+    run.read_table(files::OBSERVATIONS, observations_from)
+}
+
+fn xyz(name: &str, values: impl Iterator<Item = Option<[f64; 3]>>) -> Vec<Column> {
+    let mut columns: [Vec<Option<f64>>; 3] = Default::default();
+    for v in values {
+        for (a, c) in columns.iter_mut().enumerate() {
+            c.push(v.map(|v| v[a]));
+        }
+    }
+    ["x", "y", "z"]
+        .iter()
+        .zip(columns)
+        .map(|(axis, c)| Column::new(format!("{name}{axis}").into(), c))
+        .collect()
+}
+
+/// `observations.parquet`: every detection, placed or not, with the reason.
+fn observations_table(o: &[ObservationRecord]) -> PolarsResult<DataFrame> {
+    let placed = |f: &dyn Fn(&PlacedRecord) -> f64| {
+        o.iter()
+            .map(|o| o.placed.as_ref().map(f))
+            .collect::<Vec<Option<f64>>>()
+    };
+    let bbox = |f: &dyn Fn(&BoxXyxy) -> f32| o.iter().map(|o| f(&o.bbox)).collect::<Vec<f32>>();
+    let mut columns = vec![
+        Column::new(
+            "frame".into(),
+            o.iter().map(|o| o.frame).collect::<Vec<u32>>(),
+        ),
+        Column::new(
+            "time_ns".into(),
+            o.iter().map(|o| o.time_ns).collect::<Vec<i64>>(),
+        ),
+        Column::new("x0".into(), bbox(&|b| b.x0)),
+        Column::new("y0".into(), bbox(&|b| b.y0)),
+        Column::new("x1".into(), bbox(&|b| b.x1)),
+        Column::new("y1".into(), bbox(&|b| b.y1)),
+        Column::new(
+            "score".into(),
+            o.iter().map(|o| o.score).collect::<Vec<f32>>(),
+        ),
+        Column::new(
+            "outcome".into(),
+            o.iter().map(|o| o.outcome.as_str()).collect::<Vec<&str>>(),
+        ),
+    ];
+    columns.extend(xyz("", o.iter().map(|o| o.placed.map(|p| p.centre))));
+    columns.extend(xyz("n", o.iter().map(|o| o.placed.map(|p| p.normal))));
+    for (a, axis) in ["x", "y", "z"].iter().enumerate() {
+        columns.push(Column::new(
+            format!("voxel_{axis}").into(),
+            o.iter()
+                .map(|o| o.placed.map(|p| p.voxel.0[a]))
+                .collect::<Vec<Option<i32>>>(),
+        ));
+    }
+    columns.extend([
+        Column::new(
+            "face".into(),
+            o.iter()
+                .map(|o| o.placed.map(|p| p.face.name()))
+                .collect::<Vec<Option<&str>>>(),
+        ),
+        Column::new("range_m".into(), placed(&|p| p.range_m)),
+        Column::new("incidence_deg".into(), placed(&|p| p.incidence_deg)),
+        Column::new("gsd_mm".into(), placed(&|p| p.oblique_gsd_mm)),
+        Column::new(
+            "length_m".into(),
+            o.iter()
+                .map(|o| o.placed.and_then(|p| p.length_m))
+                .collect::<Vec<Option<f64>>>(),
+        ),
+        Column::new("radius_m".into(), placed(&|p| p.radius_m)),
+        Column::new(
+            "traced_px".into(),
+            o.iter().map(|o| o.traced_px).collect::<Vec<u32>>(),
+        ),
+        Column::new(
+            "clipped".into(),
+            o.iter().map(|o| o.clipped).collect::<Vec<bool>>(),
+        ),
+        Column::new(
+            "defect".into(),
+            o.iter()
+                .map(|o| o.defect.as_deref())
+                .collect::<Vec<Option<&str>>>(),
+        ),
+    ]);
+    DataFrame::new(o.len(), columns)
+}
+
+fn observations_from(df: &DataFrame) -> PolarsResult<Vec<ObservationRecord>> {
+    let f32s = |name: &str| df.column(name).and_then(|c| c.f32());
+    let f64s = |name: &str| df.column(name).and_then(|c| c.f64());
+    let i32s = |name: &str| df.column(name).and_then(|c| c.i32());
+    let (frame, time) = (df.column("frame")?.u32()?, df.column("time_ns")?.i64()?);
+    let (x0, y0, x1, y1, score) = (
+        f32s("x0")?,
+        f32s("y0")?,
+        f32s("x1")?,
+        f32s("y1")?,
+        f32s("score")?,
+    );
+    let (outcome, face, defect) = (
+        df.column("outcome")?.str()?,
+        df.column("face")?.str()?,
+        df.column("defect")?.str()?,
+    );
+    let centre = [f64s("x")?, f64s("y")?, f64s("z")?];
+    let normal = [f64s("nx")?, f64s("ny")?, f64s("nz")?];
+    let voxel = [i32s("voxel_x")?, i32s("voxel_y")?, i32s("voxel_z")?];
+    let (range, incidence, gsd, length, radius) = (
+        f64s("range_m")?,
+        f64s("incidence_deg")?,
+        f64s("gsd_mm")?,
+        f64s("length_m")?,
+        f64s("radius_m")?,
+    );
+    let (traced, clipped) = (
+        df.column("traced_px")?.u32()?,
+        df.column("clipped")?.bool()?,
+    );
+    let missing = |c: &str| polars_err!(ComputeError: "observations table has a null {c}");
+    (0..df.height())
+        .map(|i| {
+            let xyz = |c: &[&Float64Chunked; 3]| -> Option<[f64; 3]> {
+                Some([c[0].get(i)?, c[1].get(i)?, c[2].get(i)?])
+            };
+            let placed = match (xyz(&[centre[0], centre[1], centre[2]]), face.get(i)) {
+                (Some(centre), Some(face)) => Some(PlacedRecord {
+                    centre,
+                    normal: xyz(&[normal[0], normal[1], normal[2]])
+                        .ok_or_else(|| missing("normal"))?,
+                    voxel: VoxelIndex([
+                        voxel[0].get(i).ok_or_else(|| missing("voxel_x"))?,
+                        voxel[1].get(i).ok_or_else(|| missing("voxel_y"))?,
+                        voxel[2].get(i).ok_or_else(|| missing("voxel_z"))?,
+                    ]),
+                    face: FaceSide::parse(face).ok_or_else(|| missing("face"))?,
+                    range_m: range.get(i).ok_or_else(|| missing("range_m"))?,
+                    incidence_deg: incidence.get(i).ok_or_else(|| missing("incidence_deg"))?,
+                    oblique_gsd_mm: gsd.get(i).ok_or_else(|| missing("gsd_mm"))?,
+                    length_m: length.get(i),
+                    radius_m: radius.get(i).ok_or_else(|| missing("radius_m"))?,
+                }),
+                _ => None,
+            };
+            let f = |c: &Float32Chunked, name: &str| c.get(i).ok_or_else(|| missing(name));
+            Ok(ObservationRecord {
+                frame: frame.get(i).ok_or_else(|| missing("frame"))?,
+                time_ns: time.get(i).ok_or_else(|| missing("time_ns"))?,
+                bbox: BoxXyxy {
+                    x0: f(x0, "x0")?,
+                    y0: f(y0, "y0")?,
+                    x1: f(x1, "x1")?,
+                    y1: f(y1, "y1")?,
+                },
+                score: f(score, "score")?,
+                outcome: outcome
+                    .get(i)
+                    .and_then(Outcome::parse)
+                    .ok_or_else(|| missing("outcome"))?,
+                placed,
+                traced_px: traced.get(i).ok_or_else(|| missing("traced_px"))?,
+                clipped: clipped.get(i).ok_or_else(|| missing("clipped"))?,
+                defect: defect.get(i).map(str::to_string),
+            })
+        })
+        .collect()
+}
+
+/// `defects.parquet`: one row per candidate, its best view inline.
+fn defects_table(defects: &[DefectRecord]) -> PolarsResult<DataFrame> {
+    let d = defects;
+    let f = |get: &dyn Fn(&DefectRecord) -> f64| d.iter().map(get).collect::<Vec<f64>>();
+    let mut columns = vec![Column::new(
+        "id".into(),
+        d.iter().map(|d| d.id.as_str()).collect::<Vec<&str>>(),
+    )];
+    columns.extend(xyz("", d.iter().map(|d| Some(d.position))));
+    columns.extend(xyz("n", d.iter().map(|d| Some(d.normal))));
+    columns.extend(xyz("min_", d.iter().map(|d| Some(d.extent_min))));
+    columns.extend(xyz("max_", d.iter().map(|d| Some(d.extent_max))));
+    for (a, axis) in ["x", "y", "z"].iter().enumerate() {
+        columns.push(Column::new(
+            format!("voxel_{axis}").into(),
+            d.iter().map(|d| d.voxel[a]).collect::<Vec<i32>>(),
+        ));
+    }
+    columns.extend([
+        Column::new(
+            "face".into(),
+            d.iter().map(|d| d.face.name()).collect::<Vec<&str>>(),
+        ),
+        Column::new(
+            "length_m".into(),
+            d.iter().map(|d| d.length_m).collect::<Vec<Option<f64>>>(),
+        ),
+        Column::new(
+            "length_views".into(),
+            d.iter().map(|d| d.length_views).collect::<Vec<u32>>(),
+        ),
+        Column::new(
+            "length_partial".into(),
+            d.iter().map(|d| d.length_partial).collect::<Vec<bool>>(),
+        ),
+        Column::new(
+            "frames".into(),
+            d.iter().map(|d| d.frames).collect::<Vec<u32>>(),
+        ),
+        Column::new("confidence".into(), f(&|d| d.confidence)),
+        Column::new("max_score".into(), f(&|d| d.max_score)),
+        Column::new(
+            "best_frame".into(),
+            d.iter().map(|d| d.best.frame).collect::<Vec<u32>>(),
+        ),
+        Column::new("best_range_m".into(), f(&|d| d.best.range_m)),
+        Column::new("best_incidence_deg".into(), f(&|d| d.best.incidence_deg)),
+        Column::new("best_gsd_mm".into(), f(&|d| d.best.oblique_gsd_mm)),
+    ]);
+    for (k, name) in ["best_x0", "best_y0", "best_x1", "best_y1"]
+        .iter()
+        .enumerate()
+    {
+        columns.push(Column::new(
+            (*name).into(),
+            d.iter().map(|d| d.best.bbox[k]).collect::<Vec<f32>>(),
+        ));
+    }
+    columns.push(Column::new(
+        "crop".into(),
+        d.iter()
+            .map(|d| d.crop.as_deref())
+            .collect::<Vec<Option<&str>>>(),
+    ));
+    DataFrame::new(d.len(), columns)
+}

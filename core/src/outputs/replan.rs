@@ -1,0 +1,112 @@
+//! What the replan stage writes: the follow-up flight as `replan.json`
+//! (its summary, and also an inspection plan `postflight coverage
+//! --viewpoints` can check) and `replan.csv` (GATSBI's `X,Y,Z,Yaw`
+//! inspection path).
+
+use std::path::PathBuf;
+
+use gtsp::SolveStats;
+use serde::{Deserialize, Serialize};
+
+use crate::map::VoxelIndex;
+use crate::plan::{ViewModel, Viewpoint};
+
+/// Files of the replan stage.
+pub mod files {
+    /// Its summary: the follow-up flight.
+    pub const SUMMARY: &str = "replan.json";
+    pub const PATH_CSV: &str = "replan.csv";
+}
+
+/// A stop of the follow-up flight.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Waypoint {
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+    /// Heading about world z, radians (ROS: counter-clockwise from x).
+    pub yaw: f64,
+    /// Gimbal pitch, radians, positive looking down.
+    pub gimbal_pitch: f64,
+    /// Gap voxels inspected here (each gap voxel at exactly one waypoint).
+    pub gap_voxels: Vec<VoxelIndex>,
+}
+
+/// One flight from home and back.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Sortie {
+    pub waypoints: Vec<Waypoint>,
+    /// The collision-free path flown, home to home.
+    pub path: Vec<[f64; 3]>,
+    pub length_m: f64,
+    /// Flying at the given speed plus hovering at each waypoint.
+    pub time_s: f64,
+}
+
+/// A gap voxel the follow-up flight cannot inspect, and why.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Uninspectable {
+    pub voxel: VoxelIndex,
+    pub reason: Unplannable,
+}
+
+/// Why a gap voxel is left out of the follow-up flight.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Unplannable {
+    /// No viewpoint that keeps the clearance inspects it.
+    NoClearViewpoint,
+    /// Such viewpoints exist, but no collision-free path leads to them from home.
+    Unreachable,
+}
+
+/// `replan.json`. Its first fields make it an inspection plan (the gap
+/// voxels it inspects as targets, the waypoints as viewpoints in flight
+/// order), so `postflight coverage --viewpoints replan.json` checks it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ReplanSummary {
+    pub frame_id: String,
+    pub resolution: f64,
+    pub origin: [f64; 3],
+    pub target_voxels: Vec<VoxelIndex>,
+    pub viewpoints: Vec<Viewpoint>,
+    pub view: ViewModel,
+    pub run: PathBuf,
+    pub home: [f64; 3],
+    pub clearance_m: f64,
+    pub speed_m_s: f64,
+    pub hover_s: f64,
+    pub max_sortie_length_m: Option<f64>,
+    /// Gap voxels coverage found (not inspected, not uninspectable).
+    pub gap_voxels: usize,
+    /// Of those, the ones this plan inspects.
+    pub planned_gap_voxels: usize,
+    pub uninspectable_gaps: Vec<Uninspectable>,
+    pub candidate_viewpoints: usize,
+    pub sorties: Vec<Sortie>,
+    pub waypoints: usize,
+    pub length_m: f64,
+    pub time_s: f64,
+    pub solver: Option<ReplanSolverStats>,
+    pub seconds: f64,
+    pub warnings: Vec<String>,
+}
+
+/// What the solver and the collision checks did.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ReplanSolverStats {
+    pub vertices: usize,
+    pub clusters: usize,
+    /// GTSP solves (the first with straight-line costs).
+    pub rounds: usize,
+    /// Legs given a collision-free path.
+    pub legs_checked: usize,
+    /// Legs whose path was over the detour limit, re-costed.
+    pub legs_recosted: usize,
+    /// The last solve's tour had no leg over the detour limit (false: the
+    /// round limit was reached and that tour is flown as it is).
+    pub converged: bool,
+    /// The last solve's statistics.
+    pub last_solve: SolveStats,
+    pub solve_seconds: f64,
+}

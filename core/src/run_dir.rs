@@ -1,0 +1,167 @@
+//! The run directory: where every stage writes its outputs and reads its
+//! inputs, so each stage can be rerun or inspected alone.
+//!
+//! Files are written whole or not at all (to a temporary name, then renamed),
+//! and each stage writes its JSON summary last: a stage's outputs are
+//! complete exactly when its summary exists.
+
+use std::fs::File;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use polars::prelude::*;
+
+use crate::error::Error;
+use crate::outputs::Stage;
+
+/// A run directory: the outputs of the stages run on one flight.
+#[derive(Debug, Clone)]
+pub struct RunDir {
+    path: PathBuf,
+}
+
+impl RunDir {
+    /// Create the directory if needed.
+    pub fn create(path: &Path) -> Result<Self, Error> {
+        std::fs::create_dir_all(path).map_err(|source| Error::Write {
+            path: path.to_owned(),
+            source,
+        })?;
+        Ok(Self {
+            path: path.to_owned(),
+        })
+    }
+
+    /// Open a run directory in which `stage` has completed.
+    pub fn open(path: &Path, stage: Stage) -> Result<Self, Error> {
+        let run = Self {
+            path: path.to_owned(),
+        };
+        run.require(stage)?;
+        Ok(run)
+    }
+
+    /// An error unless `stage` has completed here (its summary exists).
+    pub fn require(&self, stage: Stage) -> Result<(), Error> {
+        let summary = stage.summary_file();
+        if self.file(summary).is_file() {
+            return Ok(());
+        }
+        Err(Error::RunDir {
+            path: self.path.clone(),
+            why: format!(
+                "has no completed {stage} stage ({summary} is missing); run `postflight {stage}` into it first"
+            ),
+        })
+    }
+
+    /// A stage's summary, `None` when the stage has not completed here.
+    pub fn summary<T: serde::de::DeserializeOwned>(
+        &self,
+        stage: Stage,
+    ) -> Result<Option<T>, Error> {
+        let name = stage.summary_file();
+        if self.file(name).is_file() {
+            self.read_json(name).map(Some)
+        } else {
+            Ok(None)
+        }
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    pub fn file(&self, name: &str) -> PathBuf {
+        self.path.join(name)
+    }
+
+    /// Remove a file if present (a stage clears its summary before writing,
+    /// so an interrupted stage never looks complete).
+    pub fn remove(&self, name: &str) -> Result<(), Error> {
+        match std::fs::remove_file(self.file(name)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(Error::Write {
+                path: self.file(name),
+                source: e,
+            }),
+            _ => Ok(()),
+        }
+    }
+
+    /// Write `name` atomically with `write`.
+    pub fn write_with(
+        &self,
+        name: &str,
+        write: impl FnOnce(&mut File) -> Result<(), Error>,
+    ) -> Result<(), Error> {
+        let target = self.file(name);
+        let tmp = self.file(&format!(".{name}.tmp"));
+        let io = |source| Error::Write {
+            path: target.clone(),
+            source,
+        };
+        let mut file = File::create(&tmp).map_err(io)?;
+        write(&mut file)?;
+        file.sync_all().map_err(io)?;
+        std::fs::rename(&tmp, &target).map_err(io)
+    }
+
+    /// Write `name` atomically with the text `text`.
+    pub fn write_text(&self, name: &str, text: &str) -> Result<(), Error> {
+        let path = self.file(name);
+        self.write_with(name, |f| {
+            f.write_all(text.as_bytes())
+                .map_err(|source| Error::Write { path, source })
+        })
+    }
+
+    pub fn write_json(&self, name: &str, value: &impl serde::Serialize) -> Result<(), Error> {
+        let text = serde_json::to_string_pretty(value).expect("JSON-serialisable");
+        self.write_text(name, &(text + "\n"))
+    }
+
+    pub fn read_json<T: serde::de::DeserializeOwned>(&self, name: &str) -> Result<T, Error> {
+        let path = self.file(name);
+        let text = std::fs::read_to_string(&path).map_err(|source| Error::Open {
+            path: path.clone(),
+            source,
+        })?;
+        serde_json::from_str(&text).map_err(|e| Error::RunDir {
+            path,
+            why: format!("unreadable ({e}); rerun the stage that wrote it"),
+        })
+    }
+
+    /// Write the Parquet table `name` (the table, or why it could not be built).
+    pub fn write_table(&self, name: &str, table: PolarsResult<DataFrame>) -> Result<(), Error> {
+        let path = self.file(name);
+        let table_error = |source| Error::Table {
+            path: path.clone(),
+            source,
+        };
+        let mut df = table.map_err(table_error)?;
+        self.write_with(name, |f| {
+            ParquetWriter::new(f)
+                .finish(&mut df)
+                .map(|_| ())
+                .map_err(table_error)
+        })
+    }
+
+    /// Read the Parquet table `name` into what `parse` makes of it.
+    pub fn read_table<T>(
+        &self,
+        name: &str,
+        parse: impl FnOnce(&DataFrame) -> PolarsResult<T>,
+    ) -> Result<T, Error> {
+        let path = self.file(name);
+        let file = File::open(&path).map_err(|source| Error::Open {
+            path: path.clone(),
+            source,
+        })?;
+        ParquetReader::new(file)
+            .finish()
+            .and_then(|df| parse(&df))
+            .map_err(|source| Error::Table { path, source })
+    }
+}

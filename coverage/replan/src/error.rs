@@ -1,0 +1,39 @@
+//! Errors of the replan stage, each naming the problem and the fix.
+
+use postflight_core::InvalidSetting;
+
+use crate::stage::keys;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ReplanError {
+    #[error(transparent)]
+    Run(#[from] postflight_core::Error),
+    #[error(transparent)]
+    Flight(#[from] ingest::IngestError),
+    #[error(transparent)]
+    Setting(#[from] InvalidSetting),
+    #[error(
+        "the flight has no poses to take off from; give the take-off point with {}",
+        keys::HOME
+    )]
+    NoTakeOff,
+    #[error(
+        "the flight's camera has no intrinsics; rerun `postflight ingest` with {}",
+        ingest::stage::keys::CAMERA_INFO_FILE
+    )]
+    NoIntrinsics,
+    #[error(
+        "home ({:.1}, {:.1}, {:.1}) and the 20 m above it are within {clearance_m} m of the map; give a clear take-off point with {} or a smaller {}",
+        home[0], home[1], home[2], keys::HOME, keys::CLEARANCE
+    )]
+    HomeBlocked { home: [f64; 3], clearance_m: f64 },
+    #[error(
+        "the viewpoint at ({:.1}, {:.1}, {:.1}) is a {round_trip_m:.0} m round trip from home, longer than {} {max_m}; raise it or move {} closer",
+        point[0], point[1], point[2], keys::MAX_SORTIE_LENGTH, keys::HOME
+    )]
+    SortieTooLong {
+        point: [f64; 3],
+        round_trip_m: f64,
+        max_m: f64,
+    },
+}

@@ -1,0 +1,24 @@
+//! The replan stage: a follow-up flight for the coverage gaps.
+//!
+//! From the gaps the coverage stage found (target voxels not inspected that
+//! some free standpoint could inspect), [`viewpoints`] draws candidate
+//! viewpoints around each gap face and asks the View model (`coverage`'s
+//! rules, the same code that judged the flight) which gap voxels each
+//! inspects; clusters are per gap voxel. [`free_space`] inflates the map by
+//! the clearance once, so a check in open air costs one look-up, and finds
+//! paths (A* over the clear voxel lattice, shortened by line of sight).
+//! [`tour`] solves the GTSP from home with the `gtsp` crate and, as GATSBI
+//! does, re-solves with lazy collision checks while a flown leg is much
+//! longer than its cost. [`stage`] ties these together, splits the tour into
+//! sorties for the battery and writes `replan.json` (also an inspection plan
+//! `postflight coverage --viewpoints` can check) and `replan.csv` (GATSBI's
+//! `X,Y,Z,Yaw` path).
+
+pub mod error;
+pub mod free_space;
+pub mod stage;
+pub mod tour;
+pub mod viewpoints;
+
+pub use error::ReplanError;
+pub use stage::{ReplanOptions, replan};

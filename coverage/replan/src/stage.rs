@@ -1,0 +1,528 @@
+//! The replan stage, `postflight replan --run RUN_DIR`: the gaps of the
+//! coverage stage to a follow-up flight, phase by phase (see the crate
+//! docs), into `replan.json` and `replan.csv`.
+
+use std::collections::{BTreeMap, HashSet};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+use coverage::face::exposed_faces;
+use coverage::stage::{camera_mount, check_view};
+use gtsp::SolveOptions;
+use nalgebra::{Point3, Vector3};
+use postflight_core::map::{SlamMap, VoxelGrid, VoxelIndex};
+use postflight_core::outputs::coverage::{self as coverage_outputs, CoverageSummary};
+use postflight_core::outputs::replan::{
+    ReplanSummary, Sortie, Uninspectable, Unplannable, Waypoint, files,
+};
+use postflight_core::{Flight, InvalidSetting, Key, RunDir, Stage, Viewpoint};
+
+use crate::error::ReplanError;
+use crate::free_space::{FreeSpace, length};
+use crate::tour::{Stops, Tour, TourError, plan_tour};
+use crate::viewpoints::{Camera, Candidate, candidates, clusters};
+
+/// The stage's settings, by their key in `postflight.toml`'s `[replan]`.
+pub mod keys {
+    use postflight_core::Key;
+
+    pub const HOME: Key = Key::setting("replan", "home");
+    pub const CLEARANCE: Key = Key::setting("replan", "clearance_m");
+    pub const MAX_SORTIE_LENGTH: Key = Key::setting("replan", "max_sortie_length_m");
+    pub const SPEED: Key = Key::setting("replan", "speed_m_s");
+    pub const HOVER: Key = Key::setting("replan", "hover_s");
+    pub const SOLVER_TIME_LIMIT: Key = Key::setting("replan", "solver_time_limit_s");
+    pub const SEED: Key = Key::setting("replan", "seed");
+}
+
+#[derive(Debug, Clone)]
+pub struct ReplanOptions {
+    pub run: PathBuf,
+    /// Map instead of the one coverage used.
+    pub map: Option<PathBuf>,
+    /// Take-off and landing point (default: the flight's first pose).
+    pub home: Option<[f64; 3]>,
+    /// Closest the vehicle may come to any occupied voxel, metres.
+    pub clearance_m: f64,
+    /// Longest sortie (battery), metres; `None`: one sortie.
+    pub max_sortie_length_m: Option<f64>,
+    /// Cruise speed for the time estimate, metres per second.
+    pub speed_m_s: f64,
+    /// Hover at each waypoint for the time estimate, seconds.
+    pub hover_s: f64,
+    /// GTSP solver settings (time limit per solve, seed, threads).
+    pub solver: SolveOptions,
+}
+
+impl ReplanOptions {
+    pub const DEFAULT_CLEARANCE_M: f64 = 1.0;
+    pub const DEFAULT_SPEED_M_S: f64 = 2.0;
+    pub const DEFAULT_HOVER_S: f64 = 2.0;
+    pub const DEFAULT_SOLVER_TIME_LIMIT_S: f64 = 10.0;
+
+    pub fn new(run: PathBuf) -> Self {
+        Self {
+            run,
+            map: None,
+            home: None,
+            clearance_m: Self::DEFAULT_CLEARANCE_M,
+            max_sortie_length_m: None,
+            speed_m_s: Self::DEFAULT_SPEED_M_S,
+            hover_s: Self::DEFAULT_HOVER_S,
+            solver: SolveOptions {
+                time_limit: Some(Duration::from_secs_f64(Self::DEFAULT_SOLVER_TIME_LIMIT_S)),
+                ..SolveOptions::default()
+            },
+        }
+    }
+
+    /// Refuse settings that cannot work.
+    fn check(&self) -> Result<(), InvalidSetting> {
+        let at_least_0 = |key: Key, v: f64| InvalidSetting::check(v >= 0.0, key, v, "0 or more");
+        at_least_0(keys::CLEARANCE, self.clearance_m)?;
+        at_least_0(keys::HOVER, self.hover_s)?;
+        InvalidSetting::check(
+            self.speed_m_s > 0.0,
+            keys::SPEED,
+            self.speed_m_s,
+            "a positive number of metres per second",
+        )?;
+        if let Some(m) = self.max_sortie_length_m {
+            InvalidSetting::check(
+                m > 0.0,
+                keys::MAX_SORTIE_LENGTH,
+                m,
+                "a positive number of metres",
+            )?;
+        }
+        let limit = self.solver.time_limit.map_or(1.0, |t| t.as_secs_f64());
+        InvalidSetting::check(
+            limit > 0.0,
+            keys::SOLVER_TIME_LIMIT,
+            limit,
+            "a positive number of seconds",
+        )
+    }
+}
+
+/// A solver time limit from seconds, which must be positive.
+pub fn solver_time_limit(seconds: f64) -> Result<Duration, InvalidSetting> {
+    InvalidSetting::check(
+        seconds.is_finite() && seconds > 0.0,
+        keys::SOLVER_TIME_LIMIT,
+        seconds,
+        "a positive number of seconds",
+    )?;
+    Ok(Duration::from_secs_f64(seconds))
+}
+
+/// Plan the follow-up flight for the run's coverage gaps.
+pub fn replan(
+    options: &ReplanOptions,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<ReplanSummary, ReplanError> {
+    let started = Instant::now();
+    options.check()?;
+    let flight = Flight::load(&options.run)?;
+    let run = RunDir::open(&options.run, Stage::Coverage)?;
+    run.remove(files::SUMMARY)?;
+    let coverage: CoverageSummary = run.read_json(Stage::Coverage.summary_file())?;
+    check_view(&coverage.view)?;
+    let grid = VoxelGrid::new(coverage.resolution_m, Point3::from(coverage.grid_origin));
+    let (targets, gaps) = read_gaps(&run)?;
+    let home = take_off(options, &flight)?;
+    let mut summary = empty_plan(options, &coverage, home, gaps.len());
+    if gaps.is_empty() {
+        return write(&run, summary, started);
+    }
+
+    let given = options.map.as_ref().or(coverage.map.as_ref());
+    let (map, _) = ingest::load_map(&flight, given.map(PathBuf::as_path), grid)?;
+    summary.frame_id = map.cloud.frame_id.clone();
+    let space = FreeSpace::new(&map.voxels, options.clearance_m, &[home]);
+    let home = clear_home(&space, &map, home, &mut summary)?;
+
+    let (found, mut by_gap) =
+        viewpoints(&flight, &coverage, &map, &space, &targets, &gaps, progress)?;
+    summary.candidate_viewpoints = found.len();
+    // Stops: home, then the candidates.
+    let points: Vec<Point3<f64>> = std::iter::once(home)
+        .chain(found.iter().map(|c| Point3::from(c.viewpoint.position)))
+        .collect();
+    let Solved { tour, left_out } = solve(&points, &mut by_gap, &space, &options.solver);
+    summary.uninspectable_gaps = left_out
+        .iter()
+        .map(|(&g, &reason)| Uninspectable {
+            voxel: gaps[g],
+            reason,
+        })
+        .collect();
+    let Some((tour, served)) = tour else {
+        summary
+            .warnings
+            .push("no gap voxel can be inspected from a clear, reachable viewpoint".into());
+        return write(&run, summary, started);
+    };
+
+    let flights = split_sorties(options, &tour, &points, &space, &map)?;
+    let waypoint = |i: usize| {
+        let v = &found[tour.stops[i] - 1].viewpoint;
+        let mut gap_voxels: Vec<VoxelIndex> =
+            tour.serves[i].iter().map(|&k| gaps[served[k]]).collect();
+        gap_voxels.sort_unstable();
+        Waypoint {
+            x: v.position[0],
+            y: v.position[1],
+            z: v.position[2],
+            yaw: v.yaw,
+            gimbal_pitch: v.gimbal_pitch,
+            gap_voxels,
+        }
+    };
+    summary.sorties = flights
+        .iter()
+        .map(|indices| fly(options, &tour, &points, &space, indices, &waypoint))
+        .collect();
+    summarise(&mut summary, tour);
+    write(&run, summary, started)
+}
+
+/// Target voxels and the gap voxels among them (sorted), from `coverage.parquet`.
+fn read_gaps(run: &RunDir) -> Result<(Vec<VoxelIndex>, Vec<VoxelIndex>), ReplanError> {
+    let records = coverage_outputs::read_coverage(run, coverage_outputs::files::TABLE)?;
+    let targets: Vec<VoxelIndex> = records.iter().map(|r| r.voxel).collect();
+    let mut gaps: Vec<VoxelIndex> = records
+        .iter()
+        .filter(|r| !r.inspected && !r.uninspectable)
+        .map(|r| r.voxel)
+        .collect();
+    gaps.sort_unstable();
+    Ok((targets, gaps))
+}
+
+/// Home: as given, else where the flight took off.
+fn take_off(options: &ReplanOptions, flight: &Flight) -> Result<Point3<f64>, ReplanError> {
+    match options.home {
+        Some(h) => Ok(Point3::from(h)),
+        None => flight
+            .trajectory
+            .poses()
+            .first()
+            .map(|p| Point3::from(p.pose.translation.vector))
+            .ok_or(ReplanError::NoTakeOff),
+    }
+}
+
+/// The plan before anything is planned: the settings and the gaps.
+fn empty_plan(
+    options: &ReplanOptions,
+    coverage: &CoverageSummary,
+    home: Point3<f64>,
+    gap_voxels: usize,
+) -> ReplanSummary {
+    ReplanSummary {
+        frame_id: "map".into(),
+        resolution: coverage.resolution_m,
+        origin: coverage.grid_origin,
+        target_voxels: Vec::new(),
+        viewpoints: Vec::new(),
+        view: coverage.view,
+        run: options.run.clone(),
+        home: home.coords.into(),
+        clearance_m: options.clearance_m,
+        speed_m_s: options.speed_m_s,
+        hover_s: options.hover_s,
+        max_sortie_length_m: options.max_sortie_length_m,
+        gap_voxels,
+        planned_gap_voxels: 0,
+        uninspectable_gaps: Vec::new(),
+        candidate_viewpoints: 0,
+        sorties: Vec::new(),
+        waypoints: 0,
+        length_m: 0.0,
+        time_s: 0.0,
+        solver: None,
+        seconds: 0.0,
+        warnings: Vec::new(),
+    }
+}
+
+/// Home itself when it keeps the clearance; else the first clear point
+/// straight above it (a take-off point on the ground is too near the map).
+fn clear_home(
+    space: &FreeSpace,
+    map: &SlamMap,
+    home: Point3<f64>,
+    summary: &mut ReplanSummary,
+) -> Result<Point3<f64>, ReplanError> {
+    if space.point_is_clear(&home) {
+        return Ok(home);
+    }
+    let step = map.voxels.grid.resolution / 2.0;
+    for k in 1..=(20.0 / step) as usize {
+        let lifted = home + Vector3::z() * (k as f64 * step);
+        if space.point_is_clear(&lifted) {
+            summary.warnings.push(format!(
+                "home ({:.1}, {:.1}, {:.1}) is within {} m of the map; sorties start and end {:.1} m above it",
+                home.x, home.y, home.z, space.clearance_m, k as f64 * step
+            ));
+            summary.home = lifted.coords.into();
+            return Ok(lifted);
+        }
+    }
+    Err(ReplanError::HomeBlocked {
+        home: home.coords.into(),
+        clearance_m: space.clearance_m,
+    })
+}
+
+/// Candidate viewpoints around the gap faces (clear of the map), and the
+/// candidates (indices) that inspect each gap voxel.
+fn viewpoints(
+    flight: &Flight,
+    coverage: &CoverageSummary,
+    map: &SlamMap,
+    space: &FreeSpace,
+    targets: &[VoxelIndex],
+    gaps: &[VoxelIndex],
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<(Vec<Candidate>, Vec<Vec<usize>>), ReplanError> {
+    let lens = flight
+        .cameras
+        .first()
+        .and_then(|c| c.intrinsics.as_ref())
+        .ok_or(ReplanError::NoIntrinsics)?;
+    let extrinsic = camera_mount(flight);
+    let view = &coverage.view;
+    let camera = Camera {
+        lens,
+        extrinsic: &extrinsic,
+        view,
+        max_distance_m: view
+            .max_distance_m
+            .min(view.max_gsd_mm / 1000.0 * lens.fx.min(lens.fy)),
+    };
+    let grid = map.voxels.grid;
+    let target_set: HashSet<VoxelIndex> = targets.iter().copied().collect();
+    let faces = exposed_faces(&grid, gaps, &target_set);
+    let total = faces.len() as u64;
+    progress(0, total);
+    let done = AtomicU64::new(0);
+    let found = candidates(gaps, &faces, map, space, &camera, &|k| {
+        done.fetch_max(k as u64, Ordering::Relaxed);
+    });
+    progress(done.load(Ordering::Relaxed), total);
+    let by_gap = clusters(gaps, &found, |v| grid.center(v));
+    Ok((found, by_gap))
+}
+
+/// The tour, and the gap voxels it leaves out.
+struct Solved {
+    /// The tour, and the gap voxels (indices) its clusters stand for;
+    /// `None` when no gap voxel can be served.
+    tour: Option<(Tour, Vec<usize>)>,
+    left_out: BTreeMap<usize, Unplannable>,
+}
+
+/// The tour over the gap voxels that have candidates, solved again without
+/// the candidates no collision-free path reaches; and the gap voxels left
+/// out, with why. `by_gap` loses the unreachable candidates.
+fn solve(
+    points: &[Point3<f64>],
+    by_gap: &mut [Vec<usize>],
+    space: &FreeSpace,
+    solver: &SolveOptions,
+) -> Solved {
+    let mut left_out: BTreeMap<usize, Unplannable> = BTreeMap::new();
+    for (g, members) in by_gap.iter().enumerate() {
+        if members.is_empty() {
+            left_out.insert(g, Unplannable::NoClearViewpoint);
+        }
+    }
+    loop {
+        let served: Vec<usize> = (0..by_gap.len())
+            .filter(|g| !by_gap[*g].is_empty())
+            .collect();
+        if served.is_empty() {
+            return Solved {
+                tour: None,
+                left_out,
+            };
+        }
+        let stop_clusters: Vec<Vec<usize>> = served
+            .iter()
+            .map(|&g| by_gap[g].iter().map(|k| k + 1).collect())
+            .collect();
+        let stops = Stops {
+            points,
+            clusters: &stop_clusters,
+        };
+        match plan_tour(&stops, space, solver) {
+            Ok(tour) => {
+                return Solved {
+                    tour: Some((tour, served)),
+                    left_out,
+                };
+            }
+            Err(TourError::Unreachable(lost)) => {
+                let lost: HashSet<usize> = lost.into_iter().map(|s| s - 1).collect();
+                for (g, members) in by_gap.iter_mut().enumerate() {
+                    let before = members.len();
+                    members.retain(|k| !lost.contains(k));
+                    if before > 0 && members.is_empty() {
+                        left_out.insert(g, Unplannable::Unreachable);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The tour's stops (indices into it, from 1) per sortie: the whole tour,
+/// or split for the battery. Splitting bounds each way home by the lattice
+/// distance (one search from home), then flies the legs home it chose.
+fn split_sorties(
+    options: &ReplanOptions,
+    tour: &Tour,
+    points: &[Point3<f64>],
+    space: &FreeSpace,
+    map: &SlamMap,
+) -> Result<Vec<Vec<usize>>, ReplanError> {
+    let Some(max) = options.max_sortie_length_m else {
+        return Ok(vec![(1..tour.stops.len()).collect()]);
+    };
+    let home = points[0];
+    let from_home = space.distances_from(&home);
+    let grid = map.voxels.grid;
+    let home_m = |stop: usize| {
+        let p = points[stop];
+        if space.segment_is_clear(&home, &p) {
+            return (p - home).norm();
+        }
+        // Rounding to millimetres per step: a little headroom.
+        from_home
+            .get(&grid.voxel_of(&p))
+            .map_or(f64::INFINITY, |d| {
+                (d + (p - grid.center(grid.voxel_of(&p))).norm()) * 1.001 + 0.01
+            })
+    };
+    crate::tour::sorties(tour, max, &home_m).map_err(|(stop, round_trip_m)| {
+        ReplanError::SortieTooLong {
+            point: points[stop].coords.into(),
+            round_trip_m,
+            max_m: max,
+        }
+    })
+}
+
+/// One sortie over the tour's stops `indices`: home, the waypoints, home,
+/// on collision-free legs.
+fn fly(
+    options: &ReplanOptions,
+    tour: &Tour,
+    points: &[Point3<f64>],
+    space: &FreeSpace,
+    indices: &[usize],
+    waypoint: &dyn Fn(usize) -> Waypoint,
+) -> Sortie {
+    let home = points[0];
+    let home_leg = |stop: usize| {
+        space
+            .path(&home, &points[stop])
+            .expect("stops on the tour are reachable from home")
+    };
+    let first = indices[0];
+    let last = *indices.last().expect("sorties are not empty");
+    // Home to the first waypoint: the tour's own leg when it starts the tour.
+    let mut legs: Vec<Vec<Point3<f64>>> = vec![if first == 1 {
+        tour.legs[0].clone()
+    } else {
+        home_leg(tour.stops[first])
+    }];
+    for i in first..last {
+        legs.push(tour.legs[i].clone());
+    }
+    legs.push(if last == tour.stops.len() - 1 {
+        tour.legs[last].clone()
+    } else {
+        home_leg(tour.stops[last]).into_iter().rev().collect()
+    });
+    let waypoints: Vec<Waypoint> = indices.iter().map(|&i| waypoint(i)).collect();
+    let mut path: Vec<Point3<f64>> = Vec::new();
+    for leg in &legs {
+        for p in leg {
+            if path.last() != Some(p) {
+                path.push(*p);
+            }
+        }
+    }
+    let length_m = length(&path);
+    Sortie {
+        time_s: length_m / options.speed_m_s + options.hover_s * waypoints.len() as f64,
+        waypoints,
+        path: path.iter().map(|p| p.coords.into()).collect(),
+        length_m,
+    }
+}
+
+/// The plan's totals, and its waypoints as an inspection plan's viewpoints.
+fn summarise(summary: &mut ReplanSummary, tour: Tour) {
+    for s in &summary.sorties {
+        for w in &s.waypoints {
+            summary.viewpoints.push(Viewpoint {
+                position: [w.x, w.y, w.z],
+                yaw: w.yaw,
+                gimbal_pitch: w.gimbal_pitch,
+            });
+            summary.target_voxels.extend(&w.gap_voxels);
+        }
+    }
+    summary.target_voxels.sort_unstable();
+    summary.planned_gap_voxels = summary.target_voxels.len();
+    summary.waypoints = summary.viewpoints.len();
+    summary.length_m = summary.sorties.iter().map(|s| s.length_m).sum();
+    summary.time_s = summary.sorties.iter().map(|s| s.time_s).sum();
+    summary.solver = Some(tour.stats);
+}
+
+/// Writes `replan.csv` (every point of every sortie's path, `X,Y,Z,Yaw`,
+/// yaw of the waypoint being flown to) and then `replan.json`.
+fn write(
+    run: &RunDir,
+    mut summary: ReplanSummary,
+    started: Instant,
+) -> Result<ReplanSummary, ReplanError> {
+    summary.seconds = started.elapsed().as_secs_f64();
+    run.write_text(files::PATH_CSV, &path_csv(&summary.sorties))?;
+    run.write_json(files::SUMMARY, &summary)?;
+    Ok(summary)
+}
+
+/// `replan.csv`: every point of every sortie's path, with the yaw of the
+/// waypoint being flown to.
+fn path_csv(sorties: &[Sortie]) -> String {
+    let mut text = String::from("X,Y,Z,Yaw\n");
+    let mut row = |p: &[f64; 3], yaw: f64| {
+        text += &format!("{:.3},{:.3},{:.3},{:.4}\n", p[0], p[1], p[2], yaw);
+    };
+    for sortie in sorties {
+        let mut next = 0;
+        let mut yaw = sortie.waypoints.first().map_or(0.0, |w| w.yaw);
+        for p in &sortie.path {
+            // Waypoints sharing a point are turned to there, one row each.
+            let mut at_waypoint = false;
+            while let Some(w) = sortie.waypoints.get(next).filter(|w| [w.x, w.y, w.z] == *p) {
+                row(p, w.yaw);
+                yaw = w.yaw;
+                next += 1;
+                at_waypoint = true;
+            }
+            if !at_waypoint {
+                yaw = sortie.waypoints.get(next).map_or(yaw, |w| w.yaw);
+                row(p, yaw);
+            }
+        }
+    }
+    text
+}

@@ -1,0 +1,327 @@
+//! The follow-up tour: a GTSP over the clusters (one per gap voxel, plus
+//! home), solved with straight-line costs first; then, as in GATSBI, the
+//! legs of the tour are flown on collision-free paths and, while a leg's
+//! path is more than [`DETOUR_LIMIT`] times its cost, those costs are
+//! replaced by the paths' lengths and the GTSP is solved again.
+
+use std::collections::HashMap;
+
+use gtsp::{Instance, SolveOptions, SolveStats, solve};
+use nalgebra::Point3;
+use postflight_core::outputs::replan::ReplanSolverStats;
+
+use crate::free_space::{FreeSpace, length};
+
+/// A leg whose path is longer than this times its cost is re-costed.
+pub const DETOUR_LIMIT: f64 = 1.25;
+/// Solves before the lazy collision check gives up re-solving.
+const MAX_ROUNDS: usize = 20;
+/// Re-solves after the first get this share of its time limit: they start
+/// from costs that changed only on a few legs.
+const RESOLVE_SHARE: f64 = 0.3;
+/// GTSP costs are integers: centimetres.
+const UNITS_PER_M: f64 = 100.0;
+/// Cost of a leg with no collision-free path, metres.
+const NO_PATH_M: f64 = 1.0e5;
+
+/// Where the tour goes: stop 0 is home, stop k > 0 is candidate k - 1.
+pub struct Stops<'a> {
+    pub points: &'a [Point3<f64>],
+    /// Candidates (as stops) that may inspect each gap voxel.
+    pub clusters: &'a [Vec<usize>],
+}
+
+/// The tour found, with the path of each leg.
+pub struct Tour {
+    /// Stops in visiting order, starting at home (not repeated at the end);
+    /// a candidate serving several clusters appears once.
+    pub stops: Vec<usize>,
+    /// For each stop, the gap voxels (indices into the clusters) it serves.
+    pub serves: Vec<Vec<usize>>,
+    /// Path of the leg from stop i to stop i + 1 (the last leg returns home).
+    pub legs: Vec<Vec<Point3<f64>>>,
+    pub stats: ReplanSolverStats,
+}
+
+/// Why no tour could be made.
+#[derive(Debug, Clone, PartialEq)]
+pub enum TourError {
+    /// These stops have no collision-free path from home.
+    Unreachable(Vec<usize>),
+}
+
+/// Solves the tour. `unreachable` stops (found on the way) are reported so
+/// that the caller can drop them and call again.
+pub fn plan_tour(
+    stops: &Stops,
+    space: &FreeSpace,
+    options: &SolveOptions,
+) -> Result<Tour, TourError> {
+    // Vertices: home, then one per (cluster, member): a candidate in several
+    // clusters is copied, its copies 0 apart.
+    let mut vertex_stop = vec![0usize];
+    let mut sets = vec![vec![0u32]];
+    for members in stops.clusters {
+        let set = members
+            .iter()
+            .map(|&stop| {
+                vertex_stop.push(stop);
+                (vertex_stop.len() - 1) as u32
+            })
+            .collect();
+        sets.push(set);
+    }
+    let n = vertex_stop.len();
+    // Known path lengths of legs between stops (both ways), metres.
+    let mut flown: FlownLegs = HashMap::new();
+    let straight = |a: usize, b: usize| (stops.points[a] - stops.points[b]).norm();
+    let mut stats = ReplanSolverStats {
+        vertices: n,
+        clusters: stops.clusters.len(),
+        rounds: 0,
+        legs_checked: 0,
+        legs_recosted: 0,
+        converged: false,
+        last_solve: SolveStats::default(),
+        solve_seconds: 0.0,
+    };
+    let started = std::time::Instant::now();
+    loop {
+        let cost: Vec<i32> = (0..n * n)
+            .map(|k| {
+                let (a, b) = (vertex_stop[k / n], vertex_stop[k % n]);
+                let len = flown
+                    .get(&key(a, b))
+                    .map_or_else(|| straight(a, b), |(len, _)| *len);
+                (len * UNITS_PER_M).round() as i32
+            })
+            .collect();
+        let inst = Instance::new("replan", n, cost, sets.clone())
+            .expect("clusters are disjoint and not empty");
+        let round_options = SolveOptions {
+            time_limit: options.time_limit.map(|t| {
+                if stats.rounds == 0 {
+                    t
+                } else {
+                    t.mul_f64(RESOLVE_SHARE)
+                }
+            }),
+            ..options.clone()
+        };
+        let solution = solve(&inst, &round_options);
+        stats.rounds += 1;
+        stats.last_solve = solution.stats;
+        let (order, serves) = visits(&solution.tour, &vertex_stop, &sets);
+        // Fly every leg not flown yet; re-cost those over the detour limit.
+        let mut recosted = 0;
+        let mut unreachable = Vec::new();
+        for i in 0..order.len() {
+            let (a, b) = (order[i], order[(i + 1) % order.len()]);
+            if a == b || flown.contains_key(&key(a, b)) {
+                continue;
+            }
+            let estimate = straight(a, b);
+            let path = space.path(&stops.points[a], &stops.points[b]);
+            stats.legs_checked += 1;
+            let Some(mut path) = path else {
+                unreachable.extend([a, b].into_iter().filter(|&s| {
+                    s != 0 && space.path(&stops.points[0], &stops.points[s]).is_none()
+                }));
+                flown.insert(key(a, b), (NO_PATH_M, Vec::new()));
+                continue;
+            };
+            let len = length(&path);
+            if key(a, b) != (a, b) {
+                path.reverse();
+            }
+            flown.insert(key(a, b), (len, path));
+            if len > DETOUR_LIMIT * estimate + 1e-9 {
+                recosted += 1;
+            }
+        }
+        if !unreachable.is_empty() {
+            unreachable.sort_unstable();
+            unreachable.dedup();
+            return Err(TourError::Unreachable(unreachable));
+        }
+        stats.legs_recosted += recosted;
+        stats.converged = recosted == 0;
+        // After MAX_ROUNDS the last tour is flown as it is: every leg has a
+        // collision-free path; only its order may be improvable.
+        if recosted == 0 || stats.rounds == MAX_ROUNDS {
+            stats.solve_seconds = started.elapsed().as_secs_f64();
+            let legs = (0..order.len())
+                .map(|i| leg_path(&flown, stops, order[i], order[(i + 1) % order.len()]))
+                .collect();
+            return Ok(Tour {
+                stops: order,
+                serves,
+                legs,
+                stats,
+            });
+        }
+    }
+}
+
+/// Legs flown so far, by (lower stop, higher stop): the path's length
+/// (metres) and the path from the lower stop to the higher one.
+type FlownLegs = HashMap<(usize, usize), (f64, Vec<Point3<f64>>)>;
+
+fn key(a: usize, b: usize) -> (usize, usize) {
+    (a.min(b), a.max(b))
+}
+
+/// The stored path of a leg, in the direction a -> b.
+fn leg_path(flown: &FlownLegs, stops: &Stops, a: usize, b: usize) -> Vec<Point3<f64>> {
+    if a == b {
+        return vec![stops.points[a]];
+    }
+    let path = &flown[&key(a, b)].1;
+    if key(a, b) == (a, b) {
+        path.clone()
+    } else {
+        path.iter().rev().copied().collect()
+    }
+}
+
+/// The stops of a GTSP tour from home, each candidate once (a candidate
+/// chosen by several clusters serves them all at its first visit), and the
+/// clusters (gap voxels) each stop serves.
+fn visits(tour: &[u32], vertex_stop: &[usize], sets: &[Vec<u32>]) -> (Vec<usize>, Vec<Vec<usize>>) {
+    let mut cluster_of = vec![0usize; vertex_stop.len()];
+    for (c, set) in sets.iter().enumerate() {
+        for &v in set {
+            cluster_of[v as usize] = c;
+        }
+    }
+    let home = tour
+        .iter()
+        .position(|&v| v == 0)
+        .expect("home is in every tour");
+    let mut order: Vec<usize> = Vec::new();
+    let mut serves: Vec<Vec<usize>> = Vec::new();
+    let mut at: HashMap<usize, usize> = HashMap::new();
+    for k in 0..tour.len() {
+        let v = tour[(home + k) % tour.len()] as usize;
+        let stop = vertex_stop[v];
+        let slot = *at.entry(stop).or_insert_with(|| {
+            order.push(stop);
+            serves.push(Vec::new());
+            order.len() - 1
+        });
+        if v != 0 {
+            serves[slot].push(cluster_of[v] - 1);
+        }
+    }
+    (order, serves)
+}
+
+/// Splits a tour into sorties that each start and end at home and are at
+/// most `max_m` long, greedily in tour order. `home_m(s)` bounds the length
+/// of the path between home and stop `s` from above. Returns indices into
+/// `tour.stops`, or the first stop whose round trip alone is too long.
+pub fn sorties(
+    tour: &Tour,
+    max_m: f64,
+    home_m: &dyn Fn(usize) -> f64,
+) -> Result<Vec<Vec<usize>>, (usize, f64)> {
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    let mut current: Vec<usize> = Vec::new();
+    let mut so_far = 0.0;
+    for i in 1..tour.stops.len() {
+        let back = home_m(tour.stops[i]);
+        if 2.0 * back > max_m {
+            return Err((tour.stops[i], 2.0 * back));
+        }
+        let to_here = if current.is_empty() {
+            back
+        } else {
+            so_far + length(&tour.legs[i - 1])
+        };
+        if to_here + back > max_m {
+            out.push(std::mem::take(&mut current));
+            so_far = back;
+        } else {
+            so_far = to_here;
+        }
+        current.push(i);
+    }
+    if !current.is_empty() {
+        out.push(current);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use postflight_core::map::{VoxelGrid, VoxelMap};
+    use std::time::Duration;
+
+    /// Flat ground, and a wall between x = 0 and x = 0.5 for |y| < 5.
+    fn wall() -> VoxelMap {
+        let mut points = Vec::new();
+        for x in -30..30 {
+            for y in -30..30 {
+                points.push(Point3::new(f64::from(x) * 0.5, f64::from(y) * 0.5, -0.25));
+            }
+        }
+        for y in -10..10 {
+            for z in 0..16 {
+                points.push(Point3::new(
+                    0.25,
+                    f64::from(y) * 0.5 + 0.25,
+                    f64::from(z) * 0.5 + 0.25,
+                ));
+            }
+        }
+        VoxelMap::from_points(VoxelGrid::new(0.5, Point3::origin()), &points, 1)
+    }
+
+    #[test]
+    fn legs_through_the_wall_are_recosted_and_the_tour_goes_round_once() {
+        let map = wall();
+        let space = FreeSpace::new(&map, 1.0, &[]);
+        // Home west of the wall; two clusters east of it, each with a near
+        // and a far choice; straight lines cross the wall.
+        let points = vec![
+            Point3::new(-3.0, 0.0, 3.0),
+            Point3::new(3.0, 1.0, 3.0),
+            Point3::new(9.0, 1.0, 3.0),
+            Point3::new(3.0, -1.0, 3.0),
+            Point3::new(9.0, -1.0, 3.0),
+        ];
+        let clusters = vec![vec![1, 2], vec![3, 4]];
+        let stops = Stops {
+            points: &points,
+            clusters: &clusters,
+        };
+        let options = SolveOptions {
+            time_limit: Some(Duration::from_secs(2)),
+            threads: 1,
+            ..SolveOptions::default()
+        };
+        let tour = plan_tour(&stops, &space, &options).unwrap();
+        assert!(
+            tour.stats.rounds >= 2,
+            "straight lines cross the wall: {}",
+            tour.stats.rounds
+        );
+        assert!(tour.stats.legs_recosted >= 1);
+        assert_eq!(tour.stops[0], 0);
+        let mut served: Vec<usize> = tour.serves.concat();
+        served.sort_unstable();
+        assert_eq!(served, vec![0, 1]);
+        for leg in &tour.legs {
+            assert!(leg.windows(2).all(|w| space.segment_is_clear(&w[0], &w[1])));
+        }
+        // The near choices, reached round one end of the wall.
+        assert_eq!(
+            &tour.stops[1..]
+                .iter()
+                .copied()
+                .collect::<std::collections::BTreeSet<_>>(),
+            &[1, 3].into()
+        );
+    }
+}

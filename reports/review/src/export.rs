@@ -1,0 +1,248 @@
+//! What the review produces for others: the decisions (CSV, and JSON with
+//! their history) and the accepted defects as a report table (CSV and
+//! Parquet), one row per crack an inspector confirmed.
+
+use std::path::{Path, PathBuf};
+
+use polars::prelude::*;
+use postflight_core::RunDir;
+use serde::Serialize;
+
+use crate::queue::Queue;
+use crate::store::{Decision, ReviewError, ReviewStore, Verdict};
+use reports::results::RunResults;
+
+/// Files `postflight review export` writes.
+pub mod files {
+    pub const DECISIONS_CSV: &str = "review-decisions.csv";
+    pub const DECISIONS_JSON: &str = "review-decisions.json";
+    pub const ACCEPTED_CSV: &str = "accepted-defects.csv";
+    pub const ACCEPTED_TABLE: &str = "accepted-defects.parquet";
+}
+
+/// A crack an inspector accepted (as is, or as needing repair), with what
+/// localisation measured.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AcceptedDefect {
+    pub id: String,
+    pub verdict: Verdict,
+    pub severity: Option<u8>,
+    pub note: String,
+    pub reviewer: String,
+    pub decided_at: String,
+    /// World frame, metres.
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+    pub face: String,
+    pub length_m: Option<f64>,
+    pub length_partial: bool,
+    pub confidence: f64,
+    pub frames: u32,
+    pub best_frame: u32,
+    pub gsd_mm: f64,
+    pub range_m: f64,
+}
+
+/// The accepted defects, in review order.
+pub fn accepted_defects(queue: &Queue) -> Vec<AcceptedDefect> {
+    queue
+        .entries
+        .iter()
+        .filter_map(|e| {
+            let d = e.decision.as_ref()?;
+            if d.verdict == Verdict::Rejected {
+                return None;
+            }
+            let c = e.defect;
+            Some(AcceptedDefect {
+                id: c.id.clone(),
+                verdict: d.verdict,
+                severity: d.severity,
+                note: d.note.clone(),
+                reviewer: d.reviewer.clone(),
+                decided_at: d.decided_at.clone(),
+                x: c.position[0],
+                y: c.position[1],
+                z: c.position[2],
+                face: c.face.name().to_string(),
+                length_m: c.length_m,
+                length_partial: c.length_partial,
+                confidence: c.confidence,
+                frames: c.frames,
+                best_frame: c.best.frame,
+                gsd_mm: c.best.oblique_gsd_mm,
+                range_m: c.best.range_m,
+            })
+        })
+        .collect()
+}
+
+fn accepted_table(rows: &[AcceptedDefect]) -> PolarsResult<DataFrame> {
+    let text = |f: fn(&AcceptedDefect) -> &str| rows.iter().map(f).collect::<Vec<_>>();
+    let float = |f: fn(&AcceptedDefect) -> f64| rows.iter().map(f).collect::<Vec<_>>();
+    let columns = vec![
+        Column::new("id".into(), text(|r| &r.id)),
+        Column::new("verdict".into(), text(|r| r.verdict.as_str())),
+        Column::new(
+            "severity".into(),
+            rows.iter()
+                .map(|r| r.severity.map(i32::from))
+                .collect::<Vec<_>>(),
+        ),
+        Column::new("note".into(), text(|r| &r.note)),
+        Column::new("reviewer".into(), text(|r| &r.reviewer)),
+        Column::new("decided_at".into(), text(|r| &r.decided_at)),
+        Column::new("x".into(), float(|r| r.x)),
+        Column::new("y".into(), float(|r| r.y)),
+        Column::new("z".into(), float(|r| r.z)),
+        Column::new("face".into(), text(|r| &r.face)),
+        Column::new(
+            "length_m".into(),
+            rows.iter().map(|r| r.length_m).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "length_partial".into(),
+            rows.iter().map(|r| r.length_partial).collect::<Vec<_>>(),
+        ),
+        Column::new("confidence".into(), float(|r| r.confidence)),
+        Column::new(
+            "frames".into(),
+            rows.iter().map(|r| r.frames).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "best_frame".into(),
+            rows.iter().map(|r| r.best_frame).collect::<Vec<_>>(),
+        ),
+        Column::new("gsd_mm".into(), float(|r| r.gsd_mm)),
+        Column::new("range_m".into(), float(|r| r.range_m)),
+    ];
+    DataFrame::new(rows.len(), columns)
+}
+
+/// The current decisions as a table, one row per candidate.
+fn decisions_table(decisions: &[Decision]) -> PolarsResult<DataFrame> {
+    let text = |f: fn(&Decision) -> &str| decisions.iter().map(f).collect::<Vec<_>>();
+    let columns = vec![
+        Column::new("candidate".into(), text(|d| &d.candidate)),
+        Column::new("verdict".into(), text(|d| d.verdict.as_str())),
+        Column::new(
+            "severity".into(),
+            decisions
+                .iter()
+                .map(|d| d.severity.map(i32::from))
+                .collect::<Vec<_>>(),
+        ),
+        Column::new("note".into(), text(|d| &d.note)),
+        Column::new("reviewer".into(), text(|d| &d.reviewer)),
+        Column::new("decided_at".into(), text(|d| &d.decided_at)),
+        Column::new(
+            "version".into(),
+            decisions.iter().map(|d| d.version).collect::<Vec<_>>(),
+        ),
+    ];
+    DataFrame::new(decisions.len(), columns)
+}
+
+/// A table as CSV: a header line, RFC 4180 quoting, missing values empty.
+fn csv(mut table: DataFrame) -> Result<String, ReviewError> {
+    let mut out = Vec::new();
+    CsvWriter::new(&mut out).finish(&mut table)?;
+    Ok(String::from_utf8(out).expect("polars writes UTF-8 CSV"))
+}
+
+/// The current decisions as CSV.
+pub fn decisions_csv(decisions: &[Decision]) -> Result<String, ReviewError> {
+    csv(decisions_table(decisions)?)
+}
+
+/// The accepted defects as CSV.
+pub fn accepted_csv(rows: &[AcceptedDefect]) -> Result<String, ReviewError> {
+    csv(accepted_table(rows)?)
+}
+
+/// The decisions as JSON: the current one per candidate, and every decision
+/// ever made in the order made (the audit trail).
+#[derive(Debug, Serialize)]
+pub struct DecisionsExport {
+    pub current: Vec<Decision>,
+    pub history: Vec<Decision>,
+}
+
+impl DecisionsExport {
+    pub fn read(store: &ReviewStore) -> Result<Self, ReviewError> {
+        Ok(Self {
+            current: store.current_decisions()?,
+            history: store.all_decisions()?,
+        })
+    }
+}
+
+/// Write every export into `dir`; returns the file names written.
+pub fn write_all(
+    dir: &RunDir,
+    store: &ReviewStore,
+    queue: &Queue,
+) -> Result<[&'static str; 4], ReviewError> {
+    let decisions = DecisionsExport::read(store)?;
+    dir.write_text(files::DECISIONS_CSV, &decisions_csv(&decisions.current)?)?;
+    dir.write_json(files::DECISIONS_JSON, &decisions)?;
+    let accepted = accepted_defects(queue);
+    dir.write_text(files::ACCEPTED_CSV, &accepted_csv(&accepted)?)?;
+    dir.write_table(files::ACCEPTED_TABLE, accepted_table(&accepted))?;
+    Ok([
+        files::DECISIONS_CSV,
+        files::DECISIONS_JSON,
+        files::ACCEPTED_CSV,
+        files::ACCEPTED_TABLE,
+    ])
+}
+
+/// `postflight review export`: write every export of the review of `run`
+/// (decisions in `db`) into `out`; returns the paths written.
+pub fn export_run(run: &Path, db: &Path, out: &Path) -> Result<Vec<PathBuf>, ReviewError> {
+    let results = RunResults::read(run)?;
+    if results.localise.is_none() {
+        return Err(ReviewError::NotLocalised(run.to_owned()));
+    }
+    if !db.is_file() {
+        return Err(ReviewError::Invalid(format!(
+            "no review database at {}: review the run first with `postflight review serve --run {}`, or name the database with --db",
+            db.display(),
+            run.display()
+        )));
+    }
+    let store = ReviewStore::open(db)?;
+    let queue = Queue::new(&results.defects_for_review(), store.current_decisions()?);
+    let dir = RunDir::create(out)?;
+    let written = write_all(&dir, &store, &queue)?;
+    Ok(written.iter().map(|name| dir.file(name)).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_csv_export_quotes_what_needs_quoting() {
+        let decision = Decision {
+            candidate: "a".into(),
+            version: 1,
+            verdict: Verdict::NeedsRepair,
+            severity: Some(3),
+            note: "crack, \"wide\"\nat joint".into(),
+            reviewer: "ann".into(),
+            decided_at: "2026-11-23T00:00:00Z".into(),
+        };
+        let csv = decisions_csv(&[decision]).unwrap();
+        assert!(
+            csv.starts_with("candidate,verdict,severity,note,reviewer,decided_at,version\n"),
+            "{csv}"
+        );
+        let row = csv.lines().nth(1).unwrap();
+        assert!(
+            row.starts_with("a,needs_repair,3,\"crack, \"\"wide\"\""),
+            "{csv}"
+        );
+    }
+}

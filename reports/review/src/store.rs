@@ -1,0 +1,410 @@
+//! Review decisions in SQLite. Candidates are keyed by their stable ids
+//! (surface voxel and face), so a decision stays with its crack when
+//! localisation is re-run on the same flight. Every decision is a new row
+//! (nothing is overwritten): the latest is the current one, the rest are its
+//! history. A decision names the version it was made on; if someone decided
+//! in between, it is refused as a conflict instead of silently replacing
+//! theirs.
+
+use std::path::Path;
+
+use rusqlite::{Connection, OptionalExtension, TransactionBehavior, params};
+use serde::{Deserialize, Serialize};
+
+use postflight_core::outputs::localise::DefectRecord;
+
+/// What a reviewer decided about a candidate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// A crack.
+    Accepted,
+    /// Not a crack (a false detection).
+    Rejected,
+    /// A crack that needs repair, with a severity from 1 to 5.
+    NeedsRepair,
+}
+
+impl Verdict {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Accepted => "accepted",
+            Self::Rejected => "rejected",
+            Self::NeedsRepair => "needs_repair",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        [Self::Accepted, Self::Rejected, Self::NeedsRepair]
+            .into_iter()
+            .find(|v| v.as_str() == s)
+    }
+}
+
+/// One decision, as recorded.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Decision {
+    pub candidate: String,
+    /// 1 for the first decision on a candidate, then 2, ...
+    pub version: i64,
+    pub verdict: Verdict,
+    pub severity: Option<u8>,
+    pub note: String,
+    pub reviewer: String,
+    /// RFC 3339, UTC.
+    pub decided_at: String,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ReviewError {
+    #[error("review database: {0}")]
+    Database(#[from] rusqlite::Error),
+    #[error("cannot open the review database {}: {cause}; check the --db path", path.display())]
+    Open {
+        path: std::path::PathBuf,
+        cause: rusqlite::Error,
+    },
+    #[error("no defect candidate {0:?} in this review; reload the queue")]
+    UnknownCandidate(String),
+    #[error(
+        "candidate {candidate} was decided by someone else since you loaded it (now version {current}); reload it and decide again"
+    )]
+    Conflict { candidate: String, current: i64 },
+    #[error("{0}")]
+    Invalid(String),
+    #[error(transparent)]
+    Files(#[from] postflight_core::Error),
+    #[error(transparent)]
+    Run(#[from] reports::ReportError),
+    #[error(transparent)]
+    Flight(#[from] ingest::IngestError),
+    #[error("cannot build the export table: {0}")]
+    Table(#[from] polars::prelude::PolarsError),
+    #[error(
+        "this run has no defect candidates to review yet: run `postflight localise --run {0}` (or `postflight run`) first"
+    )]
+    NotLocalised(std::path::PathBuf),
+    #[error(
+        "cannot listen on {addr}: {cause}; choose another address with --addr (port 0 picks a free port)"
+    )]
+    Bind {
+        addr: std::net::SocketAddr,
+        cause: std::io::Error,
+    },
+    #[error("review server: {0}")]
+    Server(std::io::Error),
+}
+
+const SCHEMA: &str = "
+CREATE TABLE IF NOT EXISTS candidates (
+    id TEXT PRIMARY KEY,
+    priority REAL NOT NULL,
+    confidence REAL NOT NULL,
+    length_m REAL,
+    -- 0 when the latest localisation no longer has it (its decisions stay).
+    present INTEGER NOT NULL DEFAULT 1,
+    version INTEGER NOT NULL DEFAULT 0
+);
+CREATE TABLE IF NOT EXISTS decisions (
+    seq INTEGER PRIMARY KEY AUTOINCREMENT,
+    candidate TEXT NOT NULL REFERENCES candidates(id),
+    version INTEGER NOT NULL,
+    verdict TEXT NOT NULL CHECK (verdict IN ('accepted', 'rejected', 'needs_repair')),
+    severity INTEGER CHECK (severity BETWEEN 1 AND 5),
+    note TEXT NOT NULL,
+    reviewer TEXT NOT NULL,
+    decided_at TEXT NOT NULL,
+    UNIQUE (candidate, version)
+);
+";
+
+/// The review database's file name in a run directory, by default.
+pub const DEFAULT_DB: &str = "review.sqlite";
+
+/// Longest reviewer name accepted.
+pub const MAX_REVIEWER_CHARS: usize = 80;
+/// Longest note accepted.
+pub const MAX_NOTE_CHARS: usize = 4000;
+
+/// The review database of a run.
+pub struct ReviewStore {
+    conn: Connection,
+}
+
+impl ReviewStore {
+    /// Open (or create) the database at `path`: WAL, and every commit synced
+    /// to disk before it returns, so an acknowledged decision survives a
+    /// killed server.
+    pub fn open(path: &Path) -> Result<Self, ReviewError> {
+        let setup = || -> rusqlite::Result<Connection> {
+            let conn = Connection::open(path)?;
+            conn.pragma_update(None, "journal_mode", "WAL")?;
+            conn.pragma_update(None, "synchronous", "FULL")?;
+            conn.pragma_update(None, "foreign_keys", "ON")?;
+            conn.busy_timeout(std::time::Duration::from_secs(5))?;
+            conn.execute_batch(SCHEMA)?;
+            Ok(conn)
+        };
+        let conn = setup().map_err(|cause| ReviewError::Open {
+            path: path.to_owned(),
+            cause,
+        })?;
+        Ok(Self { conn })
+    }
+
+    /// Bring the candidates up to date with localisation's: new ones are
+    /// added, known ones keep their decisions (their priority is refreshed),
+    /// and ones no longer found are kept, marked absent. Returns how many
+    /// are new.
+    pub fn sync_candidates(&mut self, defects: &[DefectRecord]) -> Result<usize, ReviewError> {
+        let tx = self.conn.transaction()?;
+        tx.execute("UPDATE candidates SET present = 0", [])?;
+        let mut added = 0;
+        for d in defects {
+            let priority = reports::results::review_priority(d);
+            let changed = tx.execute(
+                "UPDATE candidates SET present = 1, priority = ?2, confidence = ?3, length_m = ?4 WHERE id = ?1",
+                params![d.id, priority, d.confidence, d.length_m],
+            )?;
+            if changed == 0 {
+                tx.execute(
+                    "INSERT INTO candidates (id, priority, confidence, length_m) VALUES (?1, ?2, ?3, ?4)",
+                    params![d.id, priority, d.confidence, d.length_m],
+                )?;
+                added += 1;
+            }
+        }
+        tx.commit()?;
+        Ok(added)
+    }
+
+    /// Record a decision on `candidate`, made on `seen_version` (the version
+    /// the reviewer was shown; 0 before any decision). One transaction.
+    pub fn decide(
+        &mut self,
+        candidate: &str,
+        seen_version: i64,
+        verdict: Verdict,
+        severity: Option<u8>,
+        note: &str,
+        reviewer: &str,
+    ) -> Result<Decision, ReviewError> {
+        match (verdict, severity) {
+            (Verdict::NeedsRepair, Some(1..=5)) | (Verdict::Accepted | Verdict::Rejected, None) => {
+            }
+            (Verdict::NeedsRepair, _) => {
+                return Err(ReviewError::Invalid(
+                    "needs repair takes a severity from 1 to 5".into(),
+                ));
+            }
+            _ => {
+                return Err(ReviewError::Invalid(
+                    "only a needs-repair decision has a severity".into(),
+                ));
+            }
+        }
+        let reviewer = reviewer.trim();
+        if reviewer.is_empty() {
+            return Err(ReviewError::Invalid(
+                "say who you are: a decision needs a reviewer name".into(),
+            ));
+        }
+        if reviewer.chars().count() > MAX_REVIEWER_CHARS {
+            return Err(ReviewError::Invalid(format!(
+                "a reviewer name has at most {MAX_REVIEWER_CHARS} characters"
+            )));
+        }
+        if note.chars().count() > MAX_NOTE_CHARS {
+            return Err(ReviewError::Invalid(format!(
+                "a note has at most {MAX_NOTE_CHARS} characters; put longer text in the inspection report"
+            )));
+        }
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)?;
+        let current: Option<i64> = tx
+            .query_row(
+                "SELECT version FROM candidates WHERE id = ?1",
+                [candidate],
+                |r| r.get(0),
+            )
+            .optional()?;
+        let current = current.ok_or_else(|| ReviewError::UnknownCandidate(candidate.into()))?;
+        if current != seen_version {
+            return Err(ReviewError::Conflict {
+                candidate: candidate.into(),
+                current,
+            });
+        }
+        let decision = Decision {
+            candidate: candidate.into(),
+            version: current + 1,
+            verdict,
+            severity,
+            note: note.into(),
+            reviewer: reviewer.into(),
+            decided_at: postflight_core::time::now_rfc3339(),
+        };
+        tx.execute(
+            "INSERT INTO decisions (candidate, version, verdict, severity, note, reviewer, decided_at)
+             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
+            params![
+                decision.candidate,
+                decision.version,
+                decision.verdict.as_str(),
+                decision.severity,
+                decision.note,
+                decision.reviewer,
+                decision.decided_at
+            ],
+        )?;
+        tx.execute(
+            "UPDATE candidates SET version = ?2 WHERE id = ?1",
+            params![candidate, decision.version],
+        )?;
+        tx.commit()?;
+        Ok(decision)
+    }
+
+    /// Every decision on `candidate`, oldest first (the last is current).
+    pub fn history(&self, candidate: &str) -> Result<Vec<Decision>, ReviewError> {
+        let mut q = self.conn.prepare(
+            "SELECT candidate, version, verdict, severity, note, reviewer, decided_at
+             FROM decisions WHERE candidate = ?1 ORDER BY version",
+        )?;
+        let rows = q.query_map([candidate], decision_row)?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+
+    /// The current decision of every decided candidate, by candidate id.
+    pub fn current_decisions(&self) -> Result<Vec<Decision>, ReviewError> {
+        let mut q = self.conn.prepare(
+            "SELECT d.candidate, d.version, d.verdict, d.severity, d.note, d.reviewer, d.decided_at
+             FROM decisions d JOIN candidates c ON c.id = d.candidate AND c.version = d.version
+             ORDER BY d.candidate",
+        )?;
+        let rows = q.query_map([], decision_row)?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+
+    /// Every decision ever made, in the order they were made.
+    pub fn all_decisions(&self) -> Result<Vec<Decision>, ReviewError> {
+        let mut q = self.conn.prepare(
+            "SELECT candidate, version, verdict, severity, note, reviewer, decided_at
+             FROM decisions ORDER BY seq",
+        )?;
+        let rows = q.query_map([], decision_row)?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+}
+
+fn decision_row(r: &rusqlite::Row) -> rusqlite::Result<Decision> {
+    let verdict: String = r.get(2)?;
+    Ok(Decision {
+        candidate: r.get(0)?,
+        version: r.get(1)?,
+        verdict: Verdict::parse(&verdict).ok_or_else(|| {
+            rusqlite::Error::FromSqlConversionFailure(
+                2,
+                rusqlite::types::Type::Text,
+                format!("unknown verdict {verdict:?}").into(),
+            )
+        })?,
+        severity: r.get(3)?,
+        note: r.get(4)?,
+        reviewer: r.get(5)?,
+        decided_at: r.get(6)?,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::defect;
+
+    fn store(dir: &tempfile::TempDir) -> ReviewStore {
+        ReviewStore::open(&dir.path().join("review.sqlite")).unwrap()
+    }
+
+    #[test]
+    fn a_decision_made_on_an_old_version_is_a_conflict_not_an_overwrite() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = store(&dir);
+        s.sync_candidates(&[defect("a", 0.9)]).unwrap();
+        let first = s
+            .decide("a", 0, Verdict::Accepted, None, "", "ann")
+            .unwrap();
+        assert_eq!(first.version, 1);
+        // Bob loaded the candidate before Ann decided.
+        match s.decide("a", 0, Verdict::Rejected, None, "", "bob") {
+            Err(ReviewError::Conflict { current: 1, .. }) => {}
+            other => panic!("{other:?}"),
+        }
+        let second = s
+            .decide(
+                "a",
+                1,
+                Verdict::NeedsRepair,
+                Some(4),
+                "wide, near bearing",
+                "bob",
+            )
+            .unwrap();
+        let history = s.history("a").unwrap();
+        assert_eq!(history, vec![first, second.clone()]);
+        assert_eq!(s.current_decisions().unwrap(), vec![second]);
+    }
+
+    #[test]
+    fn decisions_stay_with_their_candidates_when_localisation_reruns() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = store(&dir);
+        assert_eq!(
+            s.sync_candidates(&[defect("a", 0.9), defect("b", 0.8)])
+                .unwrap(),
+            2
+        );
+        s.decide("a", 0, Verdict::Rejected, None, "stain", "ann")
+            .unwrap();
+        drop(s);
+        // Reopened, with a new localisation: a kept, b gone, c new.
+        let mut s = store(&dir);
+        assert_eq!(
+            s.sync_candidates(&[defect("a", 0.7), defect("c", 0.6)])
+                .unwrap(),
+            1
+        );
+        let current = s.current_decisions().unwrap();
+        assert_eq!(current.len(), 1);
+        assert_eq!(
+            (current[0].candidate.as_str(), current[0].verdict),
+            ("a", Verdict::Rejected)
+        );
+        assert_eq!(
+            s.decide("c", 0, Verdict::Accepted, None, "", "ann")
+                .unwrap()
+                .version,
+            1
+        );
+    }
+
+    #[test]
+    fn bad_decisions_are_refused_with_the_reason() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = store(&dir);
+        s.sync_candidates(&[defect("a", 0.9)]).unwrap();
+        let refused = |r: Result<Decision, ReviewError>| r.unwrap_err().to_string();
+        assert!(
+            refused(s.decide("a", 0, Verdict::NeedsRepair, None, "", "ann")).contains("severity")
+        );
+        assert!(
+            refused(s.decide("a", 0, Verdict::NeedsRepair, Some(6), "", "ann")).contains("1 to 5")
+        );
+        assert!(
+            refused(s.decide("a", 0, Verdict::Accepted, Some(2), "", "ann")).contains("severity")
+        );
+        assert!(refused(s.decide("a", 0, Verdict::Accepted, None, "", "  ")).contains("reviewer"));
+        assert!(refused(s.decide("zz", 0, Verdict::Accepted, None, "", "ann")).contains("zz"));
+        assert!(s.history("a").unwrap().is_empty());
+    }
+}
