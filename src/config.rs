@@ -4,6 +4,7 @@
 //! are refused. `postflight coverage --config` reads the same file and uses
 //! its `[view]` and `[coverage]` tables.
 
+use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -25,10 +26,14 @@ pub struct IngestConfig {
     pub image_topics: Vec<String>,
     pub pose_topic: Option<String>,
     pub camera_info_topic: Option<String>,
+    /// ROS camera-calibration YAML, for recordings without CameraInfo.
+    pub camera_info_file: Option<PathBuf>,
     pub map_topic: Option<String>,
     pub body_frame: Option<String>,
     pub world_frame: Option<String>,
     pub max_pose_gap_s: Option<f64>,
+    /// Fail on a truncated recording instead of salvaging it.
+    pub strict: Option<bool>,
 }
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -86,6 +91,31 @@ pub struct ReplanConfig {
 }
 
 impl RunConfig {
+    /// Every `(table, key)` of the file, set or not.
+    #[cfg(test)]
+    pub fn keys(&self) -> BTreeSet<(String, String)> {
+        self.keys_where(|_| true)
+    }
+
+    /// The `(table, key)`s this file sets.
+    pub fn keys_set(&self) -> BTreeSet<(String, String)> {
+        self.keys_where(|v| !v.is_null() && v.as_array().is_none_or(|a| !a.is_empty()))
+    }
+
+    fn keys_where(&self, keep: impl Fn(&serde_json::Value) -> bool) -> BTreeSet<(String, String)> {
+        let value = serde_json::to_value(self).expect("the config serialises to JSON");
+        let tables = value.as_object().into_iter().flatten();
+        tables
+            .flat_map(|(table, keys)| {
+                keys.as_object()
+                    .into_iter()
+                    .flatten()
+                    .filter(|(_, v)| keep(v))
+                    .map(move |(key, _)| (table.clone(), key.clone()))
+            })
+            .collect()
+    }
+
     /// The file at `path`, or every setting unset without one.
     pub fn load_or_default(path: Option<&Path>) -> anyhow::Result<Self> {
         path.map_or_else(|| Ok(Self::default()), Self::load)
@@ -110,10 +140,12 @@ impl RunConfig {
             image_topics: c.image_topics.clone(),
             pose_topic: c.pose_topic.clone(),
             camera_info_topic: c.camera_info_topic.clone(),
+            camera_info_file: c.camera_info_file.clone(),
             map_topic: c.map_topic.clone(),
             body_frame: c.body_frame.clone(),
             world_frame: c.world_frame.clone(),
             max_pose_gap_s: c.max_pose_gap_s.unwrap_or(defaults.max_pose_gap_s),
+            strict: c.strict.unwrap_or(defaults.strict),
             ..defaults
         }
     }

@@ -10,12 +10,13 @@ mod pipeline;
 mod progress;
 mod review;
 mod stages;
+mod wording;
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Args, Parser, Subcommand};
+use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 use postflight_core::Stage;
 use replan::ReplanOptions;
 
@@ -383,8 +384,13 @@ struct IngestArgs {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let matches = Cli::command().get_matches();
+    let cli = match Cli::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
     init_logging(cli.verbose);
+    word_settings(&cli, &matches);
     match run(&cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -392,6 +398,22 @@ fn main() -> ExitCode {
             ExitCode::from(1)
         }
     }
+}
+
+/// Word settings in errors as this command line and its config file gave them.
+fn word_settings(cli: &Cli, matches: &clap::ArgMatches) {
+    let sources = wording::Sources::of(matches);
+    let config = match &cli.command {
+        Command::Run(args) => args.config.as_deref(),
+        Command::Coverage(args) => args.config.as_deref(),
+        _ => None,
+    };
+    // An unreadable config file is reported when the command reads it.
+    let sources = match config.map(|path| (path, config::RunConfig::load(path))) {
+        Some((path, Ok(config))) => sources.with_config(path, &config),
+        _ => sources,
+    };
+    sources.install();
 }
 
 fn init_logging(verbose: u8) {

@@ -149,7 +149,14 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
     let (settings, files): (_, Vec<_>) = match stage {
         Stage::Ingest => (
             serde_json::to_value(&c.ingest),
-            vec![("flight", i.flight.clone())],
+            std::iter::once(("flight", i.flight.clone()))
+                .chain(
+                    c.ingest
+                        .camera_info_file
+                        .iter()
+                        .map(|f| ("camera_info", f.clone())),
+                )
+                .collect(),
         ),
         Stage::Detect => (
             serde_json::to_value(&c.detect),

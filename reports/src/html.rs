@@ -1,17 +1,19 @@
 //! `report.html`: one self-contained page (styles, pictures and thumbnails
 //! inline, no scripts, nothing fetched) that reads on screen and prints:
 //! the flight, coverage achieved against planned, the defect candidates in
-//! review order, the follow-up flight and how the run went.
-
-use std::fmt::Write;
+//! review order, the follow-up flight and how the run went. Written with
+//! maud's templates, which escape every value unless told it is markup
+//! (the SVG pictures, built by [`crate::svg`], which escapes its own text).
 
 use base64::Engine;
+use maud::{DOCTYPE, Markup, PreEscaped, html};
+use postflight_core::outputs::coverage::CoverageSummary;
 use postflight_core::outputs::localise::DefectRecord;
-use postflight_core::outputs::replan::Unplannable;
+use postflight_core::outputs::replan::{ReplanSummary, Unplannable};
 use postflight_core::outputs::report::RunSummary;
 
 use crate::results::{RunResults, VoxelStatus, review_priority};
-use crate::svg::{bar_chart, escape};
+use crate::svg::bar_chart;
 use crate::views::{Overlay, Side, colour, view};
 
 const STYLE: &str = r#"
@@ -30,38 +32,47 @@ img.thumb{width:160px;border:1px solid #d1d5db}.frames{font-size:12px;color:#4b5
 
 /// The page for `results`, with `summary` already computed from them.
 pub fn page(results: &RunResults, summary: &RunSummary) -> String {
-    let mut h = String::new();
-    let title = format!(
-        "Inspection report: {}",
-        summary.flight.file_name().map_or_else(
-            || summary.flight.display().to_string(),
-            |n| n.to_string_lossy().into_owned()
-        )
+    let flight = summary.flight.file_name().map_or_else(
+        || summary.flight.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
     );
-    let _ = write!(
-        h,
-        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width,initial-scale=1\"><title>{t}</title><style>{STYLE}</style></head><body><h1>{t}</h1><p class=\"sub\">Flight of {start}, {dur:.0} s, {frames} frames ({posed} with pose). Run directory <code>{run}</code>.</p>",
-        t = escape(&title),
-        start = escape(&readable_time(&summary.flight_start)),
-        dur = summary.duration_s,
-        frames = summary.frames,
-        posed = summary.frames_with_pose,
-        run = escape(&summary.run.display().to_string()),
-    );
-    if summary.truncated {
-        h.push_str("<p class=\"warn\"><b>Truncated recording.</b> The flight file was cut short; postflight salvaged what it holds, and everything below describes only that part of the flight.</p>");
-    }
-    cards(&mut h, summary);
-    coverage_section(&mut h, results);
-    defects_section(&mut h, results);
-    replan_section(&mut h, results);
-    run_section(&mut h, summary);
-    h.push_str("</body></html>\n");
-    h
+    let title = format!("Inspection report: {flight}");
+    let page = html! {
+        (DOCTYPE)
+        html lang="en" {
+            head {
+                meta charset="utf-8";
+                meta name="viewport" content="width=device-width,initial-scale=1";
+                title { (title) }
+                style { (PreEscaped(STYLE)) }
+            }
+            body {
+                h1 { (title) }
+                p.sub {
+                    "Flight of " (readable_time(&summary.flight_start)) ", "
+                    (format!("{:.0}", summary.duration_s)) " s, "
+                    (summary.frames) " frames (" (summary.frames_with_pose) " with pose). "
+                    "Run directory " code { (summary.run.display()) } "."
+                }
+                @if summary.truncated {
+                    p.warn {
+                        b { "Truncated recording." }
+                        " The flight file was cut short; postflight salvaged what it holds, and everything below describes only that part of the flight."
+                    }
+                }
+                (cards(summary))
+                (coverage_section(results))
+                (defects_section(results))
+                (replan_section(results))
+                (run_section(summary))
+            }
+        }
+    };
+    page.into_string() + "\n"
 }
 
-/// `2025-06-15T12:00:00.000000000Z` as `2025-06-15 12:00:00 UTC`.
-/// An RFC 3339 UTC time as `YYYY-MM-DD HH:MM:SS UTC`.
+/// An RFC 3339 UTC time (`2025-06-15T12:00:00.000000000Z`) as
+/// `2025-06-15 12:00:00 UTC`.
 pub fn readable_time(rfc3339: &str) -> String {
     match (rfc3339.get(..10), rfc3339.get(11..19)) {
         (Some(date), Some(time)) if rfc3339.ends_with('Z') => format!("{date} {time} UTC"),
@@ -69,79 +80,89 @@ pub fn readable_time(rfc3339: &str) -> String {
     }
 }
 
-fn cards(h: &mut String, s: &RunSummary) {
-    h.push_str("<div class=\"cards\">");
-    let mut card = |value: String, what: &str| {
-        let _ = write!(
-            h,
-            "<div class=\"card\"><b>{}</b><span>{}</span></div>",
-            escape(&value),
-            escape(what)
-        );
-    };
-    card(s.frames.to_string(), "frames");
-    if let Some(d) = s.detections {
-        card(d.to_string(), "detections");
+/// A candidate's estimated length: "≥" marks a lower bound (its views were
+/// cut by the image border), a dash an unknown length.
+pub fn length_text(d: &DefectRecord) -> String {
+    match (d.length_m, d.length_partial) {
+        (Some(l), false) => format!("{l:.2} m"),
+        (Some(l), true) => format!("\u{2265} {l:.2} m"),
+        (None, _) => "\u{2013}".into(),
     }
-    if let Some(d) = s.defects {
-        card(d.to_string(), "defect candidates");
-    }
-    if let Some(c) = &s.coverage {
-        card(
-            format!("{:.1}%", c.inspected_pct),
-            "of target voxels inspected",
-        );
-        if let Some(p) = c.planned_inspected_pct {
-            card(format!("{p:.1}%"), "of planned voxels inspected");
+}
+
+fn cards(s: &RunSummary) -> Markup {
+    let card = |value: String, what: &str| html! { div.card { b { (value) } span { (what) } } };
+    html! {
+        div.cards {
+            (card(s.frames.to_string(), "frames"))
+            @if let Some(d) = s.detections { (card(d.to_string(), "detections")) }
+            @if let Some(d) = s.defects { (card(d.to_string(), "defect candidates")) }
+            @if let Some(c) = &s.coverage {
+                (card(format!("{:.1}%", c.inspected_pct), "of target voxels inspected"))
+                @if let Some(p) = c.planned_inspected_pct {
+                    (card(format!("{p:.1}%"), "of planned voxels inspected"))
+                }
+                (card(c.gap_voxels.to_string(), "gap voxels"))
+                (card(c.uninspectable_voxels.to_string(), "uninspectable voxels"))
+            }
+            @if let Some(r) = &s.replan {
+                (card(format!("{:.0} m", r.length_m), &format!("follow-up flight, {} sorties", r.sorties)))
+            }
         }
-        card(c.gap_voxels.to_string(), "gap voxels");
-        card(c.uninspectable_voxels.to_string(), "uninspectable voxels");
     }
-    if let Some(r) = &s.replan {
-        card(
-            format!("{:.0} m", r.length_m),
-            &format!("follow-up flight, {} sorties", r.sorties),
-        );
-    }
-    h.push_str("</div>");
 }
 
-fn legend(h: &mut String) {
-    h.push_str("<p class=\"legend\">");
-    for s in VoxelStatus::ALL {
-        let _ = write!(
-            h,
-            "<span><i style=\"background:{}\"></i>{}</span>",
-            colour(s),
-            s.label()
-        );
+fn legend() -> Markup {
+    html! {
+        p.legend {
+            @for s in VoxelStatus::ALL {
+                span { i style=(format!("background:{}", colour(s))) {} (s.label()) }
+            }
+            span { "\u{25CF} defect candidate (number = review order)" }
+        }
     }
-    h.push_str("<span>&#9679; defect candidate (number = review order)</span></p>");
 }
 
-fn coverage_section(h: &mut String, r: &RunResults) {
-    h.push_str("<h2>Coverage: achieved against planned</h2>");
-    let Some(c) = &r.coverage else {
-        h.push_str("<p>Coverage was not computed for this run (it needs an inspection plan: <code>--plan</code>).</p>");
-        return;
-    };
+fn coverage_section(r: &RunResults) -> Markup {
+    html! {
+        h2 { "Coverage: achieved against planned" }
+        @match &r.coverage {
+            None => p {
+                "Coverage was not computed for this run (it needs an inspection plan: "
+                code { "--plan" } ")."
+            },
+            Some(c) => {
+                (view_model(c))
+                (coverage_table(c))
+                (legend())
+                (coverage_views(r, c))
+                (miss_reasons(c))
+            }
+        }
+    }
+}
+
+fn view_model(c: &CoverageSummary) -> Markup {
     let v = &c.view;
-    let _ = write!(
-        h,
-        "<p>Under the View model: cone apex {:.0}&deg;, distance {:.1}&ndash;{:.1} m, incidence up to {:.0}&deg;, blur up to {:.1} px, GSD up to {:.1} mm/px, {} view(s) per face; {:.2} m voxels, targets from {}.</p>",
-        v.cone_apex_deg,
-        v.min_distance_m,
-        v.max_distance_m,
-        v.max_incidence_deg,
-        v.max_blur_px,
-        v.max_gsd_mm,
-        v.views_required,
-        c.resolution_m,
-        escape(&c.targets)
-    );
-    h.push_str(
-        "<table><tr><th>voxels</th><th class=\"n\">count</th><th class=\"n\">share</th></tr>",
-    );
+    html! {
+        p {
+            (format!(
+                "Under the View model: cone apex {:.0}\u{b0}, distance {:.1}\u{2013}{:.1} m, incidence up to {:.0}\u{b0}, blur up to {:.1} px, GSD up to {:.1} mm/px, {} view(s) per face; {:.2} m voxels, targets from ",
+                v.cone_apex_deg,
+                v.min_distance_m,
+                v.max_distance_m,
+                v.max_incidence_deg,
+                v.max_blur_px,
+                v.max_gsd_mm,
+                v.views_required,
+                c.resolution_m,
+            ))
+            (c.targets) "."
+        }
+    }
+}
+
+fn coverage_table(c: &CoverageSummary) -> Markup {
     let pct = |n: usize, of: usize| {
         if of == 0 {
             0.0
@@ -149,37 +170,31 @@ fn coverage_section(h: &mut String, r: &RunResults) {
             100.0 * n as f64 / of as f64
         }
     };
-    let mut row = |what: &str, n: usize, of: usize| {
-        let _ = write!(
-            h,
-            "<tr><td>{what}</td><td class=\"n\">{n}</td><td class=\"n\">{:.1}%</td></tr>",
-            pct(n, of)
-        );
+    let row = |what: &str, n: usize, of: usize| {
+        html! { tr { td { (what) } td.n { (n) } td.n { (format!("{:.1}%", pct(n, of))) } } }
     };
-    row("target", c.target_voxels, c.target_voxels);
-    if let Some(p) = c.planned_voxels {
-        row("planned", p, c.target_voxels);
+    let t = c.target_voxels;
+    html! {
+        table {
+            tr { th { "voxels" } th.n { "count" } th.n { "share" } }
+            (row("target", t, t))
+            @if let Some(p) = c.planned_voxels { (row("planned", p, t)) }
+            (row("inspected", c.inspected_voxels, t))
+            @if let (Some(p), Some(missed)) = (c.planned_voxels, c.planned_missed_voxels) {
+                (row("planned but missed", missed, p))
+            }
+            (row("gaps (a follow-up flight can inspect them)", c.gap_voxels, t))
+            (row("uninspectable (no free viewpoint satisfies the View)", c.uninspectable_voxels, t))
+            tr {
+                td { "exposed face area inspected" }
+                td.n {}
+                td.n { (format!("{:.1}%", c.face_area_coverage_pct)) }
+            }
+        }
     }
-    row("inspected", c.inspected_voxels, c.target_voxels);
-    if let (Some(p), Some(missed)) = (c.planned_voxels, c.planned_missed_voxels) {
-        row("planned but missed", missed, p);
-    }
-    row(
-        "gaps (a follow-up flight can inspect them)",
-        c.gap_voxels,
-        c.target_voxels,
-    );
-    row(
-        "uninspectable (no free viewpoint satisfies the View)",
-        c.uninspectable_voxels,
-        c.target_voxels,
-    );
-    let _ = write!(
-        h,
-        "<tr><td>exposed face area inspected</td><td class=\"n\"></td><td class=\"n\">{:.1}%</td></tr></table>",
-        c.face_area_coverage_pct
-    );
-    legend(h);
+}
+
+fn coverage_views(r: &RunResults, c: &CoverageSummary) -> Markup {
     let markers: Vec<(String, [f64; 3])> = r
         .defects_for_review()
         .iter()
@@ -190,148 +205,129 @@ fn coverage_section(h: &mut String, r: &RunResults) {
         markers,
         ..Overlay::default()
     };
-    h.push_str("<div class=\"views\">");
-    for side in Side::ALL {
-        let _ = write!(
-            h,
-            "<figure>{}<figcaption>Target voxels {}</figcaption></figure>",
-            view(&r.voxels, c.resolution_m, side, &overlay, 500.0),
-            side.title()
-        );
-    }
-    h.push_str("</div>");
-    if !c.reasons.is_empty() {
-        let mut bars: Vec<(String, f64)> = c
-            .reasons
-            .iter()
-            .map(|(k, n)| (k.replace('_', " "), *n as f64))
-            .collect();
-        bars.sort_by(|a, b| b.1.total_cmp(&a.1));
-        let _ = write!(
-            h,
-            "<h3>Why voxels were not inspected</h3><p class=\"sub\">Each not-inspected voxel counted once, by the furthest View rule any frame reached.</p>{}",
-            bar_chart(&bars, "#d7301f", "Reasons voxels were not inspected")
-        );
-    }
-}
-
-fn defects_section(h: &mut String, r: &RunResults) {
-    h.push_str("<h2>Defect candidates, in review order</h2>");
-    if r.localise.is_none() {
-        h.push_str("<p>Detections have not been placed on the map for this run.</p>");
-        return;
-    }
-    let order = r.defects_for_review();
-    if order.is_empty() {
-        h.push_str("<p>No defect candidates: the detector found no cracks that could be placed on the structure.</p>");
-        return;
-    }
-    let _ = write!(
-        h,
-        "<p>{} candidates, likeliest and largest first (fused confidence &times; length). Each is one physical crack fused from its supporting views; the picture is its best view (closest and most frontal).</p>",
-        order.len()
-    );
-    h.push_str("<table><tr><th>#</th><th>best view</th><th>candidate</th><th class=\"n\">length</th><th class=\"n\">GSD</th><th class=\"n\">range</th><th class=\"n\">confidence</th></tr>");
-    for (i, d) in order.iter().enumerate() {
-        let thumb = d
-            .crop
-            .as_ref()
-            .and_then(|c| std::fs::read(r.file(c)).ok())
-            .map(|bytes| {
-                format!(
-                    "<img class=\"thumb\" alt=\"best view of {}\" src=\"data:image/jpeg;base64,{}\">",
-                    escape(&d.id),
-                    base64::engine::general_purpose::STANDARD.encode(bytes)
-                )
-            })
-            .unwrap_or_else(|| "(no image)".into());
-        let length = length_html(d);
-        let mut frames = String::new();
-        for v in &d.views {
-            let b = v.bbox;
-            let _ = write!(
-                frames,
-                "{}frame {} [{:.0}, {:.0}, {:.0}, {:.0}] {:.2}",
-                if frames.is_empty() { "" } else { "; " },
-                v.frame,
-                b[0],
-                b[1],
-                b[2],
-                b[3],
-                v.score
-            );
+    html! {
+        div.views {
+            @for side in Side::ALL {
+                figure {
+                    (PreEscaped(view(&r.voxels, c.resolution_m, side, &overlay, 500.0)))
+                    figcaption { "Target voxels " (side.title()) }
+                }
+            }
         }
-        let p = d.position;
-        let _ = write!(
-            h,
-            "<tr><td>{n}</td><td>{thumb}</td><td><b>{id}</b><br>at ({x:.2}, {y:.2}, {z:.2}) m, face {face}<br>{views} supporting frames, best frame {best}<div class=\"frames\">{frames}</div></td><td class=\"n\">{length}</td><td class=\"n\">{gsd:.1} mm/px</td><td class=\"n\">{range:.1} m</td><td class=\"n\">{conf:.2}<br><span class=\"sub\">priority {prio:.2}</span></td></tr>",
-            n = i + 1,
-            id = escape(&d.id),
-            x = p[0],
-            y = p[1],
-            z = p[2],
-            face = d.face,
-            views = d.frames,
-            best = d.best.frame,
-            gsd = d.best.oblique_gsd_mm,
-            range = d.best.range_m,
-            conf = d.confidence,
-            prio = review_priority(d),
-        );
-    }
-    h.push_str("</table>");
-}
-
-/// A candidate's estimated length as HTML: "&ge;" marks a lower bound (its
-/// views were cut by the image border), a dash an unknown length.
-pub fn length_html(d: &DefectRecord) -> String {
-    match (d.length_m, d.length_partial) {
-        (Some(l), false) => format!("{l:.2} m"),
-        (Some(l), true) => format!("&ge; {l:.2} m"),
-        (None, _) => "&ndash;".into(),
     }
 }
 
-fn replan_section(h: &mut String, r: &RunResults) {
-    h.push_str("<h2>Follow-up flight for the gaps</h2>");
-    let Some(p) = &r.replan else {
-        h.push_str("<p>No follow-up flight was planned for this run.</p>");
-        return;
+fn miss_reasons(c: &CoverageSummary) -> Markup {
+    let mut bars: Vec<(String, f64)> = c
+        .reasons
+        .iter()
+        .map(|(k, n)| (k.replace('_', " "), *n as f64))
+        .collect();
+    bars.sort_by(|a, b| b.1.total_cmp(&a.1));
+    html! {
+        @if !bars.is_empty() {
+            h3 { "Why voxels were not inspected" }
+            p.sub { "Each not-inspected voxel counted once, by the furthest View rule any frame reached." }
+            (PreEscaped(bar_chart(&bars, "#d7301f", "Reasons voxels were not inspected")))
+        }
+    }
+}
+
+fn defects_section(r: &RunResults) -> Markup {
+    let order = r.defects_for_review();
+    html! {
+        h2 { "Defect candidates, in review order" }
+        @if r.localise.is_none() {
+            p { "Detections have not been placed on the map for this run." }
+        } @else if order.is_empty() {
+            p { "No defect candidates: the detector found no cracks that could be placed on the structure." }
+        } @else {
+            p {
+                (order.len())
+                " candidates, likeliest and largest first (fused confidence \u{d7} length). Each is one physical crack fused from its supporting views; the picture is its best view (closest and most frontal)."
+            }
+            table {
+                tr {
+                    th { "#" } th { "best view" } th { "candidate" } th.n { "length" }
+                    th.n { "GSD" } th.n { "range" } th.n { "confidence" }
+                }
+                @for (i, d) in order.iter().enumerate() {
+                    (defect_row(r, i + 1, d))
+                }
+            }
+        }
+    }
+}
+
+fn defect_row(r: &RunResults, rank: usize, d: &DefectRecord) -> Markup {
+    let thumb = d
+        .crop
+        .as_ref()
+        .and_then(|c| std::fs::read(r.file(c)).ok())
+        .map(|bytes| {
+            format!(
+                "data:image/jpeg;base64,{}",
+                base64::engine::general_purpose::STANDARD.encode(bytes)
+            )
+        });
+    let frames: Vec<String> = d
+        .views
+        .iter()
+        .map(|v| {
+            let b = v.bbox;
+            format!(
+                "frame {} [{:.0}, {:.0}, {:.0}, {:.0}] {:.2}",
+                v.frame, b[0], b[1], b[2], b[3], v.score
+            )
+        })
+        .collect();
+    let p = d.position;
+    html! {
+        tr {
+            td { (rank) }
+            td {
+                @match thumb {
+                    Some(src) => img.thumb alt=(format!("best view of {}", d.id)) src=(src);,
+                    None => "(no image)",
+                }
+            }
+            td {
+                b { (d.id) } br;
+                (format!("at ({:.2}, {:.2}, {:.2}) m, face {}", p[0], p[1], p[2], d.face)) br;
+                (d.frames) " supporting frames, best frame " (d.best.frame)
+                div.frames { (frames.join("; ")) }
+            }
+            td.n { (length_text(d)) }
+            td.n { (format!("{:.1} mm/px", d.best.oblique_gsd_mm)) }
+            td.n { (format!("{:.1} m", d.best.range_m)) }
+            td.n {
+                (format!("{:.2}", d.confidence)) br;
+                span.sub { (format!("priority {:.2}", review_priority(d))) }
+            }
+        }
+    }
+}
+
+fn replan_section(r: &RunResults) -> Markup {
+    html! {
+        h2 { "Follow-up flight for the gaps" }
+        @match &r.replan {
+            None => p { "No follow-up flight was planned for this run." },
+            Some(p) if p.gap_voxels == 0 => p {
+                "No gaps: the flight inspected everything a flight can; no follow-up is needed."
+            },
+            Some(p) => (follow_up(r, p)),
+        }
+    }
+}
+
+fn follow_up(r: &RunResults, p: &ReplanSummary) -> Markup {
+    let count = |reason| {
+        p.uninspectable_gaps
+            .iter()
+            .filter(|u| u.reason == reason)
+            .count()
     };
-    if p.gap_voxels == 0 {
-        h.push_str(
-            "<p>No gaps: the flight inspected everything a flight can; no follow-up is needed.</p>",
-        );
-        return;
-    }
-    let _ = write!(
-        h,
-        "<p>{planned} of {gaps} gap voxels planned: {wp} waypoints in {sorties} sortie(s), {len:.0} m, about {min:.0} min at {speed:.1} m/s with {hover:.0} s per waypoint; at least {clear:.1} m from every occupied voxel. Flyable files: <code>replan.json</code> (waypoints with yaw and gimbal pitch) and <code>replan.csv</code> (X,Y,Z,Yaw).</p>",
-        planned = p.planned_gap_voxels,
-        gaps = p.gap_voxels,
-        wp = p.waypoints,
-        sorties = p.sorties.len(),
-        len = p.length_m,
-        min = p.time_s / 60.0,
-        speed = p.speed_m_s,
-        hover = p.hover_s,
-        clear = p.clearance_m,
-    );
-    if !p.uninspectable_gaps.is_empty() {
-        let count = |reason| {
-            p.uninspectable_gaps
-                .iter()
-                .filter(|u| u.reason == reason)
-                .count()
-        };
-        let _ = write!(
-            h,
-            "<p class=\"warn\">{} gap voxels cannot be planned: {} with no viewpoint that keeps the clearance, {} unreachable from home.</p>",
-            p.uninspectable_gaps.len(),
-            count(Unplannable::NoClearViewpoint),
-            count(Unplannable::Unreachable)
-        );
-    }
     let overlay = Overlay {
         paths: p.sorties.iter().map(|s| s.path.as_slice()).collect(),
         points: p
@@ -343,66 +339,84 @@ fn replan_section(h: &mut String, r: &RunResults) {
         grey: true,
         ..Overlay::default()
     };
-    h.push_str("<div class=\"views\">");
-    for side in [Side::Top, Side::South] {
-        let _ = write!(
-            h,
-            "<figure>{}<figcaption>Follow-up flight over the structure, {}</figcaption></figure>",
-            view(&r.voxels, p.resolution, side, &overlay, 500.0),
-            side.title()
-        );
+    html! {
+        p {
+            (format!(
+                "{} of {} gap voxels planned: {} waypoints in {} sortie(s), {:.0} m, about {:.0} min at {:.1} m/s with {:.0} s per waypoint; at least {:.1} m from every occupied voxel. ",
+                p.planned_gap_voxels,
+                p.gap_voxels,
+                p.waypoints,
+                p.sorties.len(),
+                p.length_m,
+                p.time_s / 60.0,
+                p.speed_m_s,
+                p.hover_s,
+                p.clearance_m,
+            ))
+            "Flyable files: " code { "replan.json" } " (waypoints with yaw and gimbal pitch) and "
+            code { "replan.csv" } " (X,Y,Z,Yaw)."
+        }
+        @if !p.uninspectable_gaps.is_empty() {
+            p.warn {
+                (format!(
+                    "{} gap voxels cannot be planned: {} with no viewpoint that keeps the clearance, {} unreachable from home.",
+                    p.uninspectable_gaps.len(),
+                    count(Unplannable::NoClearViewpoint),
+                    count(Unplannable::Unreachable)
+                ))
+            }
+        }
+        div.views {
+            @for side in [Side::Top, Side::South] {
+                figure {
+                    (PreEscaped(view(&r.voxels, p.resolution, side, &overlay, 500.0)))
+                    figcaption { "Follow-up flight over the structure, " (side.title()) }
+                }
+            }
+        }
+        table {
+            tr {
+                th { "sortie" } th.n { "waypoints" } th.n { "gap voxels" }
+                th.n { "length" } th.n { "time" }
+            }
+            @for (i, s) in p.sorties.iter().enumerate() {
+                tr {
+                    td { (i + 1) }
+                    td.n { (s.waypoints.len()) }
+                    td.n { (s.waypoints.iter().map(|w| w.gap_voxels.len()).sum::<usize>()) }
+                    td.n { (format!("{:.0} m", s.length_m)) }
+                    td.n { (format!("{:.1} min", s.time_s / 60.0)) }
+                }
+            }
+        }
     }
-    h.push_str("</div><table><tr><th>sortie</th><th class=\"n\">waypoints</th><th class=\"n\">gap voxels</th><th class=\"n\">length</th><th class=\"n\">time</th></tr>");
-    for (i, s) in p.sorties.iter().enumerate() {
-        let _ = write!(
-            h,
-            "<tr><td>{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{:.0} m</td><td class=\"n\">{:.1} min</td></tr>",
-            i + 1,
-            s.waypoints.len(),
-            s.waypoints
-                .iter()
-                .map(|w| w.gap_voxels.len())
-                .sum::<usize>(),
-            s.length_m,
-            s.time_s / 60.0
-        );
-    }
-    h.push_str("</table>");
 }
 
-fn run_section(h: &mut String, s: &RunSummary) {
-    h.push_str("<h2>The run</h2><table><tr><th>stage</th><th class=\"n\">seconds</th></tr>");
+fn run_section(s: &RunSummary) -> Markup {
     // Pipeline order, then anything else.
     const ORDER: [&str; 6] = [
         "ingest", "detect", "localise", "coverage", "replan", "report",
     ];
     let mut stages: Vec<(&String, &f64)> = s.timings_s.iter().collect();
     stages.sort_by_key(|(name, _)| ORDER.iter().position(|o| o == name).unwrap_or(ORDER.len()));
-    for (stage, secs) in stages {
-        let _ = write!(
-            h,
-            "<tr><td>{}</td><td class=\"n\">{secs:.1}</td></tr>",
-            escape(stage)
-        );
-    }
     let v = &s.versions;
-    let _ = write!(
-        h,
-        "</table><p>postflight {}; model {} (SHA-256 {}); ONNX Runtime {}.</p>",
-        escape(&v.postflight),
-        escape(
-            &v.model
-                .as_ref()
-                .map_or("-".into(), |m| m.display().to_string())
-        ),
-        escape(v.model_sha256.as_deref().unwrap_or("-")),
-        escape(v.onnxruntime.as_deref().unwrap_or("-"))
-    );
-    if !s.warnings.is_empty() {
-        h.push_str("<h3>Warnings</h3><ul>");
-        for w in &s.warnings {
-            let _ = write!(h, "<li>{}</li>", escape(w));
+    html! {
+        h2 { "The run" }
+        table {
+            tr { th { "stage" } th.n { "seconds" } }
+            @for (stage, secs) in stages {
+                tr { td { (stage) } td.n { (format!("{secs:.1}")) } }
+            }
         }
-        h.push_str("</ul>");
+        p {
+            "postflight " (v.postflight) "; model "
+            (v.model.as_ref().map_or("-".into(), |m| m.display().to_string()))
+            " (SHA-256 " (v.model_sha256.as_deref().unwrap_or("-")) "); ONNX Runtime "
+            (v.onnxruntime.as_deref().unwrap_or("-")) "."
+        }
+        @if !s.warnings.is_empty() {
+            h3 { "Warnings" }
+            ul { @for w in &s.warnings { li { (w) } } }
+        }
     }
 }

@@ -1,15 +1,17 @@
 //! The review queue's HTML: the queue and a candidate's page, rendered on
-//! the server with every text escaped. The pages work without scripts
-//! (links and a plain form); `assets/review.js` adds the keyboard.
+//! the server with maud's templates, which escape every value unless told
+//! it is markup (only the position pictures, SVG that escapes its own
+//! text). The pages work without scripts (links and a plain form);
+//! `assets/review.js` adds the keyboard.
 
 use std::fmt::Write;
 
+use maud::{DOCTYPE, Markup, PreEscaped, html};
 use postflight_core::outputs::localise::DefectRecord;
+use reports::html::{length_text, readable_time};
 
 use crate::queue::{Entry, Filter, Progress, Queue};
-use crate::store::{Decision, Verdict};
-use reports::html::{length_html, readable_time};
-use reports::svg::escape;
+use crate::store::{Decision, MAX_NOTE_CHARS, MAX_REVIEWER_CHARS, Verdict};
 
 /// What the page is about, for its title and heading.
 pub struct Context<'a> {
@@ -18,30 +20,45 @@ pub struct Context<'a> {
     pub filter: Filter,
 }
 
-fn document(title: &str, body: &str) -> String {
-    format!(
-        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width,initial-scale=1\"><title>{t}</title><link rel=\"stylesheet\" href=\"/assets/review.css\"><script src=\"/assets/review.js\" defer></script></head><body>{body}<div id=\"flash\" role=\"status\" aria-live=\"polite\"></div></body></html>\n",
-        t = escape(title)
-    )
+fn document(title: &str, body: Markup) -> String {
+    let page = html! {
+        (DOCTYPE)
+        html lang="en" {
+            head {
+                meta charset="utf-8";
+                meta name="viewport" content="width=device-width,initial-scale=1";
+                title { (title) }
+                link rel="stylesheet" href="/assets/review.css";
+                script src="/assets/review.js" defer {}
+            }
+            body {
+                (body)
+                div #flash role="status" aria-live="polite" {}
+            }
+        }
+    };
+    page.into_string() + "\n"
 }
 
-fn progress_line(p: &Progress) -> String {
-    format!(
-        "<p class=\"progress\"><b id=\"reviewed\">{r} of {t} reviewed</b> &middot; {a} accepted &middot; {n} need repair &middot; {j} rejected <progress value=\"{r}\" max=\"{t}\"></progress></p>",
-        r = p.reviewed,
-        t = p.total,
-        a = p.accepted,
-        n = p.needs_repair,
-        j = p.rejected,
-    )
+fn progress_line(p: &Progress) -> Markup {
+    html! {
+        p.progress {
+            b #reviewed { (p.reviewed) " of " (p.total) " reviewed" }
+            " \u{b7} " (p.accepted) " accepted \u{b7} " (p.needs_repair) " need repair \u{b7} "
+            (p.rejected) " rejected "
+            progress value=(p.reviewed) max=(p.total) {}
+        }
+    }
 }
 
-fn reviewer_field(value: &str) -> String {
-    format!(
-        "<label class=\"who\">Reviewer <input id=\"reviewer\" name=\"reviewer\" form=\"decision\" autocomplete=\"name\" maxlength=\"{max}\" placeholder=\"your name\" value=\"{v}\"></label>",
-        max = crate::store::MAX_REVIEWER_CHARS,
-        v = escape(value)
-    )
+fn reviewer_field(value: &str) -> Markup {
+    html! {
+        label.who {
+            "Reviewer "
+            input #reviewer name="reviewer" form="decision" autocomplete="name"
+                maxlength=(MAX_REVIEWER_CHARS) placeholder="your name" value=(value);
+        }
+    }
 }
 
 /// `/candidates/ID?filter=...`
@@ -66,19 +83,20 @@ pub fn percent_encode(s: &str) -> String {
     out
 }
 
-fn verdict_html(d: Option<&Decision>) -> String {
-    match d {
-        None => "<span class=\"v pending\">pending</span>".into(),
-        Some(d) => {
-            let what = match (d.verdict, d.severity) {
-                (Verdict::NeedsRepair, Some(s)) => format!("needs repair, severity {s}"),
-                (v, _) => v.as_str().to_string(),
-            };
-            format!(
-                "<span class=\"v {k}\">{what}</span> <span class=\"sub\">by {who}</span>",
-                k = d.verdict.as_str(),
-                who = escape(&d.reviewer)
-            )
+fn verdict(d: Option<&Decision>) -> Markup {
+    html! {
+        @match d {
+            None => span.v.pending { "pending" },
+            Some(d) => {
+                span class=(format!("v {}", d.verdict.as_str())) {
+                    @match (d.verdict, d.severity) {
+                        (Verdict::NeedsRepair, Some(s)) => { "needs repair, severity " (s) },
+                        (v, _) => (v.as_str()),
+                    }
+                }
+                " "
+                span.sub { "by " (d.reviewer) }
+            }
         }
     }
 }
@@ -86,72 +104,82 @@ fn verdict_html(d: Option<&Decision>) -> String {
 /// The queue: candidates in review order, filtered, with progress.
 pub fn queue_page(ctx: &Context, queue: &Queue) -> String {
     let p = queue.progress();
-    let mut h = String::new();
-    let _ = write!(
-        h,
-        "<header><h1>Review queue <span class=\"sub\">{flight}</span></h1>{progress}{who}</header><nav class=\"filters\">",
-        flight = escape(ctx.flight),
-        progress = progress_line(&p),
-        who = reviewer_field(""),
-    );
-    for f in Filter::ALL {
-        let _ = write!(
-            h,
-            "<a href=\"{href}\"{cur}>{label} ({n})</a>",
-            href = queue_href(f),
-            cur = if f == ctx.filter {
-                " class=\"current\" aria-current=\"page\""
-            } else {
-                ""
-            },
-            label = f.label(),
-            n = p.count(f),
-        );
-    }
-    h.push_str("</nav><nav class=\"exports\">Export: <a href=\"/export/decisions.csv\">decisions (CSV)</a> <a href=\"/export/decisions.json\">decisions with history (JSON)</a> <a href=\"/export/accepted-defects.csv\">accepted defects (CSV)</a></nav>");
     let shown: Vec<&Entry> = queue.shown(ctx.filter).collect();
-    if shown.is_empty() && ctx.filter == Filter::All {
-        h.push_str("<p class=\"empty\">No defect candidates in this run: the detector found no cracks that could be placed on the structure.</p>");
-    } else if shown.is_empty() {
-        let _ = write!(
-            h,
-            "<p class=\"empty\">No {} candidates.</p>",
-            ctx.filter.label()
-        );
-    } else {
-        h.push_str("<table id=\"queue\"><thead><tr><th class=\"n\">#</th><th>best view</th><th>candidate</th><th class=\"n\">length</th><th class=\"n\">confidence</th><th>decision</th></tr></thead><tbody>");
-        for e in shown {
-            let d = e.defect;
-            let href = candidate_href(&d.id, ctx.filter);
-            let _ = write!(
-                h,
-                "<tr class=\"row\" data-href=\"{href}\"><td class=\"n\">{rank}</td><td>{thumb}</td><td><a href=\"{href}\">{id}</a><br><span class=\"sub\">{frames} view{s}, face {face}</span></td><td class=\"n\">{len}</td><td class=\"n\">{conf:.2}</td><td>{verdict}</td></tr>",
-                rank = e.rank,
-                thumb = crop_img(d, "thumb"),
-                id = escape(&d.id),
-                frames = d.views.len(),
-                s = if d.views.len() == 1 { "" } else { "s" },
-                face = d.face,
-                len = length_html(d),
-                conf = d.confidence,
-                verdict = verdict_html(e.decision.as_ref()),
-            );
+    let body = html! {
+        header {
+            h1 { "Review queue " span.sub { (ctx.flight) } }
+            (progress_line(&p))
+            (reviewer_field(""))
         }
-        h.push_str("</tbody></table>");
-    }
-    h.push_str("<p class=\"keys\">Keys: <kbd>j</kbd>/<kbd>k</kbd> move, <kbd>Enter</kbd> open, <kbd>i</kbd> reviewer name, <kbd>Esc</kbd> leave a field.</p>");
-    document(&format!("Review queue: {}", ctx.flight), &h)
+        nav.filters {
+            @for f in Filter::ALL {
+                @if f == ctx.filter {
+                    a href=(queue_href(f)) class="current" aria-current="page" {
+                        (f.label()) " (" (p.count(f)) ")"
+                    }
+                } @else {
+                    a href=(queue_href(f)) { (f.label()) " (" (p.count(f)) ")" }
+                }
+            }
+        }
+        nav.exports {
+            "Export: "
+            a href="/export/decisions.csv" { "decisions (CSV)" } " "
+            a href="/export/decisions.json" { "decisions with history (JSON)" } " "
+            a href="/export/accepted-defects.csv" { "accepted defects (CSV)" }
+        }
+        @if shown.is_empty() && ctx.filter == Filter::All {
+            p.empty { "No defect candidates in this run: the detector found no cracks that could be placed on the structure." }
+        } @else if shown.is_empty() {
+            p.empty { "No " (ctx.filter.label()) " candidates." }
+        } @else {
+            table #queue {
+                thead {
+                    tr {
+                        th.n { "#" } th { "best view" } th { "candidate" } th.n { "length" }
+                        th.n { "confidence" } th { "decision" }
+                    }
+                }
+                tbody { @for e in shown { (queue_row(e, ctx.filter)) } }
+            }
+        }
+        p.keys {
+            "Keys: " kbd { "j" } "/" kbd { "k" } " move, " kbd { "Enter" } " open, "
+            kbd { "i" } " reviewer name, " kbd { "Esc" } " leave a field."
+        }
+    };
+    document(&format!("Review queue: {}", ctx.flight), body)
 }
 
-fn crop_img(d: &DefectRecord, class: &str) -> String {
-    if d.crop.is_some() {
-        format!(
-            "<img class=\"{class}\" loading=\"lazy\" alt=\"best view of {id}\" src=\"/candidates/{href}/crop\">",
-            id = escape(&d.id),
-            href = percent_encode(&d.id)
-        )
-    } else {
-        "<span class=\"sub\">(no image)</span>".into()
+fn queue_row(e: &Entry, filter: Filter) -> Markup {
+    let d = e.defect;
+    let href = candidate_href(&d.id, filter);
+    let views = d.views.len();
+    html! {
+        tr.row data-href=(href) {
+            td.n { (e.rank) }
+            td { (crop_img(d, "thumb")) }
+            td {
+                a href=(href) { (d.id) } br;
+                span.sub {
+                    (views) " view" @if views != 1 { "s" } ", face " (d.face)
+                }
+            }
+            td.n { (length_text(d)) }
+            td.n { (format!("{:.2}", d.confidence)) }
+            td { (verdict(e.decision.as_ref())) }
+        }
+    }
+}
+
+fn crop_img(d: &DefectRecord, class: &str) -> Markup {
+    html! {
+        @if d.crop.is_some() {
+            img class=(class) loading="lazy" alt=(format!("best view of {}", d.id))
+                src=(format!("/candidates/{}/crop", percent_encode(&d.id)));
+        } @else {
+            span.sub { "(no image)" }
+        }
     }
 }
 
@@ -179,194 +207,211 @@ pub struct Refused<'a> {
 pub fn candidate_page(ctx: &Context, queue: &Queue, entry: &Entry, v: &CandidateView) -> String {
     let d = entry.defect;
     let p = queue.progress();
-    let id_href = percent_encode(&d.id);
-    let prev = queue
-        .neighbour(&d.id, ctx.filter, false)
-        .map(|e| candidate_href(&e.defect.id, ctx.filter));
-    let next = queue
-        .neighbour(&d.id, ctx.filter, true)
-        .map(|e| candidate_href(&e.defect.id, ctx.filter));
-    let link = |href: &Option<String>, text: &str, rel: &str| match href {
-        Some(h) => format!("<a href=\"{h}\" rel=\"{rel}\">{text}</a>"),
-        None => format!("<span class=\"sub\">{text}</span>"),
+    let neighbour = |forward: bool| {
+        queue
+            .neighbour(&d.id, ctx.filter, forward)
+            .map(|e| candidate_href(&e.defect.id, ctx.filter))
     };
-    let mut h = String::new();
-    let _ = write!(
-        h,
-        "<header><p class=\"crumbs\"><a href=\"{queue}\" id=\"to-queue\">&larr; queue ({filter})</a> &middot; {prev} &middot; {next}</p><h1>Candidate {rank} of {total} <span class=\"sub\" id=\"candidate-id\">{id}</span></h1>{progress}{who}</header>",
-        queue = queue_href(ctx.filter),
-        filter = ctx.filter.label(),
-        prev = link(&prev, "&larr; previous (k)", "prev"),
-        next = link(&next, "next (j) &rarr;", "next"),
-        rank = entry.rank,
-        total = p.total,
-        id = escape(&d.id),
-        progress = progress_line(&p),
-        who = reviewer_field(v.refused.as_ref().map_or("", |r| r.reviewer)),
-    );
-    let _ = write!(
-        h,
-        "<main class=\"candidate\" data-id=\"{id}\" data-prev=\"{prev}\" data-next=\"{next}\" data-queue=\"{queue}\">",
-        id = escape(&d.id),
-        prev = prev.as_deref().unwrap_or(""),
-        next = next.as_deref().unwrap_or(""),
-        queue = queue_href(ctx.filter),
-    );
-    views_section(&mut h, d, &id_href, v.view, ctx.filter);
-    h.push_str("<aside>");
-    let _ = write!(
-        h,
-        "<figure class=\"best\">{}<figcaption>best view (closest, most frontal), frame {}</figcaption></figure>",
-        crop_img(d, "crop"),
-        d.best.frame
-    );
-    facts(&mut h, d);
-    if !v.position.is_empty() {
-        h.push_str("<div class=\"position\">");
-        for svg in &v.position {
-            h.push_str(svg);
+    let (prev, next) = (neighbour(false), neighbour(true));
+    let link = |href: &Option<String>, text: &str, rel: &str| {
+        html! {
+            @match href {
+                Some(h) => a href=(h) rel=(rel) { (text) },
+                None => span.sub { (text) },
+            }
         }
-        h.push_str("</div>");
-    }
-    decision_form(&mut h, ctx, entry, v);
-    history(&mut h, v.history);
-    h.push_str("</aside></main>");
-    h.push_str("<p class=\"keys\" id=\"help\">Keys: <kbd>a</kbd> accept, <kbd>r</kbd> reject, <kbd>1</kbd>&ndash;<kbd>5</kbd> needs repair with that severity, <kbd>n</kbd> write a note, <kbd>j</kbd>/<kbd>k</kbd> next/previous candidate, <kbd>]</kbd>/<kbd>[</kbd> next/previous view, <kbd>q</kbd> queue, <kbd>i</kbd> reviewer name, <kbd>Esc</kbd> leave a field.</p>");
-    document(&format!("Candidate {}: {}", entry.rank, d.id), &h)
+    };
+    let body = html! {
+        header {
+            p.crumbs {
+                a href=(queue_href(ctx.filter)) #to-queue { "\u{2190} queue (" (ctx.filter.label()) ")" }
+                " \u{b7} " (link(&prev, "\u{2190} previous (k)", "prev"))
+                " \u{b7} " (link(&next, "next (j) \u{2192}", "next"))
+            }
+            h1 {
+                "Candidate " (entry.rank) " of " (p.total) " "
+                span.sub #candidate-id { (d.id) }
+            }
+            (progress_line(&p))
+            (reviewer_field(v.refused.as_ref().map_or("", |r| r.reviewer)))
+        }
+        main.candidate data-id=(d.id) data-prev=(prev.as_deref().unwrap_or(""))
+            data-next=(next.as_deref().unwrap_or("")) data-queue=(queue_href(ctx.filter)) {
+            (views_section(d, v.view, ctx.filter))
+            aside {
+                figure.best {
+                    (crop_img(d, "crop"))
+                    figcaption { "best view (closest, most frontal), frame " (d.best.frame) }
+                }
+                (facts(d))
+                @if !v.position.is_empty() {
+                    div.position { @for svg in &v.position { (PreEscaped(svg)) } }
+                }
+                (decision_form(ctx, entry, v))
+                (history(v.history))
+            }
+        }
+        p.keys #help {
+            "Keys: " kbd { "a" } " accept, " kbd { "r" } " reject, " kbd { "1" } "\u{2013}" kbd { "5" }
+            " needs repair with that severity, " kbd { "n" } " write a note, " kbd { "j" } "/" kbd { "k" }
+            " next/previous candidate, " kbd { "]" } "/" kbd { "[" } " next/previous view, "
+            kbd { "q" } " queue, " kbd { "i" } " reviewer name, " kbd { "Esc" } " leave a field."
+        }
+    };
+    document(&format!("Candidate {}: {}", entry.rank, d.id), body)
 }
 
-fn views_section(h: &mut String, d: &DefectRecord, id_href: &str, shown: usize, filter: Filter) {
+fn views_section(d: &DefectRecord, shown: usize, filter: Filter) -> Markup {
     let n = d.views.len();
     let shown = shown.min(n.saturating_sub(1));
-    h.push_str("<section class=\"views\">");
-    if n == 0 {
-        h.push_str("<p>No supporting views.</p></section>");
-        return;
-    }
+    let id = percent_encode(&d.id);
     let caption = |k: usize| {
         let v = &d.views[k];
         format!(
-            "view {k1} of {n}: frame {f}, score {s:.2}, {r:.1} m away, {i:.0}&deg; incidence, {g:.1} mm/px{clip}",
-            k1 = k + 1,
-            f = v.frame,
-            s = v.score,
-            r = v.range_m,
-            i = v.incidence_deg,
-            g = v.oblique_gsd_mm,
-            clip = if v.clipped {
+            "view {} of {n}: frame {}, score {:.2}, {:.1} m away, {:.0}\u{b0} incidence, {:.1} mm/px{}",
+            k + 1,
+            v.frame,
+            v.score,
+            v.range_m,
+            v.incidence_deg,
+            v.oblique_gsd_mm,
+            if v.clipped {
                 ", cut by the image border"
             } else {
                 ""
             },
         )
     };
-    let _ = write!(
-        h,
-        "<figure><img id=\"view\" alt=\"supporting view with the detection box\" src=\"/candidates/{id_href}/views/{shown}\"><figcaption id=\"view-caption\">{c}</figcaption></figure><p class=\"stepper\"><a id=\"view-prev\" href=\"?filter={f}&amp;view={p}\">&larr; view ([)</a> <a id=\"view-next\" href=\"?filter={f}&amp;view={nx}\">view (]) &rarr;</a></p><ol id=\"view-list\" hidden>",
-        c = caption(shown),
-        f = filter.key(),
-        p = shown.saturating_sub(1),
-        nx = (shown + 1).min(n - 1),
-    );
-    for k in 0..n {
-        let _ = write!(
-            h,
-            "<li data-src=\"/candidates/{id_href}/views/{k}\" data-caption=\"{c}\"></li>",
-            c = escape(&caption(k))
-        );
+    let step = |k: usize| format!("?filter={}&view={k}", filter.key());
+    html! {
+        section.views {
+            @if n == 0 {
+                p { "No supporting views." }
+            } @else {
+                figure {
+                    img #view alt="supporting view with the detection box"
+                        src=(format!("/candidates/{id}/views/{shown}"));
+                    figcaption #view-caption { (caption(shown)) }
+                }
+                p.stepper {
+                    a #view-prev href=(step(shown.saturating_sub(1))) { "\u{2190} view ([)" } " "
+                    a #view-next href=(step((shown + 1).min(n - 1))) { "view (]) \u{2192}" }
+                }
+                ol #view-list hidden {
+                    @for k in 0..n {
+                        li data-src=(format!("/candidates/{id}/views/{k}")) data-caption=(caption(k)) {}
+                    }
+                }
+            }
+        }
     }
-    h.push_str("</ol></section>");
 }
 
-fn facts(h: &mut String, d: &DefectRecord) {
+fn facts(d: &DefectRecord) -> Markup {
     let p = d.position;
     let scores: Vec<String> = d.views.iter().map(|v| format!("{:.2}", v.score)).collect();
-    let _ = write!(
-        h,
-        "<table class=\"facts\"><tr><th>length</th><td>{len}{partial}</td></tr><tr><th>GSD (best view)</th><td>{gsd:.1} mm/px at {range:.1} m</td></tr><tr><th>position</th><td>({x:.2}, {y:.2}, {z:.2}) m, face {face}</td></tr><tr><th>fused confidence</th><td>{conf:.2} (best score {max:.2})</td></tr><tr><th>detector scores</th><td>{scores}</td></tr><tr><th>supporting frames</th><td>{frames}</td></tr></table>",
-        len = length_html(d),
-        partial = if d.length_partial {
-            " <span class=\"sub\">(every view cut by the image border)</span>"
-        } else {
-            ""
-        },
-        gsd = d.best.oblique_gsd_mm,
-        range = d.best.range_m,
-        x = p[0],
-        y = p[1],
-        z = p[2],
-        face = d.face,
-        conf = d.confidence,
-        max = d.max_score,
-        scores = scores.join(", "),
-        frames = d.frames,
-    );
+    html! {
+        table.facts {
+            tr {
+                th { "length" }
+                td {
+                    (length_text(d))
+                    @if d.length_partial {
+                        " " span.sub { "(every view cut by the image border)" }
+                    }
+                }
+            }
+            tr {
+                th { "GSD (best view)" }
+                td { (format!("{:.1} mm/px at {:.1} m", d.best.oblique_gsd_mm, d.best.range_m)) }
+            }
+            tr {
+                th { "position" }
+                td { (format!("({:.2}, {:.2}, {:.2}) m, face {}", p[0], p[1], p[2], d.face)) }
+            }
+            tr {
+                th { "fused confidence" }
+                td { (format!("{:.2} (best score {:.2})", d.confidence, d.max_score)) }
+            }
+            tr { th { "detector scores" } td { (scores.join(", ")) } }
+            tr { th { "supporting frames" } td { (d.frames) } }
+        }
+    }
 }
 
-fn decision_form(h: &mut String, ctx: &Context, entry: &Entry, v: &CandidateView) {
-    h.push_str("<section class=\"decide\"><h2>Decision</h2>");
-    let _ = write!(
-        h,
-        "<p>Current: {}</p>",
-        verdict_html(entry.decision.as_ref())
-    );
-    if let Some(r) = &v.refused {
-        let _ = write!(
-            h,
-            "<p class=\"error\" role=\"alert\">{}</p>",
-            escape(&r.why)
-        );
+fn decision_form(ctx: &Context, entry: &Entry, v: &CandidateView) -> Markup {
+    html! {
+        section.decide {
+            h2 { "Decision" }
+            p { "Current: " (verdict(entry.decision.as_ref())) }
+            @if let Some(r) = &v.refused {
+                p.error role="alert" { (r.why) }
+            }
+            form #decision method="post"
+                action=(format!("/candidates/{}/decide", percent_encode(&entry.defect.id))) {
+                input type="hidden" name="version" value=(entry.version());
+                input type="hidden" name="filter" value=(ctx.filter.key());
+                label {
+                    "Severity (needs repair) "
+                    select name="severity" {
+                        option value="" { "\u{2013}" }
+                        @for s in 1..=5 { option value=(s) { (s) } }
+                    }
+                }
+                label {
+                    "Note "
+                    textarea name="note" rows="2" maxlength=(MAX_NOTE_CHARS) {
+                        (v.refused.as_ref().map_or("", |r| r.note))
+                    }
+                }
+                p.buttons {
+                    button name="verdict" value="accepted" { "Accept (a)" } " "
+                    button name="verdict" value="needs_repair" { "Needs repair (1\u{2013}5)" } " "
+                    button name="verdict" value="rejected" { "Reject (r)" }
+                }
+            }
+        }
     }
-    let _ = write!(
-        h,
-        "<form id=\"decision\" method=\"post\" action=\"/candidates/{id}/decide\"><input type=\"hidden\" name=\"version\" value=\"{version}\"><input type=\"hidden\" name=\"filter\" value=\"{filter}\"><label>Severity (needs repair) <select name=\"severity\"><option value=\"\">&ndash;</option>{options}</select></label><label>Note <textarea name=\"note\" rows=\"2\" maxlength=\"{max}\">{note}</textarea></label><p class=\"buttons\"><button name=\"verdict\" value=\"accepted\">Accept (a)</button> <button name=\"verdict\" value=\"needs_repair\">Needs repair (1&ndash;5)</button> <button name=\"verdict\" value=\"rejected\">Reject (r)</button></p></form></section>",
-        id = percent_encode(&entry.defect.id),
-        version = entry.version(),
-        filter = ctx.filter.key(),
-        options = (1..=5)
-            .map(|s| format!("<option value=\"{s}\">{s}</option>"))
-            .collect::<String>(),
-        max = crate::store::MAX_NOTE_CHARS,
-        note = escape(v.refused.as_ref().map_or("", |r| r.note)),
-    );
 }
 
-fn history(h: &mut String, history: &[Decision]) {
-    h.push_str("<section class=\"history\"><h2>History</h2>");
-    if history.is_empty() {
-        h.push_str("<p class=\"sub\">No decisions yet.</p></section>");
-        return;
+fn history(history: &[Decision]) -> Markup {
+    html! {
+        section.history {
+            h2 { "History" }
+            @if history.is_empty() {
+                p.sub { "No decisions yet." }
+            } @else {
+                table #history {
+                    tr { th { "v" } th { "decision" } th { "note" } th { "when" } th { "replaced" } }
+                    @for (i, d) in history.iter().enumerate().rev() {
+                        tr {
+                            td { (d.version) }
+                            td { (verdict(Some(d))) }
+                            td { (d.note) }
+                            td { (readable_time(&d.decided_at)) }
+                            td {
+                                @match i.checked_sub(1).map(|j| &history[j]) {
+                                    Some(old) => {
+                                        "v" (old.version) " (" (old.verdict.as_str()) " by " (old.reviewer) ")"
+                                    },
+                                    None => "\u{2013}",
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
-    h.push_str("<table id=\"history\"><tr><th>v</th><th>decision</th><th>note</th><th>when</th><th>replaced</th></tr>");
-    for (i, d) in history.iter().enumerate().rev() {
-        let replaced = match i.checked_sub(1).map(|j| &history[j]) {
-            Some(old) => format!(
-                "v{} ({} by {})",
-                old.version,
-                old.verdict.as_str(),
-                escape(&old.reviewer)
-            ),
-            None => "&ndash;".into(),
-        };
-        let _ = write!(
-            h,
-            "<tr><td>{v}</td><td>{what}</td><td>{note}</td><td>{when}</td><td>{replaced}</td></tr>",
-            v = d.version,
-            what = verdict_html(Some(d)),
-            note = escape(&d.note),
-            when = escape(&readable_time(&d.decided_at)),
-        );
-    }
-    h.push_str("</table></section>");
 }
 
 /// A page for errors met while browsing (unknown candidate, bad address).
 pub fn error_page(message: &str) -> String {
     document(
         "Review queue: error",
-        &format!(
-            "<p class=\"error\" role=\"alert\">{}</p><p><a href=\"/\">Back to the queue</a></p>",
-            escape(message)
-        ),
+        html! {
+            p.error role="alert" { (message) }
+            p { a href="/" { "Back to the queue" } }
+        },
     )
 }

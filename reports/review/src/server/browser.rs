@@ -1,0 +1,237 @@
+//! What the pages ask for: the queue, a candidate's page, the decision its
+//! form sends, and the pictures (a candidate's best-view crop, its
+//! supporting views' frames), served by candidate id and view number,
+//! never by a path from the request.
+
+use std::path::{Component, Path as FsPath};
+use std::sync::Arc;
+
+use axum::extract::rejection::{FormRejection, PathRejection, QueryRejection};
+use axum::extract::{Form, Path, Query, State};
+use axum::http::{StatusCode, header};
+use axum::response::{Html, IntoResponse, Redirect, Response};
+use serde::Deserialize;
+
+use super::App;
+use super::api::DecisionRequest;
+use super::errors::HttpError;
+use crate::pages::{self, Refused, candidate_href};
+use crate::pictures::view_jpeg;
+use crate::queue::Filter;
+use crate::store::{ReviewError, Verdict};
+
+#[derive(Debug, Default, Deserialize)]
+pub(super) struct PageQuery {
+    filter: Option<String>,
+    view: Option<usize>,
+}
+
+fn filter(name: Option<&str>) -> Result<Filter, HttpError> {
+    match name {
+        None | Some("") => Ok(Filter::All),
+        Some(s) => Filter::parse(s).ok_or_else(|| {
+            let names: Vec<&str> = Filter::ALL.iter().map(|f| f.key()).collect();
+            HttpError::text(
+                StatusCode::BAD_REQUEST,
+                format!("unknown filter {s:?}; use one of {}", names.join(", ")),
+            )
+            .page()
+        }),
+    }
+}
+
+fn page_query(q: Result<Query<PageQuery>, QueryRejection>) -> Result<PageQuery, HttpError> {
+    q.map(|Query(q)| q)
+        .map_err(|r| HttpError::text(r.status(), r.body_text()).page())
+}
+
+pub(super) async fn queue_page(
+    State(app): State<Arc<App>>,
+    q: Result<Query<PageQuery>, QueryRejection>,
+) -> Result<Html<String>, HttpError> {
+    let q = page_query(q)?;
+    let filter = filter(q.filter.as_deref())?;
+    let current = app.store(|s| s.current_decisions()).await?;
+    let queue = app.queue(current);
+    Ok(Html(pages::queue_page(&app.context(filter), &queue)))
+}
+
+pub(super) async fn candidate_page(
+    State(app): State<Arc<App>>,
+    Path(id): Path<String>,
+    q: Result<Query<PageQuery>, QueryRejection>,
+) -> Result<Html<String>, HttpError> {
+    let q = page_query(q)?;
+    let filter = filter(q.filter.as_deref())?;
+    let key = id.clone();
+    let (current, history) = app
+        .store(move |s| Ok((s.current_decisions()?, s.history(&key)?)))
+        .await?;
+    app.candidate_page(&id, filter, current, &history, q.view, None)
+}
+
+/// A decision as the form sends it (every field text, checked here so that
+/// a bad one is named).
+#[derive(Debug, Deserialize)]
+pub(super) struct DecisionForm {
+    #[serde(default)]
+    version: String,
+    #[serde(default)]
+    verdict: String,
+    #[serde(default)]
+    severity: String,
+    #[serde(default)]
+    note: String,
+    #[serde(default)]
+    reviewer: String,
+    #[serde(default)]
+    filter: String,
+}
+
+impl DecisionForm {
+    fn request(&self) -> Result<DecisionRequest, String> {
+        let version = self.version.parse().map_err(|_| {
+            format!(
+                "version {:?} is not a number; reload the page",
+                self.version
+            )
+        })?;
+        let verdict = Verdict::parse(&self.verdict).ok_or_else(|| {
+            format!(
+                "unknown decision {:?}; use accepted, rejected or needs_repair",
+                self.verdict
+            )
+        })?;
+        let severity = match self.severity.trim() {
+            "" => None,
+            s => Some(
+                s.parse()
+                    .map_err(|_| format!("severity {s:?} is not a number from 1 to 5"))?,
+            ),
+        };
+        Ok(DecisionRequest {
+            version,
+            verdict,
+            severity,
+            note: self.note.clone(),
+            reviewer: self.reviewer.clone(),
+        })
+    }
+}
+
+/// The form's decision: on success, on to the next candidate the filter
+/// shows; refused (a conflict, a bad field), the page again with the reason
+/// and what the reviewer typed.
+pub(super) async fn decide_form(
+    State(app): State<Arc<App>>,
+    Path(id): Path<String>,
+    form: Result<Form<DecisionForm>, FormRejection>,
+) -> Result<Response, HttpError> {
+    let Form(form) = form.map_err(|r| HttpError::text(r.status(), r.body_text()).page())?;
+    let filter = filter(Some(&form.filter))?;
+    app.defect(&id)?;
+    let request = form.request();
+    let key = id.clone();
+    let (outcome, current, history) = app
+        .store(move |s| {
+            let outcome = match &request {
+                Ok(r) => r.apply(s, &key),
+                Err(why) => Err(ReviewError::Invalid(why.clone())),
+            };
+            Ok((outcome, s.current_decisions()?, s.history(&key)?))
+        })
+        .await?;
+    match outcome {
+        Ok(_) => {
+            let queue = app.queue(current);
+            let next = match queue.neighbour(&id, filter, true) {
+                Some(e) => candidate_href(&e.defect.id, filter),
+                None => format!("/?filter={}", filter.key()),
+            };
+            Ok(Redirect::to(&next).into_response())
+        }
+        Err(e @ (ReviewError::Conflict { .. } | ReviewError::Invalid(_))) => {
+            let status = match e {
+                ReviewError::Conflict { .. } => StatusCode::CONFLICT,
+                _ => StatusCode::UNPROCESSABLE_ENTITY,
+            };
+            let page = app.candidate_page(
+                &id,
+                filter,
+                current,
+                &history,
+                None,
+                Some(Refused {
+                    why: e.to_string(),
+                    note: &form.note,
+                    reviewer: &form.reviewer,
+                }),
+            )?;
+            Ok((status, page).into_response())
+        }
+        Err(e) => Err(HttpError::from(e)),
+    }
+}
+
+fn jpeg(bytes: Vec<u8>) -> Response {
+    (
+        [
+            (header::CONTENT_TYPE, "image/jpeg"),
+            (header::CACHE_CONTROL, "private, max-age=3600"),
+        ],
+        bytes,
+    )
+        .into_response()
+}
+
+pub(super) async fn crop(
+    State(app): State<Arc<App>>,
+    Path(id): Path<String>,
+) -> Result<Response, HttpError> {
+    let d = app.defect(&id)?;
+    let missing = || {
+        HttpError::text(
+            StatusCode::NOT_FOUND,
+            format!(
+                "candidate {id} has no best-view image; rerun `postflight localise` to make it"
+            ),
+        )
+    };
+    let name = d.crop.as_deref().ok_or_else(missing)?;
+    // The name comes from defects.json; still, only files inside the run.
+    if FsPath::new(name)
+        .components()
+        .any(|c| !matches!(c, Component::Normal(_)))
+    {
+        return Err(missing());
+    }
+    let bytes = tokio::fs::read(app.results.file(name))
+        .await
+        .map_err(|_| missing())?;
+    Ok(jpeg(bytes))
+}
+
+pub(super) async fn view_image(
+    State(app): State<Arc<App>>,
+    path: Result<Path<(String, usize)>, PathRejection>,
+) -> Result<Response, HttpError> {
+    let Path((id, k)) = path.map_err(|r| HttpError::text(r.status(), r.body_text()))?;
+    let d = app.defect(&id)?;
+    let view = d.views.get(k).cloned().ok_or_else(|| {
+        HttpError::text(
+            StatusCode::NOT_FOUND,
+            format!(
+                "candidate {id} has {} supporting views, numbered from 0",
+                d.views.len()
+            ),
+        )
+    })?;
+    let worker = app.clone();
+    let bytes = tokio::task::spawn_blocking(move || {
+        view_jpeg(&worker.results.flight, &worker.recording, &view)
+    })
+    .await
+    .map_err(|e| HttpError::text(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))?
+    .map_err(|why| HttpError::text(StatusCode::INTERNAL_SERVER_ERROR, why))?;
+    Ok(jpeg(bytes))
+}

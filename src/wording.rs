@@ -1,0 +1,212 @@
+//! How errors word a setting: as the flag the user typed, or as the key of
+//! the config file that set it. Libraries name settings by their key in
+//! `postflight.toml` (`[detect] image_size`); the same setting is `--imgsz`
+//! to `postflight detect`. Set once at start-up, from the parsed command
+//! line and the config file it names.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use clap::parser::ValueSource;
+use clap::{ArgMatches, CommandFactory};
+use postflight_core::Key;
+
+use crate::config::RunConfig;
+
+/// Each stage setting's flag in the stage's own command.
+const FLAGS: &[(Key, &str)] = {
+    use coverage::stage::keys as coverage;
+    use detect::stage::keys as detect;
+    use ingest::stage::keys as ingest;
+    use localise::stage::keys as localise;
+    use replan::stage::keys as replan;
+    &[
+        (ingest::IMAGE_TOPICS, "--image-topic"),
+        (ingest::POSE_TOPIC, "--pose-topic"),
+        (ingest::CAMERA_INFO_TOPIC, "--camera-info-topic"),
+        (ingest::CAMERA_INFO_FILE, "--camera-info"),
+        (ingest::MAP_TOPIC, "--map-topic"),
+        (ingest::BODY_FRAME, "--body-frame"),
+        (ingest::WORLD_FRAME, "--world-frame"),
+        (ingest::MAX_POSE_GAP, "--max-pose-gap"),
+        (ingest::STRICT, "--strict"),
+        (detect::PROMPTS, "--prompt"),
+        (detect::EMBEDDINGS, "--embeddings"),
+        (detect::CONFIDENCE, "--confidence"),
+        (detect::IOU, "--iou"),
+        (detect::MERGE_GAP, "--merge-gap"),
+        (detect::IMAGE_SIZE, "--imgsz"),
+        (detect::TILE, "--tile"),
+        (detect::TILE_OVERLAP, "--tile-overlap"),
+        (detect::BATCH, "--batch"),
+        (detect::DEVICE, "--device"),
+        (localise::MAX_RANGE, "--max-range"),
+        (localise::LINK_DISTANCE, "--link-distance"),
+        (localise::MAX_NORMAL_ANGLE, "--max-normal-angle"),
+        (coverage::CONE_APEX, "--cone-apex"),
+        (coverage::MIN_DISTANCE, "--min-distance"),
+        (coverage::MAX_DISTANCE, "--max-distance"),
+        (coverage::MAX_INCIDENCE, "--max-incidence"),
+        (coverage::MAX_BLUR, "--max-blur"),
+        (coverage::MAX_GSD, "--max-gsd"),
+        (coverage::VIEWS_REQUIRED, "--views"),
+        (coverage::VIEWS_NEAR_DEFECTS, "--views-near-defects"),
+        (coverage::DEFECT_RADIUS, "--defect-radius"),
+        (coverage::EXPOSURE, "--exposure"),
+        (replan::HOME, "--home"),
+        (replan::CLEARANCE, "--clearance"),
+        (replan::MAX_SORTIE_LENGTH, "--max-sortie-length"),
+        (replan::SPEED, "--speed"),
+        (replan::HOVER, "--hover"),
+        (replan::SOLVER_TIME_LIMIT, "--solver-time-limit"),
+        (replan::SEED, "--seed"),
+    ]
+};
+
+/// What one invocation can tell about where each setting came from.
+#[derive(Debug, Default)]
+pub struct Sources {
+    /// Flags the invoked command has.
+    flags: BTreeSet<String>,
+    /// Flags given on the command line.
+    given: BTreeSet<String>,
+    /// The config file, with the `(table, key)`s it sets.
+    config: Option<(PathBuf, BTreeSet<(String, String)>)>,
+}
+
+impl Sources {
+    /// The invoked (sub)command's flags and those given, from `matches` of
+    /// the whole command line.
+    pub fn of(matches: &ArgMatches) -> Self {
+        let mut command = crate::Cli::command();
+        let mut matches = matches;
+        while let Some((name, sub)) = matches.subcommand() {
+            command = command
+                .find_subcommand(name)
+                .cloned()
+                .expect("a parsed subcommand exists");
+            matches = sub;
+        }
+        let given = command
+            .get_arguments()
+            .filter(|arg| {
+                matches.value_source(arg.get_id().as_str()) == Some(ValueSource::CommandLine)
+            })
+            .filter_map(|arg| arg.get_long().map(|long| format!("--{long}")))
+            .collect();
+        Self {
+            flags: flags_of(&command),
+            given,
+            config: None,
+        }
+    }
+
+    /// The config file in use, and what it sets.
+    pub fn with_config(mut self, path: &Path, config: &RunConfig) -> Self {
+        self.config = Some((path.to_owned(), config.keys_set()));
+        self
+    }
+
+    /// How to word `key` for this invocation; `None` leaves the default.
+    pub fn word(&self, key: &Key) -> Option<String> {
+        let Key::Setting { table, name } = *key else {
+            return None;
+        };
+        let flag = FLAGS
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, f)| *f)
+            .filter(|f| self.flags.contains(*f));
+        let in_config = self
+            .config
+            .as_ref()
+            .filter(|(_, set)| set.contains(&(table.to_string(), name.to_string())));
+        match (flag, in_config) {
+            (Some(flag), Some(_)) if self.given.contains(flag) => Some(flag.to_string()),
+            (_, Some((path, _))) => Some(format!("[{table}] {name} in {}", path.display())),
+            (Some(flag), None) => Some(flag.to_string()),
+            (None, None) => match &self.config {
+                Some((path, _)) => Some(format!("[{table}] {name} in {}", path.display())),
+                None => Some(format!("[{table}] {name} of a --config file")),
+            },
+        }
+    }
+
+    /// Word keys so for the rest of the process.
+    pub fn install(self) {
+        postflight_core::setting::word_keys_with(move |key| self.word(key));
+    }
+}
+
+/// The long flags of a command.
+fn flags_of(command: &clap::Command) -> BTreeSet<String> {
+    command
+        .get_arguments()
+        .filter_map(|arg| arg.get_long().map(|long| format!("--{long}")))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::FromArgMatches;
+
+    fn sources(args: &[&str]) -> Sources {
+        let matches = crate::Cli::command().try_get_matches_from(args).unwrap();
+        crate::Cli::from_arg_matches(&matches).unwrap();
+        Sources::of(&matches)
+    }
+
+    #[test]
+    fn every_flag_in_the_table_is_a_stage_command_flag_and_every_key_a_config_key() {
+        let keys = RunConfig::default().keys();
+        for (key, flag) in FLAGS {
+            let Key::Setting { table, name } = *key else {
+                panic!("{key:?} is not a setting")
+            };
+            assert!(
+                keys.contains(&(table.to_string(), name.to_string())),
+                "[{table}] {name} is not a key of postflight.toml"
+            );
+            let command = match table {
+                "view" => "coverage",
+                t => t,
+            };
+            let cli = crate::Cli::command();
+            let flags = flags_of(cli.find_subcommand(command).unwrap());
+            assert!(flags.contains(*flag), "postflight {command} has no {flag}");
+        }
+    }
+
+    #[test]
+    fn a_setting_is_worded_as_the_user_gave_it() {
+        let key = detect::stage::keys::IMAGE_SIZE;
+        let detect = sources(&["postflight", "detect", "--run", "r", "--model", "m"]);
+        assert_eq!(detect.word(&key).unwrap(), "--imgsz");
+        let run = sources(&["postflight", "run", "--flight", "f", "--out", "o"]);
+        assert_eq!(
+            run.word(&key).unwrap(),
+            "[detect] image_size of a --config file"
+        );
+        let config: RunConfig = toml::from_str("[detect]\nimage_size = 33\n").unwrap();
+        let run = run.with_config(Path::new("run.toml"), &config);
+        assert_eq!(run.word(&key).unwrap(), "[detect] image_size in run.toml");
+        // A flag given beats the config file; a setting the file leaves
+        // alone is the flag's.
+        let config: RunConfig = toml::from_str("[view]\nmax_distance_m = 4.0\n").unwrap();
+        let coverage = sources(&[
+            "postflight",
+            "coverage",
+            "--run",
+            "r",
+            "--max-distance",
+            "3",
+        ])
+        .with_config(Path::new("c.toml"), &config);
+        let max = coverage::stage::keys::MAX_DISTANCE;
+        assert_eq!(coverage.word(&max).unwrap(), "--max-distance");
+        let min = coverage::stage::keys::MIN_DISTANCE;
+        assert_eq!(coverage.word(&min).unwrap(), "--min-distance");
+        assert_eq!(coverage.word(&postflight_core::setting::inputs::MAP), None);
+    }
+}
