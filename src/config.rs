@@ -126,7 +126,7 @@ impl RunConfig {
             .map_err(|e| anyhow::anyhow!("cannot read config {}: {e}", path.display()))?;
         toml::from_str(&text).map_err(|e| {
             anyhow::anyhow!(
-                "config {}: {}; tables are [ingest], [detect], [localise], [view], [coverage] and [replan] (see README)",
+                "config {}: {}; tables are [ingest], [detect], [localise], [view], [coverage] and [replan] (see docs/cli.md)",
                 path.display(),
                 e.to_string().trim().replace('\n', " ")
             )
