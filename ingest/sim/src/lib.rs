@@ -159,6 +159,52 @@ pub fn simulate(
     options: &SimOptions,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<SimSummary, String> {
+    check(options)?;
+    let world = World::new(options)?;
+    std::fs::create_dir_all(&options.out)
+        .map_err(|e| format!("cannot create {}: {e}", options.out.display()))?;
+    let mut rec = Recorder::create(&options.out.join("flight.mcap"))?;
+    write_mounting(&mut rec, &world)?;
+    let recorded = record_frames(&mut rec, &world, options, progress)?;
+    let map = map_points(&world.scene, &mut Rng::stream(options.seed, "map"));
+    let duration = world.flight.duration();
+    rec.write(
+        record::MAP_TOPIC,
+        ns(duration) + 500_000_000,
+        &record::point_cloud(&map, ns(duration)),
+    )?;
+    rec.finish()?;
+    record::write_ply(&options.out.join("map.ply"), &map)?;
+    let truth = Truth {
+        scene: world.scene.name.clone(),
+        seed: options.seed,
+        exposure_s: EXPOSURE_S,
+        camera: world.k.clone(),
+        t_body_camera: PoseJson::from(&world.body_camera()),
+        pose_noise: options.pose_noise,
+        skipped_viewpoints: world.flight.skipped.clone(),
+        cracks: world
+            .cracks
+            .0
+            .iter()
+            .map(|c| CrackTruth::new(c, &world.scene, &world.plan.grid()))
+            .collect(),
+        coverage: true_coverage(&world, &recorded.views),
+        frames: recorded.frames,
+    };
+    write_json(&options.out.join("plan.json"), &world.plan)?;
+    write_json(&options.out.join("truth.json"), &truth)?;
+    Ok(SimSummary {
+        frames: options.frames - recorded.dropped,
+        dropped_frames: recorded.dropped,
+        cracks: world.cracks.0.len(),
+        duration_s: duration,
+        map_points: map.len(),
+        flight: options.out.join("flight.mcap"),
+    })
+}
+
+fn check(options: &SimOptions) -> Result<(), String> {
     if options.frames < 2 || options.width < 16 || options.height < 16 {
         return Err("a flight needs at least 2 frames of at least 16x16 pixels".into());
     }
@@ -170,32 +216,62 @@ pub fn simulate(
     {
         return Err("pose noise must be at least 0 (and below 10 m, 57 degrees)".into());
     }
-    let scene = match &options.scene {
-        SceneChoice::GirderBridge => Scene::girder_bridge(),
-        SceneChoice::Tower => Scene::tower(),
-        SceneChoice::Mesh(path) => {
-            Scene::from_obj(path).map_err(|e| format!("mesh {}: {e}", path.display()))?
-        }
-    };
-    std::fs::create_dir_all(&options.out)
-        .map_err(|e| format!("cannot create {}: {e}", options.out.display()))?;
-    let seed = options.seed;
-    let cracks = Cracks::generate(&scene, options.cracks, &mut Rng::stream(seed, "cracks"));
-    let plan = planner::plan(
-        &scene,
-        postflight_core::map::DEFAULT_RESOLUTION,
-        CAMERA_PITCH_DEG.to_radians(),
-    );
-    if plan.viewpoints.len() < 3 {
-        return Err("the structure is too small to plan a flight around".into());
-    }
-    let flight = Flight::fly(&plan, &scene, &mut Rng::stream(seed, "flight"));
-    let k = intrinsics(options.width, options.height, options.distortion);
-    let rays = RayTable::new(&k);
-    let (link, optical) = body_to_camera();
-    let body_camera = link * optical;
+    Ok(())
+}
 
-    let mut rec = Recorder::create(&options.out.join("flight.mcap"))?;
+/// What the flight is made of: the structure with its cracks, the plan,
+/// the flight flown and the camera.
+struct World {
+    scene: Scene,
+    cracks: Cracks,
+    plan: postflight_core::InspectionPlan,
+    flight: Flight,
+    k: Intrinsics,
+    rays: RayTable,
+    /// `T_body_camera_link` and `T_camera_link_optical`.
+    mounting: (Isometry3<f64>, Isometry3<f64>),
+}
+
+impl World {
+    fn new(options: &SimOptions) -> Result<Self, String> {
+        let scene = match &options.scene {
+            SceneChoice::GirderBridge => Scene::girder_bridge(),
+            SceneChoice::Tower => Scene::tower(),
+            SceneChoice::Mesh(path) => {
+                Scene::from_obj(path).map_err(|e| format!("mesh {}: {e}", path.display()))?
+            }
+        };
+        let seed = options.seed;
+        let cracks = Cracks::generate(&scene, options.cracks, &mut Rng::stream(seed, "cracks"));
+        let plan = planner::plan(
+            &scene,
+            postflight_core::map::DEFAULT_RESOLUTION,
+            CAMERA_PITCH_DEG.to_radians(),
+        );
+        if plan.viewpoints.len() < 3 {
+            return Err("the structure is too small to plan a flight around".into());
+        }
+        let flight = Flight::fly(&plan, &scene, &mut Rng::stream(seed, "flight"));
+        let k = intrinsics(options.width, options.height, options.distortion);
+        Ok(Self {
+            rays: RayTable::new(&k),
+            scene,
+            cracks,
+            plan,
+            flight,
+            k,
+            mounting: body_to_camera(),
+        })
+    }
+
+    /// `T_body_camera` of the optical frame.
+    fn body_camera(&self) -> Isometry3<f64> {
+        self.mounting.0 * self.mounting.1
+    }
+}
+
+/// `/tf_static`: the camera's mounting on the body.
+fn write_mounting(rec: &mut Recorder, world: &World) -> Result<(), String> {
     let tf = |parent: &str, child: &str, p: &Isometry3<f64>| {
         let pose = ros_pose(p);
         msg::TransformStamped {
@@ -207,87 +283,81 @@ pub fn simulate(
             },
         }
     };
+    let (link, optical) = &world.mounting;
     rec.write(
         "/tf_static",
         T0_NS,
         &msg::TfMessage {
             transforms: vec![
-                tf("base_link", "camera_link", &link),
-                tf("camera_link", "camera_optical", &optical),
+                tf("base_link", "camera_link", link),
+                tf("camera_link", "camera_optical", optical),
             ],
         },
-    )?;
+    )
+}
 
+/// What recording the frames left for the truth.
+struct Recorded {
+    frames: Vec<FrameTruth>,
+    /// Every frame's camera, and whether it is usable.
+    views: Vec<coverage::View>,
+    dropped: u32,
+}
+
+/// The poses and the frames, in the order a recorder receives them: each
+/// frame rendered (with its motion blur), compressed and written with its
+/// CameraInfo and exposure, unless the recorder dropped it.
+fn record_frames(
+    rec: &mut Recorder,
+    world: &World,
+    options: &SimOptions,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<Recorded, String> {
+    let flight = &world.flight;
+    let body_camera = world.body_camera();
     let duration = flight.duration();
     let pose_times: Vec<f64> = (0..=(duration * flight::POSE_RATE).ceil() as usize)
         .map(|i| (i as f64 / flight::POSE_RATE).min(duration))
         .collect();
     let mut poses = PoseWriter {
-        flight: &flight,
+        flight,
         times: pose_times,
         next: 0,
-        noise: Rng::stream(seed, "pose noise"),
+        noise: Rng::stream(options.seed, "pose noise"),
         sigma: options.pose_noise,
     };
-    let mut drops = Rng::stream(seed, "dropped frames");
-    let mut frames = Vec::new();
-    let mut views = Vec::new();
+    let mut drops = Rng::stream(options.seed, "dropped frames");
+    let mut recorded = Recorded {
+        frames: Vec::new(),
+        views: Vec::new(),
+        dropped: 0,
+    };
     let n = options.frames;
-    let mut dropped = 0;
     for (i, t) in flight.frame_times(n as usize).into_iter().enumerate() {
         let i = i as u32;
         // Poses stamped up to this frame go first, as a recorder would receive them.
-        poses.write_until(t, &mut rec)?;
+        poses.write_until(t, rec)?;
         let camera = flight.body_pose(t) * body_camera;
         let is_dropped = i > 0 && i + 1 < n && drops.uniform() < DROP_RATE;
-        let blur = blur_vector(&scene, &flight, &body_camera, &k, t);
+        let blur = blur_vector(&world.scene, flight, &body_camera, &world.k, t);
         let blur_px = blur.0.hypot(blur.1);
-        let in_view = truth::cracks_in_view(&scene, &cracks.0, &k, &camera, blur_px);
+        let in_view =
+            truth::cracks_in_view(&world.scene, &world.cracks.0, &world.k, &camera, blur_px);
         if is_dropped {
-            dropped += 1;
+            recorded.dropped += 1;
         } else {
             let img = render::motion_blur(
-                render::render(&scene, &cracks, &rays, &camera, i),
+                render::render(&world.scene, &world.cracks, &world.rays, &camera, i),
                 blur.0,
                 blur.1,
             );
-            let mut data = Cursor::new(Vec::new());
-            let format = match options.image_format {
-                ImageFormat::Jpeg => {
-                    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut data, 92)
-                        .encode_image(&img)
-                        .map_err(|e| e.to_string())?;
-                    "jpeg"
-                }
-                ImageFormat::Png => {
-                    img.write_to(&mut data, image::ImageFormat::Png)
-                        .map_err(|e| e.to_string())?;
-                    "png"
-                }
-            };
-            let stamp = ns(t);
-            let log = stamp + 35_000_000;
-            rec.write(
-                record::IMAGE_TOPIC,
-                log,
-                &msg::CompressedImage {
-                    header: header(stamp, "camera_optical"),
-                    format: format.into(),
-                    data: data.into_inner(),
-                },
-            )?;
-            rec.write(record::CAMERA_INFO_TOPIC, log, &camera_info(&k, stamp))?;
-            rec.write(
-                record::EXPOSURE_TOPIC,
-                log,
-                &msg::Float64 { data: EXPOSURE_S },
-            )?;
+            write_frame(rec, &img, options.image_format, &world.k, ns(t))?;
         }
-        views.push(coverage::View {
+        recorded.views.push(coverage::View {
             camera,
-            usable: !is_dropped && blur_px <= plan.view.max_blur_px,
+            usable: !is_dropped && blur_px <= world.plan.view.max_blur_px,
         });
-        frames.push(FrameTruth {
+        recorded.frames.push(FrameTruth {
             index: i,
             time_ns: ns(t),
             dropped: is_dropped,
@@ -298,18 +368,56 @@ pub fn simulate(
         });
         progress(u64::from(i) + 1, u64::from(n));
     }
-    poses.write_until(duration, &mut rec)?;
-    let map = map_points(&scene, &mut Rng::stream(seed, "map"));
-    rec.write(
-        record::MAP_TOPIC,
-        ns(duration) + 500_000_000,
-        &record::point_cloud(&map, ns(duration)),
-    )?;
-    rec.finish()?;
-    record::write_ply(&options.out.join("map.ply"), &map)?;
+    poses.write_until(duration, rec)?;
+    Ok(recorded)
+}
 
-    let grid = plan.grid();
-    let planned: Vec<(Isometry3<f64>, bool)> = plan
+/// One frame as a camera driver records it: the compressed image, its
+/// CameraInfo and its exposure, logged 35 ms after the stamp.
+fn write_frame(
+    rec: &mut Recorder,
+    img: &image::RgbImage,
+    image_format: ImageFormat,
+    k: &Intrinsics,
+    stamp: i64,
+) -> Result<(), String> {
+    let mut data = Cursor::new(Vec::new());
+    let format = match image_format {
+        ImageFormat::Jpeg => {
+            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut data, 92)
+                .encode_image(img)
+                .map_err(|e| e.to_string())?;
+            "jpeg"
+        }
+        ImageFormat::Png => {
+            img.write_to(&mut data, image::ImageFormat::Png)
+                .map_err(|e| e.to_string())?;
+            "png"
+        }
+    };
+    let log = stamp + 35_000_000;
+    rec.write(
+        record::IMAGE_TOPIC,
+        log,
+        &msg::CompressedImage {
+            header: header(stamp, "camera_optical"),
+            format: format.into(),
+            data: data.into_inner(),
+        },
+    )?;
+    rec.write(record::CAMERA_INFO_TOPIC, log, &camera_info(k, stamp))?;
+    rec.write(
+        record::EXPOSURE_TOPIC,
+        log,
+        &msg::Float64 { data: EXPOSURE_S },
+    )
+}
+
+/// The true coverage of the flight's views and of the plan's viewpoints.
+fn true_coverage(world: &World, views: &[coverage::View]) -> coverage::CoverageTruth {
+    let body_camera = world.body_camera();
+    let planned: Vec<(Isometry3<f64>, bool)> = world
+        .plan
         .viewpoints
         .iter()
         .enumerate()
@@ -318,44 +426,18 @@ pub fn simulate(
                 Translation3::from(Vector3::from(v.position)),
                 UnitQuaternion::from_axis_angle(&Vector3::z_axis(), v.yaw),
             ) * body_camera;
-            (camera, flight.skipped.contains(&i))
+            (camera, world.flight.skipped.contains(&i))
         })
         .collect();
-    let coverage = coverage::coverage(
-        &scene,
-        &grid,
-        &plan.target_voxels,
-        &plan.view,
-        &k,
-        &views,
+    coverage::coverage(
+        &world.scene,
+        &world.plan.grid(),
+        &world.plan.target_voxels,
+        &world.plan.view,
+        &world.k,
+        views,
         &planned,
-    );
-    let truth = Truth {
-        scene: scene.name.clone(),
-        seed,
-        exposure_s: EXPOSURE_S,
-        camera: k,
-        t_body_camera: PoseJson::from(&body_camera),
-        pose_noise: options.pose_noise,
-        skipped_viewpoints: flight.skipped.clone(),
-        cracks: cracks
-            .0
-            .iter()
-            .map(|c| CrackTruth::new(c, &scene, &grid))
-            .collect(),
-        frames,
-        coverage,
-    };
-    write_json(&options.out.join("plan.json"), &plan)?;
-    write_json(&options.out.join("truth.json"), &truth)?;
-    Ok(SimSummary {
-        frames: n - dropped,
-        dropped_frames: dropped,
-        cracks: cracks.0.len(),
-        duration_s: duration,
-        map_points: map.len(),
-        flight: options.out.join("flight.mcap"),
-    })
+    )
 }
 
 /// The recorded SLAM poses: noisy samples of the true body pose at `POSE_RATE`.
