@@ -131,6 +131,20 @@ pub struct Intrinsics {
 }
 
 impl Intrinsics {
+    /// An ideal pinhole: `width` x `height` pixels, focal length `f` pixels,
+    /// the principal point at the image centre, no distortion.
+    pub fn pinhole(width: u32, height: u32, f: f64) -> Self {
+        Self {
+            width,
+            height,
+            fx: f,
+            fy: f,
+            cx: f64::from(width) / 2.0,
+            cy: f64::from(height) / 2.0,
+            distortion: Distortion::None,
+        }
+    }
+
     /// From the fields ROS calibrations carry: image size, the row-major
     /// camera matrix `K` and the distortion model and coefficients.
     pub fn from_ros(

@@ -15,7 +15,7 @@ use std::time::Instant;
 use coverage::{Face, Shot, cover, cover_naive, exposed_faces};
 use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
 use postflight_core::map::{PointCloud, SlamMap, VoxelGrid, VoxelIndex};
-use postflight_core::{Distortion, Intrinsics, ViewModel};
+use postflight_core::{Intrinsics, ViewModel};
 
 const WALLS: i32 = 10;
 /// Wall spacing, voxels (20 m).
@@ -65,15 +65,7 @@ fn main() {
         t.elapsed().as_secs_f64()
     );
 
-    let lens = Intrinsics {
-        width: 1280,
-        height: 960,
-        fx: 1100.0,
-        fy: 1100.0,
-        cx: 640.0,
-        cy: 480.0,
-        distortion: Distortion::None,
-    };
+    let lens = Intrinsics::pinhole(1280, 960, 1100.0);
     // Frames on lines along both sides of every wall; each line at one height.
     let lines = (WALLS * 2) as usize;
     let per_line_heights = 5;

@@ -157,7 +157,6 @@ pub fn cover_naive(
 mod tests {
     use super::*;
     use nalgebra::{Translation3, UnitQuaternion, Vector3};
-    use postflight_core::Distortion;
     use postflight_core::map::{FaceSide, PointCloud, VoxelGrid, VoxelIndex};
 
     /// A wall in the plane x = 0 (voxel column x = 0 facing +x), cameras
@@ -181,15 +180,7 @@ mod tests {
             grid,
         )
         .unwrap();
-        let lens = Intrinsics {
-            width: 640,
-            height: 480,
-            fx: 960.0,
-            fy: 960.0,
-            cx: 320.0,
-            cy: 240.0,
-            distortion: Distortion::None,
-        };
+        let lens = Intrinsics::pinhole(640, 480, 960.0);
         (faces, map, vec![lens])
     }
 

@@ -102,19 +102,10 @@ pub fn blur_px(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use postflight_core::Distortion;
     use postflight_core::map::VoxelGrid;
 
     fn lens() -> Intrinsics {
-        Intrinsics {
-            width: 640,
-            height: 480,
-            fx: 960.0,
-            fy: 960.0,
-            cx: 320.0,
-            cy: 240.0,
-            distortion: Distortion::None,
-        }
+        Intrinsics::pinhole(640, 480, 960.0)
     }
 
     /// Body moving along +y at `speed` past a wall 3.5 m ahead (+x), with

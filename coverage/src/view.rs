@@ -152,19 +152,10 @@ pub fn occluded(map: &SlamMap, origin: &Point3<f64>, face: &Face) -> bool {
 mod tests {
     use super::*;
     use nalgebra::{Translation3, UnitQuaternion, Vector3};
-    use postflight_core::Distortion;
     use postflight_core::map::{FaceSide, VoxelGrid, VoxelIndex};
 
     fn lens() -> Intrinsics {
-        Intrinsics {
-            width: 640,
-            height: 480,
-            fx: 960.0,
-            fy: 960.0,
-            cx: 320.0,
-            cy: 240.0,
-            distortion: Distortion::None,
-        }
+        Intrinsics::pinhole(640, 480, 960.0)
     }
 
     /// A camera at `position` looking along `forward` (optical z), level.

@@ -263,60 +263,48 @@ impl Scan {
         m: &RecordedMessage<'_>,
     ) -> Result<(), cdr::CdrError> {
         let log_time_ns = m.log_time as i64;
-        // Drivers without a clock leave the stamp at zero; the log time is then the best capture time.
-        let stamp_or_log = |h: &msg::Header| match h.stamp.nanos() {
-            0 => log_time_ns,
-            t => t,
-        };
+        // A frame as its image header describes it; placed on the trajectory later.
+        let frame =
+            |header: &msg::Header, size: Option<(u32, u32)>, encoding, image_status| Frame {
+                index: 0,
+                time_ns: capture_time(header, log_time_ns),
+                log_time_ns,
+                topic: topic.to_string(),
+                frame_id: header.frame_id.clone(),
+                width: size.map(|s| s.0),
+                height: size.map(|s| s.1),
+                encoding,
+                camera_pose: None,
+                pose_status: PoseStatus::Ok,
+                image_status,
+                location: m.location,
+                exposure_s: None,
+            };
         match kind {
             Kind::CompressedImage => {
                 let (head, mut tail) = cdr::decode_head::<msg::CompressedImageHead>(m.data)?;
                 let data = tail.byte_sequence()?;
                 let size = compressed_size(data);
-                self.frames.push(Frame {
-                    index: 0,
-                    time_ns: stamp_or_log(&head.header),
-                    log_time_ns,
-                    topic: topic.to_string(),
-                    frame_id: head.header.frame_id.clone(),
-                    width: size.map(|s| s.0),
-                    height: size.map(|s| s.1),
-                    encoding: Compression::sniff(data)
-                        .map(|c| c.as_str().to_string())
-                        .unwrap_or(head.format),
-                    camera_pose: None,
-                    pose_status: PoseStatus::Ok,
-                    exposure_s: None,
-                    image_status: if size.is_some() {
-                        ImageStatus::Ok
-                    } else {
-                        ImageStatus::Unreadable
-                    },
-                    location: m.location,
-                });
+                let encoding = Compression::sniff(data)
+                    .map(|c| c.as_str().to_string())
+                    .unwrap_or(head.format);
+                let status = match size {
+                    Some(_) => ImageStatus::Ok,
+                    None => ImageStatus::Unreadable,
+                };
+                self.frames
+                    .push(frame(&head.header, size, encoding, status));
             }
             Kind::Image => {
                 let head: msg::ImageHead = cdr::decode_head(m.data)?.0;
-                let supported = RAW_ENCODINGS.contains(&head.encoding.as_str());
-                self.frames.push(Frame {
-                    index: 0,
-                    time_ns: stamp_or_log(&head.header),
-                    log_time_ns,
-                    topic: topic.to_string(),
-                    frame_id: head.header.frame_id.clone(),
-                    width: Some(head.width),
-                    height: Some(head.height),
-                    encoding: head.encoding,
-                    camera_pose: None,
-                    pose_status: PoseStatus::Ok,
-                    exposure_s: None,
-                    image_status: if supported {
-                        ImageStatus::Ok
-                    } else {
-                        ImageStatus::UnsupportedEncoding
-                    },
-                    location: m.location,
-                });
+                let status = if RAW_ENCODINGS.contains(&head.encoding.as_str()) {
+                    ImageStatus::Ok
+                } else {
+                    ImageStatus::UnsupportedEncoding
+                };
+                let size = Some((head.width, head.height));
+                self.frames
+                    .push(frame(&head.header, size, head.encoding, status));
             }
             Kind::CameraInfo => {
                 if !self.camera_infos.contains_key(topic) {
@@ -326,33 +314,15 @@ impl Scan {
             }
             Kind::PoseStamped => {
                 let p: msg::PoseStamped = cdr::decode(m.data)?;
-                self.pose(
-                    topic,
-                    stamp_or_log(&p.header),
-                    &p.pose,
-                    p.header.frame_id,
-                    String::new(),
-                );
+                self.pose(topic, p.header, &p.pose, String::new(), log_time_ns);
             }
             Kind::PoseWithCovariance => {
                 let p: msg::PoseWithCovarianceStamped = cdr::decode(m.data)?;
-                self.pose(
-                    topic,
-                    stamp_or_log(&p.header),
-                    &p.pose.pose,
-                    p.header.frame_id,
-                    String::new(),
-                );
+                self.pose(topic, p.header, &p.pose.pose, String::new(), log_time_ns);
             }
             Kind::Odometry => {
                 let o: msg::Odometry = cdr::decode(m.data)?;
-                self.pose(
-                    topic,
-                    stamp_or_log(&o.header),
-                    &o.pose.pose,
-                    o.header.frame_id,
-                    o.child_frame_id,
-                );
+                self.pose(topic, o.header, &o.pose.pose, o.child_frame_id, log_time_ns);
             }
             Kind::Tf { is_static } => {
                 let tf: msg::TfMessage = cdr::decode(m.data)?;
@@ -374,7 +344,17 @@ impl Scan {
         Ok(())
     }
 
-    fn pose(&mut self, topic: &str, time_ns: i64, p: &msg::Pose, frame: String, child: String) {
+    /// A pose of `topic`, stamped by `header` (or logged at `log_time_ns`).
+    fn pose(
+        &mut self,
+        topic: &str,
+        header: msg::Header,
+        p: &msg::Pose,
+        child: String,
+        log_time_ns: i64,
+    ) {
+        let time_ns = capture_time(&header, log_time_ns);
+        let frame = header.frame_id;
         let Some(pose) = ros::pose(p.position, p.orientation) else {
             return;
         };
@@ -386,6 +366,15 @@ impl Scan {
             entry.child_frame_id = child;
         }
         entry.poses.push(StampedPose { time_ns, pose });
+    }
+}
+
+/// A message's capture time: its `header.stamp`, or the time it was logged
+/// when the stamp is unset (drivers without a clock leave it at zero).
+fn capture_time(header: &msg::Header, log_time_ns: i64) -> i64 {
+    match header.stamp.nanos() {
+        0 => log_time_ns,
+        t => t,
     }
 }
 

@@ -207,13 +207,8 @@ fn main() {
         start.elapsed().as_secs_f64()
     );
     let k = Intrinsics {
-        width: 640,
-        height: 480,
-        fx: 960.0,
-        fy: 960.0,
-        cx: 320.0,
-        cy: 240.0,
         distortion: Distortion::PlumbBob([-0.08, 0.025, 0.0004, -0.0003, 0.0]),
+        ..Intrinsics::pinhole(640, 480, 960.0)
     };
     let cracks = cracks(&mut rng);
     // Frames along both sides until the cracks in view add up to 100k detections.

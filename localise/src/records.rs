@@ -11,20 +11,7 @@ use crate::observation::Observation;
 
 /// A placed observation as a view of its candidate.
 fn view(o: &Observation) -> Option<ViewRecord> {
-    let p = o.placement.as_ref()?;
-    let d = &o.detection;
-    let b = d.detection.bbox;
-    Some(ViewRecord {
-        frame: d.frame,
-        time_ns: d.time_ns,
-        bbox: [b.x0, b.y0, b.x1, b.y1],
-        score: d.detection.score,
-        range_m: p.hit.range,
-        incidence_deg: p.hit.incidence.to_degrees(),
-        oblique_gsd_mm: p.oblique_gsd_mm,
-        length_m: p.length_m,
-        clipped: o.clipped,
-    })
+    ViewRecord::of(&observation_record(o, None))
 }
 
 /// A candidate with its views; `crop` is its best view's JPEG, relative to

@@ -196,6 +196,40 @@ pub fn write_defects(run: &RunDir, defects: &[DefectRecord]) -> Result<(), Error
     )
 }
 
+/// Read `defects.parquet`, each candidate's supporting views taken from
+/// `observations.parquet` (the placed detections naming it): the same
+/// records `defects.json` holds, from the tables.
+pub fn read_defects_table(run: &RunDir) -> Result<Vec<DefectRecord>, Error> {
+    let observations = read_observations(run)?;
+    let views = |id: &str| -> Vec<ViewRecord> {
+        observations
+            .iter()
+            .filter(|o| o.defect.as_deref() == Some(id))
+            .filter_map(ViewRecord::of)
+            .collect()
+    };
+    run.read_table(files::DEFECTS, |df| defects_from(df, &views))
+}
+
+impl ViewRecord {
+    /// A placed observation as a view of its candidate (`None` unplaced).
+    pub fn of(o: &ObservationRecord) -> Option<Self> {
+        let p = o.placed?;
+        let b = o.bbox;
+        Some(Self {
+            frame: o.frame,
+            time_ns: o.time_ns,
+            bbox: [b.x0, b.y0, b.x1, b.y1],
+            score: o.score,
+            range_m: p.range_m,
+            incidence_deg: p.incidence_deg,
+            oblique_gsd_mm: p.oblique_gsd_mm,
+            length_m: p.length_m,
+            clipped: o.clipped,
+        })
+    }
+}
+
 /// Read `defects.json`: the candidates with every supporting view.
 pub fn read_defects(run: &RunDir) -> Result<Vec<DefectRecord>, Error> {
     run.read_json::<DefectsFile>(files::DEFECTS_JSON)
@@ -451,4 +485,171 @@ fn defects_table(defects: &[DefectRecord]) -> PolarsResult<DataFrame> {
             .collect::<Vec<Option<&str>>>(),
     ));
     DataFrame::new(d.len(), columns)
+}
+
+fn defects_from(
+    df: &DataFrame,
+    views: &dyn Fn(&str) -> Vec<ViewRecord>,
+) -> PolarsResult<Vec<DefectRecord>> {
+    let f64s = |name: &str| df.column(name).and_then(|c| c.f64());
+    let f32s = |name: &str| df.column(name).and_then(|c| c.f32());
+    let u32s = |name: &str| df.column(name).and_then(|c| c.u32());
+    let i32s = |name: &str| df.column(name).and_then(|c| c.i32());
+    let triple = |prefix: &str| -> PolarsResult<[&Float64Chunked; 3]> {
+        Ok([
+            f64s(&format!("{prefix}x"))?,
+            f64s(&format!("{prefix}y"))?,
+            f64s(&format!("{prefix}z"))?,
+        ])
+    };
+    let (id, face, crop) = (
+        df.column("id")?.str()?,
+        df.column("face")?.str()?,
+        df.column("crop")?.str()?,
+    );
+    let (position, normal) = (triple("")?, triple("n")?);
+    let (extent_min, extent_max) = (triple("min_")?, triple("max_")?);
+    let voxel = [i32s("voxel_x")?, i32s("voxel_y")?, i32s("voxel_z")?];
+    let (length, length_views) = (f64s("length_m")?, u32s("length_views")?);
+    let length_partial = df.column("length_partial")?.bool()?;
+    let (frames, confidence, max_score) =
+        (u32s("frames")?, f64s("confidence")?, f64s("max_score")?);
+    let best_frame = u32s("best_frame")?;
+    let best_box = [
+        f32s("best_x0")?,
+        f32s("best_y0")?,
+        f32s("best_x1")?,
+        f32s("best_y1")?,
+    ];
+    let missing = |c: &str| polars_err!(ComputeError: "defects table has a null {c}");
+    (0..df.height())
+        .map(|i| {
+            let xyz = |c: [&Float64Chunked; 3], name: &str| -> PolarsResult<[f64; 3]> {
+                Ok([
+                    c[0].get(i).ok_or_else(|| missing(name))?,
+                    c[1].get(i).ok_or_else(|| missing(name))?,
+                    c[2].get(i).ok_or_else(|| missing(name))?,
+                ])
+            };
+            let id = id.get(i).ok_or_else(|| missing("id"))?.to_string();
+            let views = views(&id);
+            let frame = best_frame.get(i).ok_or_else(|| missing("best_frame"))?;
+            let bbox = best_box.map(|c| c.get(i));
+            let best = views
+                .iter()
+                .find(|v| v.frame == frame && bbox == v.bbox.map(Some))
+                .cloned()
+                .ok_or_else(|| {
+                    polars_err!(ComputeError: "candidate {id}'s best view is not among its observations")
+                })?;
+            Ok(DefectRecord {
+                position: xyz(position, "position")?,
+                normal: xyz(normal, "normal")?,
+                extent_min: xyz(extent_min, "extent")?,
+                extent_max: xyz(extent_max, "extent")?,
+                voxel: [
+                    voxel[0].get(i).ok_or_else(|| missing("voxel_x"))?,
+                    voxel[1].get(i).ok_or_else(|| missing("voxel_y"))?,
+                    voxel[2].get(i).ok_or_else(|| missing("voxel_z"))?,
+                ],
+                face: face
+                    .get(i)
+                    .and_then(FaceSide::parse)
+                    .ok_or_else(|| missing("face"))?,
+                length_m: length.get(i),
+                length_views: length_views.get(i).ok_or_else(|| missing("length_views"))?,
+                length_partial: length_partial
+                    .get(i)
+                    .ok_or_else(|| missing("length_partial"))?,
+                frames: frames.get(i).ok_or_else(|| missing("frames"))?,
+                confidence: confidence.get(i).ok_or_else(|| missing("confidence"))?,
+                max_score: max_score.get(i).ok_or_else(|| missing("max_score"))?,
+                crop: crop.get(i).map(str::to_string),
+                best,
+                views,
+                id,
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn observation(frame: u32, placed: bool, defect: Option<&str>) -> ObservationRecord {
+        ObservationRecord {
+            frame,
+            time_ns: 1_000 * i64::from(frame),
+            bbox: BoxXyxy {
+                x0: 10.0 + frame as f32,
+                y0: 20.0,
+                x1: 60.5,
+                y1: 44.25,
+            },
+            score: 0.5 + 0.01 * frame as f32,
+            outcome: if placed {
+                Outcome::Placed
+            } else {
+                Outcome::NoSurface
+            },
+            placed: placed.then(|| PlacedRecord {
+                centre: [1.0, 2.0, f64::from(frame)],
+                normal: [-1.0, 0.0, 0.0],
+                voxel: VoxelIndex([2, 4, 6]),
+                face: FaceSide::NegX,
+                range_m: 3.5,
+                incidence_deg: 12.0,
+                oblique_gsd_mm: 3.8,
+                length_m: frame.is_multiple_of(2).then_some(0.42),
+                radius_m: 0.2,
+            }),
+            traced_px: 17 * frame,
+            clipped: frame == 3,
+            defect: defect.map(str::to_string),
+        }
+    }
+
+    #[test]
+    fn the_tables_round_trip_and_hold_what_the_json_holds() {
+        let dir = tempfile::tempdir().unwrap();
+        let run = RunDir::create(dir.path()).unwrap();
+        let observations = vec![
+            observation(1, true, Some("2_4_6-x")),
+            observation(2, false, None),
+            observation(3, true, Some("2_4_6-x")),
+            observation(4, true, Some("9_9_9+z")),
+        ];
+        write_observations(&run, &observations).unwrap();
+        assert_eq!(read_observations(&run).unwrap(), observations);
+        let defect = |id: &str, frames: &[u32], best: u32| {
+            let views: Vec<ViewRecord> = observations
+                .iter()
+                .filter(|o| frames.contains(&o.frame))
+                .filter_map(ViewRecord::of)
+                .collect();
+            DefectRecord {
+                id: id.into(),
+                position: [1.0, 2.0, 2.5],
+                normal: [-1.0, 0.0, 0.0],
+                extent_min: [0.9, 1.8, 2.0],
+                extent_max: [1.1, 2.2, 3.0],
+                voxel: [2, 4, 6],
+                face: FaceSide::NegX,
+                length_m: Some(0.42),
+                length_views: 1,
+                length_partial: false,
+                frames: views.len() as u32,
+                confidence: 0.8,
+                max_score: 0.53,
+                crop: Some(format!("defects/{id}.jpg")),
+                best: views.iter().find(|v| v.frame == best).unwrap().clone(),
+                views,
+            }
+        };
+        let defects = vec![defect("2_4_6-x", &[1, 3], 3), defect("9_9_9+z", &[4], 4)];
+        write_defects(&run, &defects).unwrap();
+        assert_eq!(read_defects(&run).unwrap(), defects);
+        assert_eq!(read_defects_table(&run).unwrap(), defects);
+    }
 }

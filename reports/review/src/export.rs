@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
-use postflight_core::RunDir;
+use postflight_core::{FaceSide, RunDir};
 use serde::Serialize;
 
 use crate::queue::Queue;
@@ -34,7 +34,7 @@ pub struct AcceptedDefect {
     pub x: f64,
     pub y: f64,
     pub z: f64,
-    pub face: String,
+    pub face: FaceSide,
     pub length_m: Option<f64>,
     pub length_partial: bool,
     pub confidence: f64,
@@ -65,7 +65,7 @@ pub fn accepted_defects(queue: &Queue) -> Vec<AcceptedDefect> {
                 x: c.position[0],
                 y: c.position[1],
                 z: c.position[2],
-                face: c.face.name().to_string(),
+                face: c.face,
                 length_m: c.length_m,
                 length_partial: c.length_partial,
                 confidence: c.confidence,
@@ -96,7 +96,7 @@ fn accepted_table(rows: &[AcceptedDefect]) -> PolarsResult<DataFrame> {
         Column::new("x".into(), float(|r| r.x)),
         Column::new("y".into(), float(|r| r.y)),
         Column::new("z".into(), float(|r| r.z)),
-        Column::new("face".into(), text(|r| &r.face)),
+        Column::new("face".into(), text(|r| r.face.name())),
         Column::new(
             "length_m".into(),
             rows.iter().map(|r| r.length_m).collect::<Vec<_>>(),
@@ -118,6 +118,62 @@ fn accepted_table(rows: &[AcceptedDefect]) -> PolarsResult<DataFrame> {
         Column::new("range_m".into(), float(|r| r.range_m)),
     ];
     DataFrame::new(rows.len(), columns)
+}
+
+/// Read an `accepted-defects.parquet` written into `dir`.
+pub fn read_accepted(dir: &RunDir) -> Result<Vec<AcceptedDefect>, ReviewError> {
+    Ok(dir.read_table(files::ACCEPTED_TABLE, accepted_from)?)
+}
+
+fn accepted_from(df: &DataFrame) -> PolarsResult<Vec<AcceptedDefect>> {
+    let text = |name: &str| df.column(name).and_then(|c| c.str());
+    let f64s = |name: &str| df.column(name).and_then(|c| c.f64());
+    let u32s = |name: &str| df.column(name).and_then(|c| c.u32());
+    let (id, verdict, note) = (text("id")?, text("verdict")?, text("note")?);
+    let (reviewer, decided_at, face) = (text("reviewer")?, text("decided_at")?, text("face")?);
+    let severity = df.column("severity")?.i32()?;
+    let (x, y, z) = (f64s("x")?, f64s("y")?, f64s("z")?);
+    let (length, confidence) = (f64s("length_m")?, f64s("confidence")?);
+    let length_partial = df.column("length_partial")?.bool()?;
+    let (frames, best_frame) = (u32s("frames")?, u32s("best_frame")?);
+    let (gsd, range) = (f64s("gsd_mm")?, f64s("range_m")?);
+    let missing = |c: &str| polars_err!(ComputeError: "accepted defects table has a null {c}");
+    (0..df.height())
+        .map(|i| {
+            let s = |c: &StringChunked, name: &str| {
+                c.get(i).map(str::to_string).ok_or_else(|| missing(name))
+            };
+            let f = |c: &Float64Chunked, name: &str| c.get(i).ok_or_else(|| missing(name));
+            let n = |c: &UInt32Chunked, name: &str| c.get(i).ok_or_else(|| missing(name));
+            Ok(AcceptedDefect {
+                id: s(id, "id")?,
+                verdict: verdict
+                    .get(i)
+                    .and_then(Verdict::parse)
+                    .ok_or_else(|| missing("verdict"))?,
+                severity: severity.get(i).map(|v| v as u8),
+                note: s(note, "note")?,
+                reviewer: s(reviewer, "reviewer")?,
+                decided_at: s(decided_at, "decided_at")?,
+                x: f(x, "x")?,
+                y: f(y, "y")?,
+                z: f(z, "z")?,
+                face: face
+                    .get(i)
+                    .and_then(FaceSide::parse)
+                    .ok_or_else(|| missing("face"))?,
+                length_m: length.get(i),
+                length_partial: length_partial
+                    .get(i)
+                    .ok_or_else(|| missing("length_partial"))?,
+                confidence: f(confidence, "confidence")?,
+                frames: n(frames, "frames")?,
+                best_frame: n(best_frame, "best_frame")?,
+                gsd_mm: f(gsd, "gsd_mm")?,
+                range_m: f(range, "range_m")?,
+            })
+        })
+        .collect()
 }
 
 /// The current decisions as a table, one row per candidate.
@@ -244,5 +300,37 @@ mod tests {
             row.starts_with("a,needs_repair,3,\"crack, \"\"wide\"\""),
             "{csv}"
         );
+    }
+
+    #[test]
+    fn the_accepted_defects_table_reads_back_as_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let run = RunDir::create(dir.path()).unwrap();
+        let row = |id: &str, verdict, severity, length_m| AcceptedDefect {
+            id: id.into(),
+            verdict,
+            severity,
+            note: "at the joint, \"wide\"".into(),
+            reviewer: "ann".into(),
+            decided_at: "2026-11-23T10:00:00.000000000Z".into(),
+            x: 1.5,
+            y: -2.25,
+            z: 3.0,
+            face: FaceSide::PosZ,
+            length_m,
+            length_partial: length_m.is_none(),
+            confidence: 0.9,
+            frames: 4,
+            best_frame: 17,
+            gsd_mm: 3.2,
+            range_m: 3.9,
+        };
+        let rows = vec![
+            row("1_2_3+z", Verdict::Accepted, None, Some(0.8)),
+            row("4_5_6+z", Verdict::NeedsRepair, Some(4), None),
+        ];
+        run.write_table(files::ACCEPTED_TABLE, accepted_table(&rows))
+            .unwrap();
+        assert_eq!(read_accepted(&run).unwrap(), rows);
     }
 }
