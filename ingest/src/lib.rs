@@ -12,11 +12,14 @@
 //! back from the recording on demand ([`reopen`], [`load_map`]).
 
 pub mod calibration;
+mod cameras;
 pub mod error;
 pub mod image;
+mod placement;
 pub mod recording;
 pub mod reopen;
 pub mod ros;
+mod scan;
 pub mod stage;
 pub mod tf;
 

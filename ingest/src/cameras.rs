@@ -1,0 +1,155 @@
+//! The flight's cameras: for each image topic, its intrinsics (a
+//! calibration file, else the CameraInfo matched to it by frame, namespace,
+//! or as the only one) and its mounting on the body from `/tf_static` or
+//! `/tf`.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use nalgebra::Isometry3;
+use postflight_core::frame::camera_namespace;
+use postflight_core::{Camera, Frame, Trajectory};
+
+use crate::calibration;
+use crate::error::IngestError;
+use crate::ros::msg;
+use crate::scan::Scan;
+use crate::stage::{IngestOptions, keys};
+use crate::tf::TransformTree;
+
+pub(crate) fn cameras(
+    options: &IngestOptions,
+    scan: &Scan,
+    trajectory: &Trajectory,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Camera>, IngestError> {
+    let file_intrinsics = options
+        .camera_info_file
+        .as_deref()
+        .map(calibration::from_calibration_file)
+        .transpose()?;
+    let mut first_frame: BTreeMap<&str, &Frame> = BTreeMap::new();
+    for f in &scan.frames {
+        first_frame.entry(f.topic.as_str()).or_insert(f);
+    }
+    let mut frame_topics: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+    for (topic, f) in &first_frame {
+        frame_topics
+            .entry(f.frame_id.as_str())
+            .or_default()
+            .push(topic);
+    }
+    for (frame, topics) in &frame_topics {
+        if topics.len() > 1 {
+            warnings.push(format!(
+                "image topics {} share the camera frame {frame:?} (raw and compressed copies?); select one with {}",
+                topics.join(", "),
+                keys::IMAGE_TOPICS
+            ));
+        }
+    }
+    let t0 = trajectory.time_span().map(|s| s.0).unwrap_or_default();
+    let mut cameras = Vec::new();
+    for (topic, frame) in first_frame {
+        let (intrinsics, source) = match (
+            &file_intrinsics,
+            match_camera_info(topic, &frame.frame_id, scan),
+        ) {
+            (Some(i), recorded) => {
+                if let Some((t, _)) = recorded {
+                    warnings.push(format!(
+                        "{topic}: using intrinsics from {} instead of the recorded {t}",
+                        options
+                            .camera_info_file
+                            .as_deref()
+                            .unwrap_or(Path::new(""))
+                            .display()
+                    ));
+                }
+                let source = format!(
+                    "file {}",
+                    options
+                        .camera_info_file
+                        .as_deref()
+                        .unwrap_or(Path::new(""))
+                        .display()
+                );
+                (i.clone(), source)
+            }
+            (None, Some((t, info))) => {
+                let i = calibration::from_camera_info(info).map_err(|why| {
+                    IngestError::Calibration {
+                        path: options.flight.clone(),
+                        why: format!(
+                            "CameraInfo on {t}: {why}; pass a calibration file as {}",
+                            keys::CAMERA_INFO_FILE
+                        ),
+                    }
+                })?;
+                (i, format!("topic {t}"))
+            }
+            (None, None) => {
+                return Err(IngestError::NoIntrinsics {
+                    path: options.flight.clone(),
+                    topic: topic.to_string(),
+                    frame_id: frame.frame_id.clone(),
+                });
+            }
+        };
+        if let (Some(w), Some(h)) = (frame.width, frame.height)
+            && (w, h) != (intrinsics.width, intrinsics.height)
+        {
+            warnings.push(format!(
+                "{topic}: images are {w}x{h} but the intrinsics are for {}x{}",
+                intrinsics.width, intrinsics.height
+            ));
+        }
+        let extrinsic = extrinsic(&scan.tf, &trajectory.child_frame_id, &frame.frame_id, t0);
+        if extrinsic.is_none() {
+            warnings.push(format!(
+                "{topic}: no transform from body frame {:?} to camera frame {:?} in /tf_static or /tf; its frames have no pose",
+                trajectory.child_frame_id, frame.frame_id
+            ));
+        }
+        cameras.push(Camera {
+            topic: topic.to_string(),
+            frame_id: frame.frame_id.clone(),
+            intrinsics: Some(intrinsics),
+            intrinsics_source: Some(source),
+            extrinsic,
+            body_frame: trajectory.child_frame_id.clone(),
+        });
+    }
+    Ok(cameras)
+}
+
+/// The CameraInfo for an image topic: the same frame, else the same namespace,
+/// else the only one recorded.
+pub(crate) fn match_camera_info<'a>(
+    topic: &str,
+    frame_id: &str,
+    scan: &'a Scan,
+) -> Option<(&'a str, &'a msg::CameraInfo)> {
+    let infos = &scan.camera_infos;
+    infos
+        .iter()
+        .find(|(_, i)| !frame_id.is_empty() && i.header.frame_id == frame_id)
+        .or_else(|| {
+            let ns = camera_namespace(topic);
+            infos.iter().find(|(t, _)| camera_namespace(t) == ns)
+        })
+        .or_else(|| (infos.len() == 1).then(|| infos.iter().next()).flatten())
+        .map(|(t, i)| (t.as_str(), i))
+}
+
+pub(crate) fn extrinsic(
+    tf: &TransformTree,
+    body: &str,
+    camera: &str,
+    time_ns: i64,
+) -> Option<Isometry3<f64>> {
+    if body == camera {
+        return Some(Isometry3::identity());
+    }
+    tf.lookup(body, camera, time_ns, i64::MAX).ok()
+}
