@@ -5,21 +5,12 @@
 use std::collections::HashSet;
 
 use nalgebra::{Isometry3, Point3, Vector3};
-use postflight_core::map::{VoxelGrid, VoxelIndex};
+use postflight_core::map::{FaceSide, VoxelGrid, VoxelIndex};
 use postflight_core::{Intrinsics, ViewModel};
 use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::scene::Scene;
-
-const FACES: [(&str, [i32; 3]); 6] = [
-    ("+x", [1, 0, 0]),
-    ("-x", [-1, 0, 0]),
-    ("+y", [0, 1, 0]),
-    ("-y", [0, -1, 0]),
-    ("+z", [0, 0, 1]),
-    ("-z", [0, 0, -1]),
-];
 
 /// A camera that looked: its optical frame in the world, and whether the
 /// frame is usable (recorded and sharp enough).
@@ -30,7 +21,7 @@ pub struct View {
 
 #[derive(Debug, Clone, Serialize)]
 pub struct FaceTruth {
-    pub face: &'static str,
+    pub face: FaceSide,
     /// Usable frames of the flight that inspected the face.
     pub views: u32,
     /// Plan viewpoints that would have inspected it.
@@ -122,13 +113,11 @@ pub fn coverage(
     let voxels: Vec<VoxelTruth> = targets
         .par_iter()
         .map(|&v| {
-            let faces: Vec<FaceTruth> = FACES
-                .iter()
-                .filter(|(_, d)| {
-                    !set.contains(&VoxelIndex([v.0[0] + d[0], v.0[1] + d[1], v.0[2] + d[2]]))
-                })
-                .map(|(name, d)| {
-                    let normal = Vector3::new(f64::from(d[0]), f64::from(d[1]), f64::from(d[2]));
+            let faces: Vec<FaceTruth> = FaceSide::ALL
+                .into_iter()
+                .filter(|side| !set.contains(&side.neighbour(v)))
+                .map(|side| {
+                    let normal = side.normal();
                     let centre = grid.center(v) + normal * (grid.resolution / 2.0);
                     let count = |cams: &mut dyn Iterator<Item = &Isometry3<f64>>| {
                         cams.filter(|c| {
@@ -137,7 +126,7 @@ pub fn coverage(
                         .count() as u32
                     };
                     FaceTruth {
-                        face: name,
+                        face: side,
                         views: count(&mut usable.iter().copied()),
                         planned_views: count(&mut planned.iter()),
                         skipped_views: count(&mut skipped.iter()),

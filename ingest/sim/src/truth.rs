@@ -2,7 +2,7 @@
 
 use nalgebra::{Isometry3, Point3};
 use postflight_core::Intrinsics;
-use postflight_core::map::{VoxelGrid, VoxelIndex};
+use postflight_core::map::{FaceSide, VoxelGrid, VoxelIndex};
 use postflight_core::serde_pose::PoseJson;
 use serde::Serialize;
 
@@ -25,18 +25,12 @@ pub struct CrackTruth {
     pub normal: [f64; 3],
     /// Voxel (plan grid) holding the crack's centroid, and the face it is on.
     pub voxel: VoxelIndex,
-    pub face: String,
+    pub face: FaceSide,
 }
 
 impl CrackTruth {
     pub fn new(crack: &Crack, scene: &Scene, grid: &VoxelGrid) -> Self {
         let n = crack.normal;
-        let axis = n.iamax();
-        let face = format!(
-            "{}{}",
-            if n[axis] >= 0.0 { '+' } else { '-' },
-            ['x', 'y', 'z'][axis]
-        );
         // Just inside the surface, so the voxel is the structure's, not the air's.
         let inside = crack.centroid() - n * (grid.resolution * 1e-3);
         Self {
@@ -51,7 +45,7 @@ impl CrackTruth {
             part: scene.part_name(crack.triangle).to_string(),
             normal: [n.x, n.y, n.z],
             voxel: grid.voxel_of(&inside),
-            face,
+            face: FaceSide::nearest(&n),
         }
     }
 }

@@ -40,7 +40,10 @@ pub struct AcceptedDefect {
     pub confidence: f64,
     pub frames: u32,
     pub best_frame: u32,
-    pub gsd_mm: f64,
+    /// The best view's oblique GSD (`gsd_mm` in the files, as in
+    /// `defects.json`).
+    #[serde(rename = "gsd_mm")]
+    pub oblique_gsd_mm: f64,
     pub range_m: f64,
 }
 
@@ -71,7 +74,7 @@ pub fn accepted_defects(queue: &Queue) -> Vec<AcceptedDefect> {
                 confidence: c.confidence,
                 frames: c.frames,
                 best_frame: c.best.frame,
-                gsd_mm: c.best.oblique_gsd_mm,
+                oblique_gsd_mm: c.best.oblique_gsd_mm,
                 range_m: c.best.range_m,
             })
         })
@@ -114,7 +117,7 @@ fn accepted_table(rows: &[AcceptedDefect]) -> PolarsResult<DataFrame> {
             "best_frame".into(),
             rows.iter().map(|r| r.best_frame).collect::<Vec<_>>(),
         ),
-        Column::new("gsd_mm".into(), float(|r| r.gsd_mm)),
+        Column::new("gsd_mm".into(), float(|r| r.oblique_gsd_mm)),
         Column::new("range_m".into(), float(|r| r.range_m)),
     ];
     DataFrame::new(rows.len(), columns)
@@ -169,7 +172,7 @@ fn accepted_from(df: &DataFrame) -> PolarsResult<Vec<AcceptedDefect>> {
                 confidence: f(confidence, "confidence")?,
                 frames: n(frames, "frames")?,
                 best_frame: n(best_frame, "best_frame")?,
-                gsd_mm: f(gsd, "gsd_mm")?,
+                oblique_gsd_mm: f(gsd, "gsd_mm")?,
                 range_m: f(range, "range_m")?,
             })
         })
@@ -322,7 +325,7 @@ mod tests {
             confidence: 0.9,
             frames: 4,
             best_frame: 17,
-            gsd_mm: 3.2,
+            oblique_gsd_mm: 3.2,
             range_m: 3.9,
         };
         let rows = vec![
