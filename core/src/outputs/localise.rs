@@ -188,11 +188,11 @@ pub struct DefectRecord {
 /// JSON with every supporting view).
 pub fn write_defects(run: &RunDir, defects: &[DefectRecord]) -> Result<(), Error> {
     run.write_table(files::DEFECTS, defects_table(defects))?;
+    // Through a JSON value, whose numbers are f64: a score (f32) is written
+    // as the f64 it widens to, the value a reader of the Parquet tables sees.
     run.write_json(
         files::DEFECTS_JSON,
-        &DefectsFile {
-            defects: defects.to_vec(),
-        },
+        &serde_json::json!({ "defects": defects }),
     )
 }
 
@@ -236,7 +236,7 @@ pub fn read_defects(run: &RunDir) -> Result<Vec<DefectRecord>, Error> {
         .map(|f| f.defects)
 }
 
-#[derive(Serialize, Deserialize)]
+#[derive(Deserialize)]
 struct DefectsFile {
     defects: Vec<DefectRecord>,
 }
