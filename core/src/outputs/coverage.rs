@@ -9,6 +9,7 @@ use std::path::PathBuf;
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::required;
 use crate::error::Error;
 use crate::map::VoxelIndex;
 use crate::plan::ViewModel;
@@ -230,31 +231,26 @@ fn coverage_from(df: &DataFrame) -> PolarsResult<Vec<VoxelRecord>> {
         f64s("best_gsd_mm")?,
     );
     let (shot, reason) = (u32s("best_frame")?, df.column("reason")?.str()?);
-    let missing = |c: &str| polars_err!(ComputeError: "coverage table has a null {c}");
     (0..df.height())
         .map(|i| {
-            let int = |c: &Int32Chunked, name: &str| c.get(i).ok_or_else(|| missing(name));
-            let float = |c: &Float64Chunked, name: &str| c.get(i).ok_or_else(|| missing(name));
-            let count = |c: &UInt32Chunked, name: &str| c.get(i).ok_or_else(|| missing(name));
-            let flag = |c: &BooleanChunked, name: &str| c.get(i).ok_or_else(|| missing(name));
             Ok(VoxelRecord {
                 voxel: VoxelIndex([
-                    int(voxel[0], "voxel_x")?,
-                    int(voxel[1], "voxel_y")?,
-                    int(voxel[2], "voxel_z")?,
+                    required(voxel[0], i)?,
+                    required(voxel[1], i)?,
+                    required(voxel[2], i)?,
                 ]),
                 centre: [
-                    float(centre[0], "x")?,
-                    float(centre[1], "y")?,
-                    float(centre[2], "z")?,
+                    required(centre[0], i)?,
+                    required(centre[1], i)?,
+                    required(centre[2], i)?,
                 ],
                 planned: planned.get(i),
-                inspected: flag(inspected, "inspected")?,
-                uninspectable: flag(uninspectable, "uninspectable")?,
-                faces_exposed: count(faces_exposed, "faces_exposed")?,
-                faces_inspected: count(faces_inspected, "faces_inspected")?,
-                views: count(views, "views")?,
-                views_required: count(views_required, "views_required")?,
+                inspected: required(inspected, i)?,
+                uninspectable: required(uninspectable, i)?,
+                faces_exposed: required(faces_exposed, i)?,
+                faces_inspected: required(faces_inspected, i)?,
+                views: required(views, i)?,
+                views_required: required(views_required, i)?,
                 best: match (distance.get(i), incidence.get(i), gsd.get(i), shot.get(i)) {
                     (Some(distance_m), Some(incidence_deg), Some(gsd_mm), Some(shot)) => {
                         Some(BestView {

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::required;
 use crate::detection::{BoxXyxy, Detection, FrameDetection};
 use crate::error::Error;
 use crate::run_dir::RunDir;
@@ -131,13 +132,12 @@ fn detections_from(df: &DataFrame) -> PolarsResult<Vec<FrameDetection>> {
         .collect::<PolarsResult<_>>()?;
     let class = df.column("class")?.u32()?;
     let tile = df.column("tile")?.i32()?;
-    let missing = || PolarsError::ComputeError("a detection has a null value".into());
     (0..df.height())
         .map(|i| {
-            let v = |k: usize| f32s[k].get(i).ok_or_else(missing);
+            let v = |k: usize| required(f32s[k], i);
             Ok(FrameDetection {
-                frame: frame.get(i).ok_or_else(missing)?,
-                time_ns: time.get(i).ok_or_else(missing)?,
+                frame: required(frame, i)?,
+                time_ns: required(time, i)?,
                 detection: Detection {
                     bbox: BoxXyxy {
                         x0: v(0)?,
@@ -146,8 +146,8 @@ fn detections_from(df: &DataFrame) -> PolarsResult<Vec<FrameDetection>> {
                         y1: v(3)?,
                     },
                     score: v(4)?,
-                    class: class.get(i).ok_or_else(missing)?,
-                    tile: tile.get(i).ok_or_else(missing)?,
+                    class: required(class, i)?,
+                    tile: required(tile, i)?,
                 },
             })
         })

@@ -10,6 +10,7 @@ use nalgebra::Isometry3;
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::{parsed, required};
 use crate::error::Error;
 use crate::frame::{Frame, ImageStatus, MessageLocation, PoseStatus};
 use crate::pose::{StampedPose, from_parts_xyzw, quaternion_xyzw};
@@ -252,30 +253,23 @@ fn frames_from(df: &DataFrame) -> PolarsResult<Vec<Frame>> {
     let record = df.column("record_offset")?.u64()?;
     let exposure = df.column("exposure_s")?.f64()?;
     let poses = read_poses(df)?;
-    let missing = |c: &str| polars_err!(ComputeError: "frames table has a null {c}");
     (0..df.height())
         .map(|i| {
             Ok(Frame {
-                index: index.get(i).ok_or_else(|| missing("frame"))?,
-                time_ns: time.get(i).ok_or_else(|| missing("time_ns"))?,
-                log_time_ns: log_time.get(i).ok_or_else(|| missing("log_time_ns"))?,
-                topic: topic.get(i).ok_or_else(|| missing("topic"))?.to_string(),
+                index: required(index, i)?,
+                time_ns: required(time, i)?,
+                log_time_ns: required(log_time, i)?,
+                topic: required(topic, i)?.to_string(),
                 frame_id: frame_id.get(i).unwrap_or_default().to_string(),
                 width: width.get(i),
                 height: height.get(i),
                 encoding: encoding.get(i).unwrap_or_default().to_string(),
                 camera_pose: poses[i],
-                pose_status: pose_status
-                    .get(i)
-                    .and_then(PoseStatus::parse)
-                    .ok_or_else(|| missing("pose_status"))?,
-                image_status: image_status
-                    .get(i)
-                    .and_then(ImageStatus::parse)
-                    .ok_or_else(|| missing("image_status"))?,
+                pose_status: parsed(pose_status, i, PoseStatus::parse)?,
+                image_status: parsed(image_status, i, ImageStatus::parse)?,
                 location: MessageLocation {
                     chunk_offset: chunk.get(i),
-                    record_offset: record.get(i).ok_or_else(|| missing("record_offset"))?,
+                    record_offset: required(record, i)?,
                 },
                 exposure_s: exposure.get(i),
             })

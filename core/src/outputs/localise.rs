@@ -9,11 +9,13 @@
 //! [`ViewRecord::oblique_gsd_mm`]), coarser than the View model's
 //! fronto-parallel GSD of the coverage tables for any view not face on.
 
+use std::collections::HashMap;
 use std::path::PathBuf;
 
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::{parsed, required};
 use crate::detection::BoxXyxy;
 use crate::error::Error;
 use crate::map::{FaceSide, VoxelIndex};
@@ -200,15 +202,15 @@ pub fn write_defects(run: &RunDir, defects: &[DefectRecord]) -> Result<(), Error
 /// `observations.parquet` (the placed detections naming it): the same
 /// records `defects.json` holds, from the tables.
 pub fn read_defects_table(run: &RunDir) -> Result<Vec<DefectRecord>, Error> {
-    let observations = read_observations(run)?;
-    let views = |id: &str| -> Vec<ViewRecord> {
-        observations
-            .iter()
-            .filter(|o| o.defect.as_deref() == Some(id))
-            .filter_map(ViewRecord::of)
-            .collect()
-    };
-    run.read_table(files::DEFECTS, |df| defects_from(df, &views))
+    let mut views: HashMap<String, Vec<ViewRecord>> = HashMap::new();
+    for o in read_observations(run)? {
+        if let (Some(defect), Some(view)) = (&o.defect, ViewRecord::of(&o)) {
+            views.entry(defect.clone()).or_default().push(view);
+        }
+    }
+    run.read_table(files::DEFECTS, |df| {
+        defects_from(df, &|id| views.get(id).cloned().unwrap_or_default())
+    })
 }
 
 impl ViewRecord {
@@ -371,49 +373,48 @@ fn observations_from(df: &DataFrame) -> PolarsResult<Vec<ObservationRecord>> {
         df.column("traced_px")?.u32()?,
         df.column("clipped")?.bool()?,
     );
-    let missing = |c: &str| polars_err!(ComputeError: "observations table has a null {c}");
     (0..df.height())
         .map(|i| {
             let xyz = |c: &[&Float64Chunked; 3]| -> Option<[f64; 3]> {
                 Some([c[0].get(i)?, c[1].get(i)?, c[2].get(i)?])
             };
+            let face_column = face;
             let placed = match (xyz(&[centre[0], centre[1], centre[2]]), face.get(i)) {
-                (Some(centre), Some(face)) => Some(PlacedRecord {
+                (Some(centre), Some(_)) => Some(PlacedRecord {
                     centre,
-                    normal: xyz(&[normal[0], normal[1], normal[2]])
-                        .ok_or_else(|| missing("normal"))?,
+                    normal: [
+                        required(normal[0], i)?,
+                        required(normal[1], i)?,
+                        required(normal[2], i)?,
+                    ],
                     voxel: VoxelIndex([
-                        voxel[0].get(i).ok_or_else(|| missing("voxel_x"))?,
-                        voxel[1].get(i).ok_or_else(|| missing("voxel_y"))?,
-                        voxel[2].get(i).ok_or_else(|| missing("voxel_z"))?,
+                        required(voxel[0], i)?,
+                        required(voxel[1], i)?,
+                        required(voxel[2], i)?,
                     ]),
-                    face: FaceSide::parse(face).ok_or_else(|| missing("face"))?,
-                    range_m: range.get(i).ok_or_else(|| missing("range_m"))?,
-                    incidence_deg: incidence.get(i).ok_or_else(|| missing("incidence_deg"))?,
-                    oblique_gsd_mm: gsd.get(i).ok_or_else(|| missing("gsd_mm"))?,
+                    face: parsed(face_column, i, FaceSide::parse)?,
+                    range_m: required(range, i)?,
+                    incidence_deg: required(incidence, i)?,
+                    oblique_gsd_mm: required(gsd, i)?,
                     length_m: length.get(i),
-                    radius_m: radius.get(i).ok_or_else(|| missing("radius_m"))?,
+                    radius_m: required(radius, i)?,
                 }),
                 _ => None,
             };
-            let f = |c: &Float32Chunked, name: &str| c.get(i).ok_or_else(|| missing(name));
             Ok(ObservationRecord {
-                frame: frame.get(i).ok_or_else(|| missing("frame"))?,
-                time_ns: time.get(i).ok_or_else(|| missing("time_ns"))?,
+                frame: required(frame, i)?,
+                time_ns: required(time, i)?,
                 bbox: BoxXyxy {
-                    x0: f(x0, "x0")?,
-                    y0: f(y0, "y0")?,
-                    x1: f(x1, "x1")?,
-                    y1: f(y1, "y1")?,
+                    x0: required(x0, i)?,
+                    y0: required(y0, i)?,
+                    x1: required(x1, i)?,
+                    y1: required(y1, i)?,
                 },
-                score: f(score, "score")?,
-                outcome: outcome
-                    .get(i)
-                    .and_then(Outcome::parse)
-                    .ok_or_else(|| missing("outcome"))?,
+                score: required(score, i)?,
+                outcome: parsed(outcome, i, Outcome::parse)?,
                 placed,
-                traced_px: traced.get(i).ok_or_else(|| missing("traced_px"))?,
-                clipped: clipped.get(i).ok_or_else(|| missing("clipped"))?,
+                traced_px: required(traced, i)?,
+                clipped: required(clipped, i)?,
                 defect: defect.get(i).map(str::to_string),
             })
         })
@@ -521,19 +522,14 @@ fn defects_from(
         f32s("best_x1")?,
         f32s("best_y1")?,
     ];
-    let missing = |c: &str| polars_err!(ComputeError: "defects table has a null {c}");
     (0..df.height())
         .map(|i| {
-            let xyz = |c: [&Float64Chunked; 3], name: &str| -> PolarsResult<[f64; 3]> {
-                Ok([
-                    c[0].get(i).ok_or_else(|| missing(name))?,
-                    c[1].get(i).ok_or_else(|| missing(name))?,
-                    c[2].get(i).ok_or_else(|| missing(name))?,
-                ])
+            let xyz = |c: [&Float64Chunked; 3]| -> PolarsResult<[f64; 3]> {
+                Ok([required(c[0], i)?, required(c[1], i)?, required(c[2], i)?])
             };
-            let id = id.get(i).ok_or_else(|| missing("id"))?.to_string();
+            let id = required(id, i)?.to_string();
             let views = views(&id);
-            let frame = best_frame.get(i).ok_or_else(|| missing("best_frame"))?;
+            let frame = required(best_frame, i)?;
             let bbox = best_box.map(|c| c.get(i));
             let best = views
                 .iter()
@@ -543,27 +539,22 @@ fn defects_from(
                     polars_err!(ComputeError: "candidate {id}'s best view is not among its observations")
                 })?;
             Ok(DefectRecord {
-                position: xyz(position, "position")?,
-                normal: xyz(normal, "normal")?,
-                extent_min: xyz(extent_min, "extent")?,
-                extent_max: xyz(extent_max, "extent")?,
+                position: xyz(position)?,
+                normal: xyz(normal)?,
+                extent_min: xyz(extent_min)?,
+                extent_max: xyz(extent_max)?,
                 voxel: [
-                    voxel[0].get(i).ok_or_else(|| missing("voxel_x"))?,
-                    voxel[1].get(i).ok_or_else(|| missing("voxel_y"))?,
-                    voxel[2].get(i).ok_or_else(|| missing("voxel_z"))?,
+                    required(voxel[0], i)?,
+                    required(voxel[1], i)?,
+                    required(voxel[2], i)?,
                 ],
-                face: face
-                    .get(i)
-                    .and_then(FaceSide::parse)
-                    .ok_or_else(|| missing("face"))?,
+                face: parsed(face, i, FaceSide::parse)?,
                 length_m: length.get(i),
-                length_views: length_views.get(i).ok_or_else(|| missing("length_views"))?,
-                length_partial: length_partial
-                    .get(i)
-                    .ok_or_else(|| missing("length_partial"))?,
-                frames: frames.get(i).ok_or_else(|| missing("frames"))?,
-                confidence: confidence.get(i).ok_or_else(|| missing("confidence"))?,
-                max_score: max_score.get(i).ok_or_else(|| missing("max_score"))?,
+                length_views: required(length_views, i)?,
+                length_partial: required(length_partial, i)?,
+                frames: required(frames, i)?,
+                confidence: required(confidence, i)?,
+                max_score: required(max_score, i)?,
                 crop: crop.get(i).map(str::to_string),
                 best,
                 views,

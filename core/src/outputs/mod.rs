@@ -3,6 +3,8 @@
 //! summary is written last, so a stage is complete exactly when its summary
 //! exists ([`RunDir::open`](crate::RunDir::open) checks it).
 
+use polars::prelude::{ChunkedArray, PolarsDataType, PolarsResult, StringChunked, polars_err};
+
 pub mod coverage;
 pub mod detect;
 pub mod ingest;
@@ -57,8 +59,50 @@ impl Stage {
     }
 }
 
+/// Row `i` of a column that has a value in every row of its table.
+pub fn required<T: PolarsDataType>(
+    column: &ChunkedArray<T>,
+    i: usize,
+) -> PolarsResult<T::Physical<'_>> {
+    column.get(i).ok_or_else(
+        || polars_err!(ComputeError: "column {} has no value in row {i}", column.name()),
+    )
+}
+
+/// Row `i` of a text column of names (a side, an outcome), as `parse` reads them.
+pub fn parsed<V>(
+    column: &StringChunked,
+    i: usize,
+    parse: impl Fn(&str) -> Option<V>,
+) -> PolarsResult<V> {
+    let text = required(column, i)?;
+    parse(text).ok_or_else(|| {
+        polars_err!(ComputeError: "column {} holds {text:?} in row {i}, which is not one of its names", column.name())
+    })
+}
+
 impl std::fmt::Display for Stage {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use polars::prelude::*;
+
+    use super::*;
+    use crate::map::FaceSide;
+
+    #[test]
+    fn a_missing_or_unreadable_value_names_its_column_and_row() {
+        let frame = UInt32Chunked::new("frame".into(), &[Some(3), None]);
+        assert_eq!(required(&frame, 0).unwrap(), 3);
+        let e = required(&frame, 1).unwrap_err().to_string();
+        assert!(e.contains("column frame has no value in row 1"), "{e}");
+        let face = StringChunked::new("face".into(), &["+x", "up"]);
+        assert_eq!(parsed(&face, 0, FaceSide::parse).unwrap(), FaceSide::PosX);
+        let e = parsed(&face, 1, FaceSide::parse).unwrap_err().to_string();
+        assert!(e.contains("column face holds \"up\" in row 1"), "{e}");
     }
 }

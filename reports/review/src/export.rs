@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
+use postflight_core::outputs::{parsed, required};
 use postflight_core::{FaceSide, RunDir};
 use serde::Serialize;
 
@@ -140,40 +141,26 @@ fn accepted_from(df: &DataFrame) -> PolarsResult<Vec<AcceptedDefect>> {
     let length_partial = df.column("length_partial")?.bool()?;
     let (frames, best_frame) = (u32s("frames")?, u32s("best_frame")?);
     let (gsd, range) = (f64s("gsd_mm")?, f64s("range_m")?);
-    let missing = |c: &str| polars_err!(ComputeError: "accepted defects table has a null {c}");
     (0..df.height())
         .map(|i| {
-            let s = |c: &StringChunked, name: &str| {
-                c.get(i).map(str::to_string).ok_or_else(|| missing(name))
-            };
-            let f = |c: &Float64Chunked, name: &str| c.get(i).ok_or_else(|| missing(name));
-            let n = |c: &UInt32Chunked, name: &str| c.get(i).ok_or_else(|| missing(name));
             Ok(AcceptedDefect {
-                id: s(id, "id")?,
-                verdict: verdict
-                    .get(i)
-                    .and_then(Verdict::parse)
-                    .ok_or_else(|| missing("verdict"))?,
+                id: required(id, i)?.to_string(),
+                verdict: parsed(verdict, i, Verdict::parse)?,
                 severity: severity.get(i).map(|v| v as u8),
-                note: s(note, "note")?,
-                reviewer: s(reviewer, "reviewer")?,
-                decided_at: s(decided_at, "decided_at")?,
-                x: f(x, "x")?,
-                y: f(y, "y")?,
-                z: f(z, "z")?,
-                face: face
-                    .get(i)
-                    .and_then(FaceSide::parse)
-                    .ok_or_else(|| missing("face"))?,
+                note: required(note, i)?.to_string(),
+                reviewer: required(reviewer, i)?.to_string(),
+                decided_at: required(decided_at, i)?.to_string(),
+                x: required(x, i)?,
+                y: required(y, i)?,
+                z: required(z, i)?,
+                face: parsed(face, i, FaceSide::parse)?,
                 length_m: length.get(i),
-                length_partial: length_partial
-                    .get(i)
-                    .ok_or_else(|| missing("length_partial"))?,
-                confidence: f(confidence, "confidence")?,
-                frames: n(frames, "frames")?,
-                best_frame: n(best_frame, "best_frame")?,
-                oblique_gsd_mm: f(gsd, "gsd_mm")?,
-                range_m: f(range, "range_m")?,
+                length_partial: required(length_partial, i)?,
+                confidence: required(confidence, i)?,
+                frames: required(frames, i)?,
+                best_frame: required(best_frame, i)?,
+                oblique_gsd_mm: required(gsd, i)?,
+                range_m: required(range, i)?,
             })
         })
         .collect()
