@@ -134,19 +134,13 @@ pub fn body_to_camera() -> (Isometry3<f64>, Isometry3<f64>) {
 
 fn intrinsics(width: u32, height: u32, distortion: bool) -> Intrinsics {
     // A narrow lens (37 degrees across), as inspection cameras use for mm detail.
-    let f = f64::from(width) * 1.5;
+    let pinhole = Intrinsics::pinhole(width, height, f64::from(width) * 1.5);
+    if !distortion {
+        return pinhole;
+    }
     Intrinsics {
-        width,
-        height,
-        fx: f,
-        fy: f,
-        cx: f64::from(width) / 2.0,
-        cy: f64::from(height) / 2.0,
-        distortion: if distortion {
-            Distortion::PlumbBob([-0.08, 0.025, 0.0004, -0.0003, 0.0])
-        } else {
-            Distortion::None
-        },
+        distortion: Distortion::PlumbBob([-0.08, 0.025, 0.0004, -0.0003, 0.0]),
+        ..pinhole
     }
 }
 
