@@ -37,6 +37,31 @@ pub fn page(results: &RunResults, summary: &RunSummary) -> String {
         |n| n.to_string_lossy().into_owned(),
     );
     let title = format!("Inspection report: {flight}");
+    let body = html! {
+        h1 { (title) }
+        p.sub {
+            "Flight of " (readable_time(&summary.flight_start)) ", "
+            (format!("{:.0}", summary.duration_s)) " s, "
+            (summary.frames) " frames (" (summary.frames_with_pose) " with pose). "
+            "Run directory " code { (summary.run.display()) } "."
+        }
+        @if summary.truncated {
+            p.warn {
+                b { "Truncated recording." }
+                " The flight file was cut short; postflight salvaged what it holds, and everything below describes only that part of the flight."
+            }
+        }
+        (cards(summary))
+        (coverage_section(results))
+        (defects_section(results))
+        (replan_section(results))
+        (run_section(summary))
+    };
+    document(&title, html! { style { (PreEscaped(STYLE)) } }, body)
+}
+
+/// An HTML page: its title, what the head adds (styles, scripts) and its body.
+pub fn document(title: &str, head: Markup, body: Markup) -> String {
     let page = html! {
         (DOCTYPE)
         html lang="en" {
@@ -44,28 +69,9 @@ pub fn page(results: &RunResults, summary: &RunSummary) -> String {
                 meta charset="utf-8";
                 meta name="viewport" content="width=device-width,initial-scale=1";
                 title { (title) }
-                style { (PreEscaped(STYLE)) }
+                (head)
             }
-            body {
-                h1 { (title) }
-                p.sub {
-                    "Flight of " (readable_time(&summary.flight_start)) ", "
-                    (format!("{:.0}", summary.duration_s)) " s, "
-                    (summary.frames) " frames (" (summary.frames_with_pose) " with pose). "
-                    "Run directory " code { (summary.run.display()) } "."
-                }
-                @if summary.truncated {
-                    p.warn {
-                        b { "Truncated recording." }
-                        " The flight file was cut short; postflight salvaged what it holds, and everything below describes only that part of the flight."
-                    }
-                }
-                (cards(summary))
-                (coverage_section(results))
-                (defects_section(results))
-                (replan_section(results))
-                (run_section(summary))
-            }
+            body { (body) }
         }
     };
     page.into_string() + "\n"

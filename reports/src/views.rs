@@ -147,7 +147,8 @@ pub fn nearest_per_cell(voxels: &[TargetVoxel], resolution: f64, side: Side) -> 
         }
     }
     let mut drawn: Vec<(f64, usize)> = front.into_values().collect();
-    drawn.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // Ties in voxel order, so the same run draws the same picture.
+    drawn.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     drawn.into_iter().map(|(_, i)| i).collect()
 }
 

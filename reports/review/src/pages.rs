@@ -6,7 +6,7 @@
 
 use std::fmt::Write;
 
-use maud::{DOCTYPE, Markup, PreEscaped, html};
+use maud::{Markup, PreEscaped, html};
 use postflight_core::outputs::localise::DefectRecord;
 use reports::html::{length_text, readable_time};
 
@@ -20,24 +20,20 @@ pub struct Context<'a> {
     pub filter: Filter,
 }
 
+/// A review page: the pages' own style and script, and the status line
+/// the script flashes messages in.
 fn document(title: &str, body: Markup) -> String {
-    let page = html! {
-        (DOCTYPE)
-        html lang="en" {
-            head {
-                meta charset="utf-8";
-                meta name="viewport" content="width=device-width,initial-scale=1";
-                title { (title) }
-                link rel="stylesheet" href="/assets/review.css";
-                script src="/assets/review.js" defer {}
-            }
-            body {
-                (body)
-                div #flash role="status" aria-live="polite" {}
-            }
-        }
-    };
-    page.into_string() + "\n"
+    reports::html::document(
+        title,
+        html! {
+            link rel="stylesheet" href="/assets/review.css";
+            script src="/assets/review.js" defer {}
+        },
+        html! {
+            (body)
+            div #flash role="status" aria-live="polite" {}
+        },
+    )
 }
 
 fn progress_line(p: &Progress) -> Markup {
