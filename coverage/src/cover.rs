@@ -61,7 +61,16 @@ pub fn judge(
     Ok(sight)
 }
 
-fn fold(results: impl Iterator<Item = (u32, Result<Sight, Miss>)>, need: u32) -> FaceCover {
+/// Judge `face` against `shots` and sum up what they did for it.
+fn cover_face<'a>(
+    face: &Face,
+    need: u32,
+    shots: impl Iterator<Item = &'a Shot>,
+    lenses: &[Intrinsics],
+    map: &SlamMap,
+    view: &ViewModel,
+) -> FaceCover {
+    let results = shots.map(|shot| (shot.id, judge(face, shot, lenses, map, view)));
     let mut cover = FaceCover {
         views: 0,
         best: None,
@@ -109,7 +118,7 @@ pub fn cover(
         .zip(need)
         .map(|(face, &need)| {
             let Some(tree) = &tree else {
-                return fold(std::iter::empty(), need);
+                return cover_face(face, need, std::iter::empty(), lenses, map, view);
             };
             let c = face.centre;
             let mut near: Vec<u64> = Vec::new();
@@ -119,13 +128,8 @@ pub fn cover(
                 .visit(|hit| near.push(hit.item as u64));
             // Shot order, so ties in GSD pick the same shot every run.
             near.sort_unstable();
-            fold(
-                near.into_iter().map(|i| {
-                    let shot = &shots[i as usize];
-                    (shot.id, judge(face, shot, lenses, map, view))
-                }),
-                need,
-            )
+            let near = near.into_iter().map(|i| &shots[i as usize]);
+            cover_face(face, need, near, lenses, map, view)
         })
         .collect()
 }
@@ -142,14 +146,7 @@ pub fn cover_naive(
     faces
         .par_iter()
         .zip(need)
-        .map(|(face, &need)| {
-            fold(
-                shots
-                    .iter()
-                    .map(|shot| (shot.id, judge(face, shot, lenses, map, view))),
-                need,
-            )
-        })
+        .map(|(face, &need)| cover_face(face, need, shots.iter(), lenses, map, view))
         .collect()
 }
 
