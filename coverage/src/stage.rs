@@ -151,8 +151,7 @@ pub fn coverage(
 ) -> Result<CoverageSummary, CoverageError> {
     let start = Instant::now();
     let flight = Flight::load(&options.run)?;
-    let checking_plan = options.viewpoints.is_some();
-    let (table_name, summary_name) = if checking_plan {
+    let (table_name, summary_name) = if options.viewpoints.is_some() {
         (files::VIEWPOINTS_TABLE, files::VIEWPOINTS_SUMMARY)
     } else {
         (files::TABLE, files::SUMMARY)
@@ -168,80 +167,152 @@ pub fn coverage(
         .view
         .apply(plan.as_ref().map_or_else(ViewModel::default, |p| p.view));
     check_view(&view)?;
-    let grid = plan
-        .as_ref()
-        .map_or_else(VoxelGrid::default, InspectionPlan::grid);
-    let (map, _) = ingest::load_map(&flight, options.map.as_deref(), grid)?;
-    let (targets, targets_name) = load_targets(&options.targets, plan.as_ref(), &map)?;
-    let target_set: HashSet<VoxelIndex> = targets.iter().copied().collect();
-    let faces = exposed_faces(&grid, &targets, &target_set);
-    let lenses = lenses(&flight)?;
-
-    // The shots: the flight's frames, or the viewpoints of a plan to check.
+    let scene = Scene::load(options, &flight, plan.as_ref())?;
     let extrinsic = camera_mount(&flight);
-    let shots = match &options.viewpoints {
-        Some(path) => FlightShots {
-            shots: viewpoint_shots(&InspectionPlan::load(path)?, &extrinsic),
-            without_pose: 0,
-            without_exposure: 0,
-        },
-        None => flight_shots(&flight, &lenses, &map, options.settings.exposure_s),
-    };
-    if !checking_plan && shots.shots.is_empty() {
-        return Err(CoverageError::NoPoses);
-    }
-    let need = views_needed(&faces, &view, &options.settings, &flight.run)?;
+    let shots = shots(options, &flight, &scene, &extrinsic)?;
+    let need = views_needed(&scene.faces, &view, &options.settings, &flight.run)?;
     let plan_shots: Option<Vec<Shot>> = plan.as_ref().map(|p| viewpoint_shots(p, &extrinsic));
     let judged = judge(
-        &faces,
+        &scene,
         &need,
         &shots.shots,
         plan_shots.as_deref(),
-        &lenses,
-        &map,
         &view,
         progress,
     );
-    if !shots.shots.is_empty() && judged.flown.iter().all(|c| c.miss == Some(Miss::TooFar)) {
-        return Err(CoverageError::CamerasTooFar {
-            max_distance_m: view.max_distance_m,
-            cameras: span(
-                shots
-                    .shots
-                    .iter()
-                    .map(|s| Point3::from(s.camera.translation.vector)),
-            ),
-            targets: span(targets.iter().map(|v| grid.center(*v))),
-        });
-    }
+    cameras_in_reach(&scene, &shots.shots, &judged.flown, &view)?;
     let records = voxel_records(
-        &grid,
-        &targets,
-        &faces,
+        &scene.grid,
+        &scene.targets,
+        &scene.faces,
         &need,
         &judged.flown,
         &judged.planned,
         &judged.reachable,
         plan_shots.is_some(),
     );
-    let n = records.len();
     let counts = Counts::of(&records, &judged.flown, plan_shots.is_some());
+    let seconds = start.elapsed().as_secs_f64();
+    let summary = summarise(options, view, &scene, counts, &shots, &need, seconds);
+    outputs::write_coverage(&flight.run, table_name, &records, scene.grid.resolution)?;
+    flight.run.write_json(summary_name, &summary)?;
+    Ok(summary)
+}
+
+/// What is judged: the map, the target voxels and their exposed faces, and
+/// the flight's lenses.
+struct Scene {
+    grid: VoxelGrid,
+    map: SlamMap,
+    targets: Vec<VoxelIndex>,
+    target_set: HashSet<VoxelIndex>,
+    /// Where the targets came from, for the summary.
+    targets_name: String,
+    faces: Vec<Face>,
+    lenses: Vec<Intrinsics>,
+}
+
+impl Scene {
+    fn load(
+        options: &CoverageOptions,
+        flight: &Flight,
+        plan: Option<&InspectionPlan>,
+    ) -> Result<Self, CoverageError> {
+        let grid = plan.map_or_else(VoxelGrid::default, InspectionPlan::grid);
+        let (map, _) = ingest::load_map(flight, options.map.as_deref(), grid)?;
+        let (targets, targets_name) = load_targets(&options.targets, plan, &map)?;
+        let target_set: HashSet<VoxelIndex> = targets.iter().copied().collect();
+        let faces = exposed_faces(&grid, &targets, &target_set);
+        Ok(Self {
+            grid,
+            map,
+            targets,
+            target_set,
+            targets_name,
+            faces,
+            lenses: lenses(flight)?,
+        })
+    }
+}
+
+/// The shots: the flight's frames, or the viewpoints of a plan to check.
+fn shots(
+    options: &CoverageOptions,
+    flight: &Flight,
+    scene: &Scene,
+    extrinsic: &Isometry3<f64>,
+) -> Result<FlightShots, CoverageError> {
+    match &options.viewpoints {
+        Some(path) => Ok(FlightShots {
+            shots: viewpoint_shots(&InspectionPlan::load(path)?, extrinsic),
+            without_pose: 0,
+            without_exposure: 0,
+        }),
+        None => {
+            let shots = flight_shots(
+                flight,
+                &scene.lenses,
+                &scene.map,
+                options.settings.exposure_s,
+            );
+            if shots.shots.is_empty() {
+                return Err(CoverageError::NoPoses);
+            }
+            Ok(shots)
+        }
+    }
+}
+
+/// Fail when every shot is farther from every face than the View model
+/// allows: the flight and the targets are in different frames, most likely.
+fn cameras_in_reach(
+    scene: &Scene,
+    shots: &[Shot],
+    flown: &[FaceCover],
+    view: &ViewModel,
+) -> Result<(), CoverageError> {
+    if shots.is_empty() || !flown.iter().all(|c| c.miss == Some(Miss::TooFar)) {
+        return Ok(());
+    }
+    Err(CoverageError::CamerasTooFar {
+        max_distance_m: view.max_distance_m,
+        cameras: span(
+            shots
+                .iter()
+                .map(|s| Point3::from(s.camera.translation.vector)),
+        ),
+        targets: span(scene.targets.iter().map(|v| scene.grid.center(*v))),
+    })
+}
+
+/// What `coverage.json` says.
+fn summarise(
+    options: &CoverageOptions,
+    view: ViewModel,
+    scene: &Scene,
+    counts: Counts,
+    shots: &FlightShots,
+    need: &[u32],
+    seconds: f64,
+) -> CoverageSummary {
+    let n = scene.targets.len();
+    let faces = scene.faces.len();
     let shots_blurred = shots
         .shots
         .iter()
         .filter(|s| s.is_blurred(view.max_blur_px))
         .count();
-    let summary = CoverageSummary {
+    CoverageSummary {
         run: options.run.clone(),
         shots: options
             .viewpoints
             .as_ref()
             .map_or("flight".into(), |p| p.display().to_string()),
         view,
-        resolution_m: grid.resolution,
-        grid_origin: grid.origin.coords.into(),
+        resolution_m: scene.grid.resolution,
+        grid_origin: scene.grid.origin.coords.into(),
         map: options.map.clone(),
-        targets: targets_name,
+        targets: scene.targets_name.clone(),
         target_voxels: n,
         planned_voxels: counts.planned,
         inspected_voxels: counts.inspected,
@@ -250,14 +321,15 @@ pub fn coverage(
         planned_missed_voxels: counts.planned.map(|p| p - counts.planned_inspected),
         gap_voxels: n - counts.inspected - counts.uninspectable,
         uninspectable_voxels: counts.uninspectable,
-        exposed_faces: faces.len(),
+        exposed_faces: faces,
         inspected_faces: counts.inspected_faces,
         // Every face of a voxel grid has the same area.
-        face_area_coverage_pct: pct(counts.inspected_faces, faces.len()),
-        obstacle_voxels: map
+        face_area_coverage_pct: pct(counts.inspected_faces, faces),
+        obstacle_voxels: scene
+            .map
             .voxels
             .voxels()
-            .filter(|v| !target_set.contains(v))
+            .filter(|v| !scene.target_set.contains(v))
             .count(),
         reasons: counts.reasons,
         shots_total: shots.shots.len(),
@@ -269,12 +341,9 @@ pub fn coverage(
             .iter()
             .filter(|n| **n > view.views_required.max(1))
             .count(),
-        seconds: start.elapsed().as_secs_f64(),
-        warnings: shot_warnings(&shots),
-    };
-    outputs::write_coverage(&flight.run, table_name, &records, grid.resolution)?;
-    flight.run.write_json(summary_name, &summary)?;
-    Ok(summary)
+        seconds,
+        warnings: shot_warnings(shots),
+    }
 }
 
 /// The flight's lenses, one per camera.
@@ -334,15 +403,16 @@ struct Judged {
 
 #[allow(clippy::too_many_arguments)]
 fn judge(
-    faces: &[Face],
+    scene: &Scene,
     need: &[u32],
     shots: &[Shot],
     plan_shots: Option<&[Shot]>,
-    lenses: &[Intrinsics],
-    map: &SlamMap,
     view: &ViewModel,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Judged {
+    let Scene {
+        faces, lenses, map, ..
+    } = scene;
     let total = faces.len() as u64;
     progress(0, total);
     let mut judged = Judged {
