@@ -248,59 +248,15 @@ pub fn detect(
             why: format!("image {}", f.image_status.as_str()),
         })
         .collect();
-    let mut found: Vec<FrameDetection> = Vec::new();
-    let mut ran = 0u64;
-    let mut run_error = None;
-    std::thread::scope(|scope| {
-        // Workers decode and letterbox the next frames while the runtime infers.
-        let (tx, rx) = sync_channel::<Result<Prepared, FailedFrame>>(8);
-        let recording = &recording;
-        let runnable = &runnable;
-        scope.spawn(move || {
-            for chunk in runnable.chunks(8) {
-                let prepared: Vec<_> = chunk
-                    .par_iter()
-                    .map(|f| prepare(recording, f, (w, h), options))
-                    .collect();
-                for p in prepared {
-                    if tx.send(p).is_err() {
-                        return;
-                    }
-                }
-            }
-        });
-        // Frames wait until their views fill a batch.
-        let mut pending: Vec<Prepared> = Vec::new();
-        let mut pending_views = 0;
-        for prepared in rx {
-            match prepared {
-                Ok(p) => {
-                    pending_views += p.views.len();
-                    pending.push(p);
-                }
-                Err(f) => failed.push(f),
-            }
-            if pending_views >= detector.batch {
-                match detector.run_frames(&mut pending, options, &mut found) {
-                    Ok(n) => ran += n,
-                    Err(e) => {
-                        run_error = Some(e);
-                        return;
-                    }
-                }
-                pending_views = 0;
-            }
-            progress(ran + failed.len() as u64, total);
-        }
-        match detector.run_frames(&mut pending, options, &mut found) {
-            Ok(n) => ran += n,
-            Err(e) => run_error = Some(e),
-        }
-        progress(ran + failed.len() as u64, total);
-    });
-    if let Some(e) = run_error {
-        return Err(e);
-    }
+    let (found, ran) = infer_all(
+        &mut detector,
+        &recording,
+        &runnable,
+        options,
+        &mut failed,
+        total,
+        progress,
+    )?;
     failed.sort_by_key(|f| f.frame);
     if ran == 0
         && let Some(first) = failed.first()
@@ -343,6 +299,73 @@ pub fn detect(
     };
     write_outputs(&flight.run, &flight.frames, &found, &classes, &summary)?;
     Ok(summary)
+}
+
+/// Run the detector over `runnable`, decoding ahead on worker threads;
+/// frames that cannot be prepared join `failed`. Returns what was found and
+/// how many frames ran.
+fn infer_all(
+    detector: &mut Detector,
+    recording: &Recording,
+    runnable: &[&Frame],
+    options: &DetectOptions,
+    failed: &mut Vec<FailedFrame>,
+    total: u64,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<(Vec<FrameDetection>, u64), DetectError> {
+    let (w, h) = detector.size;
+    let mut found: Vec<FrameDetection> = Vec::new();
+    let mut ran = 0u64;
+    let mut run_error = None;
+    std::thread::scope(|scope| {
+        // Workers decode and letterbox the next frames while the runtime infers.
+        let (tx, rx) = sync_channel::<Result<Prepared, FailedFrame>>(8);
+        scope.spawn(move || {
+            for chunk in runnable.chunks(8) {
+                let prepared: Vec<_> = chunk
+                    .par_iter()
+                    .map(|f| prepare(recording, f, (w, h), options))
+                    .collect();
+                for p in prepared {
+                    if tx.send(p).is_err() {
+                        return;
+                    }
+                }
+            }
+        });
+        // Frames wait until their views fill a batch.
+        let mut pending: Vec<Prepared> = Vec::new();
+        let mut pending_views = 0;
+        for prepared in rx {
+            match prepared {
+                Ok(p) => {
+                    pending_views += p.views.len();
+                    pending.push(p);
+                }
+                Err(f) => failed.push(f),
+            }
+            if pending_views >= detector.batch {
+                match detector.run_frames(&mut pending, options, &mut found) {
+                    Ok(n) => ran += n,
+                    Err(e) => {
+                        run_error = Some(e);
+                        return;
+                    }
+                }
+                pending_views = 0;
+            }
+            progress(ran + failed.len() as u64, total);
+        }
+        match detector.run_frames(&mut pending, options, &mut found) {
+            Ok(n) => ran += n,
+            Err(e) => run_error = Some(e),
+        }
+        progress(ran + failed.len() as u64, total);
+    });
+    match run_error {
+        Some(e) => Err(e),
+        None => Ok((found, ran)),
+    }
 }
 
 /// A model ready to run: its session, its interface, and for
