@@ -252,11 +252,10 @@ pub fn export_run(run: &Path, db: &Path, out: &Path) -> Result<Vec<PathBuf>, Rev
         return Err(ReviewError::NotLocalised(run.to_owned()));
     }
     if !db.is_file() {
-        return Err(ReviewError::Invalid(format!(
-            "no review database at {}: review the run first with `postflight review serve --run {}`, or name the database with --db",
-            db.display(),
-            run.display()
-        )));
+        return Err(ReviewError::NoDatabase {
+            db: db.to_owned(),
+            run: run.to_owned(),
+        });
     }
     let store = ReviewStore::open(db)?;
     let queue = Queue::new(&results.defects_for_review(), store.current_decisions()?);

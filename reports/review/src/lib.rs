@@ -15,7 +15,7 @@ pub mod store;
 
 pub use queue::{Filter, Queue};
 pub use server::{Listening, ServeOptions, serve};
-pub use store::{Decision, ReviewError, ReviewStore, Verdict};
+pub use store::{Decision, InvalidDecision, ReviewError, ReviewStore, Verdict};
 
 #[cfg(test)]
 pub(crate) mod testing {

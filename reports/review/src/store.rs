@@ -55,6 +55,30 @@ pub struct Decision {
     pub decided_at: String,
 }
 
+/// Why a decision as submitted cannot be recorded (the reviewer can fix it
+/// and submit again).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum InvalidDecision {
+    #[error("version {0:?} is not a number; reload the page")]
+    Version(String),
+    #[error("unknown decision {0:?}; use accepted, rejected or needs_repair")]
+    Verdict(String),
+    #[error("severity {0:?} is not a number from 1 to 5")]
+    SeverityNotANumber(String),
+    #[error("needs repair takes a severity from 1 to 5")]
+    SeverityMissing,
+    #[error("only a needs-repair decision has a severity")]
+    SeverityWithoutRepair,
+    #[error("say who you are: a decision needs a reviewer name")]
+    NoReviewer,
+    #[error("a reviewer name has at most {MAX_REVIEWER_CHARS} characters")]
+    ReviewerTooLong,
+    #[error(
+        "a note has at most {MAX_NOTE_CHARS} characters; put longer text in the inspection report"
+    )]
+    NoteTooLong,
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum ReviewError {
     #[error("review database: {0}")]
@@ -70,8 +94,21 @@ pub enum ReviewError {
         "candidate {candidate} was decided by someone else since you loaded it (now version {current}); reload it and decide again"
     )]
     Conflict { candidate: String, current: i64 },
-    #[error("{0}")]
-    Invalid(String),
+    #[error(transparent)]
+    Decision(#[from] InvalidDecision),
+    #[error(
+        "an access token needs at least 16 characters of letters, digits, '-' or '_'; or leave --token out to have one generated"
+    )]
+    WeakToken,
+    #[error(
+        "no review database at {}: review the run first with `postflight review serve --run {}`, or name the database with --db",
+        db.display(),
+        run.display()
+    )]
+    NoDatabase {
+        db: std::path::PathBuf,
+        run: std::path::PathBuf,
+    },
     #[error(transparent)]
     Files(#[from] postflight_core::Error),
     #[error(transparent)]
@@ -189,36 +226,8 @@ impl ReviewStore {
         note: &str,
         reviewer: &str,
     ) -> Result<Decision, ReviewError> {
-        match (verdict, severity) {
-            (Verdict::NeedsRepair, Some(1..=5)) | (Verdict::Accepted | Verdict::Rejected, None) => {
-            }
-            (Verdict::NeedsRepair, _) => {
-                return Err(ReviewError::Invalid(
-                    "needs repair takes a severity from 1 to 5".into(),
-                ));
-            }
-            _ => {
-                return Err(ReviewError::Invalid(
-                    "only a needs-repair decision has a severity".into(),
-                ));
-            }
-        }
+        check_decision(verdict, severity, reviewer, note)?;
         let reviewer = reviewer.trim();
-        if reviewer.is_empty() {
-            return Err(ReviewError::Invalid(
-                "say who you are: a decision needs a reviewer name".into(),
-            ));
-        }
-        if reviewer.chars().count() > MAX_REVIEWER_CHARS {
-            return Err(ReviewError::Invalid(format!(
-                "a reviewer name has at most {MAX_REVIEWER_CHARS} characters"
-            )));
-        }
-        if note.chars().count() > MAX_NOTE_CHARS {
-            return Err(ReviewError::Invalid(format!(
-                "a note has at most {MAX_NOTE_CHARS} characters; put longer text in the inspection report"
-            )));
-        }
         let tx = self
             .conn
             .transaction_with_behavior(TransactionBehavior::Immediate)?;
@@ -315,6 +324,31 @@ fn decision_row(r: &rusqlite::Row) -> rusqlite::Result<Decision> {
         reviewer: r.get(5)?,
         decided_at: r.get(6)?,
     })
+}
+
+/// The rules a decision must meet before it is recorded.
+fn check_decision(
+    verdict: Verdict,
+    severity: Option<u8>,
+    reviewer: &str,
+    note: &str,
+) -> Result<(), InvalidDecision> {
+    match (verdict, severity) {
+        (Verdict::NeedsRepair, Some(1..=5)) | (Verdict::Accepted | Verdict::Rejected, None) => {}
+        (Verdict::NeedsRepair, _) => return Err(InvalidDecision::SeverityMissing),
+        _ => return Err(InvalidDecision::SeverityWithoutRepair),
+    }
+    let reviewer = reviewer.trim();
+    if reviewer.is_empty() {
+        return Err(InvalidDecision::NoReviewer);
+    }
+    if reviewer.chars().count() > MAX_REVIEWER_CHARS {
+        return Err(InvalidDecision::ReviewerTooLong);
+    }
+    if note.chars().count() > MAX_NOTE_CHARS {
+        return Err(InvalidDecision::NoteTooLong);
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -28,9 +28,7 @@ pub(super) fn checked_token(t: String) -> Result<String, ReviewError> {
     {
         Ok(t)
     } else {
-        Err(ReviewError::Invalid(
-            "an access token needs at least 16 characters of letters, digits, '-' or '_'; or leave --token out to have one generated".into(),
-        ))
+        Err(ReviewError::WeakToken)
     }
 }
 

@@ -18,7 +18,7 @@ use super::errors::HttpError;
 use crate::pages::{self, Refused, candidate_href};
 use crate::pictures::view_jpeg;
 use crate::queue::Filter;
-use crate::store::{ReviewError, Verdict};
+use crate::store::{InvalidDecision, ReviewError, Verdict};
 
 #[derive(Debug, Default, Deserialize)]
 pub(super) struct PageQuery {
@@ -89,24 +89,18 @@ pub(super) struct DecisionForm {
 }
 
 impl DecisionForm {
-    fn request(&self) -> Result<DecisionRequest, String> {
-        let version = self.version.parse().map_err(|_| {
-            format!(
-                "version {:?} is not a number; reload the page",
-                self.version
-            )
-        })?;
-        let verdict = Verdict::parse(&self.verdict).ok_or_else(|| {
-            format!(
-                "unknown decision {:?}; use accepted, rejected or needs_repair",
-                self.verdict
-            )
-        })?;
+    fn request(&self) -> Result<DecisionRequest, InvalidDecision> {
+        let version = self
+            .version
+            .parse()
+            .map_err(|_| InvalidDecision::Version(self.version.clone()))?;
+        let verdict = Verdict::parse(&self.verdict)
+            .ok_or_else(|| InvalidDecision::Verdict(self.verdict.clone()))?;
         let severity = match self.severity.trim() {
             "" => None,
             s => Some(
                 s.parse()
-                    .map_err(|_| format!("severity {s:?} is not a number from 1 to 5"))?,
+                    .map_err(|_| InvalidDecision::SeverityNotANumber(s.into()))?,
             ),
         };
         Ok(DecisionRequest {
@@ -136,7 +130,7 @@ pub(super) async fn decide_form(
         .store(move |s| {
             let outcome = match &request {
                 Ok(r) => r.apply(s, &key),
-                Err(why) => Err(ReviewError::Invalid(why.clone())),
+                Err(why) => Err(why.clone().into()),
             };
             Ok((outcome, s.current_decisions()?, s.history(&key)?))
         })
@@ -150,7 +144,7 @@ pub(super) async fn decide_form(
             };
             Ok(Redirect::to(&next).into_response())
         }
-        Err(e @ (ReviewError::Conflict { .. } | ReviewError::Invalid(_))) => {
+        Err(e @ (ReviewError::Conflict { .. } | ReviewError::Decision(_))) => {
             let status = match e {
                 ReviewError::Conflict { .. } => StatusCode::CONFLICT,
                 _ => StatusCode::UNPROCESSABLE_ENTITY,

@@ -53,7 +53,7 @@ impl From<ReviewError> for HttpError {
         let status = match &e {
             ReviewError::UnknownCandidate(_) => StatusCode::NOT_FOUND,
             ReviewError::Conflict { .. } => StatusCode::CONFLICT,
-            ReviewError::Invalid(_) => StatusCode::UNPROCESSABLE_ENTITY,
+            ReviewError::Decision(_) => StatusCode::UNPROCESSABLE_ENTITY,
             _ => StatusCode::INTERNAL_SERVER_ERROR,
         };
         let current_version = match &e {
