@@ -13,6 +13,7 @@
 
 pub mod coverage;
 pub mod crack;
+mod error;
 pub mod flight;
 mod obj;
 pub mod planner;
@@ -36,6 +37,7 @@ use crate::render::RayTable;
 use crate::rng::Rng;
 use crate::scene::{Class, Scene, area};
 use crate::truth::{CrackTruth, FrameTruth, Truth};
+pub use error::SimError;
 use postflight_core::serde_pose::PoseJson;
 
 /// Which structure to fly around.
@@ -152,11 +154,10 @@ fn ns(t: f64) -> i64 {
 pub fn simulate(
     options: &SimOptions,
     progress: &mut dyn FnMut(u64, u64),
-) -> Result<SimSummary, String> {
+) -> Result<SimSummary, SimError> {
     check(options)?;
     let world = World::new(options)?;
-    std::fs::create_dir_all(&options.out)
-        .map_err(|e| format!("cannot create {}: {e}", options.out.display()))?;
+    std::fs::create_dir_all(&options.out).map_err(SimError::write(&options.out))?;
     let mut rec = Recorder::create(&options.out.join("flight.mcap"))?;
     write_mounting(&mut rec, &world)?;
     let recorded = record_frames(&mut rec, &world, options, progress)?;
@@ -198,9 +199,9 @@ pub fn simulate(
     })
 }
 
-fn check(options: &SimOptions) -> Result<(), String> {
+fn check(options: &SimOptions) -> Result<(), SimError> {
     if options.frames < 2 || options.width < 16 || options.height < 16 {
-        return Err("a flight needs at least 2 frames of at least 16x16 pixels".into());
+        return Err(SimError::FlightTooSmall);
     }
     let noise = options.pose_noise;
     if !(noise.position_m >= 0.0
@@ -208,7 +209,7 @@ fn check(options: &SimOptions) -> Result<(), String> {
         && noise.yaw_rad >= 0.0
         && noise.yaw_rad < 1.0)
     {
-        return Err("pose noise must be at least 0 (and below 10 m, 57 degrees)".into());
+        return Err(SimError::PoseNoise);
     }
     Ok(())
 }
@@ -227,13 +228,14 @@ struct World {
 }
 
 impl World {
-    fn new(options: &SimOptions) -> Result<Self, String> {
+    fn new(options: &SimOptions) -> Result<Self, SimError> {
         let scene = match &options.scene {
             SceneChoice::GirderBridge => Scene::girder_bridge(),
             SceneChoice::Tower => Scene::tower(),
-            SceneChoice::Mesh(path) => {
-                Scene::from_obj(path).map_err(|e| format!("mesh {}: {e}", path.display()))?
-            }
+            SceneChoice::Mesh(path) => Scene::from_obj(path).map_err(|reason| SimError::Mesh {
+                path: path.clone(),
+                reason,
+            })?,
         };
         let seed = options.seed;
         let cracks = Cracks::generate(&scene, options.cracks, &mut Rng::stream(seed, "cracks"));
@@ -243,7 +245,7 @@ impl World {
             CAMERA_PITCH_DEG.to_radians(),
         );
         if plan.viewpoints.len() < 3 {
-            return Err("the structure is too small to plan a flight around".into());
+            return Err(SimError::StructureTooSmall);
         }
         let flight = Flight::fly(&plan, &scene, &mut Rng::stream(seed, "flight"));
         let k = intrinsics(options.width, options.height, options.distortion);
@@ -265,7 +267,7 @@ impl World {
 }
 
 /// `/tf_static`: the camera's mounting on the body.
-fn write_mounting(rec: &mut Recorder, world: &World) -> Result<(), String> {
+fn write_mounting(rec: &mut Recorder, world: &World) -> Result<(), SimError> {
     let tf = |parent: &str, child: &str, p: &Isometry3<f64>| {
         let pose = ros_pose(p);
         msg::TransformStamped {
@@ -306,7 +308,7 @@ fn record_frames(
     world: &World,
     options: &SimOptions,
     progress: &mut dyn FnMut(u64, u64),
-) -> Result<Recorded, String> {
+) -> Result<Recorded, SimError> {
     let flight = &world.flight;
     let body_camera = world.body_camera();
     let duration = flight.duration();
@@ -374,18 +376,15 @@ fn write_frame(
     image_format: ImageFormat,
     k: &Intrinsics,
     stamp: i64,
-) -> Result<(), String> {
+) -> Result<(), SimError> {
     let mut data = Cursor::new(Vec::new());
     let format = match image_format {
         ImageFormat::Jpeg => {
-            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut data, 92)
-                .encode_image(img)
-                .map_err(|e| e.to_string())?;
+            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut data, 92).encode_image(img)?;
             "jpeg"
         }
         ImageFormat::Png => {
-            img.write_to(&mut data, image::ImageFormat::Png)
-                .map_err(|e| e.to_string())?;
+            img.write_to(&mut data, image::ImageFormat::Png)?;
             "png"
         }
     };
@@ -445,7 +444,7 @@ struct PoseWriter<'a> {
 
 impl PoseWriter<'_> {
     /// Write the poses stamped up to `t` not yet written.
-    fn write_until(&mut self, t: f64, rec: &mut Recorder) -> Result<(), String> {
+    fn write_until(&mut self, t: f64, rec: &mut Recorder) -> Result<(), SimError> {
         while let Some(&pt) = self.times.get(self.next).filter(|pt| **pt <= t) {
             let pose = flight::noisy(&self.flight.body_pose(pt), &self.sigma, &mut self.noise);
             let msg = msg::PoseStamped {
@@ -459,9 +458,9 @@ impl PoseWriter<'_> {
     }
 }
 
-fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<(), String> {
-    let text = serde_json::to_string_pretty(value).map_err(|e| e.to_string())?;
-    std::fs::write(path, text + "\n").map_err(|e| format!("cannot write {}: {e}", path.display()))
+fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<(), SimError> {
+    let text = serde_json::to_string_pretty(value).map_err(|e| SimError::write(path)(e.into()))?;
+    std::fs::write(path, text + "\n").map_err(SimError::write(path))
 }
 
 fn camera_info(k: &Intrinsics, stamp: i64) -> msg::CameraInfo {

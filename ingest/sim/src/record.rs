@@ -4,10 +4,12 @@
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use ingest::ros::{cdr, definitions, msg};
 use nalgebra::{Isometry3, Point3};
+
+use crate::SimError;
 
 /// Topic names of the simulated recording.
 pub const IMAGE_TOPIC: &str = "/camera/image_raw/compressed";
@@ -18,6 +20,7 @@ pub const POSE_TOPIC: &str = "/slam/pose";
 pub const MAP_TOPIC: &str = "/map";
 
 pub struct Recorder {
+    path: PathBuf,
     writer: mcap::Writer<BufWriter<File>>,
     channels: BTreeMap<&'static str, u16>,
     sequence: u32,
@@ -52,16 +55,19 @@ pub fn ros_pose(p: &Isometry3<f64>) -> msg::Pose {
 }
 
 impl Recorder {
-    pub fn create(path: &Path) -> Result<Self, String> {
-        let file =
-            File::create(path).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    pub fn create(path: &Path) -> Result<Self, SimError> {
+        let file = File::create(path).map_err(SimError::write(path))?;
+        let failed = |cause| SimError::Record {
+            path: path.to_owned(),
+            cause,
+        };
         let mut writer = mcap::WriteOptions::new()
             .profile("ros2")
             .library("postflight-sim")
             .compression(Some(mcap::Compression::Zstd))
             .chunk_size(Some(1 << 20))
             .create(BufWriter::new(file))
-            .map_err(|e| e.to_string())?;
+            .map_err(failed)?;
         let mut channels = BTreeMap::new();
         for (topic, schema, text) in [
             (
@@ -97,13 +103,14 @@ impl Recorder {
         ] {
             let schema_id = writer
                 .add_schema(schema, "ros2msg", text.as_bytes())
-                .map_err(|e| e.to_string())?;
+                .map_err(failed)?;
             let id = writer
                 .add_channel(schema_id, topic, "cdr", &BTreeMap::new())
-                .map_err(|e| e.to_string())?;
+                .map_err(failed)?;
             channels.insert(topic, id);
         }
         Ok(Self {
+            path: path.to_owned(),
             writer,
             channels,
             sequence: 0,
@@ -115,7 +122,7 @@ impl Recorder {
         topic: &'static str,
         log_time_ns: i64,
         message: &T,
-    ) -> Result<(), String> {
+    ) -> Result<(), SimError> {
         self.sequence += 1;
         let header = mcap::records::MessageHeader {
             channel_id: self.channels[topic],
@@ -125,12 +132,19 @@ impl Recorder {
         };
         self.writer
             .write_to_known_channel(&header, &cdr::encode(message))
-            .map_err(|e| e.to_string())
+            .map_err(|cause| self.failed(cause))
     }
 
-    pub fn finish(mut self) -> Result<(), String> {
-        self.writer.finish().map_err(|e| e.to_string())?;
+    pub fn finish(mut self) -> Result<(), SimError> {
+        self.writer.finish().map_err(|cause| self.failed(cause))?;
         Ok(())
+    }
+
+    fn failed(&self, cause: mcap::McapError) -> SimError {
+        SimError::Record {
+            path: self.path.clone(),
+            cause,
+        }
     }
 }
 
@@ -162,7 +176,7 @@ pub fn point_cloud(points: &[Point3<f64>], stamp_ns: i64) -> msg::PointCloud2 {
 }
 
 /// The map as a binary little-endian PLY file.
-pub fn write_ply(path: &Path, points: &[Point3<f64>]) -> Result<(), String> {
+pub fn write_ply(path: &Path, points: &[Point3<f64>]) -> Result<(), SimError> {
     let mut out = format!(
         "ply\nformat binary_little_endian 1.0\ncomment postflight-sim SLAM map\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
         points.len()
@@ -173,5 +187,5 @@ pub fn write_ply(path: &Path, points: &[Point3<f64>]) -> Result<(), String> {
             out.extend_from_slice(&(v as f32).to_le_bytes());
         }
     }
-    std::fs::write(path, out).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    std::fs::write(path, out).map_err(SimError::write(path))
 }
