@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::required;
+use super::{required, required3};
 use crate::error::Error;
 use crate::map::VoxelIndex;
 use crate::plan::ViewModel;
@@ -234,16 +234,8 @@ fn coverage_from(df: &DataFrame) -> PolarsResult<Vec<VoxelRecord>> {
     (0..df.height())
         .map(|i| {
             Ok(VoxelRecord {
-                voxel: VoxelIndex([
-                    required(voxel[0], i)?,
-                    required(voxel[1], i)?,
-                    required(voxel[2], i)?,
-                ]),
-                centre: [
-                    required(centre[0], i)?,
-                    required(centre[1], i)?,
-                    required(centre[2], i)?,
-                ],
+                voxel: VoxelIndex(required3(voxel, i)?),
+                centre: required3(centre, i)?,
                 planned: planned.get(i),
                 inspected: required(inspected, i)?,
                 uninspectable: required(uninspectable, i)?,

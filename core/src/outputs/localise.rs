@@ -15,7 +15,7 @@ use std::path::PathBuf;
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{parsed, required};
+use super::{parsed, required, required3};
 use crate::detection::BoxXyxy;
 use crate::error::Error;
 use crate::map::{FaceSide, VoxelIndex};
@@ -382,16 +382,8 @@ fn observations_from(df: &DataFrame) -> PolarsResult<Vec<ObservationRecord>> {
             let placed = match (xyz(&[centre[0], centre[1], centre[2]]), face.get(i)) {
                 (Some(centre), Some(_)) => Some(PlacedRecord {
                     centre,
-                    normal: [
-                        required(normal[0], i)?,
-                        required(normal[1], i)?,
-                        required(normal[2], i)?,
-                    ],
-                    voxel: VoxelIndex([
-                        required(voxel[0], i)?,
-                        required(voxel[1], i)?,
-                        required(voxel[2], i)?,
-                    ]),
+                    normal: required3(normal, i)?,
+                    voxel: VoxelIndex(required3(voxel, i)?),
                     face: parsed(face_column, i, FaceSide::parse)?,
                     range_m: required(range, i)?,
                     incidence_deg: required(incidence, i)?,
@@ -524,9 +516,6 @@ fn defects_from(
     ];
     (0..df.height())
         .map(|i| {
-            let xyz = |c: [&Float64Chunked; 3]| -> PolarsResult<[f64; 3]> {
-                Ok([required(c[0], i)?, required(c[1], i)?, required(c[2], i)?])
-            };
             let id = required(id, i)?.to_string();
             let views = views(&id);
             let frame = required(best_frame, i)?;
@@ -539,15 +528,11 @@ fn defects_from(
                     polars_err!(ComputeError: "candidate {id}'s best view is not among its observations")
                 })?;
             Ok(DefectRecord {
-                position: xyz(position)?,
-                normal: xyz(normal)?,
-                extent_min: xyz(extent_min)?,
-                extent_max: xyz(extent_max)?,
-                voxel: [
-                    required(voxel[0], i)?,
-                    required(voxel[1], i)?,
-                    required(voxel[2], i)?,
-                ],
+                position: required3(position, i)?,
+                normal: required3(normal, i)?,
+                extent_min: required3(extent_min, i)?,
+                extent_max: required3(extent_max, i)?,
+                voxel: required3(voxel, i)?,
                 face: parsed(face, i, FaceSide::parse)?,
                 length_m: length.get(i),
                 length_views: required(length_views, i)?,

@@ -69,6 +69,18 @@ pub fn required<T: PolarsDataType>(
     )
 }
 
+/// Row `i` of three columns that hold one vector's components (x, y, z).
+pub fn required3<T: PolarsDataType>(
+    columns: [&ChunkedArray<T>; 3],
+    i: usize,
+) -> PolarsResult<[T::Physical<'_>; 3]> {
+    Ok([
+        required(columns[0], i)?,
+        required(columns[1], i)?,
+        required(columns[2], i)?,
+    ])
+}
+
 /// Row `i` of a text column of names (a side, an outcome), as `parse` reads them.
 pub fn parsed<V>(
     column: &StringChunked,
