@@ -32,6 +32,48 @@ pub struct RunInputs {
 
 /// Run every stage that is not up to date.
 pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
+    check_inputs(inputs)?;
+    let dir = RunDir::create(&inputs.out)?;
+    let mut log = open_log(&dir)?;
+    // Input files already hashed, by this run or logged by earlier ones.
+    let mut known: Vec<InputFile> = log
+        .stages
+        .iter()
+        .flat_map(|r| r.inputs.values().cloned())
+        .collect();
+    let mut previous = String::new();
+    for stage in Stage::ALL {
+        let Some(stage_inputs) = stage_inputs(stage, inputs) else {
+            forget_without_plan(stage, &mut log, &dir, quiet)?;
+            continue;
+        };
+        let (fingerprint, read) = fingerprint(stage, stage_inputs, &previous, &mut known)?;
+        let forced = inputs.force.is_some_and(|f| stage >= f);
+        if !forced && is_up_to_date(stage, &fingerprint, &log, &dir) {
+            if !quiet {
+                println!(
+                    "{}: up to date, skipped (`--force {}` reruns it)",
+                    stage.name(),
+                    stage.name()
+                );
+            }
+        } else {
+            let record = StageRecord {
+                stage: stage.name().to_string(),
+                fingerprint: fingerprint.clone(),
+                inputs: read,
+                seconds: 0.0,
+                finished: String::new(),
+            };
+            run_and_log(stage, inputs, record, &mut log, &dir, quiet)?;
+        }
+        previous = fingerprint;
+    }
+    Ok(())
+}
+
+/// Every input file given exists, before anything is written.
+fn check_inputs(inputs: &RunInputs) -> anyhow::Result<()> {
     let given = [
         ("--flight", Some(&inputs.flight)),
         ("--model", Some(&inputs.model)),
@@ -43,94 +85,105 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
             anyhow::bail!("{what} {} is not a file; check the path", p.display());
         }
     }
-    let dir = RunDir::create(&inputs.out)?;
-    let mut log = RunLog::read(&dir).map_err(|e| {
+    Ok(())
+}
+
+/// The run's log (empty for a new run), stamped with this version.
+fn open_log(dir: &RunDir) -> anyhow::Result<RunLog> {
+    let mut log = RunLog::read(dir).map_err(|e| {
         anyhow::anyhow!(
             "{e}; delete {} to start the run afresh",
             dir.file(RUN_LOG).display()
         )
     })?;
     log.postflight_version = env!("CARGO_PKG_VERSION").to_string();
-    // Input files already hashed, by this run or logged by earlier ones.
-    let mut known: Vec<InputFile> = log
-        .stages
-        .iter()
-        .flat_map(|r| r.inputs.values().cloned())
-        .collect();
-    let mut previous = String::new();
-    for stage in Stage::ALL {
-        let Some(StageInputs { settings, files }) = stage_inputs(stage, inputs) else {
-            // Without a plan there is nothing to judge coverage against:
-            // leave no stale results from an earlier run with one.
-            log.forget(stage.name());
-            dir.remove(stage.summary_file())?;
-            if !quiet {
-                println!("{}: skipped (needs --plan)", stage.name());
-            }
-            continue;
-        };
-        let mut read = BTreeMap::new();
-        for (role, path) in files {
-            let file = InputFile::describe(&path, &known)?;
-            known.push(file.clone());
-            read.insert(role.to_string(), file);
-        }
-        // Contents, not places: a moved input does not rerun a stage.
-        let contents: BTreeMap<&String, &String> =
-            read.iter().map(|(r, f)| (r, &f.sha256)).collect();
-        let fingerprint = sha256(
-            serde_json::json!({
-                "stage": stage.name(),
-                "postflight": env!("CARGO_PKG_VERSION"),
-                "settings": settings,
-                "inputs": contents,
-                "previous": previous,
-            })
-            .to_string()
-            .as_bytes(),
-        );
-        let forced = inputs.force.is_some_and(|f| stage >= f);
-        let done = log
-            .record(stage.name())
-            .is_some_and(|r| r.fingerprint == fingerprint)
-            && dir.file(stage.summary_file()).is_file();
-        if done && !forced {
-            if !quiet {
-                println!(
-                    "{}: up to date, skipped (`--force {}` reruns it)",
-                    stage.name(),
-                    stage.name()
-                );
-            }
-            previous = fingerprint;
-            continue;
-        }
-        // From here on this stage and every later one must run again.
-        for later in Stage::ALL.iter().filter(|s| **s >= stage) {
-            log.forget(later.name());
-        }
-        log.running = Some(stage.name().to_string());
-        log.write(&dir)?;
-        let start = Instant::now();
-        run_stage(stage, inputs, quiet).map_err(|e| {
-            anyhow::anyhow!(
-                "stage {} failed: {e:#}\nthe results of the stages before it are intact in {}; fix the cause and rerun the same command to resume from {}",
-                stage.name(),
-                inputs.out.display(),
-                stage.name()
-            )
-        })?;
-        log.running = None;
-        log.stages.push(StageRecord {
-            stage: stage.name().to_string(),
-            fingerprint: fingerprint.clone(),
-            inputs: read,
-            seconds: start.elapsed().as_secs_f64(),
-            finished: now_rfc3339(),
-        });
-        log.write(&dir)?;
-        previous = fingerprint;
+    Ok(log)
+}
+
+/// Without a plan there is nothing to judge coverage against: leave no
+/// stale results from an earlier run with one.
+fn forget_without_plan(
+    stage: Stage,
+    log: &mut RunLog,
+    dir: &RunDir,
+    quiet: bool,
+) -> anyhow::Result<()> {
+    log.forget(stage.name());
+    dir.remove(stage.summary_file())?;
+    if !quiet {
+        println!("{}: skipped (needs --plan)", stage.name());
     }
+    Ok(())
+}
+
+/// The stage's fingerprint (its settings, its input files' contents and the
+/// previous stage's fingerprint) and the input files it read, by role.
+fn fingerprint(
+    stage: Stage,
+    StageInputs { settings, files }: StageInputs,
+    previous: &str,
+    known: &mut Vec<InputFile>,
+) -> anyhow::Result<(String, BTreeMap<String, InputFile>)> {
+    let mut read = BTreeMap::new();
+    for (role, path) in files {
+        let file = InputFile::describe(&path, known)?;
+        known.push(file.clone());
+        read.insert(role.to_string(), file);
+    }
+    // Contents, not places: a moved input does not rerun a stage.
+    let contents: BTreeMap<&String, &String> = read.iter().map(|(r, f)| (r, &f.sha256)).collect();
+    let fingerprint = sha256(
+        serde_json::json!({
+            "stage": stage.name(),
+            "postflight": env!("CARGO_PKG_VERSION"),
+            "settings": settings,
+            "inputs": contents,
+            "previous": previous,
+        })
+        .to_string()
+        .as_bytes(),
+    );
+    Ok((fingerprint, read))
+}
+
+/// The log holds this stage with the same fingerprint and its summary is
+/// still there.
+fn is_up_to_date(stage: Stage, fingerprint: &str, log: &RunLog, dir: &RunDir) -> bool {
+    log.record(stage.name())
+        .is_some_and(|r| r.fingerprint == fingerprint)
+        && dir.file(stage.summary_file()).is_file()
+}
+
+/// Run the stage, logged as running while it does and then as `record`
+/// with its duration and finishing time.
+fn run_and_log(
+    stage: Stage,
+    inputs: &RunInputs,
+    mut record: StageRecord,
+    log: &mut RunLog,
+    dir: &RunDir,
+    quiet: bool,
+) -> anyhow::Result<()> {
+    // From here on this stage and every later one must run again.
+    for later in Stage::ALL.iter().filter(|s| **s >= stage) {
+        log.forget(later.name());
+    }
+    log.running = Some(stage.name().to_string());
+    log.write(dir)?;
+    let start = Instant::now();
+    run_stage(stage, inputs, quiet).map_err(|e| {
+        anyhow::anyhow!(
+            "stage {} failed: {e:#}\nthe results of the stages before it are intact in {}; fix the cause and rerun the same command to resume from {}",
+            stage.name(),
+            inputs.out.display(),
+            stage.name()
+        )
+    })?;
+    log.running = None;
+    record.seconds = start.elapsed().as_secs_f64();
+    record.finished = now_rfc3339();
+    log.stages.push(record);
+    log.write(dir)?;
     Ok(())
 }
 
