@@ -84,10 +84,19 @@ def line_kernels():
     return np.stack(kernels)[:, None, :, :]
 
 
+def exact_dot(a, b):
+    """a . b correctly rounded to float32: numpy's SIMD sums round differently
+    on different CPUs, and the shipped models must rebuild byte for byte."""
+    return np.float32(math.fsum(float(x) * float(y) for x, y in zip(a, b)))
+
+
+def unit(v):
+    return v / np.float32(math.sqrt(exact_dot(v, v)))
+
+
 def crack_direction():
     rng = np.random.default_rng(20261121)
-    v = rng.standard_normal(EMBED_DIM).astype(np.float32)
-    return v / np.linalg.norm(v)
+    return unit(rng.standard_normal(EMBED_DIM).astype(np.float32))
 
 
 def prompt_embeddings():
@@ -100,8 +109,7 @@ def prompt_embeddings():
             v = crack
         else:
             v = rng.standard_normal(EMBED_DIM).astype(np.float32)
-            v -= v.dot(crack) * crack  # unrelated to cracks
-            v /= np.linalg.norm(v)
+            v = unit(v - exact_dot(v, crack) * crack)  # unrelated to cracks
         out[name] = v
     return out
 
