@@ -21,9 +21,7 @@ use serde_json::{Value, json};
 fn reviewed_run() -> &'static Path {
     static RUN: OnceLock<PathBuf> = OnceLock::new();
     RUN.get_or_init(|| {
-        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("review-fixture");
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = locked_fixture_dir("review-fixture");
         let sim = simulate_into(&dir, "sim", &["--frames", "120"]);
         let run = dir.join("run");
         ingest_ok(&sim.join("flight.mcap"), &run, &[]);

@@ -15,10 +15,7 @@ use serde_json::Value;
 fn bridge() -> &'static (PathBuf, Value) {
     static RUN: OnceLock<(PathBuf, Value)> = OnceLock::new();
     RUN.get_or_init(|| {
-        // Cargo's per-target scratch dir: reused, not leaked, across runs.
-        let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("simulate-bridge");
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = locked_fixture_dir("simulate-bridge");
         let sim = simulate_into(&dir, "sim", &["--frames", "150", "--seed", "3"]);
         ingest_ok(&sim.join("flight.mcap"), &dir.join("run"), &[]);
         (dir, read_json(&sim.join("truth.json")))

@@ -117,6 +117,22 @@ pub fn ingest_ok(flight: &Path, run: &Path, extra: &[&str]) -> Value {
     read_json(&run.join("ingest.json"))
 }
 
+/// An empty scratch directory `name` under Cargo's `CARGO_TARGET_TMPDIR`
+/// (reused, not leaked, across runs), locked for the rest of this process:
+/// two test runs that share a target directory (two clones, one cache) take
+/// turns at the fixture instead of writing into each other's.
+pub fn locked_fixture_dir(name: &str) -> PathBuf {
+    let scratch = Path::new(env!("CARGO_TARGET_TMPDIR"));
+    let lock = std::fs::File::create(scratch.join(format!("{name}.lock"))).unwrap();
+    lock.lock().unwrap();
+    // Held until the process exits, whatever the tests do meanwhile.
+    std::mem::forget(lock);
+    let dir = scratch.join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
 /// Run `postflight simulate` into `dir/name`, which must succeed.
 pub fn simulate_into(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
     let out = dir.join(name);
