@@ -58,14 +58,15 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
                 );
             }
         } else {
-            let record = StageRecord {
+            let seconds = run_logged(stage, inputs, &mut log, &dir, quiet)?;
+            log.stages.push(StageRecord {
                 stage: stage.name().to_string(),
                 fingerprint: fingerprint.clone(),
                 inputs: read,
-                seconds: 0.0,
-                finished: String::new(),
-            };
-            run_and_log(stage, inputs, record, &mut log, &dir, quiet)?;
+                seconds,
+                finished: now_rfc3339(),
+            });
+            log.write(&dir)?;
         }
         previous = fingerprint;
     }
@@ -154,16 +155,14 @@ fn is_up_to_date(stage: Stage, fingerprint: &str, log: &RunLog, dir: &RunDir) ->
         && dir.file(stage.summary_file()).is_file()
 }
 
-/// Run the stage, logged as running while it does and then as `record`
-/// with its duration and finishing time.
-fn run_and_log(
+/// Run the stage, logged as running while it does; its duration in seconds.
+fn run_logged(
     stage: Stage,
     inputs: &RunInputs,
-    mut record: StageRecord,
     log: &mut RunLog,
     dir: &RunDir,
     quiet: bool,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<f64> {
     // From here on this stage and every later one must run again.
     for later in Stage::ALL.iter().filter(|s| **s >= stage) {
         log.forget(later.name());
@@ -180,11 +179,7 @@ fn run_and_log(
         )
     })?;
     log.running = None;
-    record.seconds = start.elapsed().as_secs_f64();
-    record.finished = now_rfc3339();
-    log.stages.push(record);
-    log.write(dir)?;
-    Ok(())
+    Ok(start.elapsed().as_secs_f64())
 }
 
 /// What a stage's fingerprint covers besides the previous stage.
