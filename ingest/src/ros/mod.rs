@@ -4,6 +4,7 @@ pub mod cdr;
 pub mod definitions;
 pub mod msg;
 pub mod pointcloud2;
+pub mod ros1;
 
 use nalgebra::Isometry3;
 

@@ -136,9 +136,14 @@ pub struct CameraInfo {
     pub height: u32,
     pub width: u32,
     pub distortion_model: String,
+    /// ROS 1 names the matrices in capitals (`D`, `K`, `R`, `P`).
+    #[serde(alias = "D")]
     pub d: Vec<f64>,
+    #[serde(alias = "K")]
     pub k: [f64; 9],
+    #[serde(alias = "R")]
     pub r: [f64; 9],
+    #[serde(alias = "P")]
     pub p: [f64; 12],
     pub binning_x: u32,
     pub binning_y: u32,
