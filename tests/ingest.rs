@@ -71,8 +71,30 @@ fn check_frames(run: &Path, expected: &Value) {
     }
 }
 
+/// A ROS type name as ROS 2 spells it (`sensor_msgs/Image` is `sensor_msgs/msg/Image`).
+fn ros2_name(name: &str) -> String {
+    match name.split_once('/') {
+        Some((package, ty)) if !ty.contains('/') => format!("{package}/msg/{ty}"),
+        _ => name.to_string(),
+    }
+}
+
 fn check_summary(summary: &Value, expected: &Value) {
-    assert_eq!(summary["messages"], expected["messages"]);
+    // Every topic with its type and count, whichever ROS wrote it.
+    let messages = |v: &Value| -> Vec<(String, String, u64)> {
+        v.as_object()
+            .unwrap()
+            .iter()
+            .map(|(topic, m)| {
+                let schema = ros2_name(m["schema"].as_str().unwrap());
+                (topic.clone(), schema, m["count"].as_u64().unwrap())
+            })
+            .collect()
+    };
+    assert_eq!(
+        messages(&summary["messages"]),
+        messages(&expected["messages"])
+    );
     assert_eq!(summary["poses"], expected["poses"]);
     assert_eq!(
         summary["frames"].as_u64().unwrap(),
@@ -211,34 +233,44 @@ fn raw_and_png_images_decode_exactly() {
         let summary = ingest_ok(&mcap, &run, &[]);
         check_summary(&summary, &expected);
         check_frames(&run, &expected);
-        let flight = postflight_core::Flight::load(&run).unwrap();
-        let frame = &flight.frames[3];
-        assert_eq!(frame.encoding, kind);
-        let img = ingest::Recording::reopen(&flight)
+        check_pixels(&run, &expected, kind);
+    }
+}
+
+/// Frame 3's pixels, read back through the recording, are the ones written
+/// (for JPEG, lossy, its size).
+fn check_pixels(run: &Path, expected: &Value, kind: &str) {
+    let flight = postflight_core::Flight::load(run).unwrap();
+    let frame = &flight.frames[3];
+    assert_eq!(frame.encoding, kind);
+    let img = ingest::Recording::reopen(&flight)
+        .unwrap()
+        .image(frame)
+        .unwrap();
+    assert_eq!(Some(img.width()), frame.width);
+    if kind == "jpeg" {
+        return;
+    }
+    for p in expected["pixels"].as_array().unwrap() {
+        let (x, y) = (p[0].as_u64().unwrap() as u32, p[1].as_u64().unwrap() as u32);
+        let want: Vec<u64> = p[2]
+            .as_array()
             .unwrap()
-            .image(frame)
-            .unwrap();
-        for p in expected["pixels"].as_array().unwrap() {
-            let (x, y) = (p[0].as_u64().unwrap() as u32, p[1].as_u64().unwrap() as u32);
-            let want: Vec<u64> = p[2]
-                .as_array()
-                .unwrap()
+            .iter()
+            .map(|v| v.as_u64().unwrap())
+            .collect();
+        let got: Vec<u64> = match kind {
+            "mono8" => vec![u64::from(img.to_luma8().get_pixel(x, y).0[0])],
+            "mono16" => vec![u64::from(img.to_luma16().get_pixel(x, y).0[0])],
+            _ => img
+                .to_rgb8()
+                .get_pixel(x, y)
+                .0
                 .iter()
-                .map(|v| v.as_u64().unwrap())
-                .collect();
-            let got: Vec<u64> = match kind {
-                "mono8" => vec![u64::from(img.to_luma8().get_pixel(x, y).0[0])],
-                "mono16" => vec![u64::from(img.to_luma16().get_pixel(x, y).0[0])],
-                _ => img
-                    .to_rgb8()
-                    .get_pixel(x, y)
-                    .0
-                    .iter()
-                    .map(|v| u64::from(*v))
-                    .collect(),
-            };
-            assert_eq!(got, want, "{kind} pixel ({x}, {y})");
-        }
+                .map(|v| u64::from(*v))
+                .collect(),
+        };
+        assert_eq!(got, want, "{kind} pixel ({x}, {y})");
     }
 }
 
@@ -450,7 +482,7 @@ fn bad_input_fails_with_one_line_and_no_run_dir() {
         &["--poses", "none", "--duration", "2"],
     );
     let cases = [
-        (text.clone(), "not an MCAP recording"),
+        (text.clone(), "not a flight recording"),
         (empty, "it is empty"),
         (dir.path().join("missing.mcap"), "cannot open"),
         (no_poses.clone(), "no usable pose topic"),
@@ -482,4 +514,173 @@ fn bad_input_fails_with_one_line_and_no_run_dir() {
             && err.contains("/camera/image_raw/compressed"),
         "{err}"
     );
+}
+
+/// The ingest tables without the columns that say where each message sits
+/// in its file, which differ by container; everything else must not.
+fn tables_without_locations(run: &Path) -> (DataFrame, DataFrame, Value) {
+    let frames = frames_table(run)
+        .drop_many(["chunk_offset", "record_offset"])
+        .clone();
+    let trajectory = read_parquet(&run.join("trajectory.parquet"));
+    (frames, trajectory, read_json(&run.join("cameras.json")))
+}
+
+/// The same flight as ROS 1: bags by `rosbags` with each chunk compression,
+/// and an MCAP of the `ros1` profile by `mcap-ros1-support`.
+const ROS1_WRITES: [(&str, &[&str]); 4] = [
+    (
+        "bag-none.bag",
+        &["--container", "bag", "--compression", "none"],
+    ),
+    (
+        "bag-bz2.bag",
+        &["--container", "bag", "--compression", "bz2"],
+    ),
+    (
+        "bag-lz4.bag",
+        &["--container", "bag", "--compression", "lz4"],
+    ),
+    ("ros1.mcap", &["--container", "mcap"]),
+];
+
+#[test]
+fn ros1_bags_of_every_compression_and_ros1_mcap_ingest_to_the_ros2_tables() {
+    let dir = tempfile::tempdir().unwrap();
+    for (poses, images) in [("odometry", "jpeg"), ("tf", "rgb8")] {
+        let name = format!("{poses}-{images}");
+        let (mcap, expected) =
+            write_flight(dir.path(), &name, &["--poses", poses, "--images", images]);
+        let ros2 = dir.path().join(format!("run-{name}"));
+        ingest_ok(&mcap, &ros2, &[]);
+        let reference = tables_without_locations(&ros2);
+        for (file, args) in ROS1_WRITES {
+            let ros1 = dir.path().join(format!("{name}-{file}"));
+            to_ros1(&mcap, &ros1, args);
+            let run = dir.path().join(format!("run-{name}-{file}"));
+            let summary = ingest_ok(&ros1, &run, &[]);
+            check_summary(&summary, &expected);
+            check_frames(&run, &expected);
+            check_pixels(&run, &expected, images);
+            let (frames, trajectory, cameras) = tables_without_locations(&run);
+            assert!(frames.equals_missing(&reference.0), "{name} {file}: frames");
+            assert!(
+                trajectory.equals_missing(&reference.1),
+                "{name} {file}: trajectory"
+            );
+            assert_eq!(cameras, reference.2, "{name} {file}: cameras");
+        }
+    }
+}
+
+#[test]
+fn a_bag_cut_at_60_percent_is_salvaged_and_flagged() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mcap, expected) = write_flight(dir.path(), "flight", &["--duration", "20"]);
+    // Compressed chunks of 64 KiB (the cut loses the chunk it falls in), and
+    // one large uncompressed chunk whose front is salvaged.
+    for (compression, chunk) in [("bz2", "65536"), ("lz4", "65536"), ("none", "1000000")] {
+        let bag = dir.path().join(format!("{compression}.bag"));
+        to_ros1(
+            &mcap,
+            &bag,
+            &["--compression", compression, "--chunk-size", chunk],
+        );
+        let bytes = std::fs::read(&bag).unwrap();
+        let cut = dir.path().join(format!("{compression}-cut.bag"));
+        std::fs::write(&cut, &bytes[..bytes.len() * 6 / 10]).unwrap();
+
+        let run = dir.path().join(format!("run-{compression}"));
+        let out = run_ingest(&cut, &run, &[]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        assert!(stderr(&out).contains("truncated"), "{}", stderr(&out));
+        let summary = read_json(&run.join("ingest.json"));
+        assert_eq!(summary["truncated"], true, "{compression}");
+        if compression == "none" {
+            assert!(
+                summary["warnings"]
+                    .to_string()
+                    .contains("complete messages recovered from it"),
+                "{}",
+                summary["warnings"]
+            );
+        }
+        // The salvaged frames are exactly the first ones written.
+        let all = expected["frames"].as_array().unwrap();
+        let n = frames_table(&run).height();
+        assert!(
+            n >= all.len() / 2 && n < all.len(),
+            "{compression}: salvaged {n} of {} frames",
+            all.len()
+        );
+        // A frame after the last salvaged pose has none.
+        let last_pose_ns = read_parquet(&run.join("trajectory.parquet"))
+            .column("time_ns")
+            .unwrap()
+            .i64()
+            .unwrap()
+            .max()
+            .unwrap();
+        let salvaged = all[..n].iter().map(|frame| {
+            let mut frame = frame.clone();
+            if frame["time_ns"].as_i64().unwrap() > last_pose_ns && frame["pose_status"] == "ok" {
+                frame["pose_status"] = "after_trajectory".into();
+                frame.as_object_mut().unwrap().remove("camera_pose");
+            }
+            frame
+        });
+        let mut salvaged: Vec<Value> = salvaged.collect();
+        // The cut may fall between the last image and its exposure message.
+        let exposures = frames_table(&run).column("exposure_s").unwrap().clone();
+        if exposures.f64().unwrap().get(n - 1).is_none() {
+            salvaged[n - 1]["exposure_s"] = Value::Null;
+        }
+        let mut prefix = expected.clone();
+        prefix["frames"] = Value::Array(salvaged);
+        check_frames(&run, &prefix);
+
+        let strict = run_ingest(&cut, &dir.path().join("strict"), &["--strict"]);
+        assert_eq!(strict.status.code(), Some(1));
+        assert_eq!(stderr(&strict).trim().lines().count(), 1);
+        assert!(!dir.path().join("strict/ingest.json").exists());
+    }
+}
+
+#[test]
+fn an_unindexed_bag_reads_the_same_as_the_indexed_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mcap, expected) = write_flight(dir.path(), "flight", &[]);
+    for compression in ["none", "lz4"] {
+        let indexed = dir.path().join(format!("{compression}.bag"));
+        to_ros1(&mcap, &indexed, &["--compression", compression]);
+        let unindexed = dir.path().join(format!("{compression}-unindexed.bag"));
+        to_ros1(
+            &mcap,
+            &unindexed,
+            &["--compression", compression, "--unindexed"],
+        );
+        assert!(
+            std::fs::metadata(&unindexed).unwrap().len()
+                < std::fs::metadata(&indexed).unwrap().len()
+        );
+        let runs = [indexed, unindexed].map(|bag| {
+            let run = dir
+                .path()
+                .join(format!("run-{}", bag.file_stem().unwrap().display()));
+            let summary = ingest_ok(&bag, &run, &[]);
+            check_summary(&summary, &expected);
+            (run, summary)
+        });
+        assert!(
+            runs[1].1["warnings"].to_string().contains("no index"),
+            "{}",
+            runs[1].1["warnings"]
+        );
+        // Message locations too: the same chunks at the same offsets.
+        assert!(frames_table(&runs[0].0).equals_missing(&frames_table(&runs[1].0)));
+        assert!(
+            read_parquet(&runs[0].0.join("trajectory.parquet"))
+                .equals_missing(&read_parquet(&runs[1].0.join("trajectory.parquet")))
+        );
+    }
 }

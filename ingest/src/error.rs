@@ -16,10 +16,10 @@ pub enum IngestError {
     Setting(#[from] postflight_core::InvalidSetting),
 
     #[error(
-        "{} is not an MCAP recording ({why}); record with `ros2 bag record -s mcap` or convert the bag with `ros2 bag convert`",
+        "{} is not a flight recording ({why}); pass an MCAP file (`ros2 bag record -s mcap`) or a ROS 1 bag (`rosbag record`)",
         path.display()
     )]
-    NotMcap { path: PathBuf, why: String },
+    NotRecording { path: PathBuf, why: String },
 
     #[error(
         "{} is truncated at byte {offset} ({strict}): {salvaged} complete messages are readable; drop {strict} to ingest them",

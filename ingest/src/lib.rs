@@ -11,6 +11,7 @@
 //! `postflight_core::Flight::load` and read images and the recorded map
 //! back from the recording on demand ([`reopen`], [`load_map`]).
 
+pub mod bag;
 pub mod calibration;
 mod cameras;
 pub mod error;

@@ -1,4 +1,4 @@
-//! Reading an MCAP recording record by record, tolerant of the damage real
+//! Reading a flight recording record by record, tolerant of the damage real
 //! flights have: a file cut off mid-chunk (battery died, card pulled) and
 //! chunks whose bytes are corrupt.
 //!
@@ -30,6 +30,9 @@ pub struct Channel {
     pub schema_encoding: String,
     /// Message encoding, e.g. `cdr`.
     pub message_encoding: String,
+    /// The schema's text: the message definition (`.msg` text with its
+    /// dependencies) for `ros2msg` and `ros1msg` schemas.
+    pub definition: String,
 }
 
 /// One message as met during a scan; `data` borrows the mapped file or the
@@ -69,25 +72,37 @@ pub struct ScanReport {
     pub problems: Vec<String>,
 }
 
-/// A memory-mapped MCAP recording.
+/// The container a recording is in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Container {
+    /// MCAP, with ROS 2 (`cdr`) or ROS 1 (`ros1`) messages.
+    Mcap,
+    /// A ROS 1 bag, format 2.0 ([`crate::bag`]).
+    Bag,
+}
+
+/// A memory-mapped flight recording: MCAP or a ROS 1 bag.
 pub struct Recording {
     path: PathBuf,
     map: memmap2::Mmap,
+    container: Container,
     /// The most recently decompressed chunk, for sequential `read_message` calls.
     chunk_cache: Mutex<Option<(u64, Vec<u8>)>>,
+    /// How the topics later stages read again decode ([`Recording::reopen`]).
+    pub(crate) wires: HashMap<String, crate::ros::Wire>,
 }
 
 const RECORD_PREFIX: usize = 9; // opcode u8 + length u64
 
 impl Recording {
-    /// Open and map `path`, checking it is an MCAP file.
+    /// Open and map `path`, checking it is an MCAP file or a ROS 1 bag.
     pub fn open(path: &Path) -> Result<Self, IngestError> {
         let file = File::open(path).map_err(|source| postflight_core::Error::Open {
             path: path.to_owned(),
             source,
         })?;
         if file.metadata().map(|m| m.is_dir()).unwrap_or(false) {
-            return Err(IngestError::NotMcap {
+            return Err(IngestError::NotRecording {
                 path: path.to_owned(),
                 why: "it is a directory".into(),
             });
@@ -102,21 +117,29 @@ impl Recording {
         })?;
         #[cfg(unix)]
         let _ = map.advise(memmap2::Advice::Sequential);
-        if map.len() < mcap::MAGIC.len() || &map[..mcap::MAGIC.len()] != mcap::MAGIC {
+        let container = if map.starts_with(mcap::MAGIC) {
+            Container::Mcap
+        } else if map.starts_with(crate::bag::MAGIC) {
+            Container::Bag
+        } else {
             let why = if map.is_empty() {
                 "it is empty".to_string()
+            } else if map.starts_with(b"#ROSBAG") {
+                "it is a ROS bag of a format other than 2.0".to_string()
             } else {
-                "it does not start with the MCAP magic bytes".to_string()
+                "it starts with neither the MCAP magic bytes nor `#ROSBAG V2.0`".to_string()
             };
-            return Err(IngestError::NotMcap {
+            return Err(IngestError::NotRecording {
                 path: path.to_owned(),
                 why,
             });
-        }
+        };
         Ok(Self {
             path: path.to_owned(),
             map,
+            container,
             chunk_cache: Mutex::new(None),
+            wires: HashMap::new(),
         })
     }
 
@@ -133,9 +156,21 @@ impl Recording {
         self.map.is_empty()
     }
 
+    /// Its container.
+    pub fn container(&self) -> Container {
+        self.container
+    }
+
     /// Walk the whole recording once, calling `visit` for every channel and
     /// message in file order. Damage is recorded in the report, never fatal.
     pub fn scan(&self, mut visit: impl FnMut(ScanEvent<'_>)) -> ScanReport {
+        match self.container {
+            Container::Mcap => self.scan_mcap(visit),
+            Container::Bag => crate::bag::scan(&self.map, &mut visit),
+        }
+    }
+
+    fn scan_mcap(&self, mut visit: impl FnMut(ScanEvent<'_>)) -> ScanReport {
         let buf: &[u8] = &self.map;
         let mut report = ScanReport::default();
         let mut links = ChannelLinks::default();
@@ -225,6 +260,10 @@ impl Recording {
             why: why.to_string(),
         };
         let buf: &[u8] = &self.map;
+        if self.container == Container::Bag {
+            let mut cache = self.chunk_cache.lock().unwrap_or_else(|e| e.into_inner());
+            return crate::bag::read_message(buf, location, &mut cache).map_err(|e| bad(&e));
+        }
         let fetch = |records: &[u8]| message_payload(records, location).map_err(bad);
         let Some(chunk_offset) = location.chunk_offset else {
             return fetch(buf);
@@ -570,7 +609,8 @@ fn read_until_error(reader: &mut impl std::io::Read, out: &mut Vec<u8>) -> std::
 /// Schemas and channels seen so far, linked by id.
 #[derive(Default)]
 struct ChannelLinks {
-    schemas: HashMap<u16, (String, String)>,
+    /// Name, encoding and text of each schema.
+    schemas: HashMap<u16, (String, String, String)>,
     channels: HashMap<u16, Channel>,
 }
 
@@ -582,15 +622,16 @@ impl ChannelLinks {
         visit: &mut impl FnMut(ScanEvent<'_>),
     ) -> Result<(), String> {
         match mcap::parse_record(opcode, body).map_err(|e| e.to_string())? {
-            mcap::records::Record::Schema { header, .. } => {
+            mcap::records::Record::Schema { header, data } => {
+                let text = String::from_utf8_lossy(&data).into_owned();
                 self.schemas
-                    .insert(header.id, (header.name, header.encoding));
+                    .insert(header.id, (header.name, header.encoding, text));
             }
             mcap::records::Record::Channel(c) => {
                 if self.channels.contains_key(&c.id) {
                     return Ok(()); // chunks repeat channel records
                 }
-                let (schema, schema_encoding) =
+                let (schema, schema_encoding, definition) =
                     self.schemas.get(&c.schema_id).cloned().unwrap_or_default();
                 let channel = Channel {
                     id: c.id,
@@ -598,6 +639,7 @@ impl ChannelLinks {
                     schema,
                     schema_encoding,
                     message_encoding: c.message_encoding,
+                    definition,
                 };
                 visit(ScanEvent::Channel(&channel));
                 self.channels.insert(channel.id, channel);

@@ -3,6 +3,7 @@
 //! the recorded SLAM map. Frames and `ingest.json` say where each message
 //! is, so nothing is searched and nothing else is read.
 
+use std::collections::HashMap;
 use std::path::Path;
 
 use image::DynamicImage;
@@ -12,14 +13,14 @@ use postflight_core::{Flight, Frame};
 use crate::error::IngestError;
 use crate::image::{decode_compressed, decode_raw};
 use crate::recording::Recording;
-use crate::ros::{cdr, msg, pointcloud2};
+use crate::ros::{Wire, pointcloud2};
 
 impl Recording {
     /// The recording a flight was ingested from; an error if it changed
     /// size since (then the message locations are stale).
     pub fn reopen(flight: &Flight) -> Result<Self, IngestError> {
         let file = &flight.summary.flight;
-        let recording = Self::open(&file.path)?;
+        let mut recording = Self::open(&file.path)?;
         if recording.len() != file.size_bytes {
             return Err(postflight_core::Error::RunDir {
                 path: flight.run.path().to_owned(),
@@ -32,19 +33,27 @@ impl Recording {
             }
             .into());
         }
+        recording.wires = wires(flight);
         Ok(recording)
+    }
+
+    /// How the messages of `topic` decode.
+    fn wire(&self, topic: &str) -> Wire {
+        self.wires.get(topic).cloned().unwrap_or(Wire::Cdr)
     }
 
     /// Decode a frame's image.
     pub fn image(&self, frame: &Frame) -> Result<DynamicImage, IngestError> {
         let payload = self.read_message(frame.location)?;
         let bad = |why: String| self.bad_frame(frame, why);
+        let wire = self.wire(&frame.topic);
         if is_compressed(frame) {
-            decode_compressed(compressed_bytes(&payload).map_err(&bad)?).map_err(bad)
+            let (_, data) = wire
+                .compressed_image(&payload)
+                .map_err(|e| bad(e.to_string()))?;
+            decode_compressed(data).map_err(bad)
         } else {
-            let (head, mut tail) =
-                cdr::decode_head::<msg::ImageHead>(&payload).map_err(|e| bad(e.to_string()))?;
-            let data = tail.byte_sequence().map_err(|e| bad(e.to_string()))?;
+            let (head, data) = wire.image(&payload).map_err(|e| bad(e.to_string()))?;
             decode_raw(
                 &head.encoding,
                 head.width,
@@ -64,7 +73,10 @@ impl Recording {
             return Ok(None);
         }
         let payload = self.read_message(frame.location)?;
-        let data = compressed_bytes(&payload).map_err(|why| self.bad_frame(frame, why))?;
+        let (_, data) = self
+            .wire(&frame.topic)
+            .compressed_image(&payload)
+            .map_err(|e| self.bad_frame(frame, e.to_string()))?;
         Ok(Some(data.to_vec()))
     }
 
@@ -78,7 +90,10 @@ impl Recording {
             path: self.path().to_owned(),
             why: format!("topic {}: {why}", map.topic),
         };
-        let msg: msg::PointCloud2 = cdr::decode(&payload).map_err(|e| bad(e.to_string()))?;
+        let msg = self
+            .wire(&map.topic)
+            .point_cloud(&payload)
+            .map_err(|e| bad(e.to_string()))?;
         Ok(Some(pointcloud2::decode(&msg).map_err(bad)?))
     }
 
@@ -132,9 +147,16 @@ fn is_compressed(frame: &Frame) -> bool {
     matches!(frame.encoding.as_str(), "jpeg" | "png")
 }
 
-/// The data of a CompressedImage message.
-fn compressed_bytes(payload: &[u8]) -> Result<&[u8], String> {
-    let (_, mut tail) =
-        cdr::decode_head::<msg::CompressedImageHead>(payload).map_err(|e| e.to_string())?;
-    tail.byte_sequence().map_err(|e| e.to_string())
+/// How each re-read topic of a flight decodes, from `ingest.json`.
+fn wires(flight: &Flight) -> HashMap<String, Wire> {
+    let mut wires = HashMap::new();
+    for (topic, summary) in &flight.summary.messages {
+        let definition = summary.definition.as_deref().unwrap_or_default();
+        let Ok(wire) = Wire::of(&summary.encoding, &summary.schema, definition) else {
+            // Topics ingest could not decode are not read again.
+            continue;
+        };
+        wires.insert(topic.clone(), wire);
+    }
+    wires
 }

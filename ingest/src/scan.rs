@@ -14,7 +14,7 @@ use postflight_core::{Frame, ImageStatus, MessageLocation, PoseStatus};
 
 use crate::image::{Compression, RAW_ENCODINGS, compressed_size};
 use crate::recording::{Channel, RecordedMessage};
-use crate::ros::{self, cdr, msg, schema};
+use crate::ros::{self, DecodeError, Wire, msg, schema};
 use crate::stage::IngestOptions;
 use crate::tf::TransformTree;
 
@@ -51,6 +51,10 @@ pub(crate) struct ChannelState {
     /// Schema name, or a note of its absence.
     schema: String,
     kind: Kind,
+    /// How its messages decode, or why they cannot.
+    wire: Result<Wire, DecodeError>,
+    /// The ROS 1 definition, kept for the topics later stages read again.
+    definition: Option<String>,
     count: u64,
 }
 
@@ -82,11 +86,8 @@ pub(crate) struct Scan {
 
 impl Scan {
     fn classify(&self, channel: &Channel, options: &IngestOptions) -> Kind {
-        if channel.message_encoding != "cdr" {
-            return Kind::Unknown;
-        }
         let chosen = |flag: &Option<String>| flag.as_ref().is_none_or(|t| *t == channel.topic);
-        match channel.schema.as_str() {
+        match schema::ros2_name(&channel.schema).as_ref() {
             schema::IMAGE | schema::COMPRESSED_IMAGE
                 if !options.image_topics.is_empty()
                     && !options.image_topics.contains(&channel.topic) =>
@@ -118,7 +119,18 @@ impl Scan {
     }
 
     pub(crate) fn channel(&mut self, channel: &Channel, options: &IngestOptions) {
-        let kind = self.classify(channel, options);
+        let wire = Wire::of(
+            &channel.message_encoding,
+            &channel.schema,
+            &channel.definition,
+        );
+        let kind = match wire {
+            Err(DecodeError::Encoding(_)) => Kind::Unknown,
+            _ => self.classify(channel, options),
+        };
+        let reread = matches!(kind, Kind::Image | Kind::CompressedImage | Kind::PointCloud);
+        let definition =
+            (reread && matches!(wire, Ok(Wire::Ros1(_)))).then(|| channel.definition.clone());
         let schema = if channel.schema.is_empty() {
             format!("(no schema, {})", channel.message_encoding)
         } else {
@@ -133,6 +145,8 @@ impl Scan {
                 topic: channel.topic.as_str().into(),
                 schema,
                 kind,
+                wire,
+                definition,
                 count: 0,
             },
         );
@@ -148,17 +162,32 @@ impl Scan {
         };
         channel.count += 1;
         let (topic, kind) = (channel.topic.clone(), channel.kind);
+        let wire = match &channel.wire {
+            Ok(wire) => wire.clone(),
+            Err(e) => {
+                let e = e.clone();
+                return self.failed(&topic, kind, &e);
+            }
+        };
         self.time_range = Some(match self.time_range {
             None => (m.log_time, m.log_time),
             Some((lo, hi)) => (lo.min(m.log_time), hi.max(m.log_time)),
         });
-        if let Err(e) = self.decode(&topic, kind, m) {
-            let f = self.failures.entry(topic.to_string()).or_default();
-            if f.count == 0 {
-                f.first = e.to_string();
-            }
-            f.count += 1;
+        if let Err(e) = self.decode(&topic, kind, &wire, m) {
+            self.failed(&topic, kind, &e);
         }
+    }
+
+    /// Count a message of `topic` that could not be decoded.
+    fn failed(&mut self, topic: &str, kind: Kind, e: &DecodeError) {
+        if matches!(kind, Kind::Ignored | Kind::Unknown) {
+            return;
+        }
+        let f = self.failures.entry(topic.to_string()).or_default();
+        if f.count == 0 {
+            f.first = e.to_string();
+        }
+        f.count += 1;
     }
 
     /// Messages per topic (several channels may share a topic).
@@ -170,18 +199,30 @@ impl Scan {
                 .or_insert_with(|| TopicSummary {
                     schema: c.schema.clone(),
                     count: 0,
+                    encoding: c.wire.as_ref().map_or("", Wire::encoding).to_string(),
+                    definition: c.definition.clone(),
                 })
                 .count += c.count;
         }
         topics
     }
 
+    /// How the messages of `topic` decode (ROS 2 CDR when it is unknown).
+    pub(crate) fn wire(&self, topic: &str) -> Wire {
+        self.channels
+            .values()
+            .filter(|c| *c.topic == *topic)
+            .find_map(|c| c.wire.as_ref().ok().cloned())
+            .unwrap_or(Wire::Cdr)
+    }
+
     fn decode(
         &mut self,
         topic: &str,
         kind: Kind,
+        wire: &Wire,
         m: &RecordedMessage<'_>,
-    ) -> Result<(), cdr::CdrError> {
+    ) -> Result<(), DecodeError> {
         let log_time_ns = m.log_time as i64;
         // A frame as its image header describes it; placed on the trajectory later.
         let frame =
@@ -202,8 +243,7 @@ impl Scan {
             };
         match kind {
             Kind::CompressedImage => {
-                let (head, mut tail) = cdr::decode_head::<msg::CompressedImageHead>(m.data)?;
-                let data = tail.byte_sequence()?;
+                let (head, data) = wire.compressed_image(m.data)?;
                 let size = compressed_size(data);
                 let encoding = Compression::sniff(data)
                     .map(|c| c.as_str().to_string())
@@ -216,7 +256,7 @@ impl Scan {
                     .push(frame(&head.header, size, encoding, status));
             }
             Kind::Image => {
-                let head: msg::ImageHead = cdr::decode_head(m.data)?.0;
+                let head = wire.image(m.data)?.0;
                 let status = if RAW_ENCODINGS.contains(&head.encoding.as_str()) {
                     ImageStatus::Ok
                 } else {
@@ -228,24 +268,24 @@ impl Scan {
             }
             Kind::CameraInfo => {
                 if !self.camera_infos.contains_key(topic) {
-                    let info: msg::CameraInfo = cdr::decode(m.data)?;
+                    let info: msg::CameraInfo = wire.decode(m.data)?;
                     self.camera_infos.insert(topic.to_string(), info);
                 }
             }
             Kind::PoseStamped => {
-                let p: msg::PoseStamped = cdr::decode(m.data)?;
+                let p: msg::PoseStamped = wire.decode(m.data)?;
                 self.pose(topic, p.header, &p.pose, String::new(), log_time_ns);
             }
             Kind::PoseWithCovariance => {
-                let p: msg::PoseWithCovarianceStamped = cdr::decode(m.data)?;
+                let p: msg::PoseWithCovarianceStamped = wire.decode(m.data)?;
                 self.pose(topic, p.header, &p.pose.pose, String::new(), log_time_ns);
             }
             Kind::Odometry => {
-                let o: msg::Odometry = cdr::decode(m.data)?;
+                let o: msg::Odometry = wire.decode(m.data)?;
                 self.pose(topic, o.header, &o.pose.pose, o.child_frame_id, log_time_ns);
             }
             Kind::Tf { is_static } => {
-                let tf: msg::TfMessage = cdr::decode(m.data)?;
+                let tf: msg::TfMessage = wire.decode(m.data)?;
                 for t in &tf.transforms {
                     self.tf.add(t, is_static);
                 }
@@ -255,7 +295,7 @@ impl Scan {
                 self.clouds.insert(topic.to_string(), m.location);
             }
             Kind::Exposure => {
-                let e: msg::Float64 = cdr::decode(m.data)?;
+                let e: msg::Float64 = wire.decode(m.data)?;
                 self.exposures
                     .insert((camera_namespace(topic).to_string(), log_time_ns), e.data);
             }

@@ -18,7 +18,7 @@ use crate::cameras::cameras;
 use crate::error::IngestError;
 use crate::placement::{choose_trajectory, place_frames};
 use crate::recording::{Recording, ScanEvent, ScanReport};
-use crate::ros::{cdr, msg, pointcloud2, schema};
+use crate::ros::{pointcloud2, schema};
 use crate::scan::Scan;
 
 /// The stage's settings, by their key in `postflight.toml`'s `[ingest]`.
@@ -336,7 +336,11 @@ fn recorded_map(
     let decoded = recording
         .read_message(**location)
         .map_err(|e| e.to_string())
-        .and_then(|payload| cdr::decode::<msg::PointCloud2>(&payload).map_err(|e| e.to_string()))
+        .and_then(|payload| {
+            scan.wire(topic)
+                .point_cloud(&payload)
+                .map_err(|e| e.to_string())
+        })
         .and_then(|m| pointcloud2::decode(&m));
     match decoded {
         Ok(cloud) => {

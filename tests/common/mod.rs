@@ -97,6 +97,24 @@ pub fn assert_close(a: f64, b: f64, tol: f64, what: &str) {
     );
 }
 
+/// Rewrite the ROS 2 recording `src` as ROS 1 at `out` with
+/// tests/fixtures/to_ros1.py (`rosbags` for bags, `mcap-ros1-support` for
+/// MCAP); `args` as the script takes them (`--container`, `--compression`).
+pub fn to_ros1(src: &Path, out: &Path, args: &[&str]) {
+    let run = Command::new(python())
+        .arg(root().join("tests/fixtures/to_ros1.py"))
+        .arg(src)
+        .arg(out)
+        .args(args)
+        .output()
+        .expect("run the ROS 1 writer");
+    assert!(
+        run.status.success(),
+        "ROS 1 writer failed: {}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+}
+
 /// Run `postflight ingest` (XDG dirs beside the run directory).
 pub fn run_ingest(flight: &Path, run: &Path, extra: &[&str]) -> Output {
     let mut args = vec![

@@ -30,6 +30,17 @@ pub mod files {
 pub struct TopicSummary {
     pub schema: String,
     pub count: u64,
+    /// How its messages are serialised: `cdr` (ROS 2) or `ros1`.
+    #[serde(default = "cdr")]
+    pub encoding: String,
+    /// The ROS 1 message definition of topics later stages read again
+    /// (images, the map): decoding them needs it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub definition: Option<String>,
+}
+
+fn cdr() -> String {
+    "cdr".to_string()
 }
 
 /// Where the poses came from.

@@ -1,10 +1,14 @@
-//! ROS 2 wire formats: message structs and their CDR decoding.
+//! ROS wire formats: message structs, and decoding them from ROS 2 CDR or
+//! ROS 1 serialisation ([`Wire`]).
 
 pub mod cdr;
 pub mod definitions;
 pub mod msg;
 pub mod pointcloud2;
 pub mod ros1;
+pub mod wire;
+
+pub use wire::{DecodeError, Wire};
 
 use nalgebra::Isometry3;
 
@@ -17,7 +21,8 @@ pub fn pose(position: msg::Vector3, q: msg::Quaternion) -> Option<Isometry3<f64>
     )
 }
 
-/// ROS 2 schema names postflight understands, as they appear in MCAP schema records.
+/// Schema names postflight understands, in ROS 2's spelling as they appear
+/// in MCAP schema records (ROS 1 names are spelled so by [`schema::ros2_name`]).
 pub mod schema {
     pub const IMAGE: &str = "sensor_msgs/msg/Image";
     pub const COMPRESSED_IMAGE: &str = "sensor_msgs/msg/CompressedImage";
@@ -28,4 +33,13 @@ pub mod schema {
     pub const ODOMETRY: &str = "nav_msgs/msg/Odometry";
     pub const TF_MESSAGE: &str = "tf2_msgs/msg/TFMessage";
     pub const FLOAT64: &str = "std_msgs/msg/Float64";
+
+    /// A type name in ROS 2's spelling: ROS 1's `sensor_msgs/Image` is
+    /// `sensor_msgs/msg/Image`.
+    pub fn ros2_name(name: &str) -> std::borrow::Cow<'_, str> {
+        match name.split_once('/') {
+            Some((package, ty)) if !ty.contains('/') => format!("{package}/msg/{ty}").into(),
+            _ => name.into(),
+        }
+    }
 }
