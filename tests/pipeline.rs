@@ -3,7 +3,8 @@
 //! gap (against truth.json and the stages' own files); a second run skips
 //! every stage; a run killed mid-detect resumes without redoing ingest; a
 //! changed setting reruns from its stage on; a failing stage says which and
-//! leaves the earlier results intact.
+//! leaves the earlier results intact; a flight recorded by ROS 1 (bags,
+//! MCAP) runs to the same defects and coverage as its ROS 2 recording.
 
 mod common;
 
@@ -518,4 +519,51 @@ fn a_run_killed_mid_detect_resumes_without_redoing_ingest() {
         err.contains("confidense") && err.contains("[detect]"),
         "{err}"
     );
+}
+
+#[test]
+fn a_simulated_flight_as_ros1_bags_and_ros1_mcap_runs_to_the_same_defects_and_coverage() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = simulate_into(dir.path(), "sim", &["--frames", "100"]);
+    let ros2 = sim.join("flight.mcap");
+    let config = dir.path().join("postflight.toml");
+    std::fs::write(&config, "[replan]\nsolver_time_limit_s = 0.5\n").unwrap();
+    let model = root().join("detect/models/crack-baked.onnx");
+    let run = |flight: &Path, name: &str| {
+        let out_dir = dir.path().join(name);
+        let out = postflight(
+            &[
+                "run",
+                "--flight",
+                flight.to_str().unwrap(),
+                "--plan",
+                sim.join("plan.json").to_str().unwrap(),
+                "--model",
+                model.to_str().unwrap(),
+                "--config",
+                config.to_str().unwrap(),
+                "--out",
+                out_dir.to_str().unwrap(),
+                "-q",
+            ],
+            dir.path(),
+        );
+        assert!(out.status.success(), "{name}: {}", stderr(&out));
+        let table = |file: &str| read_parquet(&out_dir.join(file));
+        (table("defects.parquet"), table("coverage.parquet"))
+    };
+    let (defects, coverage) = run(&ros2, "run-ros2");
+    assert!(defects.height() > 0, "the flight shows no defects");
+    for (file, args) in [
+        ("none.bag", &["--compression", "none"][..]),
+        ("bz2.bag", &["--compression", "bz2"][..]),
+        ("lz4.bag", &["--compression", "lz4"][..]),
+        ("ros1.mcap", &["--container", "mcap"][..]),
+    ] {
+        let flight = dir.path().join(file);
+        to_ros1(&ros2, &flight, args);
+        let (ros1_defects, ros1_coverage) = run(&flight, &format!("run-{file}"));
+        assert!(ros1_defects.equals_missing(&defects), "{file}: defects");
+        assert!(ros1_coverage.equals_missing(&coverage), "{file}: coverage");
+    }
 }
