@@ -41,6 +41,8 @@ struct Header<'a> {
     compression: Option<&'a str>,
     size: Option<u32>,
     index_pos: Option<u64>,
+    conn_count: Option<u32>,
+    chunk_count: Option<u32>,
     chunk_pos: Option<u64>,
     topic: Option<&'a str>,
 }
@@ -67,6 +69,8 @@ impl<'a> Header<'a> {
                 b"compression" => h.compression = Some(text()?),
                 b"size" => h.size = u32_at(value, 0),
                 b"index_pos" => h.index_pos = u64_at(value, 0),
+                b"conn_count" => h.conn_count = u32_at(value, 0),
+                b"chunk_count" => h.chunk_count = u32_at(value, 0),
                 b"chunk_pos" => h.chunk_pos = u64_at(value, 0),
                 b"topic" => h.topic = Some(text()?),
                 _ => {}
@@ -303,8 +307,7 @@ fn walk_chunk(
     (messages, Ok(()))
 }
 
-/// Where the chunks are, from a whole index section; `None` when the bag
-/// has no index or it is damaged (then the bag is scanned linearly).
+/// Where the chunks are, from the index section.
 struct Index<'a> {
     /// Connection records: header and data.
     connections: Vec<(Header<'a>, &'a [u8])>,
@@ -312,10 +315,32 @@ struct Index<'a> {
     chunks: Vec<u64>,
 }
 
-fn read_index(buf: &[u8], index_pos: u64, first_record: usize) -> Option<Index<'_>> {
-    let mut pos = usize::try_from(index_pos).ok()?;
-    if pos < first_record || pos >= buf.len() {
-        return None;
+/// Why the index cannot be used (then the bag is read record by record).
+enum NoIndex {
+    /// The bag header says it has none: its recorder did not close it.
+    Missing,
+    /// It ends before it lists every connection and chunk the bag header
+    /// counts: the file was cut short.
+    Cut,
+    /// Its records do not make sense.
+    Damaged,
+}
+
+fn read_index<'a>(
+    buf: &'a [u8],
+    bag: &Header<'_>,
+    first_record: usize,
+) -> Result<Index<'a>, NoIndex> {
+    let index_pos = bag.index_pos.unwrap_or(0);
+    if index_pos == 0 {
+        return Err(NoIndex::Missing);
+    }
+    let mut pos = usize::try_from(index_pos).map_err(|_| NoIndex::Cut)?;
+    if pos >= buf.len() {
+        return Err(NoIndex::Cut);
+    }
+    if pos < first_record {
+        return Err(NoIndex::Damaged);
     }
     let mut index = Index {
         connections: Vec::new(),
@@ -323,15 +348,15 @@ fn read_index(buf: &[u8], index_pos: u64, first_record: usize) -> Option<Index<'
     };
     while pos < buf.len() {
         let Found::Whole(record) = record_at(buf, pos) else {
-            return None;
+            return Err(NoIndex::Cut);
         };
-        let header = Header::parse(record.header).ok()?;
-        match header.op? {
-            op::CONNECTION => index.connections.push((header, record.data)),
-            op::CHUNK_INFO => {
-                let at = header.chunk_pos?;
+        let header = Header::parse(record.header).map_err(|_| NoIndex::Damaged)?;
+        match header.op {
+            Some(op::CONNECTION) => index.connections.push((header, record.data)),
+            Some(op::CHUNK_INFO) => {
+                let at = header.chunk_pos.ok_or(NoIndex::Damaged)?;
                 if at < first_record as u64 || at >= index_pos {
-                    return None;
+                    return Err(NoIndex::Damaged);
                 }
                 index.chunks.push(at);
             }
@@ -339,13 +364,19 @@ fn read_index(buf: &[u8], index_pos: u64, first_record: usize) -> Option<Index<'
         }
         pos = record.end;
     }
+    let counted = |n: usize, claimed: Option<u32>| claimed.is_none_or(|c| n as u64 >= u64::from(c));
+    if !counted(index.connections.len(), bag.conn_count)
+        || !counted(index.chunks.len(), bag.chunk_count)
+    {
+        return Err(NoIndex::Cut);
+    }
     index.chunks.sort_unstable();
-    Some(index)
+    Ok(index)
 }
 
 /// Walk a bag once (through its index when it has a whole one, else
 /// record by record), calling `visit` for every connection and message.
-pub(crate) fn scan(buf: &[u8], visit: &mut impl FnMut(ScanEvent<'_>)) -> ScanReport {
+pub fn scan(buf: &[u8], visit: &mut impl FnMut(ScanEvent<'_>)) -> ScanReport {
     let mut report = ScanReport::default();
     let mut connections = Connections::default();
     let first = MAGIC.len();
@@ -362,35 +393,45 @@ pub(crate) fn scan(buf: &[u8], visit: &mut impl FnMut(ScanEvent<'_>)) -> ScanRep
             .push("the bag header record is missing or cut off".to_string());
         return report;
     };
-    let index_pos = bag_header.index_pos.unwrap_or(0);
-    if let Some(index) = read_index(buf, index_pos, chunks_start) {
-        for (header, data) in &index.connections {
-            if let Err(e) = connections.add(header, data, visit) {
-                report
-                    .problems
-                    .push(format!("index connection: {e}; skipped"));
+    match read_index(buf, &bag_header, chunks_start) {
+        Ok(index) => {
+            for (header, data) in &index.connections {
+                if let Err(e) = connections.add(header, data, visit) {
+                    report
+                        .problems
+                        .push(format!("index connection: {e}; skipped"));
+                }
+            }
+            let mut out = Vec::new();
+            for &at in &index.chunks {
+                progress(visit, at);
+                chunk(
+                    buf,
+                    at as usize,
+                    &mut out,
+                    &mut connections,
+                    visit,
+                    &mut report,
+                );
             }
         }
-        let mut out = Vec::new();
-        for &at in &index.chunks {
-            progress(visit, at);
-            chunk(
-                buf,
-                at as usize,
-                &mut out,
-                &mut connections,
-                visit,
-                &mut report,
-            );
+        Err(no_index) => {
+            linear(buf, chunks_start, &mut connections, visit, &mut report);
+            match no_index {
+                NoIndex::Missing => report.problems.push(
+                    "the bag has no index (its recorder did not close it); read record by record"
+                        .to_string(),
+                ),
+                // The chunks before the cut may be whole; the recording is not.
+                NoIndex::Cut => {
+                    report.truncated = true;
+                    report.truncated_at.get_or_insert(buf.len() as u64);
+                }
+                NoIndex::Damaged => report
+                    .problems
+                    .push("the bag's index is damaged; read record by record".to_string()),
+            }
         }
-    } else {
-        if index_pos == 0 {
-            report.problems.push(
-                "the bag has no index (its recorder did not close it); read record by record"
-                    .to_string(),
-            );
-        }
-        linear(buf, chunks_start, &mut connections, visit, &mut report);
     }
     visit(ScanEvent::Progress {
         bytes: buf.len() as u64,

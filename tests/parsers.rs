@@ -1,0 +1,154 @@
+//! Every parser under attack: recordings cut at every byte, bits flipped,
+//! lengths made absurd. A parser may refuse, salvage or skip, and must say
+//! so; it must never panic or allocate what the input only claims to hold.
+//! The damage is deterministic (seeded), so a failure reproduces.
+
+mod common;
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use common::*;
+use ingest::recording::{RecordedMessage, ScanEvent, ScanReport};
+use ingest::ros::{Wire, msg, schema};
+use sim::rng::Rng;
+
+/// A small flight as ROS 1 bags of each compression, by `rosbags`.
+fn small_bags(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let (mcap, _) = write_flight(
+        dir,
+        "small",
+        &[
+            "--duration",
+            "0.3",
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "--cloud-points",
+            "20",
+            "--pose-hz",
+            "20",
+        ],
+    );
+    ["none", "bz2", "lz4"]
+        .iter()
+        .map(|compression| {
+            let bag: PathBuf = dir.join(format!("small-{compression}.bag"));
+            to_ros1(
+                &mcap,
+                &bag,
+                &["--compression", compression, "--chunk-size", "4000"],
+            );
+            (compression.to_string(), std::fs::read(&bag).unwrap())
+        })
+        .collect()
+}
+
+/// One message as a scan met it: topic, log time and payload.
+type Met = (String, u64, Vec<u8>);
+
+/// Scan a bag held in memory, decoding every message it meets by its
+/// channel's wire into the struct postflight reads it as.
+fn scan_and_decode(bytes: &[u8]) -> (Vec<Met>, ScanReport) {
+    let mut channels: HashMap<u16, (String, String, Option<Wire>)> = HashMap::new();
+    let mut met = Vec::new();
+    let report = ingest::bag::scan(bytes, &mut |event| match event {
+        ScanEvent::Channel(c) => {
+            let wire = Wire::of(&c.message_encoding, &c.schema, &c.definition).ok();
+            channels.insert(c.id, (c.topic.clone(), c.schema.clone(), wire));
+        }
+        ScanEvent::Message(m) => {
+            let (topic, schema, wire) = &channels[&m.channel_id];
+            if let Some(wire) = wire {
+                decode_as_postflight_does(wire, schema, &m);
+            }
+            met.push((topic.clone(), m.log_time, m.data.to_vec()));
+        }
+        ScanEvent::Progress { .. } => {}
+    });
+    (met, report)
+}
+
+/// Decode a message as ingest and the later stages do; errors are fine.
+fn decode_as_postflight_does(wire: &Wire, schema_name: &str, m: &RecordedMessage<'_>) {
+    let data = m.data;
+    match schema::ros2_name(schema_name).as_ref() {
+        schema::IMAGE => drop(wire.image(data)),
+        schema::COMPRESSED_IMAGE => drop(wire.compressed_image(data)),
+        schema::CAMERA_INFO => drop(wire.decode::<msg::CameraInfo>(data)),
+        schema::POSE_STAMPED => drop(wire.decode::<msg::PoseStamped>(data)),
+        schema::ODOMETRY => drop(wire.decode::<msg::Odometry>(data)),
+        schema::TF_MESSAGE => drop(wire.decode::<msg::TfMessage>(data)),
+        schema::POINT_CLOUD2 => drop(wire.point_cloud(data)),
+        schema::FLOAT64 => drop(wire.decode::<msg::Float64>(data)),
+        _ => {}
+    }
+}
+
+#[test]
+fn a_bag_cut_anywhere_gives_a_prefix_of_its_messages_and_says_it_is_truncated() {
+    let dir = tempfile::tempdir().unwrap();
+    for (compression, bytes) in small_bags(dir.path()) {
+        let (all, report) = scan_and_decode(&bytes);
+        assert!(!report.truncated && all.len() > 40, "{compression}");
+        // Every byte of the uncompressed bag; every 7th of the others
+        // (decompressing each cut makes every byte slow in a debug build).
+        let step = if compression == "none" { 1 } else { 7 };
+        for cut in (0..bytes.len()).step_by(step) {
+            let (met, report) = scan_and_decode(&bytes[..cut]);
+            assert!(report.truncated, "{compression} cut at {cut}: not flagged");
+            assert!(
+                met.len() <= all.len() && met[..] == all[..met.len()],
+                "{compression} cut at {cut}: {} messages, not a prefix of the {}",
+                met.len(),
+                all.len()
+            );
+        }
+    }
+}
+
+#[test]
+fn flipped_bits_and_absurd_lengths_in_a_bag_never_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rng = Rng::new(22);
+    for (compression, bytes) in small_bags(dir.path()) {
+        for _ in 0..3000 {
+            let mut damaged = bytes.clone();
+            let at = rng.next_u64() as usize % damaged.len();
+            damaged[at] ^= 1 << (rng.next_u64() % 8);
+            scan_and_decode(&damaged);
+        }
+        // Every u32 that could be a length, made 4 GB (one at a time).
+        for at in (0..bytes.len() - 4).step_by(if compression == "none" { 1 } else { 5 }) {
+            let mut damaged = bytes.clone();
+            damaged[at..at + 4].copy_from_slice(&u32::MAX.to_le_bytes());
+            scan_and_decode(&damaged);
+        }
+    }
+}
+
+#[test]
+fn ros1_definitions_cut_or_flipped_parse_or_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let bags = small_bags(dir.path());
+    let mut definitions = Vec::new();
+    ingest::bag::scan(&bags[0].1, &mut |event| {
+        if let ScanEvent::Channel(c) = event {
+            definitions.push((c.schema.clone(), c.definition.clone()));
+        }
+    });
+    assert!(definitions.len() >= 6);
+    let mut rng = Rng::new(7);
+    for (name, text) in definitions {
+        for cut in (0..text.len()).filter(|&c| text.is_char_boundary(c)) {
+            let _ = Wire::of("ros1", &name, &text[..cut]);
+        }
+        for _ in 0..500 {
+            let mut bytes = text.clone().into_bytes();
+            let at = rng.next_u64() as usize % bytes.len();
+            bytes[at] = b"[]=#/ \nMSG:0123456789abc"[rng.next_u64() as usize % 23];
+            let _ = Wire::of("ros1", &name, &String::from_utf8_lossy(&bytes));
+        }
+    }
+}
