@@ -118,7 +118,7 @@ fn render_in_chromium(page: &Path, png: &Path, scratch: &Path) -> Vec<String> {
     let chromium = Path::new("/usr/bin/chromium");
     assert!(
         chromium.is_file(),
-        "Debian's chromium is missing: run scripts/setup --browser (scripts/test does)"
+        "Debian's chromium is missing: run scripts/setup --test (scripts/test does)"
     );
     let out = Command::new(chromium)
         .args([

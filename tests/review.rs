@@ -322,7 +322,7 @@ fn a_reviewer_accepts_and_rejects_by_keyboard_in_chromium_and_exactly_that_is_st
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
-            .expect("chromedriver (Debian's chromium-driver; scripts/setup --browser installs it)"),
+            .expect("chromedriver (Debian's chromium-driver; scripts/setup --test installs it)"),
     );
     let profile = tmp.path().join("chromium");
     let runtime = tokio::runtime::Builder::new_current_thread()

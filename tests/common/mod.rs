@@ -209,3 +209,49 @@ pub fn iou(a: &[f64; 4], b: &[f64; 4]) -> f64 {
     let union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter;
     if union > 0.0 { inter / union } else { 0.0 }
 }
+
+fn octomap_tool(name: &str, args: &[&str]) {
+    let out = Command::new(name).args(args).output().unwrap_or_else(|e| {
+        panic!("{name}: {e}; install Debian's octomap-tools (scripts/setup --test does)")
+    });
+    assert!(
+        out.status.success(),
+        "{name} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Build `.bt` and `.ot` trees of `points` at `resolution` with
+/// octomap-tools. Each point is a scan node of its own with the point at
+/// the sensor, so no ray crosses (and frees) another point's voxel.
+pub fn octomap_of(
+    dir: &Path,
+    name: &str,
+    points: &[nalgebra::Point3<f64>],
+    resolution: f64,
+) -> [PathBuf; 2] {
+    let log = dir.join(format!("{name}.log"));
+    let mut text = String::new();
+    for p in points {
+        text.push_str(&format!("NODE {} {} {} 0 0 0\n0 0 0\n", p.x, p.y, p.z));
+    }
+    std::fs::write(&log, text).unwrap();
+    let graph = dir.join(format!("{name}.graph"));
+    let bt = dir.join(format!("{name}.bt"));
+    let ot = dir.join(format!("{name}.ot"));
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    octomap_tool("log2graph", &[&s(&log), &s(&graph)]);
+    octomap_tool(
+        "graph2tree",
+        &[
+            "-i",
+            &s(&graph),
+            "-o",
+            &s(&bt),
+            "-res",
+            &resolution.to_string(),
+        ],
+    );
+    octomap_tool("convert_octree", &[&s(&bt), &s(&ot)]);
+    [bt, ot]
+}

@@ -30,7 +30,9 @@ impl PointCloud {
         let points = match ext.as_str() {
             "ply" => super::ply::parse(&bytes),
             "pcd" => super::pcd::parse(&bytes),
-            _ => Err("unknown map format; give a .ply or .pcd file".into()),
+            "bt" => super::octomap::parse(&bytes, super::octomap::Format::Binary).map(|m| m.points),
+            "ot" => super::octomap::parse(&bytes, super::octomap::Format::Full).map(|m| m.points),
+            _ => Err("unknown map format; give a .ply, .pcd, or OctoMap .bt or .ot file".into()),
         }
         .map_err(error)?;
         if points.is_empty() {

@@ -2,6 +2,7 @@
 //! nearest-point queries.
 
 pub mod cloud;
+pub mod octomap;
 mod pcd;
 mod ply;
 pub mod raycast;

@@ -1,0 +1,128 @@
+//! OctoMap maps written by Debian's octomap-tools (the OctoMap library's own
+//! `log2graph` and `graph2tree`, an independent writer): the occupied voxels
+//! postflight reads from `.bt` and `.ot` are those of the points the tree
+//! was built from, pruned or not, and a flight's coverage over such a map is
+//! its coverage over the PLY of the same points.
+
+mod common;
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use common::*;
+use nalgebra::Point3;
+use postflight_core::map::octomap::{self, Format};
+use postflight_core::map::{PointCloud, VoxelGrid};
+
+fn voxels(points: &[Point3<f64>], grid: &VoxelGrid) -> BTreeSet<[i32; 3]> {
+    points.iter().map(|p| grid.voxel_of(p).0).collect()
+}
+
+#[test]
+fn octomap_trees_read_as_the_voxels_of_their_points_pruned_at_several_depths() {
+    let dir = tempfile::tempdir().unwrap();
+    let res = 0.1;
+    // A solid cube of 8 voxels a side on an 8-voxel boundary (OctoMap
+    // prunes it to one leaf three levels up), a one-voxel wall beside it
+    // (unprunable), and points in negative coordinates.
+    let mut points = Vec::new();
+    for (i, j, k) in (0..8).flat_map(|i| (0..8).flat_map(move |j| (0..8).map(move |k| (i, j, k)))) {
+        points.push(Point3::new(1.6, 2.4, 0.8) + nalgebra::Vector3::new(i, j, k).cast() * res);
+    }
+    for (j, k) in (0..30).flat_map(|j| (0..10).map(move |k| (j, k))) {
+        points.push(Point3::new(
+            -5.0,
+            -1.5 + 0.1 * f64::from(j),
+            -0.5 + 0.1 * f64::from(k),
+        ));
+    }
+    let points: Vec<_> = points
+        .iter()
+        .map(|p| p + nalgebra::Vector3::repeat(res / 2.0))
+        .collect();
+    let grid = VoxelGrid::new(res, Point3::origin());
+    let want = voxels(&points, &grid);
+    for (tree, format) in octomap_of(dir.path(), "cube", &points, res)
+        .iter()
+        .zip([Format::Binary, Format::Full])
+    {
+        let map = octomap::parse(&std::fs::read(tree).unwrap(), format).unwrap();
+        assert_eq!(map.resolution, res);
+        assert_eq!(voxels(&map.points, &grid), want, "{}", tree.display());
+        assert_eq!(map.points.len(), want.len());
+        let depths: Vec<u32> = map.leaves_by_depth.keys().copied().collect();
+        assert!(
+            depths.contains(&16) && depths.iter().any(|&d| d <= 14),
+            "leaves by depth: {:?}",
+            map.leaves_by_depth
+        );
+        // The same through the map loader every stage uses.
+        let cloud = PointCloud::load(tree).unwrap();
+        assert_eq!(voxels(&cloud.points, &grid), want);
+    }
+}
+
+#[test]
+fn coverage_over_an_octomap_of_the_map_is_coverage_over_its_ply() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = simulate_into(dir.path(), "sim", &["--frames", "60"]);
+    let plan = read_json(&sim.join("plan.json"));
+    let res = f(&plan["resolution"]);
+    let ply = sim.join("map.ply");
+    let cloud = PointCloud::load(&ply).unwrap();
+    // The tree holds the map's voxels; the PLY of their centres is the
+    // reference, since a tree cannot say where in a voxel a point was.
+    let grid = VoxelGrid::new(res, Point3::origin());
+    let centres: Vec<Point3<f64>> = voxels(&cloud.points, &grid)
+        .iter()
+        .map(|v| {
+            Point3::new(
+                f64::from(v[0]) + 0.5,
+                f64::from(v[1]) + 0.5,
+                f64::from(v[2]) + 0.5,
+            ) * res
+        })
+        .collect();
+    let centres_ply = dir.path().join("centres.ply");
+    let mut text = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nend_header\n",
+        centres.len()
+    );
+    for c in &centres {
+        text.push_str(&format!("{} {} {}\n", c.x, c.y, c.z));
+    }
+    std::fs::write(&centres_ply, text).unwrap();
+    let [bt, ot] = octomap_of(dir.path(), "map", &centres, res);
+
+    let run = dir.path().join("run");
+    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
+    let coverage_with = |map: &Path| {
+        let out = postflight(
+            &[
+                "coverage",
+                "--run",
+                run.to_str().unwrap(),
+                "--plan",
+                sim.join("plan.json").to_str().unwrap(),
+                "--map",
+                map.to_str().unwrap(),
+            ],
+            dir.path(),
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+        read_parquet(&run.join("coverage.parquet"))
+    };
+    let reference = coverage_with(&centres_ply);
+    assert!(reference.height() > 100);
+    for tree in [bt, ot] {
+        assert!(
+            coverage_with(&tree).equals_missing(&reference),
+            "{}",
+            tree.display()
+        );
+    }
+    // The map matters: without every other voxel, coverage is not the same.
+    let sparse: Vec<_> = centres.iter().step_by(2).copied().collect();
+    let [sparse_bt, _] = octomap_of(dir.path(), "sparse", &sparse, res);
+    assert!(!coverage_with(&sparse_bt).equals_missing(&reference));
+}
