@@ -46,7 +46,7 @@ enum Command {
     /// Simulate the default bridge flight and run the whole pipeline on it
     /// with the reference crack detector shipped inside postflight.
     Demo(DemoArgs),
-    /// Read a ROS 2 MCAP flight recording into a run directory.
+    /// Read a flight recording (MCAP with ROS 2 or ROS 1 messages, or a ROS 1 bag) into a run directory.
     Ingest(IngestArgs),
     /// Simulate an inspection flight with ground truth (flight.mcap, map.ply,
     /// plan.json, truth.json).
@@ -72,10 +72,10 @@ enum Command {
 
 #[derive(Args)]
 struct RunArgs {
-    /// The flight recording (ROS 2 MCAP).
+    /// The flight recording: MCAP (ROS 2 or ROS 1 messages) or a ROS 1 bag (.bag).
     #[arg(long)]
     flight: PathBuf,
-    /// SLAM map (PLY or PCD) instead of the one recorded in the flight.
+    /// SLAM map (PLY, PCD, or OctoMap .bt/.ot) instead of the one recorded in the flight.
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
     /// The inspection plan that was flown; coverage and replanning need it.
@@ -138,7 +138,7 @@ struct ReplanArgs {
     /// Run directory holding a completed coverage stage.
     #[arg(long)]
     run: PathBuf,
-    /// SLAM map (PLY or PCD) instead of the one coverage used.
+    /// SLAM map (PLY, PCD, or OctoMap .bt/.ot) instead of the one coverage used.
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
     /// Take-off and landing point (default: the flight's first pose).
@@ -187,13 +187,13 @@ struct CoverageArgs {
     /// Judge this plan's viewpoints instead of the flight's frames (check a plan before flying it).
     #[arg(long, value_name = "plan.json")]
     viewpoints: Option<PathBuf>,
-    /// SLAM map (PLY or PCD, world frame, metres) instead of the one recorded in the flight.
+    /// SLAM map (PLY, PCD, or OctoMap .bt/.ot; world frame, metres) instead of the one recorded in the flight.
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
     /// Targets: occupied map voxels inside these boxes (JSON list of {"min": [x,y,z], "max": [x,y,z]}).
     #[arg(long, value_name = "FILE", conflicts_with = "target_cloud")]
     target_boxes: Option<PathBuf>,
-    /// Targets: voxels of a segmented infrastructure cloud (PLY or PCD).
+    /// Targets: voxels of a segmented infrastructure cloud or octomap (PLY, PCD, .bt, .ot).
     #[arg(long, value_name = "FILE")]
     target_cloud: Option<PathBuf>,
     /// Settings file (postflight.toml; its [view] and [coverage] tables); command-line flags win.
@@ -236,7 +236,7 @@ struct LocaliseArgs {
     /// Run directory holding a completed detect.
     #[arg(long)]
     run: PathBuf,
-    /// SLAM map (PLY or PCD, world frame, metres) instead of the one recorded in the flight.
+    /// SLAM map (PLY, PCD, or OctoMap .bt/.ot; world frame, metres) instead of the one recorded in the flight.
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
     /// Inspection plan: its target voxels are the structure (hits elsewhere are obstacles).
@@ -348,7 +348,7 @@ enum SceneArg {
 
 #[derive(Args)]
 struct IngestArgs {
-    /// The flight recording (ROS 2 MCAP).
+    /// The flight recording: MCAP (ROS 2 or ROS 1 messages) or a ROS 1 bag (.bag).
     #[arg(long)]
     flight: PathBuf,
     /// Run directory to write (created if missing).

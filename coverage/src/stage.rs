@@ -56,7 +56,7 @@ pub enum Targets {
     Plan,
     /// Occupied map voxels inside axis-aligned boxes (JSON file).
     Boxes(PathBuf),
-    /// Voxels of a segmented infrastructure cloud (PLY or PCD).
+    /// Voxels of a segmented infrastructure cloud or octomap (PLY, PCD, `.bt`, `.ot`).
     Cloud(PathBuf),
 }
 

@@ -76,7 +76,7 @@ pub enum IngestError {
     Calibration { path: PathBuf, why: String },
 
     #[error(
-        "the flight has no SLAM map (no PointCloud2 topic was recorded); pass the map with {} (PLY or PCD, in the world frame of the poses)",
+        "the flight has no SLAM map (no PointCloud2 topic was recorded); pass the map with {} (PLY, PCD or an OctoMap .bt/.ot, in the world frame of the poses)",
         postflight_core::setting::inputs::MAP
     )]
     NoMap,

@@ -1,8 +1,8 @@
-//! Flight ingest: reading a ROS 2 flight recording (MCAP, CDR) into the
-//! flight model of `postflight_core`.
+//! Flight ingest: reading a flight recording (MCAP with ROS 2 or ROS 1
+//! messages, or a ROS 1 bag) into the flight model of `postflight_core`.
 //!
 //! The ingest stage ([`ingest`]) makes one pass over a recording
-//! ([`recording`]), salvaging what a truncated or damaged file still holds,
+//! ([`recording`], [`bag`]), salvaging what a truncated or damaged file still holds,
 //! decodes the ROS messages it needs ([`ros`]), builds the body trajectory
 //! from a pose topic or `/tf` ([`tf`]), matches cameras with their
 //! calibration ([`calibration`]) and places every frame; it writes

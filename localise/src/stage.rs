@@ -37,7 +37,7 @@ pub mod keys {
 #[derive(Debug, Clone)]
 pub struct LocaliseOptions {
     pub run: PathBuf,
-    /// Map (PLY or PCD) to use instead of the one recorded in the flight.
+    /// Map (PLY, PCD, `.bt`, `.ot`) to use instead of the one recorded in the flight.
     pub map: Option<PathBuf>,
     /// Plan whose target voxels are the structure (and whose voxel grid is
     /// used); without it every mapped surface counts as structure.

@@ -15,7 +15,7 @@ pub struct PointCloud {
 }
 
 impl PointCloud {
-    /// Load a PLY or PCD file, chosen by its extension.
+    /// Load a PLY, PCD or OctoMap (`.bt`, `.ot`) file, chosen by its extension.
     pub fn load(path: &Path) -> Result<Self, Error> {
         let error = |why: String| Error::Map {
             path: path.to_owned(),
