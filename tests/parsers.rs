@@ -1,5 +1,5 @@
-//! Every parser under attack: recordings cut at every byte, bits flipped,
-//! lengths made absurd. A parser may refuse, salvage or skip, and must say
+//! Every parser under attack: recordings, maps, plans and GTSP instances
+//! cut at every byte, bits flipped, lengths made absurd. A parser may refuse, salvage or skip, and must say
 //! so; it must never panic or allocate what the input only claims to hold.
 //! The damage is deterministic (seeded), so a failure reproduces.
 
@@ -48,25 +48,36 @@ fn small_bags(dir: &Path) -> Vec<(String, Vec<u8>)> {
 /// One message as a scan met it: topic, log time and payload.
 type Met = (String, u64, Vec<u8>);
 
-/// Scan a bag held in memory, decoding every message it meets by its
-/// channel's wire into the struct postflight reads it as.
+/// Scan a recording held in memory (a bag, else MCAP), decoding every
+/// message it meets by its channel's wire into the struct postflight reads
+/// it as.
 fn scan_and_decode(bytes: &[u8]) -> (Vec<Met>, ScanReport) {
     let mut channels: HashMap<u16, (String, String, Option<Wire>)> = HashMap::new();
     let mut met = Vec::new();
-    let report = ingest::bag::scan(bytes, &mut |event| match event {
+    let mut visit = |event: ScanEvent<'_>| match event {
         ScanEvent::Channel(c) => {
             let wire = Wire::of(&c.message_encoding, &c.schema, &c.definition).ok();
             channels.insert(c.id, (c.topic.clone(), c.schema.clone(), wire));
         }
         ScanEvent::Message(m) => {
-            let (topic, schema, wire) = &channels[&m.channel_id];
-            if let Some(wire) = wire {
-                decode_as_postflight_does(wire, schema, &m);
-            }
-            met.push((topic.clone(), m.log_time, m.data.to_vec()));
+            // A damaged file may hold messages of channels it never defines.
+            let topic = match channels.get(&m.channel_id) {
+                Some((topic, schema, Some(wire))) => {
+                    decode_as_postflight_does(wire, schema, &m);
+                    topic.clone()
+                }
+                Some((topic, _, None)) => topic.clone(),
+                None => format!("(channel {})", m.channel_id),
+            };
+            met.push((topic, m.log_time, m.data.to_vec()));
         }
         ScanEvent::Progress { .. } => {}
-    });
+    };
+    let report = if bytes.starts_with(ingest::bag::MAGIC) {
+        ingest::bag::scan(bytes, &mut visit)
+    } else {
+        ingest::recording::scan_mcap(bytes, &mut visit)
+    };
     (met, report)
 }
 
@@ -187,4 +198,148 @@ fn octomap_trees_cut_or_flipped_read_or_fail_cleanly() {
             let _ = parse(&damaged, format);
         }
     }
+}
+
+/// A small ROS 2 flight as MCAP, by the Python `mcap` writer, with each
+/// chunk compression.
+fn small_mcaps(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    ["zstd", "lz4", "none"]
+        .iter()
+        .map(|compression| {
+            let (mcap, _) = write_flight(
+                dir,
+                &format!("small-{compression}"),
+                &[
+                    "--duration",
+                    "0.3",
+                    "--width",
+                    "8",
+                    "--height",
+                    "6",
+                    "--cloud-points",
+                    "20",
+                    "--pose-hz",
+                    "20",
+                    "--compression",
+                    compression,
+                    "--chunk-size",
+                    "2000",
+                ],
+            );
+            (compression.to_string(), std::fs::read(mcap).unwrap())
+        })
+        .collect()
+}
+
+#[test]
+fn an_mcap_cut_anywhere_gives_a_prefix_of_its_messages_and_damage_never_panics() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rng = Rng::new(9);
+    for (compression, bytes) in small_mcaps(dir.path()) {
+        let (all, report) = scan_and_decode(&bytes);
+        assert!(!report.truncated && all.len() > 40, "{compression}");
+        let step = if compression == "none" { 1 } else { 3 };
+        for cut in (8..bytes.len()).step_by(step) {
+            let (met, report) = scan_and_decode(&bytes[..cut]);
+            assert!(report.truncated, "{compression} cut at {cut}: not flagged");
+            assert!(
+                met.len() <= all.len() && met[..] == all[..met.len()],
+                "{compression} cut at {cut}: not a prefix"
+            );
+        }
+        for _ in 0..3000 {
+            let mut damaged = bytes.clone();
+            let at = rng.next_u64() as usize % damaged.len();
+            damaged[at] ^= 1 << (rng.next_u64() % 8);
+            scan_and_decode(&damaged);
+        }
+        for at in (8..bytes.len() - 8).step_by(3) {
+            let mut damaged = bytes.clone();
+            let absurd: &[u8] = if at % 2 == 0 {
+                &u32::MAX.to_le_bytes()
+            } else {
+                &u64::MAX.to_le_bytes()
+            };
+            damaged[at..at + absurd.len()].copy_from_slice(absurd);
+            scan_and_decode(&damaged);
+        }
+    }
+}
+
+/// Every prefix and a few thousand single-bit flips of `bytes`, through `parse`.
+fn attack(bytes: &[u8], step: usize, rng: &mut Rng, mut parse: impl FnMut(&[u8])) {
+    for cut in (0..bytes.len()).step_by(step) {
+        parse(&bytes[..cut]);
+    }
+    for _ in 0..2000 {
+        let mut damaged = bytes.to_vec();
+        let at = rng.next_u64() as usize % damaged.len();
+        damaged[at] ^= 1 << (rng.next_u64() % 8);
+        parse(&damaged);
+    }
+}
+
+#[test]
+fn ply_and_pcd_maps_cut_or_flipped_read_or_fail_cleanly() {
+    use postflight_core::map::PointCloud;
+    let points: Vec<[f32; 3]> = (0..40)
+        .map(|i| [i as f32, (i % 7) as f32 * 0.5, 1.25])
+        .collect();
+    let ascii: String = points
+        .iter()
+        .map(|p| format!("{} {} {}\n", p[0], p[1], p[2]))
+        .collect();
+    let binary: Vec<u8> = points
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let ply = |format: &str| {
+        format!("ply\nformat {format} 1.0\nelement vertex 40\nproperty float x\nproperty float y\nproperty float z\nend_header\n").into_bytes()
+    };
+    let pcd = |data: &str| {
+        format!("# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 40\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 40\nDATA {data}\n").into_bytes()
+    };
+    let files = [
+        ("ply", [ply("ascii"), ascii.clone().into_bytes()].concat()),
+        (
+            "ply",
+            [ply("binary_little_endian"), binary.clone()].concat(),
+        ),
+        ("pcd", [pcd("ascii"), ascii.into_bytes()].concat()),
+        ("pcd", [pcd("binary"), binary].concat()),
+    ];
+    let mut rng = Rng::new(11);
+    for (ext, bytes) in files {
+        assert_eq!(
+            PointCloud::parse(&bytes, ext).unwrap().points.len(),
+            40,
+            "{ext}"
+        );
+        attack(&bytes, 1, &mut rng, |b| drop(PointCloud::parse(b, ext)));
+        // Absurd counts: a header claiming 4 billion points in a few bytes.
+        let text = String::from_utf8_lossy(&bytes).replace(" 40\n", " 4294967295\n");
+        let _ = PointCloud::parse(text.as_bytes(), ext);
+    }
+}
+
+#[test]
+fn gtsp_instances_and_plans_cut_or_flipped_read_or_fail_cleanly() {
+    let mut rng = Rng::new(5);
+    let gtsp = std::fs::read(root().join("tests/fixtures/gtsp/tiny.gtsp")).unwrap();
+    assert!(gtsp::Instance::parse("tiny", &String::from_utf8_lossy(&gtsp)).is_ok());
+    attack(&gtsp, 1, &mut rng, |b| {
+        let _ = gtsp::Instance::parse("tiny", &String::from_utf8_lossy(b));
+    });
+    let huge = String::from_utf8_lossy(&gtsp).replace("DIMENSION", "DIMENSION : 4294967295\nX");
+    let _ = gtsp::Instance::parse("huge", &huge);
+
+    let dir = tempfile::tempdir().unwrap();
+    let sim = simulate_into(dir.path(), "sim", &["--frames", "20"]);
+    let plan = std::fs::read(sim.join("plan.json")).unwrap();
+    let path = dir.path().join("damaged.json");
+    attack(&plan, plan.len() / 400 + 1, &mut rng, |b| {
+        std::fs::write(&path, b).unwrap();
+        let _ = postflight_core::InspectionPlan::load(&path);
+    });
 }

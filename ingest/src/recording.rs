@@ -10,6 +10,7 @@
 
 use std::collections::HashMap;
 use std::fs::File;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -165,91 +166,9 @@ impl Recording {
     /// message in file order. Damage is recorded in the report, never fatal.
     pub fn scan(&self, mut visit: impl FnMut(ScanEvent<'_>)) -> ScanReport {
         match self.container {
-            Container::Mcap => self.scan_mcap(visit),
+            Container::Mcap => scan_mcap(&self.map, &mut visit),
             Container::Bag => crate::bag::scan(&self.map, &mut visit),
         }
-    }
-
-    fn scan_mcap(&self, mut visit: impl FnMut(ScanEvent<'_>)) -> ScanReport {
-        let buf: &[u8] = &self.map;
-        let mut report = ScanReport::default();
-        let mut links = ChannelLinks::default();
-        let mut chunks = ChunkBatch::new();
-        let mut pos = mcap::MAGIC.len();
-        let mut last_progress = 0usize;
-        let mut ended = false;
-        while pos < buf.len() {
-            if pos - last_progress >= 4 << 20 {
-                visit(ScanEvent::Progress { bytes: pos as u64 });
-                last_progress = pos;
-            }
-            let Some((opcode, body)) = record_at(buf, pos) else {
-                chunks.flush(&mut links, &mut visit, &mut report);
-                let partial = &buf[pos..];
-                if partial.first() == Some(&op::CHUNK) && partial.len() > RECORD_PREFIX {
-                    salvage_partial_chunk(
-                        pos as u64,
-                        &partial[RECORD_PREFIX..],
-                        &mut links,
-                        &mut visit,
-                        &mut report,
-                    );
-                }
-                report.truncated = true;
-                report.truncated_at = Some(pos as u64);
-                break;
-            };
-            if opcode == op::CHUNK {
-                chunks.push(pos, body);
-                if chunks.is_full() {
-                    chunks.flush(&mut links, &mut visit, &mut report);
-                }
-                pos += RECORD_PREFIX + body.len();
-                continue;
-            }
-            // Records outside chunks come after the chunks before them.
-            chunks.flush(&mut links, &mut visit, &mut report);
-            match opcode {
-                op::SCHEMA | op::CHANNEL => {
-                    if let Err(e) = links.add(opcode, body, &mut visit) {
-                        report
-                            .problems
-                            .push(format!("record at byte {pos}: {e}; skipped"));
-                    }
-                }
-                op::MESSAGE => {
-                    let location = MessageLocation {
-                        chunk_offset: None,
-                        record_offset: pos as u64,
-                    };
-                    if let Some(message) = parse_message(body, location) {
-                        visit(ScanEvent::Message(message));
-                    } else {
-                        report.problems.push(format!(
-                            "message record at byte {pos} is malformed; skipped"
-                        ));
-                    }
-                }
-                op::DATA_END => {
-                    // The summary section repeats what the data section held;
-                    // a complete file ends with the magic bytes.
-                    ended = true;
-                    break;
-                }
-                _ => {}
-            }
-            pos += RECORD_PREFIX + body.len();
-        }
-        chunks.flush(&mut links, &mut visit, &mut report);
-        let complete = ended && buf.ends_with(mcap::MAGIC);
-        if !report.truncated && !complete {
-            report.truncated = true;
-            report.truncated_at = Some(pos.min(buf.len()) as u64);
-        }
-        visit(ScanEvent::Progress {
-            bytes: buf.len() as u64,
-        });
-        report
     }
 
     /// Fetch the payload of one message found by an earlier scan.
@@ -290,6 +209,89 @@ impl Recording {
             }
         }
     }
+}
+
+/// Walk an MCAP file held in memory once, calling `visit` for every
+/// channel and message in file order (as [`Recording::scan`] does).
+pub fn scan_mcap(buf: &[u8], mut visit: impl FnMut(ScanEvent<'_>)) -> ScanReport {
+    let mut report = ScanReport::default();
+    let mut links = ChannelLinks::default();
+    let mut chunks = ChunkBatch::new();
+    let mut pos = mcap::MAGIC.len();
+    let mut last_progress = 0usize;
+    let mut ended = false;
+    while pos < buf.len() {
+        if pos - last_progress >= 4 << 20 {
+            visit(ScanEvent::Progress { bytes: pos as u64 });
+            last_progress = pos;
+        }
+        let Some((opcode, body)) = record_at(buf, pos) else {
+            chunks.flush(&mut links, &mut visit, &mut report);
+            let partial = &buf[pos..];
+            if partial.first() == Some(&op::CHUNK) && partial.len() > RECORD_PREFIX {
+                salvage_partial_chunk(
+                    pos as u64,
+                    &partial[RECORD_PREFIX..],
+                    &mut links,
+                    &mut visit,
+                    &mut report,
+                );
+            }
+            report.truncated = true;
+            report.truncated_at = Some(pos as u64);
+            break;
+        };
+        if opcode == op::CHUNK {
+            chunks.push(pos, body);
+            if chunks.is_full() {
+                chunks.flush(&mut links, &mut visit, &mut report);
+            }
+            pos += RECORD_PREFIX + body.len();
+            continue;
+        }
+        // Records outside chunks come after the chunks before them.
+        chunks.flush(&mut links, &mut visit, &mut report);
+        match opcode {
+            op::SCHEMA | op::CHANNEL => {
+                if let Err(e) = links.add(opcode, body, &mut visit) {
+                    report
+                        .problems
+                        .push(format!("record at byte {pos}: {e}; skipped"));
+                }
+            }
+            op::MESSAGE => {
+                let location = MessageLocation {
+                    chunk_offset: None,
+                    record_offset: pos as u64,
+                };
+                if let Some(message) = parse_message(body, location) {
+                    visit(ScanEvent::Message(message));
+                } else {
+                    report.problems.push(format!(
+                        "message record at byte {pos} is malformed; skipped"
+                    ));
+                }
+            }
+            op::DATA_END => {
+                // The summary section repeats what the data section held;
+                // a complete file ends with the magic bytes.
+                ended = true;
+                break;
+            }
+            _ => {}
+        }
+        pos += RECORD_PREFIX + body.len();
+    }
+    chunks.flush(&mut links, &mut visit, &mut report);
+    let complete = ended && buf.ends_with(mcap::MAGIC);
+    if !report.truncated && !complete {
+        report.truncated = true;
+        report.truncated_at = Some(pos.min(buf.len()) as u64);
+    }
+    visit(ScanEvent::Progress {
+        bytes: buf.len() as u64,
+    });
+    report
 }
 
 /// Complete chunks waiting to be decompressed and checked together, in
@@ -425,6 +427,13 @@ enum Records {
     InBuffer,
 }
 
+/// What to reserve for a chunk whose header claims `expected` bytes from
+/// `compressed`: the claim, unless it is beyond what real chunks reach
+/// (then the buffer grows with what the data really decompresses to).
+fn claimed_reserve(expected: usize, compressed: usize) -> usize {
+    expected.min(compressed.saturating_mul(64).max(1 << 20))
+}
+
 /// Decompress and check a complete chunk: its size and, when recorded, its CRC.
 fn open_chunk(body: &[u8], out: &mut Vec<u8>) -> Result<Records, String> {
     let header = chunk_header(body).ok_or("malformed chunk header")?;
@@ -442,19 +451,24 @@ fn open_chunk(body: &[u8], out: &mut Vec<u8>) -> Result<Records, String> {
         }
         "zstd" => {
             out.clear();
-            out.reserve(expected);
-            // The Vec's spare capacity is the destination (no zero-filling).
-            zstd::bulk::Decompressor::new()
-                .and_then(|mut d| d.decompress_to_buffer(header.data, out))
-                .map_err(|e| format!("zstd decompression failed: {e}"))?;
+            let reserve = claimed_reserve(expected, header.data.len());
+            out.reserve(reserve);
+            if expected <= reserve {
+                // The Vec's spare capacity is the destination (no zero-filling).
+                zstd::bulk::Decompressor::new()
+                    .and_then(|mut d| d.decompress_to_buffer(header.data, out))
+            } else {
+                zstd::stream::read::Decoder::new(header.data)
+                    .and_then(|d| d.take((expected as u64).saturating_add(1)).read_to_end(out))
+            }
+            .map_err(|e| format!("zstd decompression failed: {e}"))?;
             (out.as_slice(), Records::InBuffer)
         }
         "lz4" => {
             out.clear();
-            out.reserve(expected);
-            let mut decoder = lz4::Decoder::new(header.data)
-                .map_err(|e| format!("lz4 decompression failed: {e}"))?;
-            std::io::copy(&mut decoder, out)
+            out.reserve(claimed_reserve(expected, header.data.len()));
+            lz4::Decoder::new(header.data)
+                .and_then(|d| d.take((expected as u64).saturating_add(1)).read_to_end(out))
                 .map_err(|e| format!("lz4 decompression failed: {e}"))?;
             (out.as_slice(), Records::InBuffer)
         }

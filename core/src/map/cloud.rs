@@ -27,19 +27,20 @@ impl PointCloud {
             .map(str::to_ascii_lowercase)
             .unwrap_or_default();
         let bytes = std::fs::read(path).map_err(|e| error(format!("{e}; check the path")))?;
-        let points = match ext.as_str() {
-            "ply" => super::ply::parse(&bytes),
-            "pcd" => super::pcd::parse(&bytes),
-            "bt" => super::octomap::parse(&bytes, super::octomap::Format::Binary).map(|m| m.points),
-            "ot" => super::octomap::parse(&bytes, super::octomap::Format::Full).map(|m| m.points),
+        Self::parse(&bytes, &ext).map_err(error)
+    }
+
+    /// A map file's contents, by its extension (`ply`, `pcd`, `bt`, `ot`).
+    pub fn parse(bytes: &[u8], extension: &str) -> Result<Self, String> {
+        let points = match extension {
+            "ply" => super::ply::parse(bytes),
+            "pcd" => super::pcd::parse(bytes),
+            "bt" => super::octomap::parse(bytes, super::octomap::Format::Binary).map(|m| m.points),
+            "ot" => super::octomap::parse(bytes, super::octomap::Format::Full).map(|m| m.points),
             _ => Err("unknown map format; give a .ply, .pcd, or OctoMap .bt or .ot file".into()),
-        }
-        .map_err(error)?;
+        }?;
         if points.is_empty() {
-            return Err(Error::Map {
-                path: path.to_owned(),
-                why: "the map has no points".into(),
-            });
+            return Err("the map has no points".into());
         }
         Ok(Self {
             frame_id: String::new(),

@@ -108,7 +108,8 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<Point3<f64>>, String> {
         .collect();
     let point_size: usize = fields.iter().map(Field::bytes).sum();
     let short = || "PCD file is shorter than its header says".to_string();
-    let mut points = Vec::with_capacity(n);
+    // The header's count is a claim; reserve no more than the body can hold.
+    let mut points = Vec::with_capacity(n.min(body.len()));
     match data {
         "ascii" => {
             let text = std::str::from_utf8(body).map_err(|_| "PCD ascii data is not text")?;
@@ -191,7 +192,8 @@ fn parse_all<T: std::str::FromStr>(words: &[&str], line: &str) -> Result<Vec<T>,
 /// Decompress LZF (liblzf's format, as PCL writes it).
 fn lzf_decompress(src: &[u8], expected: usize) -> Result<Vec<u8>, String> {
     let bad = || "corrupt LZF data in PCD file".to_string();
-    let mut out = Vec::with_capacity(expected);
+    // The expected size is the header's claim: LZF expands at most ~100x.
+    let mut out = Vec::with_capacity(expected.min(src.len().saturating_mul(100)));
     let mut i = 0;
     while i < src.len() {
         let ctrl = usize::from(src[i]);

@@ -145,7 +145,8 @@ fn parse_ascii(
     // One line per element instance, elements in header order.
     let skip: usize = elements[..vertex].iter().map(|e| e.count).sum();
     let mut lines = text.lines().filter(|l| !l.trim().is_empty()).skip(skip);
-    let mut points = Vec::with_capacity(elements[vertex].count);
+    // The header's count is a claim; reserve no more than the body can hold.
+    let mut points = Vec::with_capacity(elements[vertex].count.min(body.len()));
     for i in 0..elements[vertex].count {
         let line = lines.next().ok_or(format!(
             "PLY file ends at vertex {i} of {}",
@@ -172,7 +173,8 @@ fn parse_binary(
 ) -> Result<Vec<Point3<f64>>, String> {
     let short = || "PLY file is shorter than its header says".to_string();
     let mut pos = 0usize;
-    let mut points = Vec::with_capacity(elements[vertex].count);
+    // The header's count is a claim; reserve no more than the body can hold.
+    let mut points = Vec::with_capacity(elements[vertex].count.min(body.len()));
     for (e, element) in elements.iter().enumerate() {
         if e > vertex {
             break;
