@@ -4,7 +4,7 @@
 
 mod common;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use common::*;
 use polars::prelude::*;
@@ -353,6 +353,24 @@ fn calibration_file_stands_in_for_missing_camera_info() {
     );
 }
 
+/// Cut `recording` at 60% of its size and ingest it, which must succeed
+/// with a warning; returns the cut file and the run directory.
+fn cut_and_ingest(recording: &Path, dir: &Path, name: &str) -> (PathBuf, PathBuf) {
+    let bytes = std::fs::read(recording).unwrap();
+    let ext = recording.extension().unwrap().to_str().unwrap();
+    let cut = dir.join(format!("{name}-cut.{ext}"));
+    std::fs::write(&cut, &bytes[..bytes.len() * 6 / 10]).unwrap();
+    let run = dir.join(format!("run-{name}"));
+    let out = run_ingest(&cut, &run, &[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("truncated"),
+        "no warning printed: {}",
+        stderr(&out)
+    );
+    (cut, run)
+}
+
 #[test]
 fn truncated_flight_is_salvaged_and_flagged() {
     let dir = tempfile::tempdir().unwrap();
@@ -373,18 +391,7 @@ fn truncated_flight_is_salvaged_and_flagged() {
         ),
     ] {
         let (mcap, expected) = write_flight(dir.path(), name, &args);
-        let bytes = std::fs::read(&mcap).unwrap();
-        let cut = dir.path().join(format!("{name}-cut.mcap"));
-        std::fs::write(&cut, &bytes[..bytes.len() * 6 / 10]).unwrap();
-
-        let run = dir.path().join(format!("run-{name}"));
-        let out = run_ingest(&cut, &run, &[]);
-        assert!(out.status.success(), "{}", stderr(&out));
-        assert!(
-            stderr(&out).contains("truncated"),
-            "no warning printed: {}",
-            stderr(&out)
-        );
+        let (cut, run) = cut_and_ingest(&mcap, dir.path(), name);
         let summary = read_json(&run.join("ingest.json"));
         assert_eq!(summary["truncated"], true);
         if name == "uncompressed" {
@@ -586,14 +593,7 @@ fn a_bag_cut_at_60_percent_is_salvaged_and_flagged() {
             &bag,
             &["--compression", compression, "--chunk-size", chunk],
         );
-        let bytes = std::fs::read(&bag).unwrap();
-        let cut = dir.path().join(format!("{compression}-cut.bag"));
-        std::fs::write(&cut, &bytes[..bytes.len() * 6 / 10]).unwrap();
-
-        let run = dir.path().join(format!("run-{compression}"));
-        let out = run_ingest(&cut, &run, &[]);
-        assert!(out.status.success(), "{}", stderr(&out));
-        assert!(stderr(&out).contains("truncated"), "{}", stderr(&out));
+        let (cut, run) = cut_and_ingest(&bag, dir.path(), compression);
         let summary = read_json(&run.join("ingest.json"));
         assert_eq!(summary["truncated"], true, "{compression}");
         if compression == "none" {

@@ -13,24 +13,23 @@ use ingest::recording::{RecordedMessage, ScanEvent, ScanReport};
 use ingest::ros::{Wire, msg, schema};
 use sim::rng::Rng;
 
+/// A small flight (tests/fixtures/write_flight.py's options): 45 messages.
+const SMALL_FLIGHT: [&str; 10] = [
+    "--duration",
+    "0.3",
+    "--width",
+    "8",
+    "--height",
+    "6",
+    "--cloud-points",
+    "20",
+    "--pose-hz",
+    "20",
+];
+
 /// A small flight as ROS 1 bags of each compression, by `rosbags`.
 fn small_bags(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let (mcap, _) = write_flight(
-        dir,
-        "small",
-        &[
-            "--duration",
-            "0.3",
-            "--width",
-            "8",
-            "--height",
-            "6",
-            "--cloud-points",
-            "20",
-            "--pose-hz",
-            "20",
-        ],
-    );
+    let (mcap, _) = write_flight(dir, "small", &SMALL_FLIGHT);
     ["none", "bz2", "lz4"]
         .iter()
         .map(|compression| {
@@ -101,21 +100,27 @@ fn decode_as_postflight_does(wire: &Wire, schema_name: &str, m: &RecordedMessage
 fn a_bag_cut_anywhere_gives_a_prefix_of_its_messages_and_says_it_is_truncated() {
     let dir = tempfile::tempdir().unwrap();
     for (compression, bytes) in small_bags(dir.path()) {
-        let (all, report) = scan_and_decode(&bytes);
-        assert!(!report.truncated && all.len() > 40, "{compression}");
         // Every byte of the uncompressed bag; every 7th of the others
         // (decompressing each cut makes every byte slow in a debug build).
         let step = if compression == "none" { 1 } else { 7 };
-        for cut in (0..bytes.len()).step_by(step) {
-            let (met, report) = scan_and_decode(&bytes[..cut]);
-            assert!(report.truncated, "{compression} cut at {cut}: not flagged");
-            assert!(
-                met.len() <= all.len() && met[..] == all[..met.len()],
-                "{compression} cut at {cut}: {} messages, not a prefix of the {}",
-                met.len(),
-                all.len()
-            );
-        }
+        check_cuts(&compression, &bytes, 0, step);
+    }
+}
+
+/// Cut `bytes` at every `step`th byte from `start`: each cut recording is
+/// flagged truncated and gives a prefix of the whole one's messages.
+fn check_cuts(label: &str, bytes: &[u8], start: usize, step: usize) {
+    let (all, report) = scan_and_decode(bytes);
+    assert!(!report.truncated && all.len() > 40, "{label}");
+    for cut in (start..bytes.len()).step_by(step) {
+        let (met, report) = scan_and_decode(&bytes[..cut]);
+        assert!(report.truncated, "{label} cut at {cut}: not flagged");
+        assert!(
+            met.len() <= all.len() && met[..] == all[..met.len()],
+            "{label} cut at {cut}: {} messages, not a prefix of the {}",
+            met.len(),
+            all.len()
+        );
     }
 }
 
@@ -206,26 +211,9 @@ fn small_mcaps(dir: &Path) -> Vec<(String, Vec<u8>)> {
     ["zstd", "lz4", "none"]
         .iter()
         .map(|compression| {
-            let (mcap, _) = write_flight(
-                dir,
-                &format!("small-{compression}"),
-                &[
-                    "--duration",
-                    "0.3",
-                    "--width",
-                    "8",
-                    "--height",
-                    "6",
-                    "--cloud-points",
-                    "20",
-                    "--pose-hz",
-                    "20",
-                    "--compression",
-                    compression,
-                    "--chunk-size",
-                    "2000",
-                ],
-            );
+            let mut args = SMALL_FLIGHT.to_vec();
+            args.extend(["--compression", compression, "--chunk-size", "2000"]);
+            let (mcap, _) = write_flight(dir, &format!("small-{compression}"), &args);
             (compression.to_string(), std::fs::read(mcap).unwrap())
         })
         .collect()
@@ -236,17 +224,13 @@ fn an_mcap_cut_anywhere_gives_a_prefix_of_its_messages_and_damage_never_panics()
     let dir = tempfile::tempdir().unwrap();
     let mut rng = Rng::new(9);
     for (compression, bytes) in small_mcaps(dir.path()) {
-        let (all, report) = scan_and_decode(&bytes);
-        assert!(!report.truncated && all.len() > 40, "{compression}");
-        let step = if compression == "none" { 1 } else { 3 };
-        for cut in (8..bytes.len()).step_by(step) {
-            let (met, report) = scan_and_decode(&bytes[..cut]);
-            assert!(report.truncated, "{compression} cut at {cut}: not flagged");
-            assert!(
-                met.len() <= all.len() && met[..] == all[..met.len()],
-                "{compression} cut at {cut}: not a prefix"
-            );
-        }
+        // From past the magic bytes (a shorter file is not an MCAP file).
+        check_cuts(
+            &compression,
+            &bytes,
+            8,
+            if compression == "none" { 1 } else { 3 },
+        );
         for _ in 0..3000 {
             let mut damaged = bytes.clone();
             let at = rng.next_u64() as usize % damaged.len();

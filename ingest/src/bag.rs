@@ -501,26 +501,20 @@ fn chunk(
         Found::Cut { header, data } => (header, data, true),
         Found::Nothing => return,
     };
+    let corrupt = |report: &mut ScanReport, e: String| {
+        report.corrupt_chunks += 1;
+        report
+            .problems
+            .push(format!("chunk at byte {pos}: {e}; skipped"));
+    };
     let header = match Header::parse(header) {
         Ok(h) if h.op == Some(op::CHUNK) => h,
         Ok(_) => return,
-        Err(e) => {
-            report.corrupt_chunks += 1;
-            report
-                .problems
-                .push(format!("chunk at byte {pos}: {e}; skipped"));
-            return;
-        }
+        Err(e) => return corrupt(report, e),
     };
     let records = match open_chunk(&header, data, out, cut) {
         Ok(records) => records,
-        Err(e) => {
-            report.corrupt_chunks += 1;
-            report
-                .problems
-                .push(format!("chunk at byte {pos}: {e}; skipped"));
-            return;
-        }
+        Err(e) => return corrupt(report, e),
     };
     let (messages, walked) = walk_chunk(records, pos as u64, connections, visit);
     match (cut, walked) {
