@@ -77,7 +77,7 @@ fn connection(out: &mut Vec<u8>, t: &Topic) {
     for (k, v) in [
         ("topic", t.name),
         ("type", t.ty),
-        ("md5sum", "*"),
+        ("md5sum", "00000000000000000000000000000000"),
         ("message_definition", "uint8[] data\n"),
     ] {
         data.extend(((k.len() + 1 + v.len()) as u32).to_le_bytes());
