@@ -554,7 +554,11 @@ const ROS1_WRITES: [(&str, &[&str]); 4] = [
 #[test]
 fn ros1_bags_of_every_compression_and_ros1_mcap_ingest_to_the_ros2_tables() {
     let dir = tempfile::tempdir().unwrap();
-    for (poses, images) in [("odometry", "jpeg"), ("tf", "rgb8")] {
+    // Topics named explicitly too: ROS 1 types must pass the flags' checks.
+    for (poses, images, flags) in [
+        ("odometry", "jpeg", &["--pose-topic", "/odom"][..]),
+        ("tf", "rgb8", &["--image-topic", "/camera/image_raw"][..]),
+    ] {
         let name = format!("{poses}-{images}");
         let (mcap, expected) =
             write_flight(dir.path(), &name, &["--poses", poses, "--images", images]);
@@ -565,7 +569,7 @@ fn ros1_bags_of_every_compression_and_ros1_mcap_ingest_to_the_ros2_tables() {
             let ros1 = dir.path().join(format!("{name}-{file}"));
             to_ros1(&mcap, &ros1, args);
             let run = dir.path().join(format!("run-{name}-{file}"));
-            let summary = ingest_ok(&ros1, &run, &[]);
+            let summary = ingest_ok(&ros1, &run, flags);
             check_summary(&summary, &expected);
             check_frames(&run, &expected);
             check_pixels(&run, &expected, images);

@@ -252,7 +252,7 @@ fn check_topic_flags(
                 available: available(),
             });
         };
-        if !expected.contains(&schema.as_str()) {
+        if !expected.contains(&schema::ros2_name(schema).as_ref()) {
             return Err(IngestError::TopicSchema {
                 key,
                 topic: topic.clone(),
