@@ -688,3 +688,31 @@ fn an_unindexed_bag_reads_the_same_as_the_indexed_one() {
         );
     }
 }
+
+#[test]
+fn gps_fixes_are_kept_as_recorded_by_ros2_and_ros1() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mcap, expected) = write_flight(dir.path(), "gps", &["--gps", "--duration", "4"]);
+    let bag = dir.path().join("gps.bag");
+    to_ros1(&mcap, &bag, &["--compression", "lz4"]);
+    let want = expected["gnss"].as_array().unwrap();
+    for flight in [mcap, bag] {
+        let run = dir
+            .path()
+            .join(format!("run-{}", flight.display()).replace('/', "_"));
+        ingest_ok(&flight, &run, &[]);
+        let fixes = postflight_core::outputs::ingest::read_gnss(
+            &postflight_core::RunDir::open(&run, postflight_core::Stage::Ingest).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(fixes.len(), want.len(), "{}", flight.display());
+        for (got, want) in fixes.iter().zip(want) {
+            assert_eq!(got.topic, "/dji_sdk/gps_position");
+            assert_eq!(Some(got.time_ns), want["time_ns"].as_i64());
+            assert_eq!(got.latitude_deg, f(&want["latitude_deg"]));
+            assert_eq!(got.longitude_deg, f(&want["longitude_deg"]));
+            assert_eq!(got.altitude_m, f(&want["altitude_m"]));
+            assert_eq!(Some(i64::from(got.status)), want["status"].as_i64());
+        }
+    }
+}

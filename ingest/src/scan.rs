@@ -8,7 +8,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::Arc;
 
 use postflight_core::frame::{EXPOSURE_TOPIC, camera_namespace};
-use postflight_core::outputs::ingest::TopicSummary;
+use postflight_core::outputs::ingest::{GnssFix, TopicSummary};
 use postflight_core::pose::StampedPose;
 use postflight_core::{Frame, ImageStatus, MessageLocation, PoseStatus};
 
@@ -33,6 +33,8 @@ pub(crate) enum Kind {
     PointCloud,
     /// Exposure times of a camera's images.
     Exposure,
+    /// GPS fixes.
+    NavSatFix,
     /// Recognised but not used (e.g. an image topic not selected).
     Ignored,
     Unknown,
@@ -80,6 +82,8 @@ pub(crate) struct Scan {
     pub(crate) clouds: BTreeMap<String, MessageLocation>,
     /// Exposure times by camera namespace and log time.
     pub(crate) exposures: HashMap<(String, i64), f64>,
+    /// GPS fixes, in the order recorded.
+    pub(crate) fixes: Vec<GnssFix>,
     pub(crate) failures: BTreeMap<String, DecodeFailures>,
     pub(crate) unknown: BTreeSet<(String, String)>,
 }
@@ -109,6 +113,7 @@ impl Scan {
             schema::FLOAT64 if channel.topic.rsplit('/').next() == Some(EXPOSURE_TOPIC) => {
                 Kind::Exposure
             }
+            schema::NAV_SAT_FIX => Kind::NavSatFix,
             schema::CAMERA_INFO
             | schema::POSE_STAMPED
             | schema::POSE_WITH_COVARIANCE_STAMPED
@@ -298,6 +303,17 @@ impl Scan {
                 let e: msg::Float64 = wire.decode(m.data)?;
                 self.exposures
                     .insert((camera_namespace(topic).to_string(), log_time_ns), e.data);
+            }
+            Kind::NavSatFix => {
+                let fix: msg::NavSatFix = wire.decode(m.data)?;
+                self.fixes.push(GnssFix {
+                    time_ns: capture_time(&fix.header, log_time_ns),
+                    topic: topic.to_string(),
+                    latitude_deg: fix.latitude,
+                    longitude_deg: fix.longitude,
+                    altitude_m: fix.altitude,
+                    status: fix.status.status,
+                });
             }
             Kind::Ignored | Kind::Unknown => {}
         }

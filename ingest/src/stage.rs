@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 use nalgebra::Point3;
 use postflight_core::frame::camera_namespace;
 use postflight_core::outputs::ingest::{
-    self as outputs, FlightFile, IngestSummary, PoseSource, RecordedMap, TopicSummary, files,
+    self as outputs, FlightFile, GnssFix, IngestSummary, PoseSource, RecordedMap, TopicSummary,
+    files,
 };
 use postflight_core::time::rfc3339;
 use postflight_core::{
@@ -196,7 +197,15 @@ pub fn ingest(
         max_pose_gap_s: options.max_pose_gap_s,
         warnings,
     };
-    write_outputs(&options.out, &frames, &trajectory, &cameras, &summary)?;
+    scan.fixes.sort_by_key(|f| f.time_ns);
+    write_outputs(
+        &options.out,
+        &frames,
+        &trajectory,
+        &cameras,
+        &scan.fixes,
+        &summary,
+    )?;
     Ok(summary)
 }
 
@@ -367,12 +376,14 @@ fn write_outputs(
     frames: &[Frame],
     trajectory: &Trajectory,
     cameras: &[Camera],
+    fixes: &[GnssFix],
     summary: &IngestSummary,
 ) -> Result<(), IngestError> {
     let run = RunDir::create(out)?;
     run.remove(files::SUMMARY)?;
     outputs::write_frames(&run, frames)?;
     outputs::write_trajectory(&run, trajectory)?;
+    outputs::write_gnss(&run, fixes)?;
     run.write_json(files::CAMERAS, &cameras)?;
     run.write_json(files::SUMMARY, summary)?;
     Ok(())

@@ -22,6 +22,7 @@ pub mod files {
     pub const FRAMES: &str = "frames.parquet";
     pub const TRAJECTORY: &str = "trajectory.parquet";
     pub const CAMERAS: &str = "cameras.json";
+    pub const GNSS: &str = "gnss.parquet";
     pub const SUMMARY: &str = "ingest.json";
 }
 
@@ -132,6 +133,88 @@ fn read_poses(df: &DataFrame) -> PolarsResult<Vec<Option<Isometry3<f64>>>> {
             from_parts_xyzw([v[0], v[1], v[2]], [v[3], v[4], v[5], v[6]])
         })
         .collect())
+}
+
+/// A satellite navigation fix as recorded (`sensor_msgs/NavSatFix`: GPS,
+/// as DJI's SDK publishes it), for placing the map frame on the Earth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GnssFix {
+    /// `header.stamp` (else the log time).
+    pub time_ns: i64,
+    pub topic: String,
+    /// WGS 84 latitude and longitude, degrees.
+    pub latitude_deg: f64,
+    pub longitude_deg: f64,
+    /// Height above the WGS 84 ellipsoid, metres.
+    pub altitude_m: f64,
+    /// The fix status: -1 no fix, 0 fix, 1 SBAS, 2 GBAS (RTK).
+    pub status: i8,
+}
+
+/// Write `gnss.parquet`: every fix, in time order (no rows without GPS).
+pub fn write_gnss(run: &RunDir, fixes: &[GnssFix]) -> Result<(), Error> {
+    run.write_table(files::GNSS, gnss_table(fixes))
+}
+
+/// Read `gnss.parquet`.
+pub fn read_gnss(run: &RunDir) -> Result<Vec<GnssFix>, Error> {
+    run.read_table(files::GNSS, gnss_from)
+}
+
+fn gnss_table(fixes: &[GnssFix]) -> PolarsResult<DataFrame> {
+    let f64s = |name: &str, get: fn(&GnssFix) -> f64| {
+        Column::new(name.into(), fixes.iter().map(get).collect::<Vec<f64>>())
+    };
+    let columns = vec![
+        Column::new(
+            "time_ns".into(),
+            fixes.iter().map(|f| f.time_ns).collect::<Vec<i64>>(),
+        ),
+        Column::new(
+            "topic".into(),
+            fixes
+                .iter()
+                .map(|f| f.topic.as_str())
+                .collect::<Vec<&str>>(),
+        ),
+        f64s("latitude_deg", |f| f.latitude_deg),
+        f64s("longitude_deg", |f| f.longitude_deg),
+        f64s("altitude_m", |f| f.altitude_m),
+        Column::new(
+            "status".into(),
+            // Int32: the fewest polars features (the status is an int8).
+            fixes
+                .iter()
+                .map(|f| i32::from(f.status))
+                .collect::<Vec<i32>>(),
+        ),
+    ];
+    DataFrame::new(fixes.len(), columns)
+}
+
+fn gnss_from(df: &DataFrame) -> PolarsResult<Vec<GnssFix>> {
+    let time = df.column("time_ns")?.i64()?;
+    let topic = df.column("topic")?.str()?;
+    let f64s = |name: &str| df.column(name).and_then(|c| c.f64().cloned());
+    let (lat, lon, alt) = (
+        f64s("latitude_deg")?,
+        f64s("longitude_deg")?,
+        f64s("altitude_m")?,
+    );
+    let status = df.column("status")?.i32()?;
+    (0..df.height())
+        .map(|i| {
+            Ok(GnssFix {
+                time_ns: required(time, i)?,
+                topic: required(topic, i)?.to_string(),
+                latitude_deg: required(&lat, i)?,
+                longitude_deg: required(&lon, i)?,
+                altitude_m: required(&alt, i)?,
+                status: i8::try_from(required(status, i)?)
+                    .map_err(|_| polars_err!(ComputeError: "status in row {i} is not an int8"))?,
+            })
+        })
+        .collect()
 }
 
 /// Write `frames.parquet`.

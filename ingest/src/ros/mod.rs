@@ -33,6 +33,7 @@ pub mod schema {
     pub const ODOMETRY: &str = "nav_msgs/msg/Odometry";
     pub const TF_MESSAGE: &str = "tf2_msgs/msg/TFMessage";
     pub const FLOAT64: &str = "std_msgs/msg/Float64";
+    pub const NAV_SAT_FIX: &str = "sensor_msgs/msg/NavSatFix";
 
     /// A type name in ROS 2's spelling: ROS 1's `sensor_msgs/Image` is
     /// `sensor_msgs/msg/Image`.

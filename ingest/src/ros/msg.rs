@@ -219,3 +219,22 @@ pub struct CompressedImage {
     #[serde(with = "serde_bytes")]
     pub data: Vec<u8>,
 }
+
+/// `sensor_msgs/msg/NavSatStatus`.
+#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
+pub struct NavSatStatus {
+    pub status: i8,
+    pub service: u16,
+}
+
+/// `sensor_msgs/msg/NavSatFix`: a satellite navigation fix (WGS 84).
+#[derive(Debug, Clone, Deserialize, Serialize)]
+pub struct NavSatFix {
+    pub header: Header,
+    pub status: NavSatStatus,
+    pub latitude: f64,
+    pub longitude: f64,
+    pub altitude: f64,
+    pub position_covariance: [[f64; 3]; 3],
+    pub position_covariance_type: u8,
+}
