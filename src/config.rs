@@ -204,11 +204,13 @@ impl RunConfig {
         &self,
         run: &Path,
         map: Option<&Path>,
-        plan: &Path,
+        plan: Option<&Path>,
+        targets: coverage::Targets,
     ) -> coverage::CoverageOptions {
         coverage::CoverageOptions {
-            plan: Some(plan.to_owned()),
+            plan: plan.map(Path::to_path_buf),
             map: map.map(Path::to_path_buf),
+            targets,
             view: self.view,
             settings: self.coverage,
             ..coverage::CoverageOptions::new(run.to_owned())

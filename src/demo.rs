@@ -49,6 +49,7 @@ pub fn demo(out: &Path, force: Option<Stage>, quiet: bool) -> anyhow::Result<()>
             flight: flight.join("flight.mcap"),
             map: None,
             plan: Some(flight.join("plan.json")),
+            targets: coverage::Targets::Plan,
             model,
             onnxruntime: None,
             config: RunConfig::default(),

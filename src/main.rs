@@ -78,9 +78,11 @@ struct RunArgs {
     /// SLAM map (PLY, PCD, or OctoMap .bt/.ot) instead of the one recorded in the flight.
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
-    /// The inspection plan that was flown; coverage and replanning need it.
+    /// The inspection plan that was flown; coverage and replanning need it, or targets.
     #[arg(long, value_name = "plan.json")]
     plan: Option<PathBuf>,
+    #[command(flatten)]
+    targets: TargetArgs,
     /// Crack detector exported to ONNX (YOLO-World) [default: the reference
     /// detector for simulated flights].
     #[arg(long, value_name = "M.onnx")]
@@ -176,6 +178,31 @@ fn parse_point(s: &str) -> Result<[f64; 3], String> {
     }
 }
 
+/// Where the structure to inspect comes from, instead of a plan's target voxels.
+#[derive(Args)]
+#[group(multiple = false)]
+struct TargetArgs {
+    /// Targets: occupied map voxels inside these boxes (JSON list of {"min": [x,y,z], "max": [x,y,z]}).
+    #[arg(long, value_name = "FILE")]
+    target_boxes: Option<PathBuf>,
+    /// Targets: voxels of a segmented infrastructure cloud (PLY, PCD).
+    #[arg(long, value_name = "FILE")]
+    target_cloud: Option<PathBuf>,
+    /// Targets: occupied voxels of a segmented OctoMap (.bt, .ot), as GATSBI segments its structure.
+    #[arg(long, value_name = "FILE")]
+    target_map: Option<PathBuf>,
+}
+
+impl TargetArgs {
+    fn targets(&self) -> coverage::Targets {
+        match (&self.target_boxes, &self.target_cloud, &self.target_map) {
+            (Some(path), _, _) => coverage::Targets::Boxes(path.clone()),
+            (_, Some(path), _) | (_, _, Some(path)) => coverage::Targets::Cloud(path.clone()),
+            _ => coverage::Targets::Plan,
+        }
+    }
+}
+
 #[derive(Args)]
 struct CoverageArgs {
     /// Run directory holding a completed ingest.
@@ -190,12 +217,8 @@ struct CoverageArgs {
     /// SLAM map (PLY, PCD, or OctoMap .bt/.ot; world frame, metres) instead of the one recorded in the flight.
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
-    /// Targets: occupied map voxels inside these boxes (JSON list of {"min": [x,y,z], "max": [x,y,z]}).
-    #[arg(long, value_name = "FILE", conflicts_with = "target_cloud")]
-    target_boxes: Option<PathBuf>,
-    /// Targets: voxels of a segmented infrastructure cloud or octomap (PLY, PCD, .bt, .ot).
-    #[arg(long, value_name = "FILE")]
-    target_cloud: Option<PathBuf>,
+    #[command(flatten)]
+    targets: TargetArgs,
     /// Settings file (postflight.toml; its [view] and [coverage] tables); command-line flags win.
     #[arg(long, value_name = "postflight.toml")]
     config: Option<PathBuf>,
@@ -525,11 +548,7 @@ fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
 }
 
 fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
-    let targets = match (&args.target_boxes, &args.target_cloud) {
-        (Some(path), _) => coverage::Targets::Boxes(path.clone()),
-        (_, Some(path)) => coverage::Targets::Cloud(path.clone()),
-        _ => coverage::Targets::Plan,
-    };
+    let targets = args.targets.targets();
     let config = config::RunConfig::load_or_default(args.config.as_deref())?;
     let options = coverage::CoverageOptions {
         plan: args.plan.clone(),
@@ -597,6 +616,7 @@ fn run_pipeline(args: &RunArgs, quiet: bool) -> anyhow::Result<()> {
         flight: args.flight.clone(),
         map: args.map.clone(),
         plan: args.plan.clone(),
+        targets: args.targets.targets(),
         model,
         onnxruntime: args.onnxruntime.clone(),
         config,

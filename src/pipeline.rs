@@ -22,6 +22,8 @@ pub struct RunInputs {
     pub flight: PathBuf,
     pub map: Option<PathBuf>,
     pub plan: Option<PathBuf>,
+    /// The structure to inspect: the plan's target voxels, or a file's.
+    pub targets: coverage::Targets,
     pub model: PathBuf,
     pub onnxruntime: Option<PathBuf>,
     pub config: RunConfig,
@@ -44,7 +46,7 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
     let mut previous = String::new();
     for stage in Stage::ALL {
         let Some(stage_inputs) = stage_inputs(stage, inputs) else {
-            forget_without_plan(stage, &mut log, &dir, quiet)?;
+            forget_without_targets(stage, &mut log, &dir, quiet)?;
             continue;
         };
         let (fingerprint, read) = fingerprint(stage, stage_inputs, &previous, &mut known)?;
@@ -80,6 +82,7 @@ fn check_inputs(inputs: &RunInputs) -> anyhow::Result<()> {
         ("--model", Some(&inputs.model)),
         ("--map", inputs.map.as_ref()),
         ("--plan", inputs.plan.as_ref()),
+        ("the targets", target_file(&inputs.targets)),
     ];
     for (what, path) in given {
         if let Some(p) = path.filter(|p| !p.is_file()) {
@@ -101,9 +104,17 @@ fn open_log(dir: &RunDir) -> anyhow::Result<RunLog> {
     Ok(log)
 }
 
-/// Without a plan there is nothing to judge coverage against: leave no
-/// stale results from an earlier run with one.
-fn forget_without_plan(
+/// The file the targets come from, unless they are the plan's.
+fn target_file(targets: &coverage::Targets) -> Option<&PathBuf> {
+    match targets {
+        coverage::Targets::Plan => None,
+        coverage::Targets::Boxes(path) | coverage::Targets::Cloud(path) => Some(path),
+    }
+}
+
+/// Without a plan or targets there is nothing to judge coverage against:
+/// leave no stale results from an earlier run with them.
+fn forget_without_targets(
     stage: Stage,
     log: &mut RunLog,
     dir: &RunDir,
@@ -112,7 +123,10 @@ fn forget_without_plan(
     log.forget(stage.name());
     dir.remove(stage.summary_file())?;
     if !quiet {
-        println!("{}: skipped (needs --plan)", stage.name());
+        println!(
+            "{}: skipped (needs --plan, or --target-boxes, --target-cloud or --target-map)",
+            stage.name()
+        );
     }
     Ok(())
 }
@@ -222,14 +236,21 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
             map.chain(i.plan.iter().map(|p| ("plan", p.clone())))
                 .collect(),
         ),
-        Stage::Coverage => (
-            serde_json::to_value((&c.view, &c.coverage)),
-            std::iter::once(("plan", i.plan.clone()?))
-                .chain(map)
-                .collect(),
-        ),
+        Stage::Coverage => {
+            has_targets(i).then_some(())?;
+            let target = target_file(&i.targets).map(|p| ("targets", p.clone()));
+            (
+                serde_json::to_value((&c.view, &c.coverage)),
+                i.plan
+                    .iter()
+                    .map(|p| ("plan", p.clone()))
+                    .chain(target)
+                    .chain(map)
+                    .collect(),
+            )
+        }
         Stage::Replan => {
-            i.plan.as_ref()?;
+            has_targets(i).then_some(())?;
             (serde_json::to_value(&c.replan), map.collect())
         }
         Stage::Report => (Ok(serde_json::Value::Null), Vec::new()),
@@ -238,6 +259,12 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
         settings: settings.expect("settings serialise to JSON"),
         files,
     })
+}
+
+/// Coverage and replanning need a structure to inspect: a plan's target
+/// voxels or a targets file.
+fn has_targets(i: &RunInputs) -> bool {
+    i.plan.is_some() || i.targets != coverage::Targets::Plan
 }
 
 fn run_stage(stage: Stage, i: &RunInputs, quiet: bool) -> anyhow::Result<()> {
@@ -250,10 +277,10 @@ fn run_stage(stage: Stage, i: &RunInputs, quiet: bool) -> anyhow::Result<()> {
             quiet,
         ),
         Stage::Localise => stages::localise(&c.localise_options(run, map, plan), quiet),
-        Stage::Coverage => {
-            let plan = plan.expect("coverage runs with a plan");
-            stages::coverage(&c.coverage_options(run, map, plan), quiet)
-        }
+        Stage::Coverage => stages::coverage(
+            &c.coverage_options(run, map, plan, i.targets.clone()),
+            quiet,
+        ),
         Stage::Replan => stages::replan(&c.replan_options(run, map)?, quiet),
         Stage::Report => stages::report(
             &reports::ReportOptions {

@@ -126,3 +126,88 @@ fn coverage_over_an_octomap_of_the_map_is_coverage_over_its_ply() {
     let [sparse_bt, _] = octomap_of(dir.path(), "sparse", &sparse, res);
     assert!(!coverage_with(&sparse_bt).equals_missing(&reference));
 }
+
+#[test]
+fn a_segmented_octomap_gives_the_targets_of_its_cloud_in_coverage_and_in_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = simulate_into(dir.path(), "sim", &["--frames", "60"]);
+    let plan = read_json(&sim.join("plan.json"));
+    let res = f(&plan["resolution"]);
+    // The structure, segmented: the centres of the plan's target voxels.
+    let centres: Vec<Point3<f64>> = plan["target_voxels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| Point3::from([0, 1, 2].map(|a| (v[a].as_f64().unwrap() + 0.5) * res)))
+        .collect();
+    let cloud = dir.path().join("structure.ply");
+    let mut text = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nend_header\n",
+        centres.len()
+    );
+    for c in &centres {
+        text.push_str(&format!("{} {} {}\n", c.x, c.y, c.z));
+    }
+    std::fs::write(&cloud, text).unwrap();
+    let [segmented, _] = octomap_of(dir.path(), "structure", &centres, res);
+
+    let run = dir.path().join("run");
+    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
+    let coverage_with = |flag: &str, file: &Path| {
+        let out = postflight(
+            &[
+                "coverage",
+                "--run",
+                run.to_str().unwrap(),
+                flag,
+                file.to_str().unwrap(),
+            ],
+            dir.path(),
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+        read_parquet(&run.join("coverage.parquet"))
+    };
+    let from_cloud = coverage_with("--target-cloud", &cloud);
+    assert_eq!(from_cloud.height(), centres.len());
+    assert!(coverage_with("--target-map", &segmented).equals_missing(&from_cloud));
+
+    // `postflight run` takes the same targets and, without a plan, still
+    // judges coverage and plans the follow-up flight.
+    let config = dir.path().join("postflight.toml");
+    std::fs::write(&config, "[replan]\nsolver_time_limit_s = 0.5\n").unwrap();
+    let full = dir.path().join("full");
+    let out = postflight(
+        &[
+            "run",
+            "--flight",
+            sim.join("flight.mcap").to_str().unwrap(),
+            "--target-map",
+            segmented.to_str().unwrap(),
+            "--model",
+            root()
+                .join("detect/models/crack-baked.onnx")
+                .to_str()
+                .unwrap(),
+            "--config",
+            config.to_str().unwrap(),
+            "--out",
+            full.to_str().unwrap(),
+            "-q",
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(read_parquet(&full.join("coverage.parquet")).equals_missing(&from_cloud));
+    assert!(full.join("replan.json").is_file());
+    let log = read_json(&full.join("pipeline.json"));
+    let coverage = log["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["stage"] == "coverage")
+        .unwrap();
+    assert!(
+        coverage["inputs"]["targets"]["sha256"].is_string(),
+        "{coverage}"
+    );
+}

@@ -17,10 +17,11 @@ pub enum CoverageError {
     #[error("cannot read targets {}: {why}", path.display())]
     Targets { path: PathBuf, why: String },
     #[error(
-        "no target voxels: pass the plan with {}, or the structure with {} or {}",
+        "no target voxels: pass the plan with {}, or the structure with {}, {} or {}",
         inputs::PLAN,
         keys::TARGET_BOXES,
-        keys::TARGET_CLOUD
+        keys::TARGET_CLOUD,
+        keys::TARGET_MAP
     )]
     NoTargets,
     #[error(

@@ -44,9 +44,10 @@ pub mod keys {
     pub const VIEWS_NEAR_DEFECTS: Key = Key::setting("coverage", "views_near_defects");
     pub const DEFECT_RADIUS: Key = Key::setting("coverage", "defect_radius_m");
     pub const EXPOSURE: Key = Key::setting("coverage", "exposure_s");
-    /// Inputs only `postflight coverage` takes.
+    /// Inputs for the structure to inspect (`postflight coverage` and `run`).
     pub const TARGET_BOXES: Key = Key::input("--target-boxes");
     pub const TARGET_CLOUD: Key = Key::input("--target-cloud");
+    pub const TARGET_MAP: Key = Key::input("--target-map");
 }
 
 /// Where the target voxels come from.
