@@ -78,11 +78,11 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
 /// Every input file given exists, before anything is written.
 fn check_inputs(inputs: &RunInputs) -> anyhow::Result<()> {
     let given = [
-        ("--flight", Some(&inputs.flight)),
-        ("--model", Some(&inputs.model)),
-        ("--map", inputs.map.as_ref()),
-        ("--plan", inputs.plan.as_ref()),
-        ("the targets", target_file(&inputs.targets)),
+        ("--flight", Some(inputs.flight.as_path())),
+        ("--model", Some(inputs.model.as_path())),
+        ("--map", inputs.map.as_deref()),
+        ("--plan", inputs.plan.as_deref()),
+        ("the targets file", inputs.targets.file()),
     ];
     for (what, path) in given {
         if let Some(p) = path.filter(|p| !p.is_file()) {
@@ -102,14 +102,6 @@ fn open_log(dir: &RunDir) -> anyhow::Result<RunLog> {
     })?;
     log.postflight_version = env!("CARGO_PKG_VERSION").to_string();
     Ok(log)
-}
-
-/// The file the targets come from, unless they are the plan's.
-fn target_file(targets: &coverage::Targets) -> Option<&PathBuf> {
-    match targets {
-        coverage::Targets::Plan => None,
-        coverage::Targets::Boxes(path) | coverage::Targets::Cloud(path) => Some(path),
-    }
 }
 
 /// Without a plan or targets there is nothing to judge coverage against:
@@ -237,8 +229,10 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
                 .collect(),
         ),
         Stage::Coverage => {
-            has_targets(i).then_some(())?;
-            let target = target_file(&i.targets).map(|p| ("targets", p.clone()));
+            if !has_targets(i) {
+                return None;
+            }
+            let target = i.targets.file().map(|p| ("targets", p.to_path_buf()));
             (
                 serde_json::to_value((&c.view, &c.coverage)),
                 i.plan
@@ -249,10 +243,8 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
                     .collect(),
             )
         }
-        Stage::Replan => {
-            has_targets(i).then_some(())?;
-            (serde_json::to_value(&c.replan), map.collect())
-        }
+        Stage::Replan if !has_targets(i) => return None,
+        Stage::Replan => (serde_json::to_value(&c.replan), map.collect()),
         Stage::Report => (Ok(serde_json::Value::Null), Vec::new()),
     };
     Some(StageInputs {

@@ -7,6 +7,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use common::*;
+use ingest::ros::schema::ros2_name;
 use polars::prelude::*;
 use serde_json::Value;
 
@@ -71,14 +72,6 @@ fn check_frames(run: &Path, expected: &Value) {
     }
 }
 
-/// A ROS type name as ROS 2 spells it (`sensor_msgs/Image` is `sensor_msgs/msg/Image`).
-fn ros2_name(name: &str) -> String {
-    match name.split_once('/') {
-        Some((package, ty)) if !ty.contains('/') => format!("{package}/msg/{ty}"),
-        _ => name.to_string(),
-    }
-}
-
 fn check_summary(summary: &Value, expected: &Value) {
     // Every topic with its type and count, whichever ROS wrote it.
     let messages = |v: &Value| -> Vec<(String, String, u64)> {
@@ -86,7 +79,7 @@ fn check_summary(summary: &Value, expected: &Value) {
             .unwrap()
             .iter()
             .map(|(topic, m)| {
-                let schema = ros2_name(m["schema"].as_str().unwrap());
+                let schema = ros2_name(m["schema"].as_str().unwrap()).into_owned();
                 (topic.clone(), schema, m["count"].as_u64().unwrap())
             })
             .collect()
@@ -354,8 +347,10 @@ fn calibration_file_stands_in_for_missing_camera_info() {
 }
 
 /// Cut `recording` at 60% of its size and ingest it, which must succeed
-/// with a warning; returns the cut file and the run directory.
-fn cut_and_ingest(recording: &Path, dir: &Path, name: &str) -> (PathBuf, PathBuf) {
+/// with a warning and flag it truncated (and, when the cut falls in one
+/// big uncompressed chunk, recover messages from its front); returns the
+/// run directory.
+fn cut_and_ingest(recording: &Path, dir: &Path, name: &str, cut_chunk_salvaged: bool) -> PathBuf {
     let bytes = std::fs::read(recording).unwrap();
     let ext = recording.extension().unwrap().to_str().unwrap();
     let cut = dir.join(format!("{name}-cut.{ext}"));
@@ -368,7 +363,29 @@ fn cut_and_ingest(recording: &Path, dir: &Path, name: &str) -> (PathBuf, PathBuf
         "no warning printed: {}",
         stderr(&out)
     );
-    (cut, run)
+    let summary = read_json(&run.join("ingest.json"));
+    assert_eq!(summary["truncated"], true, "{name}");
+    if cut_chunk_salvaged {
+        assert!(
+            summary["warnings"]
+                .to_string()
+                .contains("complete messages recovered from it"),
+            "{}",
+            summary["warnings"]
+        );
+    }
+    // --strict refuses it in one line and writes nothing that looks complete.
+    let strict_run = dir.join(format!("strict-{name}"));
+    let strict = run_ingest(&cut, &strict_run, &["--strict"]);
+    assert_eq!(strict.status.code(), Some(1));
+    let err = stderr(&strict);
+    assert!(
+        err.contains("truncated") && err.contains("drop --strict"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!strict_run.join("ingest.json").exists());
+    run
 }
 
 #[test]
@@ -391,18 +408,8 @@ fn truncated_flight_is_salvaged_and_flagged() {
         ),
     ] {
         let (mcap, expected) = write_flight(dir.path(), name, &args);
-        let (cut, run) = cut_and_ingest(&mcap, dir.path(), name);
+        let run = cut_and_ingest(&mcap, dir.path(), name, name == "uncompressed");
         let summary = read_json(&run.join("ingest.json"));
-        assert_eq!(summary["truncated"], true);
-        if name == "uncompressed" {
-            assert!(
-                summary["warnings"]
-                    .to_string()
-                    .contains("complete messages recovered from it"),
-                "{}",
-                summary["warnings"]
-            );
-        }
 
         // The salvaged frames are exactly the first ones written, with their values.
         let df = frames_table(&run);
@@ -420,26 +427,19 @@ fn truncated_flight_is_salvaged_and_flagged() {
         let poses = summary["poses"].as_u64().unwrap();
         assert!(poses > 0 && poses < expected["poses"].as_u64().unwrap());
         let last_frame_ns = all[n - 1]["time_ns"].as_i64().unwrap();
-        let traj = read_parquet(&run.join("trajectory.parquet"));
-        let last_pose_ns = traj
-            .column("time_ns")
-            .unwrap()
-            .i64()
-            .unwrap()
-            .max()
-            .unwrap();
-        assert!(last_pose_ns + 100_000_000 >= last_frame_ns);
-
-        let strict = run_ingest(&cut, &dir.path().join("strict"), &["--strict"]);
-        assert_eq!(strict.status.code(), Some(1));
-        let err = stderr(&strict);
-        assert!(
-            err.contains("truncated") && err.contains("drop --strict"),
-            "{err}"
-        );
-        assert_eq!(err.trim().lines().count(), 1, "{err}");
-        assert!(!dir.path().join("strict/ingest.json").exists());
+        assert!(last_pose_ns(&run) + 100_000_000 >= last_frame_ns);
     }
+}
+
+/// The time of the last pose of a run's trajectory.
+fn last_pose_ns(run: &Path) -> i64 {
+    read_parquet(&run.join("trajectory.parquet"))
+        .column("time_ns")
+        .unwrap()
+        .i64()
+        .unwrap()
+        .max()
+        .unwrap()
 }
 
 #[test]
@@ -597,18 +597,7 @@ fn a_bag_cut_at_60_percent_is_salvaged_and_flagged() {
             &bag,
             &["--compression", compression, "--chunk-size", chunk],
         );
-        let (cut, run) = cut_and_ingest(&bag, dir.path(), compression);
-        let summary = read_json(&run.join("ingest.json"));
-        assert_eq!(summary["truncated"], true, "{compression}");
-        if compression == "none" {
-            assert!(
-                summary["warnings"]
-                    .to_string()
-                    .contains("complete messages recovered from it"),
-                "{}",
-                summary["warnings"]
-            );
-        }
+        let run = cut_and_ingest(&bag, dir.path(), compression, compression == "none");
         // The salvaged frames are exactly the first ones written.
         let all = expected["frames"].as_array().unwrap();
         let n = frames_table(&run).height();
@@ -618,13 +607,7 @@ fn a_bag_cut_at_60_percent_is_salvaged_and_flagged() {
             all.len()
         );
         // A frame after the last salvaged pose has none.
-        let last_pose_ns = read_parquet(&run.join("trajectory.parquet"))
-            .column("time_ns")
-            .unwrap()
-            .i64()
-            .unwrap()
-            .max()
-            .unwrap();
+        let last_pose_ns = last_pose_ns(&run);
         let salvaged = all[..n].iter().map(|frame| {
             let mut frame = frame.clone();
             if frame["time_ns"].as_i64().unwrap() > last_pose_ns && frame["pose_status"] == "ok" {
@@ -642,11 +625,6 @@ fn a_bag_cut_at_60_percent_is_salvaged_and_flagged() {
         let mut prefix = expected.clone();
         prefix["frames"] = Value::Array(salvaged);
         check_frames(&run, &prefix);
-
-        let strict = run_ingest(&cut, &dir.path().join("strict"), &["--strict"]);
-        assert_eq!(strict.status.code(), Some(1));
-        assert_eq!(stderr(&strict).trim().lines().count(), 1);
-        assert!(!dir.path().join("strict/ingest.json").exists());
     }
 }
 

@@ -84,14 +84,7 @@ fn coverage_over_an_octomap_of_the_map_is_coverage_over_its_ply() {
         })
         .collect();
     let centres_ply = dir.path().join("centres.ply");
-    let mut text = format!(
-        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nend_header\n",
-        centres.len()
-    );
-    for c in &centres {
-        text.push_str(&format!("{} {} {}\n", c.x, c.y, c.z));
-    }
-    std::fs::write(&centres_ply, text).unwrap();
+    write_ply(&centres_ply, &centres);
     let [bt, ot] = octomap_of(dir.path(), "map", &centres, res);
 
     let run = dir.path().join("run");
@@ -141,14 +134,7 @@ fn a_segmented_octomap_gives_the_targets_of_its_cloud_in_coverage_and_in_run() {
         .map(|v| Point3::from([0, 1, 2].map(|a| (v[a].as_f64().unwrap() + 0.5) * res)))
         .collect();
     let cloud = dir.path().join("structure.ply");
-    let mut text = format!(
-        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nend_header\n",
-        centres.len()
-    );
-    for c in &centres {
-        text.push_str(&format!("{} {} {}\n", c.x, c.y, c.z));
-    }
-    std::fs::write(&cloud, text).unwrap();
+    write_ply(&cloud, &centres);
     let [segmented, _] = octomap_of(dir.path(), "structure", &centres, res);
 
     let run = dir.path().join("run");

@@ -90,7 +90,7 @@ fn decode_as_postflight_does(wire: &Wire, schema_name: &str, m: &RecordedMessage
         schema::POSE_STAMPED => drop(wire.decode::<msg::PoseStamped>(data)),
         schema::ODOMETRY => drop(wire.decode::<msg::Odometry>(data)),
         schema::TF_MESSAGE => drop(wire.decode::<msg::TfMessage>(data)),
-        schema::POINT_CLOUD2 => drop(wire.point_cloud(data)),
+        schema::POINT_CLOUD2 => drop(wire.decode::<msg::PointCloud2>(data)),
         schema::FLOAT64 => drop(wire.decode::<msg::Float64>(data)),
         _ => {}
     }
@@ -149,7 +149,7 @@ fn ros1_definitions_cut_or_flipped_parse_or_fail_cleanly() {
     let dir = tempfile::tempdir().unwrap();
     let bags = small_bags(dir.path());
     let mut definitions = Vec::new();
-    ingest::bag::scan(&bags[0].1, &mut |event| {
+    ingest::bag::scan(&bags[0].1, |event: ScanEvent<'_>| {
         if let ScanEvent::Channel(c) = event {
             definitions.push((c.schema.clone(), c.definition.clone()));
         }

@@ -4,7 +4,7 @@
 //! writes `coverage.parquet` (one row per target voxel) and `coverage.json`.
 
 use std::collections::{BTreeSet, HashSet};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
@@ -59,6 +59,16 @@ pub enum Targets {
     Boxes(PathBuf),
     /// Voxels of a segmented infrastructure cloud or octomap (PLY, PCD, `.bt`, `.ot`).
     Cloud(PathBuf),
+}
+
+impl Targets {
+    /// The file the targets come from, unless they are the plan's.
+    pub fn file(&self) -> Option<&Path> {
+        match self {
+            Self::Plan => None,
+            Self::Boxes(path) | Self::Cloud(path) => Some(path),
+        }
+    }
 }
 
 #[derive(Debug, Clone)]

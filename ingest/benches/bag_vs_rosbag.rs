@@ -217,7 +217,7 @@ fn postflight(path: &Path) -> (u64, u64) {
     // SAFETY: a read-only map of a file this benchmark wrote.
     let map = unsafe { memmap2::Mmap::map(&file) }.unwrap();
     let (mut messages, mut bytes) = (0, 0);
-    let report = ingest::bag::scan(&map, &mut |event| {
+    let report = ingest::bag::scan(&map, |event: ScanEvent<'_>| {
         if let ScanEvent::Message(m) = event {
             messages += 1;
             bytes += m.data.len() as u64;

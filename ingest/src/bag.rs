@@ -376,7 +376,7 @@ fn read_index<'a>(
 
 /// Walk a bag once (through its index when it has a whole one, else
 /// record by record), calling `visit` for every connection and message.
-pub fn scan(buf: &[u8], visit: &mut impl FnMut(ScanEvent<'_>)) -> ScanReport {
+pub fn scan(buf: &[u8], mut visit: impl FnMut(ScanEvent<'_>)) -> ScanReport {
     let mut report = ScanReport::default();
     let mut connections = Connections::default();
     let first = MAGIC.len();
@@ -396,7 +396,7 @@ pub fn scan(buf: &[u8], visit: &mut impl FnMut(ScanEvent<'_>)) -> ScanReport {
     match read_index(buf, &bag_header, chunks_start) {
         Ok(index) => {
             for (header, data) in &index.connections {
-                if let Err(e) = connections.add(header, data, visit) {
+                if let Err(e) = connections.add(header, data, &mut visit) {
                     report
                         .problems
                         .push(format!("index connection: {e}; skipped"));
@@ -404,19 +404,19 @@ pub fn scan(buf: &[u8], visit: &mut impl FnMut(ScanEvent<'_>)) -> ScanReport {
             }
             let mut out = Vec::new();
             for &at in &index.chunks {
-                progress(visit, at);
+                progress(&mut visit, at);
                 chunk(
                     buf,
                     at as usize,
                     &mut out,
                     &mut connections,
-                    visit,
+                    &mut visit,
                     &mut report,
                 );
             }
         }
         Err(no_index) => {
-            linear(buf, chunks_start, &mut connections, visit, &mut report);
+            linear(buf, chunks_start, &mut connections, &mut visit, &mut report);
             match no_index {
                 NoIndex::Missing => report.problems.push(
                     "the bag has no index (its recorder did not close it); read record by record"
@@ -496,20 +496,15 @@ fn chunk(
     visit: &mut impl FnMut(ScanEvent<'_>),
     report: &mut ScanReport,
 ) {
-    let (header, data, cut) = match record_at(buf, pos) {
-        Found::Whole(r) => (r.header, r.data, false),
-        Found::Cut { header, data } => (header, data, true),
-        Found::Nothing => return,
-    };
     let corrupt = |report: &mut ScanReport, e: String| {
         report.corrupt_chunks += 1;
         report
             .problems
             .push(format!("chunk at byte {pos}: {e}; skipped"));
     };
-    let header = match Header::parse(header) {
-        Ok(h) if h.op == Some(op::CHUNK) => h,
-        Ok(_) => return,
+    let ChunkRecord { header, data, cut } = match chunk_at(buf, pos) {
+        Ok(Some(chunk)) => chunk,
+        Ok(None) => return,
         Err(e) => return corrupt(report, e),
     };
     let records = match open_chunk(&header, data, out, cut) {
@@ -554,19 +549,32 @@ pub(crate) fn read_message(
         return fetch(records);
     }
     let pos = usize::try_from(chunk_offset).map_err(|_| "chunk offset out of range")?;
+    let chunk = chunk_at(buf, pos)?.ok_or("not a chunk record")?;
+    let mut out = Vec::new();
+    let records = open_chunk(&chunk.header, chunk.data, &mut out, chunk.cut)?;
+    let result = fetch(records);
+    // Uncompressed chunks are read in place; nothing to cache.
+    if !out.is_empty() {
+        *cache = Some((chunk_offset, out));
+    }
+    result
+}
+
+/// A chunk record: its header, and its data, `cut` short by the end of
+/// the file or whole.
+struct ChunkRecord<'a> {
+    header: Header<'a>,
+    data: &'a [u8],
+    cut: bool,
+}
+
+/// The chunk record at `pos`; `None` when another record (or nothing) is there.
+fn chunk_at(buf: &[u8], pos: usize) -> Result<Option<ChunkRecord<'_>>, String> {
     let (header, data, cut) = match record_at(buf, pos) {
         Found::Whole(r) => (r.header, r.data, false),
         Found::Cut { header, data } => (header, data, true),
-        Found::Nothing => return Err("chunk past the end of the file".to_string()),
+        Found::Nothing => return Ok(None),
     };
     let header = Header::parse(header)?;
-    if header.op != Some(op::CHUNK) {
-        return Err("not a chunk record".to_string());
-    }
-    let mut out = Vec::new();
-    let records = open_chunk(&header, data, &mut out, cut)?;
-    let result = fetch(records);
-    let records = records.to_vec();
-    *cache = Some((chunk_offset, records));
-    result
+    Ok((header.op == Some(op::CHUNK)).then_some(ChunkRecord { header, data, cut }))
 }

@@ -75,7 +75,7 @@ pub struct ScanReport {
 
 /// The container a recording is in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Container {
+enum Container {
     /// MCAP, with ROS 2 (`cdr`) or ROS 1 (`ros1`) messages.
     Mcap,
     /// A ROS 1 bag, format 2.0 ([`crate::bag`]).
@@ -157,17 +157,12 @@ impl Recording {
         self.map.is_empty()
     }
 
-    /// Its container.
-    pub fn container(&self) -> Container {
-        self.container
-    }
-
     /// Walk the whole recording once, calling `visit` for every channel and
     /// message in file order. Damage is recorded in the report, never fatal.
-    pub fn scan(&self, mut visit: impl FnMut(ScanEvent<'_>)) -> ScanReport {
+    pub fn scan(&self, visit: impl FnMut(ScanEvent<'_>)) -> ScanReport {
         match self.container {
-            Container::Mcap => scan_mcap(&self.map, &mut visit),
-            Container::Bag => crate::bag::scan(&self.map, &mut visit),
+            Container::Mcap => scan_mcap(&self.map, visit),
+            Container::Bag => crate::bag::scan(&self.map, visit),
         }
     }
 

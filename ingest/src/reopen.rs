@@ -13,7 +13,7 @@ use postflight_core::{Flight, Frame};
 use crate::error::IngestError;
 use crate::image::{decode_compressed, decode_raw};
 use crate::recording::Recording;
-use crate::ros::{Wire, pointcloud2};
+use crate::ros::{Wire, msg, pointcloud2};
 
 impl Recording {
     /// The recording a flight was ingested from; an error if it changed
@@ -92,7 +92,7 @@ impl Recording {
         };
         let msg = self
             .wire(&map.topic)
-            .point_cloud(&payload)
+            .decode::<msg::PointCloud2>(&payload)
             .map_err(|e| bad(e.to_string()))?;
         Ok(Some(pointcloud2::decode(&msg).map_err(bad)?))
     }
@@ -147,16 +147,15 @@ fn is_compressed(frame: &Frame) -> bool {
     matches!(frame.encoding.as_str(), "jpeg" | "png")
 }
 
-/// How each re-read topic of a flight decodes, from `ingest.json`.
+/// How the ROS 1 topics read again decode, from the definitions ingest
+/// kept in `ingest.json` (every other topic is CDR).
 fn wires(flight: &Flight) -> HashMap<String, Wire> {
-    let mut wires = HashMap::new();
-    for (topic, summary) in &flight.summary.messages {
-        let definition = summary.definition.as_deref().unwrap_or_default();
-        let Ok(wire) = Wire::of(&summary.encoding, &summary.schema, definition) else {
-            // Topics ingest could not decode are not read again.
-            continue;
-        };
-        wires.insert(topic.clone(), wire);
-    }
-    wires
+    let summaries = flight.summary.messages.iter();
+    summaries
+        .filter_map(|(topic, summary)| {
+            let definition = summary.definition.as_deref()?;
+            let wire = Wire::of(&summary.encoding, &summary.schema, definition).ok()?;
+            Some((topic.clone(), wire))
+        })
+        .collect()
 }

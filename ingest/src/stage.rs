@@ -19,7 +19,7 @@ use crate::cameras::cameras;
 use crate::error::IngestError;
 use crate::placement::{choose_trajectory, place_frames};
 use crate::recording::{Recording, ScanEvent, ScanReport};
-use crate::ros::{pointcloud2, schema};
+use crate::ros::{msg, pointcloud2, schema};
 use crate::scan::Scan;
 
 /// The stage's settings, by their key in `postflight.toml`'s `[ingest]`.
@@ -347,7 +347,7 @@ fn recorded_map(
         .map_err(|e| e.to_string())
         .and_then(|payload| {
             scan.wire(topic)
-                .point_cloud(&payload)
+                .decode::<msg::PointCloud2>(&payload)
                 .map_err(|e| e.to_string())
         })
         .and_then(|m| pointcloud2::decode(&m));

@@ -255,3 +255,15 @@ pub fn octomap_of(
     octomap_tool("convert_octree", &[&s(&bt), &s(&ot)]);
     [bt, ot]
 }
+
+/// Write `points` as an ASCII PLY (doubles, as written by `{}`: exact).
+pub fn write_ply(path: &Path, points: &[nalgebra::Point3<f64>]) {
+    let mut text = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nend_header\n",
+        points.len()
+    );
+    for p in points {
+        text.push_str(&format!("{} {} {}\n", p.x, p.y, p.z));
+    }
+    std::fs::write(path, text).unwrap();
+}

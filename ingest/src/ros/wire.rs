@@ -7,9 +7,9 @@ use std::sync::Arc;
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
 
+use super::cdr;
 use super::msg::{CompressedImageHead, Header, ImageHead};
 use super::ros1::{self, Definition, DefinitionError};
-use super::{cdr, msg};
 
 /// A message's serialisation.
 #[derive(Debug, Clone)]
@@ -113,11 +113,6 @@ impl Wire {
                 Ok((head, image.data))
             }
         }
-    }
-
-    /// A PointCloud2.
-    pub fn point_cloud(&self, data: &[u8]) -> Result<msg::PointCloud2, DecodeError> {
-        self.decode(data)
     }
 }
 
