@@ -7,6 +7,7 @@
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
+use postflight_core::PlanFile;
 use serde::{Deserialize, Serialize};
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -182,13 +183,13 @@ impl RunConfig {
         &self,
         run: &Path,
         map: Option<&Path>,
-        plan: Option<&Path>,
+        plan: Option<&PlanFile>,
     ) -> localise::LocaliseOptions {
         let c = &self.localise;
         let d = localise::LocaliseOptions::new(run.to_owned());
         localise::LocaliseOptions {
             map: map.map(Path::to_path_buf),
-            plan: plan.map(Path::to_path_buf),
+            plan: plan.cloned(),
             max_range_m: c.max_range_m.unwrap_or(d.max_range_m),
             fusion: localise::FusionOptions {
                 link_distance: c.link_distance_m.unwrap_or(d.fusion.link_distance),
@@ -204,11 +205,11 @@ impl RunConfig {
         &self,
         run: &Path,
         map: Option<&Path>,
-        plan: Option<&Path>,
+        plan: Option<&PlanFile>,
         targets: coverage::Targets,
     ) -> coverage::CoverageOptions {
         coverage::CoverageOptions {
-            plan: plan.map(Path::to_path_buf),
+            plan: plan.cloned(),
             map: map.map(Path::to_path_buf),
             targets,
             view: self.view,

@@ -48,9 +48,9 @@ pub fn demo(out: &Path, force: Option<Stage>, quiet: bool) -> anyhow::Result<()>
         &RunInputs {
             flight: flight.join("flight.mcap"),
             map: None,
-            plan: Some(flight.join("plan.json")),
+            plan: Some(postflight_core::PlanFile::new(flight.join("plan.json"))),
             targets: coverage::Targets::Plan,
-            model,
+            model: Some(model),
             onnxruntime: None,
             config: RunConfig::default(),
             out: run_dir.clone(),

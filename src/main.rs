@@ -78,9 +78,8 @@ struct RunArgs {
     /// SLAM map (PLY, PCD, or OctoMap .bt/.ot) instead of the one recorded in the flight.
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
-    /// The inspection plan that was flown; coverage and replanning need it, or targets.
-    #[arg(long, value_name = "plan.json")]
-    plan: Option<PathBuf>,
+    #[command(flatten)]
+    plan: PlanArgs,
     #[command(flatten)]
     targets: TargetArgs,
     /// Crack detector exported to ONNX (YOLO-World) [default: the reference
@@ -178,6 +177,36 @@ fn parse_point(s: &str) -> Result<[f64; 3], String> {
     }
 }
 
+/// The plan that was flown.
+#[derive(Args)]
+struct PlanArgs {
+    /// The inspection plan that was flown: postflight's plan.json, or a
+    /// waypoint path X,Y,Z,Yaw (.csv, GATSBI's; its targets from a --target-* option).
+    #[arg(long, value_name = "plan.json|path.csv")]
+    plan: Option<PathBuf>,
+    /// The yaws of a waypoint path are in degrees, not radians.
+    #[arg(long)]
+    yaw_degrees: bool,
+}
+
+impl PlanArgs {
+    fn file(&self, path: Option<&PathBuf>) -> Option<postflight_core::PlanFile> {
+        let yaw = if self.yaw_degrees {
+            postflight_core::YawUnit::Degrees
+        } else {
+            postflight_core::YawUnit::Radians
+        };
+        path.map(|path| postflight_core::PlanFile {
+            path: path.clone(),
+            yaw,
+        })
+    }
+
+    fn plan(&self) -> Option<postflight_core::PlanFile> {
+        self.file(self.plan.as_ref())
+    }
+}
+
 /// Where the structure to inspect comes from, instead of a plan's target voxels.
 #[derive(Args)]
 #[group(multiple = false)]
@@ -208,11 +237,10 @@ struct CoverageArgs {
     /// Run directory holding a completed ingest.
     #[arg(long)]
     run: PathBuf,
-    /// Inspection plan: target voxels, voxel grid, View model and the planned viewpoints.
-    #[arg(long, value_name = "plan.json")]
-    plan: Option<PathBuf>,
+    #[command(flatten)]
+    plan: PlanArgs,
     /// Judge this plan's viewpoints instead of the flight's frames (check a plan before flying it).
-    #[arg(long, value_name = "plan.json")]
+    #[arg(long, value_name = "plan.json|path.csv")]
     viewpoints: Option<PathBuf>,
     /// SLAM map (PLY, PCD, or OctoMap .bt/.ot; world frame, metres) instead of the one recorded in the flight.
     #[arg(long, value_name = "FILE")]
@@ -536,7 +564,7 @@ fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
 fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
     let options = localise::LocaliseOptions {
         map: args.map.clone(),
-        plan: args.plan.clone(),
+        plan: args.plan.clone().map(postflight_core::PlanFile::new),
         max_range_m: args.max_range,
         fusion: localise::FusionOptions {
             link_distance: args.link_distance,
@@ -551,8 +579,8 @@ fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
     let targets = args.targets.targets();
     let config = config::RunConfig::load_or_default(args.config.as_deref())?;
     let options = coverage::CoverageOptions {
-        plan: args.plan.clone(),
-        viewpoints: args.viewpoints.clone(),
+        plan: args.plan.plan(),
+        viewpoints: args.plan.file(args.viewpoints.as_ref()),
         map: args.map.clone(),
         targets,
         // Command line over the config file's tables.
@@ -601,23 +629,12 @@ fn report(args: &ReportArgs, quiet: bool) -> anyhow::Result<()> {
 
 fn run_pipeline(args: &RunArgs, quiet: bool) -> anyhow::Result<()> {
     let config = config::RunConfig::load_or_default(args.config.as_deref())?;
-    let model = match &args.model {
-        Some(m) => m.clone(),
-        None => {
-            let path = args.out.join("reference-model.onnx");
-            tracing::warn!(
-                "no --model: using the reference detector, made for simulated flights; give --model for a real flight"
-            );
-            demo::write_reference_model(&path)?;
-            path
-        }
-    };
     let inputs = pipeline::RunInputs {
         flight: args.flight.clone(),
         map: args.map.clone(),
-        plan: args.plan.clone(),
+        plan: args.plan.plan(),
         targets: args.targets.targets(),
-        model,
+        model: args.model.clone(),
         onnxruntime: args.onnxruntime.clone(),
         config,
         out: args.out.clone(),

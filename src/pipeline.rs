@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use postflight_core::run_log::{InputFile, RUN_LOG, sha256};
 use postflight_core::time::now_rfc3339;
-use postflight_core::{RunDir, RunLog, Stage, StageRecord};
+use postflight_core::{PlanFile, RunDir, RunLog, Stage, StageRecord};
 
 use crate::config::RunConfig;
 use crate::stages;
@@ -21,10 +21,12 @@ use crate::stages;
 pub struct RunInputs {
     pub flight: PathBuf,
     pub map: Option<PathBuf>,
-    pub plan: Option<PathBuf>,
+    pub plan: Option<PlanFile>,
     /// The structure to inspect: the plan's target voxels, or a file's.
     pub targets: coverage::Targets,
-    pub model: PathBuf,
+    /// The detector; `None`: the reference detector for simulated flights,
+    /// written into the run directory.
+    pub model: Option<PathBuf>,
     pub onnxruntime: Option<PathBuf>,
     pub config: RunConfig,
     pub out: PathBuf,
@@ -36,6 +38,7 @@ pub struct RunInputs {
 pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
     check_inputs(inputs)?;
     let dir = RunDir::create(&inputs.out)?;
+    write_reference_model(inputs)?;
     let mut log = open_log(&dir)?;
     // Input files already hashed, by this run or logged by earlier ones.
     let mut known: Vec<InputFile> = log
@@ -79,9 +82,9 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
 fn check_inputs(inputs: &RunInputs) -> anyhow::Result<()> {
     let given = [
         ("--flight", Some(inputs.flight.as_path())),
-        ("--model", Some(inputs.model.as_path())),
+        ("--model", inputs.model.as_deref()),
         ("--map", inputs.map.as_deref()),
-        ("--plan", inputs.plan.as_deref()),
+        ("--plan", inputs.plan.as_ref().map(|p| p.path.as_path())),
         ("the targets file", inputs.targets.file()),
     ];
     for (what, path) in given {
@@ -89,7 +92,37 @@ fn check_inputs(inputs: &RunInputs) -> anyhow::Result<()> {
             anyhow::bail!("{what} {} is not a file; check the path", p.display());
         }
     }
+    // A plan that cannot be read, or a path without targets, would fail
+    // coverage only after ingest and detection.
+    if let Some(plan) = &inputs.plan {
+        let targets = plan.load()?.target_voxels().is_some();
+        if !targets && inputs.targets == coverage::Targets::Plan {
+            return Err(coverage::CoverageError::PathWithoutTargets.into());
+        }
+    }
     Ok(())
+}
+
+impl RunInputs {
+    /// The detector to run: the one given, else the reference detector in
+    /// the run directory.
+    fn model_path(&self) -> PathBuf {
+        self.model
+            .clone()
+            .unwrap_or_else(|| self.out.join("reference-model.onnx"))
+    }
+}
+
+/// Without a model given, write the reference detector where
+/// [`RunInputs::model_path`] finds it.
+fn write_reference_model(inputs: &RunInputs) -> anyhow::Result<()> {
+    if inputs.model.is_some() {
+        return Ok(());
+    }
+    tracing::warn!(
+        "no --model: using the reference detector, made for simulated flights; give --model for a real flight"
+    );
+    crate::demo::write_reference_model(&inputs.model_path())
 }
 
 /// The run's log (empty for a new run), stamped with this version.
@@ -214,7 +247,7 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
         ),
         Stage::Detect => (
             serde_json::to_value(&c.detect),
-            std::iter::once(("model", i.model.clone()))
+            std::iter::once(("model", i.model_path()))
                 .chain(
                     c.detect
                         .embeddings
@@ -225,7 +258,7 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
         ),
         Stage::Localise => (
             serde_json::to_value(&c.localise),
-            map.chain(i.plan.iter().map(|p| ("plan", p.clone())))
+            map.chain(i.plan.iter().map(|p| ("plan", p.path.clone())))
                 .collect(),
         ),
         Stage::Coverage => {
@@ -233,11 +266,12 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
                 return None;
             }
             let target = i.targets.file().map(|p| ("targets", p.to_path_buf()));
+            let plan_yaw = i.plan.as_ref().map(|p| p.yaw);
             (
-                serde_json::to_value((&c.view, &c.coverage)),
+                serde_json::to_value((&c.view, &c.coverage, plan_yaw)),
                 i.plan
                     .iter()
-                    .map(|p| ("plan", p.clone()))
+                    .map(|p| ("plan", p.path.clone()))
                     .chain(target)
                     .chain(map)
                     .collect(),
@@ -261,11 +295,11 @@ fn has_targets(i: &RunInputs) -> bool {
 
 fn run_stage(stage: Stage, i: &RunInputs, quiet: bool) -> anyhow::Result<()> {
     let c = &i.config;
-    let (run, map, plan) = (i.out.as_path(), i.map.as_deref(), i.plan.as_deref());
+    let (run, map, plan) = (i.out.as_path(), i.map.as_deref(), i.plan.as_ref());
     match stage {
         Stage::Ingest => stages::ingest(&c.ingest_options(&i.flight, run), quiet),
         Stage::Detect => stages::detect(
-            &c.detect_options(run, &i.model, i.onnxruntime.as_deref()),
+            &c.detect_options(run, &i.model_path(), i.onnxruntime.as_deref()),
             quiet,
         ),
         Stage::Localise => stages::localise(&c.localise_options(run, map, plan), quiet),

@@ -197,3 +197,116 @@ fn a_segmented_octomap_gives_the_targets_of_its_cloud_in_coverage_and_in_run() {
         "{coverage}"
     );
 }
+
+/// GATSBI's inputs: its inspection path as `X,Y,Z,Yaw` rows and the
+/// structure as boxes, over an OctoMap of the map.
+#[test]
+fn a_bt_map_an_xyz_yaw_path_and_target_boxes_give_the_coverage_of_ply_and_plan_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = simulate_into(dir.path(), "sim", &["--frames", "60"]);
+    let plan_json = sim.join("plan.json");
+    let plan = read_json(&plan_json);
+    let res = f(&plan["resolution"]);
+    let cloud = PointCloud::load(&sim.join("map.ply")).unwrap();
+    let grid = VoxelGrid::new(res, Point3::origin());
+    let centres: Vec<Point3<f64>> = voxels(&cloud.points, &grid)
+        .iter()
+        .map(|v| grid.center(postflight_core::map::VoxelIndex(*v)))
+        .collect();
+    let ply = dir.path().join("centres.ply");
+    write_ply(&ply, &centres);
+    let [bt, _] = octomap_of(dir.path(), "map", &centres, res);
+
+    // One box around the plan's targets, and the plan's viewpoints as a
+    // path: in radians with a header, and in degrees without one.
+    let targets = plan["target_voxels"].as_array().unwrap();
+    let corner = |pick: fn(f64, f64) -> f64, shift: f64| {
+        [0, 1, 2].map(|a| {
+            let i = targets
+                .iter()
+                .map(|v| v[a].as_f64().unwrap())
+                .fold(targets[0][a].as_f64().unwrap(), pick);
+            (i + shift) * res
+        })
+    };
+    let boxes = dir.path().join("boxes.json");
+    let boxes_json =
+        serde_json::json!([{"min": corner(f64::min, 0.0), "max": corner(f64::max, 1.0)}]);
+    std::fs::write(&boxes, boxes_json.to_string()).unwrap();
+    let path_csv = |degrees: bool| {
+        let mut text = if degrees {
+            String::new()
+        } else {
+            "X,Y,Z,Yaw\n".into()
+        };
+        for v in plan["viewpoints"].as_array().unwrap() {
+            let p = &v["position"];
+            let yaw = f(&v["yaw"]);
+            let yaw = if degrees { yaw.to_degrees() } else { yaw };
+            text += &format!("{},{},{},{yaw}\n", f(&p[0]), f(&p[1]), f(&p[2]));
+        }
+        let file = dir.path().join(format!("path-{degrees}.csv"));
+        std::fs::write(&file, text).unwrap();
+        file
+    };
+    let (radians, degrees) = (path_csv(false), path_csv(true));
+
+    let run = dir.path().join("run");
+    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
+    let coverage_with = |args: &[&str]| {
+        let (run_arg, boxes) = (run.to_str().unwrap(), boxes.to_str().unwrap());
+        let mut all = vec!["coverage", "--run", run_arg, "--target-boxes", boxes];
+        all.extend(args);
+        let out = postflight(&all, dir.path());
+        assert!(out.status.success(), "{}", stderr(&out));
+        read_parquet(&run.join("coverage.parquet"))
+    };
+    let s = |p: &Path| p.to_str().unwrap().to_owned();
+    let reference = coverage_with(&["--plan", &s(&plan_json), "--map", &s(&ply)]);
+    assert!(reference.height() > 100);
+    let planned = reference.column("planned").unwrap().bool().unwrap();
+    assert!(
+        planned.sum().unwrap() > 100,
+        "the path's viewpoints are judged"
+    );
+    let from_path = coverage_with(&["--plan", &s(&radians), "--map", &s(&bt)]);
+    assert!(from_path.equals_missing(&reference));
+    let in_degrees = coverage_with(&["--plan", &s(&degrees), "--yaw-degrees", "--map", &s(&bt)]);
+    assert!(in_degrees.equals_missing(&reference));
+
+    // A path names no targets: without a target option, coverage says so
+    // and writes nothing, and `run` says so before it starts.
+    let out = postflight(
+        &[
+            "coverage",
+            "--run",
+            &s(&run),
+            "--plan",
+            &s(&radians),
+            "--map",
+            &s(&bt),
+        ],
+        dir.path(),
+    );
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("waypoint path, which names no targets"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!run.join("coverage.json").exists());
+    let out = postflight(
+        &[
+            "run",
+            "--flight",
+            &s(&sim.join("flight.mcap")),
+            "--plan",
+            &s(&radians),
+            "--out",
+            &s(&dir.path().join("never")),
+        ],
+        dir.path(),
+    );
+    assert!(stderr(&out).contains("--target-boxes"), "{}", stderr(&out));
+    assert!(!dir.path().join("never").exists());
+}

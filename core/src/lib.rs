@@ -40,7 +40,7 @@ pub use flight::Flight;
 pub use frame::{Frame, ImageStatus, MessageLocation, PoseStatus};
 pub use map::FaceSide;
 pub use outputs::Stage;
-pub use plan::{InspectionPlan, ViewModel, Viewpoint};
+pub use plan::{FlownPlan, InspectionPlan, PathPoint, PlanFile, ViewModel, Viewpoint, YawUnit};
 pub use run_dir::RunDir;
 pub use run_log::{InputFile, RunLog, StageRecord};
 pub use setting::{InvalidSetting, Key};

@@ -41,6 +41,7 @@ pub mod inputs {
     pub const FLIGHT: Key = Key::input("--flight");
     pub const MAP: Key = Key::input("--map");
     pub const PLAN: Key = Key::input("--plan");
+    pub const YAW_DEGREES: Key = Key::input("--yaw-degrees");
     pub const MODEL: Key = Key::input("--model");
     pub const ONNXRUNTIME: Key = Key::input("--onnxruntime");
     pub const RUN: Key = Key::input("--run");

@@ -50,6 +50,7 @@ fn main() {
         PointCloud {
             frame_id: "map".into(),
             points,
+            grid: None,
         },
         grid,
     )

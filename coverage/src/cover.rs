@@ -173,6 +173,7 @@ mod tests {
             PointCloud {
                 frame_id: "map".into(),
                 points,
+                grid: None,
             },
             grid,
         )

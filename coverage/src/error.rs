@@ -25,6 +25,13 @@ pub enum CoverageError {
     )]
     NoTargets,
     #[error(
+        "the plan is a waypoint path, which names no targets; pass the structure with {}, {} or {}",
+        keys::TARGET_BOXES,
+        keys::TARGET_CLOUD,
+        keys::TARGET_MAP
+    )]
+    PathWithoutTargets,
+    #[error(
         "the targets ({targets}) hold no voxel of the map; check that they are in the map's world frame and metres"
     )]
     TargetsOffMap { targets: String },

@@ -81,6 +81,7 @@ mod tests {
                 postflight_core::map::PointCloud {
                     frame_id: "map".into(),
                     points,
+                    grid: None,
                 },
                 grid,
             )

@@ -14,7 +14,7 @@ use postflight_core::outputs::coverage::{
 };
 use postflight_core::outputs::localise::read_defects;
 use postflight_core::{
-    Flight, InspectionPlan, Intrinsics, InvalidSetting, Key, PoseAt, RunDir, Stage, ViewModel,
+    Flight, FlownPlan, Intrinsics, InvalidSetting, Key, PlanFile, PoseAt, RunDir, Stage, ViewModel,
     Viewpoint,
 };
 use rayon::prelude::*;
@@ -74,9 +74,11 @@ impl Targets {
 #[derive(Debug, Clone)]
 pub struct CoverageOptions {
     pub run: PathBuf,
-    pub plan: Option<PathBuf>,
+    /// The plan that was flown: its viewpoints (what was planned), and for
+    /// a `plan.json` its targets, grid and View model.
+    pub plan: Option<PlanFile>,
     /// Judge this plan's viewpoints instead of the flight's frames.
-    pub viewpoints: Option<PathBuf>,
+    pub viewpoints: Option<PlanFile>,
     pub map: Option<PathBuf>,
     pub targets: Targets,
     /// View model settings over the plan's (unset: the plan's, else defaults).
@@ -100,12 +102,17 @@ impl CoverageOptions {
     }
 }
 
+/// How far down the camera mounted by `extrinsic` looks, radians.
+pub fn mount_pitch(extrinsic: &Isometry3<f64>) -> f64 {
+    let axis = extrinsic.rotation * Vector3::z();
+    (-axis.z).clamp(-1.0, 1.0).asin()
+}
+
 /// Camera pose for a plan viewpoint: the body at the viewpoint, the camera
 /// mounted by `extrinsic` turned about the body's y axis to the viewpoint's
 /// gimbal pitch.
 pub fn viewpoint_camera(v: &Viewpoint, extrinsic: &Isometry3<f64>) -> Isometry3<f64> {
-    let axis = extrinsic.rotation * Vector3::z();
-    let mount_pitch = (-axis.z).clamp(-1.0, 1.0).asin();
+    let mount_pitch = mount_pitch(extrinsic);
     let body = Isometry3::from_parts(
         Translation3::from(Vector3::from(v.position)),
         UnitQuaternion::from_axis_angle(&Vector3::z_axis(), v.yaw),
@@ -169,14 +176,10 @@ pub fn coverage(
     };
     // A failed rerun must not leave the last run's results looking current.
     flight.run.remove(summary_name)?;
-    let plan = options
-        .plan
-        .as_deref()
-        .map(InspectionPlan::load)
-        .transpose()?;
+    let plan = options.plan.as_ref().map(PlanFile::load).transpose()?;
     let view = options
         .view
-        .apply(plan.as_ref().map_or_else(ViewModel::default, |p| p.view));
+        .apply(plan.as_ref().and_then(FlownPlan::view).unwrap_or_default());
     check_view(&view)?;
     let scene = Scene::load(options, &flight, plan.as_ref())?;
     let extrinsic = camera_mount(&flight);
@@ -227,10 +230,11 @@ impl Scene {
     fn load(
         options: &CoverageOptions,
         flight: &Flight,
-        plan: Option<&InspectionPlan>,
+        plan: Option<&FlownPlan>,
     ) -> Result<Self, CoverageError> {
-        let grid = plan.map_or_else(VoxelGrid::default, InspectionPlan::grid);
+        let grid = plan.and_then(FlownPlan::grid);
         let (map, _) = ingest::load_map(flight, options.map.as_deref(), grid)?;
+        let grid = map.voxels.grid;
         let (targets, targets_name) = load_targets(&options.targets, plan, &map)?;
         let target_set: HashSet<VoxelIndex> = targets.iter().copied().collect();
         let faces = exposed_faces(&grid, &targets, &target_set);
@@ -254,8 +258,8 @@ fn shots(
     extrinsic: &Isometry3<f64>,
 ) -> Result<FlightShots, CoverageError> {
     match &options.viewpoints {
-        Some(path) => Ok(FlightShots {
-            shots: viewpoint_shots(&InspectionPlan::load(path)?, extrinsic),
+        Some(file) => Ok(FlightShots {
+            shots: viewpoint_shots(&file.load()?, extrinsic),
             without_pose: 0,
             without_exposure: 0,
         }),
@@ -318,7 +322,7 @@ fn summarise(
         shots: options
             .viewpoints
             .as_ref()
-            .map_or("flight".into(), |p| p.display().to_string()),
+            .map_or("flight".into(), |p| p.path.display().to_string()),
         view,
         resolution_m: scene.grid.resolution,
         grid_origin: scene.grid.origin.coords.into(),
@@ -516,13 +520,18 @@ fn shot_warnings(shots: &FlightShots) -> Vec<String> {
 /// from; an error when they miss the map.
 fn load_targets(
     source: &Targets,
-    plan: Option<&InspectionPlan>,
+    plan: Option<&FlownPlan>,
     map: &SlamMap,
 ) -> Result<(Vec<VoxelIndex>, String), CoverageError> {
     let (targets, targets_name): (Vec<VoxelIndex>, String) = match source {
         Targets::Plan => {
-            let plan = plan.ok_or(CoverageError::NoTargets)?;
-            (plan.target_voxels.clone(), "plan".into())
+            let targets = match plan {
+                None => return Err(CoverageError::NoTargets),
+                Some(plan) => plan
+                    .target_voxels()
+                    .ok_or(CoverageError::PathWithoutTargets)?,
+            };
+            (targets.to_vec(), "plan".into())
         }
         Targets::Boxes(path) => (
             targets::in_boxes(&map.voxels, &targets::load_boxes(path)?),
@@ -561,8 +570,8 @@ fn load_targets(
 
 /// A plan's viewpoints as shots of the flight's first camera (sharp: a
 /// plan is flown hovering).
-fn viewpoint_shots(plan: &InspectionPlan, extrinsic: &Isometry3<f64>) -> Vec<Shot> {
-    plan.viewpoints
+fn viewpoint_shots(plan: &FlownPlan, extrinsic: &Isometry3<f64>) -> Vec<Shot> {
+    plan.viewpoints(mount_pitch(extrinsic))
         .iter()
         .enumerate()
         .map(|(i, v)| Shot {

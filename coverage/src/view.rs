@@ -265,6 +265,7 @@ mod tests {
         let cloud = postflight_core::map::PointCloud {
             frame_id: "map".into(),
             points: points.to_vec(),
+            grid: None,
         };
         SlamMap::on_grid(cloud, VoxelGrid::new(0.5, Point3::origin())).unwrap()
     }

@@ -125,14 +125,16 @@ pub fn map_cloud(
     )))
 }
 
-/// The map a stage works on ([`map_cloud`]), voxelised on `grid`; an error
-/// without one.
+/// The map a stage works on ([`map_cloud`]), voxelised on `grid` (without
+/// one, on the map's own grid if it is a voxel map, else the default grid);
+/// an error without a map.
 pub fn load_map(
     flight: &Flight,
     given: Option<&Path>,
-    grid: VoxelGrid,
+    grid: Option<VoxelGrid>,
 ) -> Result<(SlamMap, String), IngestError> {
     let (cloud, name) = map_cloud(flight, given)?.ok_or(IngestError::NoMap)?;
+    let grid = grid.or(cloud.grid).unwrap_or_default();
     let map = SlamMap::on_grid(cloud, grid).ok_or_else(|| postflight_core::Error::Map {
         path: name.clone().into(),
         why: format!(

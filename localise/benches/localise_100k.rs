@@ -70,6 +70,7 @@ fn girder_map(rng: &mut Rng) -> SlamMap {
         PointCloud {
             frame_id: "map".into(),
             points,
+            grid: None,
         },
         0.5,
     )

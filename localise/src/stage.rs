@@ -10,12 +10,12 @@ use std::time::Instant;
 use ingest::Recording;
 use nalgebra::Point3;
 use postflight_core::detection::FrameDetection;
-use postflight_core::map::{SlamMap, VoxelGrid, VoxelIndex};
+use postflight_core::map::{SlamMap, VoxelIndex};
 use postflight_core::outputs::detect::read_detections;
 use postflight_core::outputs::localise::{
     self as outputs, LocaliseSummary, Outcome, Outcomes, files,
 };
-use postflight_core::{Flight, Frame, InspectionPlan, InvalidSetting, RunDir, Stage};
+use postflight_core::{Flight, FlownPlan, Frame, InvalidSetting, PlanFile, RunDir, Stage};
 use rayon::prelude::*;
 
 use crate::crop::write_crop;
@@ -41,7 +41,7 @@ pub struct LocaliseOptions {
     pub map: Option<PathBuf>,
     /// Plan whose target voxels are the structure (and whose voxel grid is
     /// used); without it every mapped surface counts as structure.
-    pub plan: Option<PathBuf>,
+    pub plan: Option<PlanFile>,
     /// Rays end here, metres.
     pub max_range_m: f64,
     pub fusion: FusionOptions,
@@ -101,18 +101,13 @@ pub fn localise(
     let detections = read_detections(&RunDir::open(&options.run, Stage::Detect)?)?;
     // A failed rerun must not leave the last run's results looking current.
     flight.run.remove(files::SUMMARY)?;
-    let plan = options
-        .plan
-        .as_deref()
-        .map(InspectionPlan::load)
-        .transpose()?;
-    let grid = plan
-        .as_ref()
-        .map_or_else(VoxelGrid::default, InspectionPlan::grid);
+    let plan = options.plan.as_ref().map(PlanFile::load).transpose()?;
+    let grid = plan.as_ref().and_then(FlownPlan::grid);
     let (map, map_name) = ingest::load_map(&flight, options.map.as_deref(), grid)?;
     let structure: Option<HashSet<VoxelIndex>> = plan
         .as_ref()
-        .map(|p| p.target_voxels.iter().copied().collect());
+        .and_then(FlownPlan::target_voxels)
+        .map(|targets| targets.iter().copied().collect());
     let scene = Scene {
         map: &map,
         structure: structure.as_ref(),
@@ -139,7 +134,7 @@ pub fn localise(
         map_points: map.cloud.len(),
         map_voxels: map.voxels.len(),
         voxel_size_m: map.voxels.grid.resolution,
-        plan: options.plan.clone(),
+        plan: options.plan.as_ref().map(|p| p.path.clone()),
         max_range_m: options.max_range_m,
         link_distance_m: options.fusion.link_distance,
         detections: total,

@@ -320,6 +320,7 @@ pub(crate) mod tests {
             PointCloud {
                 frame_id: "map".into(),
                 points,
+                grid: None,
             },
             0.5,
         )

@@ -5,6 +5,7 @@ use std::path::Path;
 
 use nalgebra::Point3;
 
+use super::VoxelGrid;
 use crate::error::Error;
 
 /// The points of a map in its frame (usually the SLAM `map` frame).
@@ -12,6 +13,9 @@ use crate::error::Error;
 pub struct PointCloud {
     pub frame_id: String,
     pub points: Vec<Point3<f64>>,
+    /// The grid whose voxel centres the points are, when the map is a voxel
+    /// map (an OctoMap's, at its resolution).
+    pub grid: Option<VoxelGrid>,
 }
 
 impl PointCloud {
@@ -32,11 +36,18 @@ impl PointCloud {
 
     /// A map file's contents, by its extension (`ply`, `pcd`, `bt`, `ot`).
     pub fn parse(bytes: &[u8], extension: &str) -> Result<Self, String> {
-        let points = match extension {
-            "ply" => super::ply::parse(bytes),
-            "pcd" => super::pcd::parse(bytes),
-            "bt" => super::octomap::parse(bytes, super::octomap::Format::Binary).map(|m| m.points),
-            "ot" => super::octomap::parse(bytes, super::octomap::Format::Full).map(|m| m.points),
+        let octomap = |format| {
+            let map = super::octomap::parse(bytes, format)?;
+            Ok((
+                map.points,
+                Some(VoxelGrid::new(map.resolution, Point3::origin())),
+            ))
+        };
+        let (points, grid) = match extension {
+            "ply" => super::ply::parse(bytes).map(|points| (points, None)),
+            "pcd" => super::pcd::parse(bytes).map(|points| (points, None)),
+            "bt" => octomap(super::octomap::Format::Binary),
+            "ot" => octomap(super::octomap::Format::Full),
             _ => Err("unknown map format; give a .ply, .pcd, or OctoMap .bt or .ot file".into()),
         }?;
         if points.is_empty() {
@@ -45,6 +56,7 @@ impl PointCloud {
         Ok(Self {
             frame_id: String::new(),
             points,
+            grid,
         })
     }
 

@@ -163,6 +163,7 @@ mod tests {
             PointCloud {
                 frame_id: "map".into(),
                 points: points.clone(),
+                grid: None,
             },
             DEFAULT_RESOLUTION,
         )

@@ -138,7 +138,7 @@ pub fn replan(
     }
 
     let given = options.map.as_ref().or(coverage.map.as_ref());
-    let (map, _) = ingest::load_map(&flight, given.map(PathBuf::as_path), grid)?;
+    let (map, _) = ingest::load_map(&flight, given.map(PathBuf::as_path), Some(grid))?;
     summary.frame_id = map.cloud.frame_id.clone();
     let space = FreeSpace::new(&map.voxels, options.clearance_m, &[home]);
     let home = clear_home(&space, &map, home, &mut summary)?;

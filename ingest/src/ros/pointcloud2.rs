@@ -60,5 +60,6 @@ pub fn decode(msg: &PointCloud2) -> Result<PointCloud, String> {
     Ok(PointCloud {
         frame_id: msg.header.frame_id.clone(),
         points,
+        grid: None,
     })
 }

@@ -1,0 +1,129 @@
+//! Waypoint paths as CSV: one row `X,Y,Z,Yaw` per waypoint (metres in the
+//! world frame, yaw in radians unless told otherwise), a header line
+//! optional, `#` comments and blank lines ignored. GATSBI writes its
+//! inspection paths this way, and `replan.csv` is one.
+
+use csv::{ReaderBuilder, StringRecord, Trim};
+
+use super::{PathPoint, YawUnit};
+use crate::setting::inputs;
+
+const COLUMNS: [&str; 4] = ["x", "y", "z", "yaw"];
+
+/// The waypoints of a path, or a one-line error naming the line and column.
+pub fn parse(text: &str, yaw: YawUnit) -> Result<Vec<PathPoint>, String> {
+    let mut reader = ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .trim(Trim::All)
+        .comment(Some(b'#'))
+        .from_reader(text.as_bytes());
+    let mut points = Vec::new();
+    for (i, record) in reader.records().enumerate() {
+        let record = record.map_err(|e| format!("not a CSV file: {e}"))?;
+        let line = record.position().map_or(0, csv::Position::line);
+        if i == 0 && is_header(&record) {
+            check_header(&record, line)?;
+            continue;
+        }
+        points.push(point(&record, line, yaw)?);
+    }
+    if points.is_empty() {
+        return Err("the path has no waypoints; give one `X,Y,Z,Yaw` row per waypoint".into());
+    }
+    Ok(points)
+}
+
+/// A first row that is not all numbers names the columns.
+fn is_header(record: &StringRecord) -> bool {
+    record.iter().any(|field| field.parse::<f64>().is_err())
+}
+
+fn check_header(record: &StringRecord, line: u64) -> Result<(), String> {
+    let named: Vec<String> = record.iter().map(str::to_ascii_lowercase).collect();
+    if named != COLUMNS {
+        return Err(format!(
+            "line {line}: the header names the columns {}; a waypoint path has the columns X,Y,Z,Yaw in this order",
+            record.iter().collect::<Vec<_>>().join(",")
+        ));
+    }
+    Ok(())
+}
+
+fn point(record: &StringRecord, line: u64, yaw_unit: YawUnit) -> Result<PathPoint, String> {
+    if record.len() != COLUMNS.len() {
+        return Err(format!(
+            "line {line}: {} columns where a waypoint has 4 (X,Y,Z,Yaw)",
+            record.len()
+        ));
+    }
+    let mut values = [0.0; 4];
+    for (column, (field, value)) in record.iter().zip(&mut values).enumerate() {
+        *value = field
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| {
+                format!(
+                    "line {line}, column {}: `{field}` is not a finite number ({})",
+                    column + 1,
+                    COLUMNS[column].to_uppercase()
+                )
+            })?;
+    }
+    let [x, y, z, yaw] = values;
+    let yaw = match yaw_unit {
+        YawUnit::Radians if yaw.abs() > 2.0 * std::f64::consts::TAU => {
+            return Err(format!(
+                "line {line}, column 4: a yaw of {yaw} radians is more than two turns; if the path's yaws are in degrees, pass {}",
+                inputs::YAW_DEGREES
+            ));
+        }
+        YawUnit::Radians => yaw,
+        YawUnit::Degrees => yaw.to_radians(),
+    };
+    Ok(PathPoint {
+        position: [x, y, z],
+        yaw,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_with_or_without_a_header_and_comments_read_as_waypoints() {
+        let with = "X,Y,Z,Yaw\n# first\n1,2,3,0.5\n\n 4 , 5 , 6 , -1.5\n";
+        let without = "1,2,3,0.5\n4,5,6,-1.5";
+        for text in [with, without] {
+            let path = parse(text, YawUnit::Radians).unwrap();
+            assert_eq!(path.len(), 2);
+            assert_eq!(path[1].position, [4.0, 5.0, 6.0]);
+            assert_eq!(path[1].yaw, -1.5);
+        }
+        let degrees = parse("0,0,0,90", YawUnit::Degrees).unwrap();
+        assert!((degrees[0].yaw - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_malformed_path_names_its_line_and_column() {
+        let cases = [
+            ("X,Y,Z,Yaw\n1,2,3,0\n1,2,x,0\n", "line 3, column 3: `x`"),
+            ("1,2,3\n", "line 1: 3 columns"),
+            ("1,2,3,0\n1,2,3,4,5\n", "line 2: 5 columns"),
+            (
+                "x,y,yaw,z\n1,2,3,0\n",
+                "line 1: the header names the columns x,y,yaw,z",
+            ),
+            ("1,2,3,NaN\n", "line 1, column 4: `NaN`"),
+            ("0,0,0,90\n", "--yaw-degrees"),
+            ("X,Y,Z,Yaw\n# nothing\n", "no waypoints"),
+            ("", "no waypoints"),
+        ];
+        for (text, want) in cases {
+            let err = parse(text, YawUnit::Radians).unwrap_err();
+            assert!(err.contains(want), "{text:?}: {err}");
+        }
+    }
+}
