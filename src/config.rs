@@ -89,6 +89,8 @@ pub struct ReplanConfig {
     pub hover_s: Option<f64>,
     pub solver_time_limit_s: Option<f64>,
     pub seed: Option<u64>,
+    /// `[LAT, LON, ALT]` or `[LAT, LON, ALT, YAW_DEG]`.
+    pub geo_origin: Option<Vec<f64>>,
 }
 
 impl RunConfig {
@@ -239,6 +241,16 @@ impl RunConfig {
         }
         if let Some(seed) = c.seed {
             options.solver.seed = seed;
+        }
+        if let Some(values) = &c.geo_origin {
+            let origin = postflight_core::geo::GeoOrigin::from_values(values).map_err(|why| {
+                postflight_core::InvalidSetting::new(
+                    replan::stage::keys::GEO_ORIGIN,
+                    format!("{values:?}"),
+                    format!("[LAT, LON, ALT] or [LAT, LON, ALT, YAW_DEG] ({why})"),
+                )
+            })?;
+            options.geo_origin = Some(origin);
         }
         Ok(options)
     }

@@ -163,6 +163,12 @@ struct ReplanArgs {
     /// Solver seed.
     #[arg(long, default_value_t = gtsp::SolveOptions::default().seed)]
     seed: u64,
+    /// The map frame on the Earth: its origin's latitude and longitude
+    /// (degrees), altitude (metres) and the heading of its x axis from east,
+    /// counter-clockwise (degrees, default 0); also writes the flight as
+    /// QGroundControl missions, KML and GeoJSON [default: from the flight's GPS fixes].
+    #[arg(long, value_name = "LAT,LON,ALT[,YAW_DEG]", value_parser = postflight_core::geo::GeoOrigin::parse, allow_hyphen_values = true)]
+    geo_origin: Option<postflight_core::geo::GeoOrigin>,
 }
 
 fn parse_point(s: &str) -> Result<[f64; 3], String> {
@@ -613,6 +619,7 @@ fn replan(args: &ReplanArgs, quiet: bool) -> anyhow::Result<()> {
         max_sortie_length_m: args.max_sortie_length,
         speed_m_s: args.speed,
         hover_s: args.hover,
+        geo_origin: args.geo_origin,
         ..ReplanOptions::new(args.run.clone())
     };
     options.solver.time_limit = Some(replan::stage::solver_time_limit(args.solver_time_limit)?);

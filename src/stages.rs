@@ -118,8 +118,12 @@ pub fn replan(options: &replan::ReplanOptions, quiet: bool) -> anyhow::Result<()
                 options.run.display()
             );
         } else {
+            let files: Vec<&str> = ["replan.json", "replan.csv"]
+                .into_iter()
+                .chain(summary.ground_station_files.iter().map(String::as_str))
+                .collect();
             println!(
-                "{} of {} gap voxels planned ({} uninspectable): {} waypoints in {} sorties, {:.0} m, about {:.0} min; replan.json and replan.csv in {}",
+                "{} of {} gap voxels planned ({} uninspectable): {} waypoints in {} sorties, {:.0} m, about {:.0} min; {} in {}",
                 summary.planned_gap_voxels,
                 summary.gap_voxels,
                 summary.uninspectable_gaps.len(),
@@ -127,8 +131,14 @@ pub fn replan(options: &replan::ReplanOptions, quiet: bool) -> anyhow::Result<()
                 summary.sorties.len(),
                 summary.length_m,
                 summary.time_s / 60.0,
+                files.join(", "),
                 options.run.display()
             );
+            if summary.geo_origin.is_none() {
+                println!(
+                    "no geo origin (--geo-origin, or GPS fixes in the flight): no QGroundControl mission, KML or GeoJSON"
+                );
+            }
         }
     }
     Ok(())

@@ -58,6 +58,7 @@ const FLAGS: &[(Key, &str)] = {
         (replan::MAX_SORTIE_LENGTH, "--max-sortie-length"),
         (replan::SPEED, "--speed"),
         (replan::HOVER, "--hover"),
+        (replan::GEO_ORIGIN, "--geo-origin"),
         (replan::SOLVER_TIME_LIMIT, "--solver-time-limit"),
         (replan::SEED, "--seed"),
     ]

@@ -668,9 +668,9 @@ fn an_unindexed_bag_reads_the_same_as_the_indexed_one() {
 }
 
 #[test]
-fn gps_fixes_are_kept_as_recorded_by_ros2_and_ros1() {
+fn gps_fixes_are_kept_as_recorded_by_ros2_and_ros1_and_place_the_map_on_the_earth() {
     let dir = tempfile::tempdir().unwrap();
-    let (mcap, expected) = write_flight(dir.path(), "gps", &["--gps", "--duration", "4"]);
+    let (mcap, expected) = write_flight(dir.path(), "gps", &["--gps"]);
     let bag = dir.path().join("gps.bag");
     to_ros1(&mcap, &bag, &["--compression", "lz4"]);
     let want = expected["gnss"].as_array().unwrap();
@@ -692,5 +692,23 @@ fn gps_fixes_are_kept_as_recorded_by_ros2_and_ros1() {
             assert_eq!(got.altitude_m, f(&want["altitude_m"]));
             assert_eq!(Some(i64::from(got.status)), want["status"].as_i64());
         }
+        // The writer put the map's origin at 38.6916 N, 9.1770 W, 80 m,
+        // east-north-up (on a sphere, a few centimetres off WGS 84 here).
+        let geo = &read_json(&run.join("ingest.json"))["geo_origin"];
+        let origin = &geo["origin"];
+        let north_m = (f(&origin["latitude_deg"]) - 38.6916) * 111_000.0;
+        let east_m = (f(&origin["longitude_deg"]) + 9.1770) * 111_000.0 * 0.78;
+        assert!(north_m.hypot(east_m) < 0.2, "{geo}");
+        assert!((f(&origin["altitude_m"]) - 80.0).abs() < 0.01, "{geo}");
+        assert!(f(&origin["yaw_deg"]).abs() < 0.2, "{geo}");
+        assert!(f(&geo["rms_m"]) < 0.05, "{geo}");
+        // Fixes without a fix (every 10th), or without a pose at their
+        // time, are left out.
+        let fixed = want
+            .iter()
+            .filter(|w| w["status"].as_i64() >= Some(0))
+            .count();
+        let aligned = geo["fixes"].as_u64().unwrap() as usize;
+        assert!(aligned <= fixed && aligned > fixed * 4 / 5, "{geo}");
     }
 }

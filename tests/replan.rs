@@ -89,6 +89,29 @@ fn segment_clearance(map: &VoxelMap, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
     nearest
 }
 
+/// Geo origins of the map frame: `LAT,LON,ALT,YAW_DEG`.
+const ZURICH: [&str; 4] = ["47.397742", "8.545594", "488.0", "23.5"];
+const SYDNEY: [&str; 4] = ["-33.8568", "151.2153", "20.0", "-120.0"];
+
+/// The ground-station files checked by PROJ against `replan.json`
+/// (tests/fixtures/check_geo.py): every position within 1 cm, every
+/// heading exact; returns the checker's summary.
+fn ground_station_files(run: &Path, origin: [&str; 4]) -> Value {
+    let out = std::process::Command::new(python())
+        .arg(root().join("tests/fixtures/check_geo.py"))
+        .arg("run")
+        .arg(run)
+        .args(origin)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let summary: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(f(&summary["max_error_m"]) < 0.01, "{summary}");
+    assert!(f(&summary["max_heading_error_rad"]) < 1e-9, "{summary}");
+    assert!(summary["waypoints"].as_u64().unwrap() > 0, "{summary}");
+    summary
+}
+
 fn flight(dir: &Path) -> (PathBuf, PathBuf) {
     let sim = simulate_into(dir, "bridge", &[]);
     let run = dir.join("run");
@@ -115,9 +138,19 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
         gaps.len()
     );
 
-    let out = replan(&run, &["--solver-time-limit", "3"]);
+    let out = replan(
+        &run,
+        &[
+            "--solver-time-limit",
+            "3",
+            "--geo-origin",
+            ZURICH.join(",").as_str(),
+        ],
+    );
     assert!(out.status.success(), "replan: {}", stderr(&out));
     let plan = read_json(&run.join("replan.json"));
+    let geo = ground_station_files(&run, ZURICH);
+    assert_eq!(geo["plans"], 1);
     assert_eq!(plan["gap_voxels"].as_u64().unwrap() as usize, gaps.len());
 
     // Every gap is planned at exactly one waypoint, or listed with a reason.
@@ -240,12 +273,16 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
             "2",
             "--max-sortie-length",
             &limit.to_string(),
+            &format!("--geo-origin={}", SYDNEY.join(",")),
         ],
     );
     assert!(out.status.success(), "replan: {}", stderr(&out));
     let split = read_json(&run.join("replan.json"));
     let sorties = split["sorties"].as_array().unwrap();
     assert!(sorties.len() >= 3, "{} sorties", sorties.len());
+    // A mission per sortie, and none left of the single-sortie plan.
+    let geo = ground_station_files(&run, SYDNEY);
+    assert_eq!(geo["plans"].as_u64(), Some(sorties.len() as u64));
     let mut again: BTreeSet<Voxel> = BTreeSet::new();
     for s in sorties {
         assert!(f(&s["length_m"]) <= limit + 1e-6);

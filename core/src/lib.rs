@@ -23,6 +23,7 @@ pub mod detection;
 pub mod error;
 pub mod flight;
 pub mod frame;
+pub mod geo;
 pub mod map;
 pub mod outputs;
 pub mod plan;

@@ -6,13 +6,14 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::Point3;
 use postflight_core::frame::camera_namespace;
+use postflight_core::geo::{GeoAlignment, Geodetic};
 use postflight_core::outputs::ingest::{
     self as outputs, FlightFile, GnssFix, IngestSummary, PoseSource, RecordedMap, TopicSummary,
     files,
 };
 use postflight_core::time::rfc3339;
 use postflight_core::{
-    Camera, Frame, ImageStatus, InvalidSetting, Key, MessageLocation, RunDir, Trajectory,
+    Camera, Frame, ImageStatus, InvalidSetting, Key, MessageLocation, PoseAt, RunDir, Trajectory,
 };
 
 use crate::cameras::cameras;
@@ -161,6 +162,8 @@ pub fn ingest(
 
     let by_status = frames_by_pose_status(&frames);
     warnings.extend(frame_warnings(&frames, &by_status));
+    scan.fixes.sort_by_key(|f| f.time_ns);
+    let geo_origin = geo_origin(&scan.fixes, &trajectory, max_gap_ns, &mut warnings);
 
     let (start, end) = scan.time_range.unwrap_or((0, 0));
     let summary = IngestSummary {
@@ -195,9 +198,9 @@ pub fn ingest(
         corrupt_chunks: report.corrupt_chunks,
         map,
         max_pose_gap_s: options.max_pose_gap_s,
+        geo_origin,
         warnings,
     };
-    scan.fixes.sort_by_key(|f| f.time_ns);
     write_outputs(
         &options.out,
         &frames,
@@ -207,6 +210,41 @@ pub fn ingest(
         &summary,
     )?;
     Ok(summary)
+}
+
+/// The map frame on the Earth from the GPS fixes (those with a fix, at
+/// times the trajectory has a pose); a warning when they cannot tell.
+fn geo_origin(
+    fixes: &[GnssFix],
+    trajectory: &Trajectory,
+    max_gap_ns: i64,
+    warnings: &mut Vec<String>,
+) -> Option<GeoAlignment> {
+    if fixes.is_empty() {
+        return None;
+    }
+    let (local, geodetic): (Vec<Point3<f64>>, Vec<Geodetic>) = fixes
+        .iter()
+        .filter(|f| f.status >= 0)
+        .filter_map(|f| match trajectory.at(f.time_ns, max_gap_ns) {
+            PoseAt::Pose(pose) => Some((
+                Point3::from(pose.translation.vector),
+                Geodetic {
+                    latitude_deg: f.latitude_deg,
+                    longitude_deg: f.longitude_deg,
+                    altitude_m: f.altitude_m,
+                },
+            )),
+            _ => None,
+        })
+        .unzip();
+    GeoAlignment::fit(&local, &geodetic)
+        .map_err(|why| {
+            warnings.push(format!(
+                "the GPS fixes do not place the map on the Earth: {why}; give `postflight replan` the map's origin (--geo-origin, or geo_origin in postflight.toml's [replan])"
+            ));
+        })
+        .ok()
 }
 
 /// Frames per `pose_status`.

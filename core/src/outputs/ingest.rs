@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 use super::{parsed, required};
 use crate::error::Error;
 use crate::frame::{Frame, ImageStatus, MessageLocation, PoseStatus};
+use crate::geo::GeoAlignment;
 use crate::pose::{StampedPose, from_parts_xyzw, quaternion_xyzw};
 use crate::run_dir::RunDir;
 use crate::trajectory::Trajectory;
@@ -97,6 +98,10 @@ pub struct IngestSummary {
     pub corrupt_chunks: u64,
     pub map: Option<RecordedMap>,
     pub max_pose_gap_s: f64,
+    /// The map frame on the Earth, from the GPS fixes aligned to the
+    /// trajectory (none without fixes).
+    #[serde(default)]
+    pub geo_origin: Option<GeoAlignment>,
     pub warnings: Vec<String>,
 }
 

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use gtsp::SolveStats;
 use serde::{Deserialize, Serialize};
 
+use crate::geo::GeoOrigin;
 use crate::map::VoxelIndex;
 use crate::plan::{ViewModel, Viewpoint};
 
@@ -16,6 +17,24 @@ pub mod files {
     /// Its summary: the follow-up flight.
     pub const SUMMARY: &str = "replan.json";
     pub const PATH_CSV: &str = "replan.csv";
+    /// The follow-up flight on the Earth (with a geo origin).
+    pub const KML: &str = "replan.kml";
+    pub const GEOJSON: &str = "replan.geojson";
+
+    /// A sortie's QGroundControl mission: `replan.plan` when the flight is
+    /// one sortie, else `replan-1.plan`, `replan-2.plan`, ...
+    pub fn mission(sortie: usize, sorties: usize) -> String {
+        if sorties == 1 {
+            "replan.plan".into()
+        } else {
+            format!("replan-{}.plan", sortie + 1)
+        }
+    }
+
+    /// Whether a file in the run directory is a sortie's mission.
+    pub fn is_mission(name: &str) -> bool {
+        name.starts_with("replan") && name.ends_with(".plan")
+    }
 }
 
 /// A stop of the follow-up flight.
@@ -88,6 +107,16 @@ pub struct ReplanSummary {
     pub length_m: f64,
     pub time_s: f64,
     pub solver: Option<ReplanSolverStats>,
+    /// The map frame on the Earth, if known: from the settings, or the
+    /// flight's GPS fixes (`geo_origin_from` says which).
+    #[serde(default)]
+    pub geo_origin: Option<GeoOrigin>,
+    #[serde(default)]
+    pub geo_origin_from: Option<String>,
+    /// Missions, KML and GeoJSON written beside `replan.json` (with a geo
+    /// origin and a flight to fly).
+    #[serde(default)]
+    pub ground_station_files: Vec<String>,
     pub seconds: f64,
     pub warnings: Vec<String>,
 }

@@ -12,10 +12,12 @@
 //! longer than its cost. [`stage`] ties these together, splits the tour into
 //! sorties for the battery and writes `replan.json` (also an inspection plan
 //! `postflight coverage --viewpoints` can check) and `replan.csv` (GATSBI's
-//! `X,Y,Z,Yaw` path).
+//! `X,Y,Z,Yaw` path); with a geo origin, [`ground_station`] also writes a
+//! QGroundControl mission per sortie, KML and GeoJSON.
 
 pub mod error;
 pub mod free_space;
+pub mod ground_station;
 pub mod stage;
 pub mod tour;
 pub mod viewpoints;

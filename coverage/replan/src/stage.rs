@@ -11,6 +11,7 @@ use coverage::face::exposed_faces;
 use coverage::stage::{camera_mount, check_view};
 use gtsp::SolveOptions;
 use nalgebra::{Point3, Vector3};
+use postflight_core::geo::GeoOrigin;
 use postflight_core::map::{SlamMap, VoxelGrid, VoxelIndex};
 use postflight_core::outputs::coverage::{self as coverage_outputs, CoverageSummary};
 use postflight_core::outputs::replan::{
@@ -20,6 +21,7 @@ use postflight_core::{Flight, InvalidSetting, Key, RunDir, Stage, Viewpoint};
 
 use crate::error::ReplanError;
 use crate::free_space::{FreeSpace, length};
+use crate::ground_station::{self, Placement};
 use crate::tour::{Stops, Tour, TourError, plan_tour};
 use crate::viewpoints::{Camera, Candidate, candidates, clusters};
 
@@ -34,6 +36,7 @@ pub mod keys {
     pub const HOVER: Key = Key::setting("replan", "hover_s");
     pub const SOLVER_TIME_LIMIT: Key = Key::setting("replan", "solver_time_limit_s");
     pub const SEED: Key = Key::setting("replan", "seed");
+    pub const GEO_ORIGIN: Key = Key::setting("replan", "geo_origin");
 }
 
 #[derive(Debug, Clone)]
@@ -53,6 +56,9 @@ pub struct ReplanOptions {
     pub hover_s: f64,
     /// GTSP solver settings (time limit per solve, seed, threads).
     pub solver: SolveOptions,
+    /// The map frame on the Earth, for the ground-station files (default:
+    /// from the flight's GPS fixes, if it has them).
+    pub geo_origin: Option<GeoOrigin>,
 }
 
 impl ReplanOptions {
@@ -74,6 +80,7 @@ impl ReplanOptions {
                 time_limit: Some(Duration::from_secs_f64(Self::DEFAULT_SOLVER_TIME_LIMIT_S)),
                 ..SolveOptions::default()
             },
+            geo_origin: None,
         }
     }
 
@@ -94,6 +101,14 @@ impl ReplanOptions {
                 keys::MAX_SORTIE_LENGTH,
                 m,
                 "a positive number of metres",
+            )?;
+        }
+        if let Some(o) = &self.geo_origin {
+            InvalidSetting::check(
+                o.check().is_ok(),
+                keys::GEO_ORIGIN,
+                format!("{}, {}", o.latitude_deg, o.longitude_deg),
+                "a latitude within ±90 and a longitude within ±180 degrees, all finite",
             )?;
         }
         let limit = self.solver.time_limit.map_or(1.0, |t| t.as_secs_f64());
@@ -131,10 +146,12 @@ pub fn replan(
     check_view(&coverage.view)?;
     let grid = VoxelGrid::new(coverage.resolution_m, Point3::from(coverage.grid_origin));
     let (targets, gaps) = read_gaps(&run)?;
-    let home = take_off(options, &flight)?;
-    let mut summary = empty_plan(options, &coverage, home, gaps.len());
+    let launch = take_off(options, &flight)?;
+    let mut summary = empty_plan(options, &coverage, launch, gaps.len());
+    (summary.geo_origin, summary.geo_origin_from) = geo_origin(options, &flight);
+    let home = launch;
     if gaps.is_empty() {
-        return write(&run, summary, started);
+        return write(&run, summary, launch, options, started);
     }
 
     let given = options.map.as_ref().or(coverage.map.as_ref());
@@ -162,7 +179,7 @@ pub fn replan(
         summary
             .warnings
             .push("no gap voxel can be inspected from a clear, reachable viewpoint".into());
-        return write(&run, summary, started);
+        return write(&run, summary, launch, options, started);
     };
 
     let flights = split_sorties(options, &tour, &points, &space, &map)?;
@@ -185,7 +202,25 @@ pub fn replan(
         .map(|indices| fly(options, &tour, &points, &space, indices, &waypoint))
         .collect();
     summarise(&mut summary, tour);
-    write(&run, summary, started)
+    write(&run, summary, launch, options, started)
+}
+
+/// The map frame on the Earth: as set, else from the flight's GPS fixes;
+/// and which it is.
+fn geo_origin(options: &ReplanOptions, flight: &Flight) -> (Option<GeoOrigin>, Option<String>) {
+    if let Some(origin) = options.geo_origin {
+        return (Some(origin), Some("settings".into()));
+    }
+    match &flight.summary.geo_origin {
+        Some(fit) => (
+            Some(fit.origin),
+            Some(format!(
+                "{} GPS fixes aligned to the trajectory, {:.2} m rms over {:.0} m",
+                fit.fixes, fit.rms_m, fit.spread_m
+            )),
+        ),
+        None => (None, None),
+    }
 }
 
 /// Target voxels and the gap voxels among them (sorted), from `coverage.parquet`.
@@ -243,6 +278,9 @@ fn empty_plan(
         length_m: 0.0,
         time_s: 0.0,
         solver: None,
+        geo_origin: None,
+        geo_origin_from: None,
+        ground_station_files: Vec::new(),
         seconds: 0.0,
         warnings: Vec::new(),
     }
@@ -487,42 +525,55 @@ fn summarise(summary: &mut ReplanSummary, tour: Tour) {
 }
 
 /// Writes `replan.csv` (every point of every sortie's path, `X,Y,Z,Yaw`,
-/// yaw of the waypoint being flown to) and then `replan.json`.
+/// yaw of the waypoint being flown to), with a geo origin the missions, KML
+/// and GeoJSON, and then `replan.json`.
 fn write(
     run: &RunDir,
     mut summary: ReplanSummary,
+    launch: Point3<f64>,
+    options: &ReplanOptions,
     started: Instant,
 ) -> Result<ReplanSummary, ReplanError> {
+    run.write_text(files::PATH_CSV, &ground_station::path_csv(&summary.sorties))?;
+    remove_ground_station_files(run)?;
+    if let Some(origin) = summary.geo_origin.filter(|_| !summary.sorties.is_empty()) {
+        let placement = Placement {
+            origin: &origin,
+            launch,
+            hover_s: options.hover_s,
+            speed_m_s: options.speed_m_s,
+            min_takeoff_m: options.clearance_m,
+        };
+        let count = summary.sorties.len();
+        for (i, sortie) in summary.sorties.iter().enumerate() {
+            let name = files::mission(i, count);
+            run.write_json(&name, &placement.mission(sortie))?;
+            summary.ground_station_files.push(name);
+        }
+        run.write_text(files::KML, &placement.kml(&summary.sorties))?;
+        run.write_json(files::GEOJSON, &placement.geojson(&summary.sorties))?;
+        summary
+            .ground_station_files
+            .extend([files::KML.to_string(), files::GEOJSON.to_string()]);
+    }
     summary.seconds = started.elapsed().as_secs_f64();
-    run.write_text(files::PATH_CSV, &path_csv(&summary.sorties))?;
     run.write_json(files::SUMMARY, &summary)?;
     Ok(summary)
 }
 
-/// `replan.csv`: every point of every sortie's path, with the yaw of the
-/// waypoint being flown to.
-fn path_csv(sorties: &[Sortie]) -> String {
-    let mut text = String::from("X,Y,Z,Yaw\n");
-    let mut row = |p: &[f64; 3], yaw: f64| {
-        text += &format!("{:.3},{:.3},{:.3},{:.4}\n", p[0], p[1], p[2], yaw);
-    };
-    for sortie in sorties {
-        let mut next = 0;
-        let mut yaw = sortie.waypoints.first().map_or(0.0, |w| w.yaw);
-        for p in &sortie.path {
-            // Waypoints sharing a point are turned to there, one row each.
-            let mut at_waypoint = false;
-            while let Some(w) = sortie.waypoints.get(next).filter(|w| [w.x, w.y, w.z] == *p) {
-                row(p, w.yaw);
-                yaw = w.yaw;
-                next += 1;
-                at_waypoint = true;
-            }
-            if !at_waypoint {
-                yaw = sortie.waypoints.get(next).map_or(yaw, |w| w.yaw);
-                row(p, yaw);
-            }
-        }
+/// The last run's missions, KML and GeoJSON: a new plan may have fewer
+/// sorties, or no geo origin.
+fn remove_ground_station_files(run: &RunDir) -> Result<(), ReplanError> {
+    let names = std::fs::read_dir(run.path())
+        .map_err(|source| postflight_core::Error::Open {
+            path: run.path().to_owned(),
+            source,
+        })?
+        .filter_map(|entry| entry.ok()?.file_name().into_string().ok());
+    for name in names.filter(|n| files::is_mission(n)) {
+        run.remove(&name)?;
     }
-    text
+    run.remove(files::KML)?;
+    run.remove(files::GEOJSON)?;
+    Ok(())
 }
