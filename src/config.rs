@@ -127,10 +127,15 @@ impl RunConfig {
     pub fn load(path: &Path) -> anyhow::Result<Self> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| anyhow::anyhow!("cannot read config {}: {e}", path.display()))?;
-        toml::from_str(&text).map_err(|e| {
-            anyhow::anyhow!(
-                "config {}: {}; tables are [ingest], [detect], [localise], [view], [coverage] and [replan] (see docs/cli.md)",
-                path.display(),
+        Self::parse(&text).map_err(|why| anyhow::anyhow!("config {}: {why}", path.display()))
+    }
+
+    /// A `postflight.toml`'s text, or a one-line error naming the line and
+    /// column.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        toml::from_str(text).map_err(|e| {
+            format!(
+                "{}; tables are [ingest], [detect], [localise], [view], [coverage] and [replan] (see docs/cli.md)",
                 e.to_string().trim().replace('\n', " ")
             )
         })
@@ -275,6 +280,116 @@ mod tests {
         assert_eq!(d.confidence, 0.4);
         assert!(toml::from_str::<RunConfig>("[detect]\nconfidense = 0.4\n").is_err());
         assert!(toml::from_str::<RunConfig>("[detector]\n").is_err());
+    }
+
+    /// Every table and key set.
+    const FULL: &str = r#"
+[ingest]
+image_topics = ["/camera/image_raw"]
+pose_topic = "/lio_sam/mapping/odometry"
+camera_info_topic = "/camera/camera_info"
+camera_info_file = "camera.yaml"
+map_topic = "/lio_sam/mapping/map_global"
+body_frame = "base_link"
+world_frame = "map"
+max_pose_gap_s = 0.5
+strict = false
+[detect]
+prompts = ["crack"]
+embeddings = "embeddings.json"
+confidence = 0.25
+iou = 0.5
+merge_gap = 8.0
+image_size = 640
+tile = 640
+tile_overlap = 0.2
+batch = 4
+device = "cpu"
+[localise]
+max_range_m = 30.0
+link_distance_m = 0.3
+max_normal_angle_deg = 30.0
+[view]
+cone_apex_deg = 20.0
+min_distance_m = 2.0
+max_distance_m = 5.0
+max_incidence_deg = 60.0
+max_blur_px = 3.0
+max_gsd_mm = 6.0
+views_required = 1
+[coverage]
+views_near_defects = 2
+defect_radius_m = 1.0
+exposure_s = 0.002
+[replan]
+home = [0.0, 0.0, 0.0]
+clearance_m = 1.0
+max_sortie_length_m = 800.0
+speed_m_s = 2.0
+hover_s = 2.0
+solver_time_limit_s = 10.0
+seed = 7
+geo_origin = [47.397742, 8.545594, 488.0, 23.5]
+"#;
+
+    /// Read `text` as postflight.toml and build every stage's options.
+    fn use_config(text: &[u8]) {
+        let Ok(c) = RunConfig::parse(&String::from_utf8_lossy(text)) else {
+            return;
+        };
+        let (run, file) = (Path::new("run"), Path::new("f"));
+        let _ = c.ingest_options(file, run);
+        let _ = c.detect_options(run, file, None);
+        let _ = c.localise_options(run, None, None);
+        let _ = c.coverage_options(run, None, None, coverage::Targets::Plan);
+        let _ = c.replan_options(run, None);
+    }
+
+    #[test]
+    fn a_config_cut_anywhere_flipped_or_absurd_reads_or_fails_in_one_line() {
+        let full = RunConfig::parse(FULL).unwrap();
+        assert_eq!(full.keys_set(), full.keys(), "the example sets every key");
+        let bytes = FULL.as_bytes();
+        for cut in 0..bytes.len() {
+            use_config(&bytes[..cut]);
+        }
+        let mut rng = sim::rng::Rng::new(3);
+        for _ in 0..3000 {
+            let mut damaged = bytes.to_vec();
+            let at = rng.next_u64() as usize % damaged.len();
+            damaged[at] ^= 1 << (rng.next_u64() % 8);
+            use_config(&damaged);
+        }
+        // Absurd values, deep nesting and a huge file fail with a line and column.
+        let deep = format!(
+            "[replan]\nhome = {}{}\n",
+            "[".repeat(100_000),
+            "]".repeat(100_000)
+        );
+        let huge = format!("[replan]\nseed = 1{}\n", "0".repeat(1_000_000));
+        let cases = [
+            "[replan]\nseed = -1\n".to_string(),
+            "[replan]\ngeo_origin = [91.0, 0.0, 0.0]\n".to_string(),
+            "[replan]\nhome = [1e999, 0, 0]\n".to_string(),
+            "[detect]\nimage_size = 99999999999999999999\n".to_string(),
+            "[view]\nviews_required = \"many\"\n".to_string(),
+            deep,
+            huge,
+        ];
+        for text in &cases {
+            use_config(text.as_bytes());
+            if let Err(why) = RunConfig::parse(text) {
+                assert!(!why.contains('\n') && why.contains("line"), "{why}");
+            }
+        }
+        let err = RunConfig::parse("[view]\nmax_distance_m = 5.0\ncone_apex = 20\n").unwrap_err();
+        assert!(err.contains("line 3, column 1"), "{err}");
+        let geo = RunConfig::parse("[replan]\ngeo_origin = [91.0, 0.0, 0.0]\n").unwrap();
+        let err = geo
+            .replan_options(Path::new("run"), None)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("[replan] geo_origin"), "{err}");
     }
 
     #[test]

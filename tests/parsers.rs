@@ -327,3 +327,52 @@ fn gtsp_instances_and_plans_cut_or_flipped_read_or_fail_cleanly() {
         let _ = postflight_core::InspectionPlan::load(&path);
     });
 }
+
+#[test]
+fn waypoint_paths_and_target_boxes_cut_or_flipped_read_or_fail_in_one_line() {
+    use postflight_core::{FlownPlan, PlanFile};
+    let dir = tempfile::tempdir().unwrap();
+    let mut rng = Rng::new(17);
+    let rows: String = (0..30)
+        .map(|i| format!("{}.5,{},{}.25,{}\n", i, -i, i % 4, f64::from(i) * 0.1))
+        .collect();
+    let csv = format!("X,Y,Z,Yaw\n{rows}").into_bytes();
+    let file = PlanFile::new(dir.path().join("path.csv"));
+    let load = |bytes: &[u8]| {
+        std::fs::write(&file.path, bytes).unwrap();
+        match file.load() {
+            Ok(FlownPlan::Path(points)) => assert!(points.len() <= 30),
+            Ok(other) => panic!("a CSV read as {other:?}"),
+            Err(e) => assert!(!e.to_string().contains('\n'), "{e}"),
+        }
+    };
+    load(&csv);
+    attack(&csv, 1, &mut rng, load);
+    // Absurd rows: a million columns, a megabyte number; each refused by line.
+    let wide = format!("1,2,3,0\n{}\n", "1,".repeat(1_000_000));
+    let long = format!("1,2,3,0\n1,2,{},0\n", "9".repeat(1_000_000));
+    for text in [wide, long] {
+        std::fs::write(&file.path, &text).unwrap();
+        let err = file.load().unwrap_err().to_string();
+        assert!(
+            err.contains("line 2") && !err.contains('\n'),
+            "{}",
+            &err[..200.min(err.len())]
+        );
+    }
+
+    let boxes =
+        br#"[{"min": [0, 0, 0], "max": [1, 2, 3]}, {"min": [-5, -5, 0], "max": [5, 5, 10]}]"#;
+    let path = dir.path().join("boxes.json");
+    attack(boxes, 1, &mut rng, |b| {
+        std::fs::write(&path, b).unwrap();
+        if let Err(e) = coverage::targets::load_boxes(&path) {
+            assert!(!e.to_string().contains('\n'), "{e}");
+        }
+    });
+    std::fs::write(&path, "[{\"min\": [0, 0, 0],\n \"max\": [1, 2]}]").unwrap();
+    let err = coverage::targets::load_boxes(&path)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("line 2 column"), "{err}");
+}

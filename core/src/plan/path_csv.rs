@@ -44,7 +44,7 @@ fn check_header(record: &StringRecord, line: u64) -> Result<(), String> {
     if named != COLUMNS {
         return Err(format!(
             "line {line}: the header names the columns {}; a waypoint path has the columns X,Y,Z,Yaw in this order",
-            record.iter().collect::<Vec<_>>().join(",")
+            shown(&record.iter().collect::<Vec<_>>().join(","))
         ));
     }
     Ok(())
@@ -65,8 +65,9 @@ fn point(record: &StringRecord, line: u64, yaw_unit: YawUnit) -> Result<PathPoin
             .filter(|v| v.is_finite())
             .ok_or_else(|| {
                 format!(
-                    "line {line}, column {}: `{field}` is not a finite number ({})",
+                    "line {line}, column {}: {} is not a finite number ({})",
                     column + 1,
+                    shown(field),
                     COLUMNS[column].to_uppercase()
                 )
             })?;
@@ -86,6 +87,16 @@ fn point(record: &StringRecord, line: u64, yaw_unit: YawUnit) -> Result<PathPoin
         position: [x, y, z],
         yaw,
     })
+}
+
+/// A field as an error quotes it: escaped (one line) and at most 40
+/// characters.
+fn shown(field: &str) -> String {
+    const MAX: usize = 40;
+    match field.char_indices().nth(MAX) {
+        Some((end, _)) => format!("{:?}...", &field[..end]),
+        None => format!("{field:?}"),
+    }
 }
 
 #[cfg(test)]
@@ -109,14 +120,14 @@ mod tests {
     #[test]
     fn a_malformed_path_names_its_line_and_column() {
         let cases = [
-            ("X,Y,Z,Yaw\n1,2,3,0\n1,2,x,0\n", "line 3, column 3: `x`"),
+            ("X,Y,Z,Yaw\n1,2,3,0\n1,2,x,0\n", "line 3, column 3: \"x\""),
             ("1,2,3\n", "line 1: 3 columns"),
             ("1,2,3,0\n1,2,3,4,5\n", "line 2: 5 columns"),
             (
                 "x,y,yaw,z\n1,2,3,0\n",
-                "line 1: the header names the columns x,y,yaw,z",
+                "line 1: the header names the columns \"x,y,yaw,z\"",
             ),
-            ("1,2,3,NaN\n", "line 1, column 4: `NaN`"),
+            ("1,2,3,NaN\n", "line 1, column 4: \"NaN\""),
             ("0,0,0,90\n", "--yaw-degrees"),
             ("X,Y,Z,Yaw\n# nothing\n", "no waypoints"),
             ("", "no waypoints"),
