@@ -359,8 +359,27 @@ fn follow_up(r: &RunResults, p: &ReplanSummary) -> Markup {
                 p.hover_s,
                 p.clearance_m,
             ))
-            "Flyable files: " code { "replan.json" } " (waypoints with yaw and gimbal pitch) and "
-            code { "replan.csv" } " (X,Y,Z,Yaw)."
+            "Flyable files: " code { "replan.json" } " (waypoints with yaw and gimbal pitch), "
+            code { "replan.csv" } " (X,Y,Z,Yaw)"
+            @if let (Some(o), false) = (&p.geo_origin, p.ground_station_files.is_empty()) {
+                ", and for ground stations "
+                @for (i, file) in p.ground_station_files.iter().enumerate() {
+                    @if i > 0 { ", " }
+                    code { (file) }
+                }
+                (format!(
+                    " (the map's origin at {:.6}, {:.6}, {:.1} m, its x axis {:.1}° from east; from {}).",
+                    o.latitude_deg,
+                    o.longitude_deg,
+                    o.altitude_m,
+                    o.yaw_deg,
+                    p.geo_origin_from.as_deref().unwrap_or("settings"),
+                ))
+            } @else {
+                ". Given where the map is on the Earth ("
+                code { "postflight replan --geo-origin LAT,LON,ALT[,YAW_DEG]" }
+                ", or GPS fixes in the flight), replan also writes QGroundControl missions, KML and GeoJSON."
+            }
         }
         @if !p.uninspectable_gaps.is_empty() {
             p.warn {
