@@ -494,10 +494,22 @@ fn a_run_killed_mid_detect_resumes_without_redoing_ingest() {
         "{text}"
     );
 
-    // A stage that fails says which, and earlier results stay.
+    // A malformed plan is refused before anything runs, by line and column.
     let bad_plan = dir.path().join("bad-plan.json");
     std::fs::write(&bad_plan, "{\"resolution\": \"half a metre\"}").unwrap();
-    let failed = run_with(&args(&config, &bad_plan));
+    let before = std::fs::read(&log).unwrap();
+    let refused = run_with(&args(&config, &bad_plan));
+    assert_eq!(refused.status.code(), Some(1));
+    let err = stderr(&refused);
+    assert!(err.contains("line 1 column 29"), "{err}");
+    assert_eq!(std::fs::read(&log).unwrap(), before);
+
+    // A stage that fails says which, and earlier results stay.
+    let bad_map = dir.path().join("bad-map.ply");
+    std::fs::write(&bad_map, "ply\nformat ascii 1.0\nelement vertex 3\n").unwrap();
+    let mut with_bad_map = args(&config, &plan);
+    with_bad_map.extend(["--map".to_string(), bad_map.display().to_string()]);
+    let failed = run_with(&with_bad_map);
     assert_eq!(failed.status.code(), Some(1));
     let err = stderr(&failed);
     assert!(
