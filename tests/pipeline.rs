@@ -579,3 +579,46 @@ fn a_simulated_flight_as_ros1_bags_and_ros1_mcap_runs_to_the_same_defects_and_co
         assert!(ros1_coverage.equals_missing(&coverage), "{file}: coverage");
     }
 }
+
+#[test]
+fn a_missing_path_is_named_once_and_nothing_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing");
+    let m = missing.to_str().unwrap();
+    for command in [
+        &["review", "serve", "--run", m][..],
+        &["review", "export", "--run", m],
+        &["report", "--run", m],
+        &["coverage", "--run", m],
+        &["replan", "--run", m],
+        &["localise", "--run", m],
+    ] {
+        let out = postflight(command, dir.path());
+        assert_eq!(out.status.code(), Some(1), "{command:?}");
+        let err = stderr(&out);
+        assert!(
+            err.contains("no such directory")
+                && err.contains("--run")
+                && err.trim().lines().count() == 1,
+            "{command:?}: {err}"
+        );
+    }
+    let flight = dir.path().join("missing.mcap");
+    let out_dir = dir.path().join("out");
+    let (f, o) = (flight.to_str().unwrap(), out_dir.to_str().unwrap());
+    for command in [
+        &["ingest", "--flight", f, "--out", o][..],
+        &["run", "--flight", f, "--out", o],
+    ] {
+        let out = postflight(command, dir.path());
+        assert_eq!(out.status.code(), Some(1), "{command:?}");
+        let err = stderr(&out);
+        assert!(err.contains("missing.mcap"), "{command:?}: {err}");
+        assert_eq!(
+            err.matches("No such file").count().max(1),
+            1,
+            "{command:?}: {err}"
+        );
+        assert!(!out_dir.exists(), "{command:?} wrote {o}");
+    }
+}

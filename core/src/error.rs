@@ -6,22 +6,22 @@ use std::path::PathBuf;
 
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    #[error("cannot open {}: {source}; check the path", path.display())]
+    #[error("cannot open {}: {cause}; check the path", path.display())]
     Open {
         path: PathBuf,
-        source: std::io::Error,
+        cause: std::io::Error,
     },
 
-    #[error("cannot write {}: {source}", path.display())]
+    #[error("cannot write {}: {cause}", path.display())]
     Write {
         path: PathBuf,
-        source: std::io::Error,
+        cause: std::io::Error,
     },
 
-    #[error("table {}: {source}; rerun the stage that wrote it", path.display())]
+    #[error("table {}: {cause}; rerun the stage that wrote it", path.display())]
     Table {
         path: PathBuf,
-        source: polars::error::PolarsError,
+        cause: polars::error::PolarsError,
     },
 
     #[error("run directory {}: {why}", path.display())]

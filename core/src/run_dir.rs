@@ -25,7 +25,7 @@ impl RunDir {
     pub fn create(path: &Path) -> Result<Self, Error> {
         std::fs::create_dir_all(path).map_err(|source| Error::Write {
             path: path.to_owned(),
-            source,
+            cause: source,
         })?;
         Ok(Self {
             path: path.to_owned(),
@@ -46,6 +46,15 @@ impl RunDir {
         let summary = stage.summary_file();
         if self.file(summary).is_file() {
             return Ok(());
+        }
+        if !self.path.is_dir() {
+            return Err(Error::RunDir {
+                path: self.path.clone(),
+                why: format!(
+                    "no such directory; check the path given to {}",
+                    crate::setting::inputs::RUN
+                ),
+            });
         }
         Err(Error::RunDir {
             path: self.path.clone(),
@@ -82,7 +91,7 @@ impl RunDir {
         match std::fs::remove_file(self.file(name)) {
             Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(Error::Write {
                 path: self.file(name),
-                source: e,
+                cause: e,
             }),
             _ => Ok(()),
         }
@@ -98,7 +107,7 @@ impl RunDir {
         let tmp = self.file(&format!(".{name}.tmp"));
         let io = |source| Error::Write {
             path: target.clone(),
-            source,
+            cause: source,
         };
         let mut file = File::create(&tmp).map_err(io)?;
         write(&mut file)?;
@@ -110,8 +119,10 @@ impl RunDir {
     pub fn write_text(&self, name: &str, text: &str) -> Result<(), Error> {
         let path = self.file(name);
         self.write_with(name, |f| {
-            f.write_all(text.as_bytes())
-                .map_err(|source| Error::Write { path, source })
+            f.write_all(text.as_bytes()).map_err(|source| Error::Write {
+                path,
+                cause: source,
+            })
         })
     }
 
@@ -124,7 +135,7 @@ impl RunDir {
         let path = self.file(name);
         let text = std::fs::read_to_string(&path).map_err(|source| Error::Open {
             path: path.clone(),
-            source,
+            cause: source,
         })?;
         serde_json::from_str(&text).map_err(|e| Error::RunDir {
             path,
@@ -137,7 +148,7 @@ impl RunDir {
         let path = self.file(name);
         let table_error = |source| Error::Table {
             path: path.clone(),
-            source,
+            cause: source,
         };
         let mut df = table.map_err(table_error)?;
         self.write_with(name, |f| {
@@ -157,11 +168,14 @@ impl RunDir {
         let path = self.file(name);
         let file = File::open(&path).map_err(|source| Error::Open {
             path: path.clone(),
-            source,
+            cause: source,
         })?;
         ParquetReader::new(file)
             .finish()
             .and_then(|df| parse(&df))
-            .map_err(|source| Error::Table { path, source })
+            .map_err(|source| Error::Table {
+                path,
+                cause: source,
+            })
     }
 }

@@ -59,7 +59,7 @@ impl InputFile {
         let path = std::path::absolute(path).unwrap_or_else(|_| path.to_owned());
         let meta = std::fs::metadata(&path).map_err(|source| Error::Open {
             path: path.clone(),
-            source,
+            cause: source,
         })?;
         let modified_ns = meta
             .modified()
@@ -121,7 +121,7 @@ impl RunLog {
 pub fn sha256_file(path: &Path) -> Result<String, Error> {
     let open = |source| Error::Open {
         path: path.to_owned(),
-        source,
+        cause: source,
     };
     let mut file = std::fs::File::open(path).map_err(open)?;
     let mut hasher = Sha256::new();

@@ -100,7 +100,7 @@ impl Recording {
     pub fn open(path: &Path) -> Result<Self, IngestError> {
         let file = File::open(path).map_err(|source| postflight_core::Error::Open {
             path: path.to_owned(),
-            source,
+            cause: source,
         })?;
         if file.metadata().map(|m| m.is_dir()).unwrap_or(false) {
             return Err(IngestError::NotRecording {
@@ -113,7 +113,7 @@ impl Recording {
         let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|source| {
             postflight_core::Error::Open {
                 path: path.to_owned(),
-                source,
+                cause: source,
             }
         })?;
         #[cfg(unix)]

@@ -62,7 +62,7 @@ pub(crate) fn write_crop(
     let tmp = path.with_extension("jpg.tmp");
     let write_error = |source| postflight_core::Error::Write {
         path: path.to_owned(),
-        source,
+        cause: source,
     };
     DynamicImage::ImageRgb8(crop)
         .save_with_format(&tmp, image::ImageFormat::Jpeg)

@@ -352,7 +352,7 @@ fn write_outputs(
     let crops = run.file(files::CROPS);
     let write_error = |source| postflight_core::Error::Write {
         path: crops.clone(),
-        source,
+        cause: source,
     };
     if crops.exists() {
         std::fs::remove_dir_all(&crops).map_err(write_error)?;

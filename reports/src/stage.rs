@@ -50,7 +50,7 @@ pub fn report(
     std::fs::rename(&partial, results.file(files::RECORDING)).map_err(|source| {
         postflight_core::Error::Write {
             path: results.file(files::RECORDING),
-            source,
+            cause: source,
         }
     })?;
     let mut summary = run_summary(&results, timings);

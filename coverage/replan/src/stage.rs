@@ -567,7 +567,7 @@ fn remove_ground_station_files(run: &RunDir) -> Result<(), ReplanError> {
     let names = std::fs::read_dir(run.path())
         .map_err(|source| postflight_core::Error::Open {
             path: run.path().to_owned(),
-            source,
+            cause: source,
         })?
         .filter_map(|entry| entry.ok()?.file_name().into_string().ok());
     for name in names.filter(|n| files::is_mission(n)) {
