@@ -17,7 +17,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
-use postflight_core::Stage;
+use postflight_core::geo::GeoOrigin;
+use postflight_core::{PlanFile, Stage, YawUnit};
 use replan::ReplanOptions;
 
 #[derive(Parser)]
@@ -167,8 +168,8 @@ struct ReplanArgs {
     /// (degrees), altitude (metres) and the heading of its x axis from east,
     /// counter-clockwise (degrees, default 0); also writes the flight as
     /// QGroundControl missions, KML and GeoJSON [default: from the flight's GPS fixes].
-    #[arg(long, value_name = "LAT,LON,ALT[,YAW_DEG]", value_parser = postflight_core::geo::GeoOrigin::parse, allow_hyphen_values = true)]
-    geo_origin: Option<postflight_core::geo::GeoOrigin>,
+    #[arg(long, value_name = "LAT,LON,ALT[,YAW_DEG]", value_parser = GeoOrigin::parse, allow_hyphen_values = true)]
+    geo_origin: Option<GeoOrigin>,
 }
 
 fn parse_point(s: &str) -> Result<[f64; 3], String> {
@@ -196,19 +197,19 @@ struct PlanArgs {
 }
 
 impl PlanArgs {
-    fn file(&self, path: Option<&PathBuf>) -> Option<postflight_core::PlanFile> {
+    fn file(&self, path: Option<&PathBuf>) -> Option<PlanFile> {
         let yaw = if self.yaw_degrees {
-            postflight_core::YawUnit::Degrees
+            YawUnit::Degrees
         } else {
-            postflight_core::YawUnit::Radians
+            YawUnit::Radians
         };
-        path.map(|path| postflight_core::PlanFile {
+        path.map(|path| PlanFile {
             path: path.clone(),
             yaw,
         })
     }
 
-    fn plan(&self) -> Option<postflight_core::PlanFile> {
+    fn plan(&self) -> Option<PlanFile> {
         self.file(self.plan.as_ref())
     }
 }
@@ -570,7 +571,7 @@ fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
 fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
     let options = localise::LocaliseOptions {
         map: args.map.clone(),
-        plan: args.plan.clone().map(postflight_core::PlanFile::new),
+        plan: args.plan.clone().map(PlanFile::new),
         max_range_m: args.max_range,
         fusion: localise::FusionOptions {
             link_distance: args.link_distance,

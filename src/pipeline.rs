@@ -95,9 +95,9 @@ fn check_inputs(inputs: &RunInputs) -> anyhow::Result<()> {
     // A plan that cannot be read, or a path without targets, would fail
     // coverage only after ingest and detection.
     if let Some(plan) = &inputs.plan {
-        let targets = plan.load()?.target_voxels().is_some();
-        if !targets && inputs.targets == coverage::Targets::Plan {
-            return Err(coverage::CoverageError::PathWithoutTargets.into());
+        let plan = plan.load()?;
+        if inputs.targets == coverage::Targets::Plan {
+            coverage::stage::plan_targets(Some(&plan))?;
         }
     }
     Ok(())

@@ -687,9 +687,9 @@ fn gps_fixes_are_kept_as_recorded_by_ros2_and_ros1_and_place_the_map_on_the_eart
         for (got, want) in fixes.iter().zip(want) {
             assert_eq!(got.topic, "/dji_sdk/gps_position");
             assert_eq!(Some(got.time_ns), want["time_ns"].as_i64());
-            assert_eq!(got.latitude_deg, f(&want["latitude_deg"]));
-            assert_eq!(got.longitude_deg, f(&want["longitude_deg"]));
-            assert_eq!(got.altitude_m, f(&want["altitude_m"]));
+            assert_eq!(got.position.latitude_deg, f(&want["latitude_deg"]));
+            assert_eq!(got.position.longitude_deg, f(&want["longitude_deg"]));
+            assert_eq!(got.position.altitude_m, f(&want["altitude_m"]));
             assert_eq!(Some(i64::from(got.status)), want["status"].as_i64());
         }
         // The writer put the map's origin at 38.6916 N, 9.1770 W, 80 m,

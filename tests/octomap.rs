@@ -7,7 +7,8 @@
 mod common;
 
 use std::collections::BTreeSet;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 use common::*;
 use nalgebra::Point3;
@@ -16,6 +17,26 @@ use postflight_core::map::{PointCloud, VoxelGrid};
 
 fn voxels(points: &[Point3<f64>], grid: &VoxelGrid) -> BTreeSet<[i32; 3]> {
     points.iter().map(|p| grid.voxel_of(p).0).collect()
+}
+
+/// The simulated flight the coverage tests share, simulated once.
+fn flight() -> &'static Path {
+    static SIM: OnceLock<PathBuf> = OnceLock::new();
+    SIM.get_or_init(|| {
+        let dir = locked_fixture_dir("octomap-flight");
+        simulate_into(&dir, "sim", &["--frames", "60"])
+    })
+}
+
+/// The centres of the map's occupied voxels at `res`: what an OctoMap of
+/// the map holds (a tree cannot say where in a voxel a point was).
+fn map_voxel_centres(sim: &Path, res: f64) -> Vec<Point3<f64>> {
+    let cloud = PointCloud::load(&sim.join("map.ply")).unwrap();
+    let grid = VoxelGrid::new(res, Point3::origin());
+    voxels(&cloud.points, &grid)
+        .into_iter()
+        .map(|v| grid.center(postflight_core::map::VoxelIndex(v)))
+        .collect()
 }
 
 #[test]
@@ -65,24 +86,12 @@ fn octomap_trees_read_as_the_voxels_of_their_points_pruned_at_several_depths() {
 #[test]
 fn coverage_over_an_octomap_of_the_map_is_coverage_over_its_ply() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = simulate_into(dir.path(), "sim", &["--frames", "60"]);
+    let sim = flight();
     let plan = read_json(&sim.join("plan.json"));
     let res = f(&plan["resolution"]);
-    let ply = sim.join("map.ply");
-    let cloud = PointCloud::load(&ply).unwrap();
     // The tree holds the map's voxels; the PLY of their centres is the
-    // reference, since a tree cannot say where in a voxel a point was.
-    let grid = VoxelGrid::new(res, Point3::origin());
-    let centres: Vec<Point3<f64>> = voxels(&cloud.points, &grid)
-        .iter()
-        .map(|v| {
-            Point3::new(
-                f64::from(v[0]) + 0.5,
-                f64::from(v[1]) + 0.5,
-                f64::from(v[2]) + 0.5,
-            ) * res
-        })
-        .collect();
+    // reference.
+    let centres = map_voxel_centres(sim, res);
     let centres_ply = dir.path().join("centres.ply");
     write_ply(&centres_ply, &centres);
     let [bt, ot] = octomap_of(dir.path(), "map", &centres, res);
@@ -123,7 +132,7 @@ fn coverage_over_an_octomap_of_the_map_is_coverage_over_its_ply() {
 #[test]
 fn a_segmented_octomap_gives_the_targets_of_its_cloud_in_coverage_and_in_run() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = simulate_into(dir.path(), "sim", &["--frames", "60"]);
+    let sim = flight();
     let plan = read_json(&sim.join("plan.json"));
     let res = f(&plan["resolution"]);
     // The structure, segmented: the centres of the plan's target voxels.
@@ -203,16 +212,11 @@ fn a_segmented_octomap_gives_the_targets_of_its_cloud_in_coverage_and_in_run() {
 #[test]
 fn a_bt_map_an_xyz_yaw_path_and_target_boxes_give_the_coverage_of_ply_and_plan_json() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = simulate_into(dir.path(), "sim", &["--frames", "60"]);
+    let sim = flight();
     let plan_json = sim.join("plan.json");
     let plan = read_json(&plan_json);
     let res = f(&plan["resolution"]);
-    let cloud = PointCloud::load(&sim.join("map.ply")).unwrap();
-    let grid = VoxelGrid::new(res, Point3::origin());
-    let centres: Vec<Point3<f64>> = voxels(&cloud.points, &grid)
-        .iter()
-        .map(|v| grid.center(postflight_core::map::VoxelIndex(*v)))
-        .collect();
+    let centres = map_voxel_centres(sim, res);
     let ply = dir.path().join("centres.ply");
     write_ply(&ply, &centres);
     let [bt, _] = octomap_of(dir.path(), "map", &centres, res);

@@ -12,26 +12,24 @@ use map_3d::Ellipsoid;
 use nalgebra::{Point3, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
-/// The map frame's origin on the Earth and the heading of its x axis.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct GeoOrigin {
-    /// WGS 84 latitude and longitude, degrees.
-    pub latitude_deg: f64,
-    pub longitude_deg: f64,
-    /// Altitude of the map's origin, metres, in the datum given (above
-    /// the ellipsoid when found from GPS fixes).
-    pub altitude_m: f64,
-    /// Angle from east to the map's x axis, counter-clockwise, degrees
-    /// (0: the map is east-north-up).
-    pub yaw_deg: f64,
-}
-
 /// A position on the Earth.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Geodetic {
+    /// WGS 84 latitude and longitude, degrees.
     pub latitude_deg: f64,
     pub longitude_deg: f64,
+    /// Altitude, metres, in the datum given (above the ellipsoid for GPS).
     pub altitude_m: f64,
+}
+
+/// The map frame's origin on the Earth and the heading of its x axis.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GeoOrigin {
+    #[serde(flatten)]
+    pub position: Geodetic,
+    /// Angle from east to the map's x axis, counter-clockwise, degrees
+    /// (0: the map is east-north-up).
+    pub yaw_deg: f64,
 }
 
 impl GeoOrigin {
@@ -59,9 +57,11 @@ impl GeoOrigin {
             }
         };
         let origin = Self {
-            latitude_deg,
-            longitude_deg,
-            altitude_m,
+            position: Geodetic {
+                latitude_deg,
+                longitude_deg,
+                altitude_m,
+            },
             yaw_deg,
         };
         origin.check()?;
@@ -70,18 +70,15 @@ impl GeoOrigin {
 
     /// Latitude within ±90°, longitude within ±180°, every value finite.
     pub fn check(&self) -> Result<(), String> {
-        let finite = [
-            self.latitude_deg,
-            self.longitude_deg,
-            self.altitude_m,
-            self.yaw_deg,
-        ]
-        .iter()
-        .all(|v| v.is_finite());
-        if !finite || self.latitude_deg.abs() > 90.0 || self.longitude_deg.abs() > 180.0 {
+        let Geodetic {
+            latitude_deg: lat,
+            longitude_deg: lon,
+            altitude_m: alt,
+        } = self.position;
+        let finite = [lat, lon, alt, self.yaw_deg].iter().all(|v| v.is_finite());
+        if !finite || lat.abs() > 90.0 || lon.abs() > 180.0 {
             return Err(format!(
-                "{},{} is not a latitude and longitude in degrees (latitude within ±90, longitude within ±180)",
-                self.latitude_deg, self.longitude_deg
+                "{lat},{lon} is not a latitude and longitude in degrees (latitude within ±90, longitude within ±180)"
             ));
         }
         Ok(())
@@ -90,13 +87,14 @@ impl GeoOrigin {
     /// The map point's position on the Earth.
     pub fn to_geodetic(&self, local: &Point3<f64>) -> Geodetic {
         let enu = self.map_to_enu() * local.coords;
+        let o = &self.position;
         let (lat, lon, alt) = map_3d::enu2geodetic(
             enu.x,
             enu.y,
             enu.z,
-            self.latitude_deg.to_radians(),
-            self.longitude_deg.to_radians(),
-            self.altitude_m,
+            o.latitude_deg.to_radians(),
+            o.longitude_deg.to_radians(),
+            o.altitude_m,
             Ellipsoid::WGS84,
         );
         Geodetic {
@@ -108,13 +106,14 @@ impl GeoOrigin {
 
     /// A position on the Earth in map coordinates.
     pub fn to_local(&self, g: &Geodetic) -> Point3<f64> {
+        let o = &self.position;
         let (e, n, u) = map_3d::geodetic2enu(
             g.latitude_deg.to_radians(),
             g.longitude_deg.to_radians(),
             g.altitude_m,
-            self.latitude_deg.to_radians(),
-            self.longitude_deg.to_radians(),
-            self.altitude_m,
+            o.latitude_deg.to_radians(),
+            o.longitude_deg.to_radians(),
+            o.altitude_m,
             Ellipsoid::WGS84,
         );
         Point3::from(self.map_to_enu().inverse() * Vector3::new(e, n, u))
@@ -163,9 +162,7 @@ impl GeoAlignment {
             ));
         }
         let mut reference = GeoOrigin {
-            latitude_deg: fixes[0].latitude_deg,
-            longitude_deg: fixes[0].longitude_deg,
-            altitude_m: fixes[0].altitude_m,
+            position: fixes[0],
             yaw_deg: 0.0,
         };
         // The tangent frame of the first fix is not the origin's; a second
@@ -211,12 +208,9 @@ fn fit_in(
         .zip(&enu)
         .map(|(p, e)| (rotation * p.coords + shift - e).norm_squared())
         .sum();
-    let origin = reference.to_geodetic(&Point3::from(shift));
     Ok(GeoAlignment {
         origin: GeoOrigin {
-            latitude_deg: origin.latitude_deg,
-            longitude_deg: origin.longitude_deg,
-            altitude_m: origin.altitude_m,
+            position: reference.to_geodetic(&Point3::from(shift)),
             yaw_deg: yaw.to_degrees(),
         },
         fixes: local.len(),
@@ -232,7 +226,7 @@ mod tests {
     #[test]
     fn an_origin_parses_with_or_without_a_yaw_and_rejects_what_is_not_one() {
         let o = GeoOrigin::parse("47.397742, 8.545594, 488.0").unwrap();
-        assert_eq!((o.latitude_deg, o.yaw_deg), (47.397742, 0.0));
+        assert_eq!((o.position.latitude_deg, o.yaw_deg), (47.397742, 0.0));
         assert_eq!(GeoOrigin::parse("1,2,3,90").unwrap().yaw_deg, 90.0);
         for bad in ["1,2", "1,2,3,4,5", "91,0,0", "0,181,0", "a,b,c", "0,0,inf"] {
             assert!(GeoOrigin::parse(bad).is_err(), "{bad}");

@@ -23,9 +23,9 @@ pub struct RunDir {
 impl RunDir {
     /// Create the directory if needed.
     pub fn create(path: &Path) -> Result<Self, Error> {
-        std::fs::create_dir_all(path).map_err(|source| Error::Write {
+        std::fs::create_dir_all(path).map_err(|cause| Error::Write {
             path: path.to_owned(),
-            cause: source,
+            cause,
         })?;
         Ok(Self {
             path: path.to_owned(),
@@ -105,9 +105,9 @@ impl RunDir {
     ) -> Result<(), Error> {
         let target = self.file(name);
         let tmp = self.file(&format!(".{name}.tmp"));
-        let io = |source| Error::Write {
+        let io = |cause| Error::Write {
             path: target.clone(),
-            cause: source,
+            cause,
         };
         let mut file = File::create(&tmp).map_err(io)?;
         write(&mut file)?;
@@ -119,10 +119,8 @@ impl RunDir {
     pub fn write_text(&self, name: &str, text: &str) -> Result<(), Error> {
         let path = self.file(name);
         self.write_with(name, |f| {
-            f.write_all(text.as_bytes()).map_err(|source| Error::Write {
-                path,
-                cause: source,
-            })
+            f.write_all(text.as_bytes())
+                .map_err(|cause| Error::Write { path, cause })
         })
     }
 
@@ -133,9 +131,9 @@ impl RunDir {
 
     pub fn read_json<T: serde::de::DeserializeOwned>(&self, name: &str) -> Result<T, Error> {
         let path = self.file(name);
-        let text = std::fs::read_to_string(&path).map_err(|source| Error::Open {
+        let text = std::fs::read_to_string(&path).map_err(|cause| Error::Open {
             path: path.clone(),
-            cause: source,
+            cause,
         })?;
         serde_json::from_str(&text).map_err(|e| Error::RunDir {
             path,
@@ -146,9 +144,9 @@ impl RunDir {
     /// Write the Parquet table `name` (the table, or why it could not be built).
     pub fn write_table(&self, name: &str, table: PolarsResult<DataFrame>) -> Result<(), Error> {
         let path = self.file(name);
-        let table_error = |source| Error::Table {
+        let table_error = |cause| Error::Table {
             path: path.clone(),
-            cause: source,
+            cause,
         };
         let mut df = table.map_err(table_error)?;
         self.write_with(name, |f| {
@@ -166,16 +164,13 @@ impl RunDir {
         parse: impl FnOnce(&DataFrame) -> PolarsResult<T>,
     ) -> Result<T, Error> {
         let path = self.file(name);
-        let file = File::open(&path).map_err(|source| Error::Open {
+        let file = File::open(&path).map_err(|cause| Error::Open {
             path: path.clone(),
-            cause: source,
+            cause,
         })?;
         ParquetReader::new(file)
             .finish()
             .and_then(|df| parse(&df))
-            .map_err(|source| Error::Table {
-                path,
-                cause: source,
-            })
+            .map_err(|cause| Error::Table { path, cause })
     }
 }

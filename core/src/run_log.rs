@@ -57,9 +57,9 @@ impl InputFile {
     /// run does not read a flight of many gigabytes again; else it is read.
     pub fn describe(path: &Path, known: &[InputFile]) -> Result<Self, Error> {
         let path = std::path::absolute(path).unwrap_or_else(|_| path.to_owned());
-        let meta = std::fs::metadata(&path).map_err(|source| Error::Open {
+        let meta = std::fs::metadata(&path).map_err(|cause| Error::Open {
             path: path.clone(),
-            cause: source,
+            cause,
         })?;
         let modified_ns = meta
             .modified()
@@ -119,9 +119,9 @@ impl RunLog {
 
 /// SHA-256 of a file's contents, in hex (as `sha256sum` prints it).
 pub fn sha256_file(path: &Path) -> Result<String, Error> {
-    let open = |source| Error::Open {
+    let open = |cause| Error::Open {
         path: path.to_owned(),
-        cause: source,
+        cause,
     };
     let mut file = std::fs::File::open(path).map_err(open)?;
     let mut hasher = Sha256::new();

@@ -516,6 +516,14 @@ fn shot_warnings(shots: &FlightShots) -> Vec<String> {
     warnings
 }
 
+/// The plan's target voxels, for targets given by the plan; an error
+/// without a plan, or for a waypoint path (it names none).
+pub fn plan_targets(plan: Option<&FlownPlan>) -> Result<&[VoxelIndex], CoverageError> {
+    plan.ok_or(CoverageError::NoTargets)?
+        .target_voxels()
+        .ok_or(CoverageError::PathWithoutTargets)
+}
+
 /// The target voxels (deduplicated, in index order) and where they came
 /// from; an error when they miss the map.
 fn load_targets(
@@ -524,15 +532,7 @@ fn load_targets(
     map: &SlamMap,
 ) -> Result<(Vec<VoxelIndex>, String), CoverageError> {
     let (targets, targets_name): (Vec<VoxelIndex>, String) = match source {
-        Targets::Plan => {
-            let targets = match plan {
-                None => return Err(CoverageError::NoTargets),
-                Some(plan) => plan
-                    .target_voxels()
-                    .ok_or(CoverageError::PathWithoutTargets)?,
-            };
-            (targets.to_vec(), "plan".into())
-        }
+        Targets::Plan => (plan_targets(plan)?.to_vec(), "plan".into()),
         Targets::Boxes(path) => (
             targets::in_boxes(&map.voxels, &targets::load_boxes(path)?),
             format!("boxes {}", path.display()),

@@ -98,9 +98,9 @@ const RECORD_PREFIX: usize = 9; // opcode u8 + length u64
 impl Recording {
     /// Open and map `path`, checking it is an MCAP file or a ROS 1 bag.
     pub fn open(path: &Path) -> Result<Self, IngestError> {
-        let file = File::open(path).map_err(|source| postflight_core::Error::Open {
+        let file = File::open(path).map_err(|cause| postflight_core::Error::Open {
             path: path.to_owned(),
-            cause: source,
+            cause,
         })?;
         if file.metadata().map(|m| m.is_dir()).unwrap_or(false) {
             return Err(IngestError::NotRecording {
@@ -110,12 +110,11 @@ impl Recording {
         }
         // SAFETY: the map is read-only; a file changed underneath us by another
         // process is outside what a post-flight tool can defend against.
-        let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|source| {
-            postflight_core::Error::Open {
+        let map =
+            unsafe { memmap2::Mmap::map(&file) }.map_err(|cause| postflight_core::Error::Open {
                 path: path.to_owned(),
-                cause: source,
-            }
-        })?;
+                cause,
+            })?;
         #[cfg(unix)]
         let _ = map.advise(memmap2::Advice::Sequential);
         let container = if map.starts_with(mcap::MAGIC) {

@@ -8,6 +8,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::Arc;
 
 use postflight_core::frame::{EXPOSURE_TOPIC, camera_namespace};
+use postflight_core::geo::Geodetic;
 use postflight_core::outputs::ingest::{GnssFix, TopicSummary};
 use postflight_core::pose::StampedPose;
 use postflight_core::{Frame, ImageStatus, MessageLocation, PoseStatus};
@@ -309,9 +310,11 @@ impl Scan {
                 self.fixes.push(GnssFix {
                     time_ns: capture_time(&fix.header, log_time_ns),
                     topic: topic.to_string(),
-                    latitude_deg: fix.latitude,
-                    longitude_deg: fix.longitude,
-                    altitude_m: fix.altitude,
+                    position: Geodetic {
+                        latitude_deg: fix.latitude,
+                        longitude_deg: fix.longitude,
+                        altitude_m: fix.altitude,
+                    },
                     status: fix.status.status,
                 });
             }

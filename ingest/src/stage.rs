@@ -227,14 +227,7 @@ fn geo_origin(
         .iter()
         .filter(|f| f.status >= 0)
         .filter_map(|f| match trajectory.at(f.time_ns, max_gap_ns) {
-            PoseAt::Pose(pose) => Some((
-                Point3::from(pose.translation.vector),
-                Geodetic {
-                    latitude_deg: f.latitude_deg,
-                    longitude_deg: f.longitude_deg,
-                    altitude_m: f.altitude_m,
-                },
-            )),
+            PoseAt::Pose(pose) => Some((Point3::from(pose.translation.vector), f.position)),
             _ => None,
         })
         .unzip();

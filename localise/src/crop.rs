@@ -60,9 +60,9 @@ pub(crate) fn write_crop(
     let (dx, dy) = (x0 as f32, y0 as f32);
     draw_box(&mut crop, [b.x0 - dx, b.y0 - dy, b.x1 - dx, b.y1 - dy], 1);
     let tmp = path.with_extension("jpg.tmp");
-    let write_error = |source| postflight_core::Error::Write {
+    let write_error = |cause| postflight_core::Error::Write {
         path: path.to_owned(),
-        cause: source,
+        cause,
     };
     DynamicImage::ImageRgb8(crop)
         .save_with_format(&tmp, image::ImageFormat::Jpeg)

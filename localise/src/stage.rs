@@ -350,9 +350,9 @@ fn write_outputs(
 ) -> Result<(), LocaliseError> {
     let run = &flight.run;
     let crops = run.file(files::CROPS);
-    let write_error = |source| postflight_core::Error::Write {
+    let write_error = |cause| postflight_core::Error::Write {
         path: crops.clone(),
-        cause: source,
+        cause,
     };
     if crops.exists() {
         std::fs::remove_dir_all(&crops).map_err(write_error)?;

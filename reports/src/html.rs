@@ -369,9 +369,9 @@ fn follow_up(r: &RunResults, p: &ReplanSummary) -> Markup {
                 }
                 (format!(
                     " (the map's origin at {:.6}, {:.6}, {:.1} m, its x axis {:.1}° from east; from {}).",
-                    o.latitude_deg,
-                    o.longitude_deg,
-                    o.altitude_m,
+                    o.position.latitude_deg,
+                    o.position.longitude_deg,
+                    o.position.altitude_m,
                     o.yaw_deg,
                     p.geo_origin_from.as_deref().unwrap_or("settings"),
                 ))

@@ -47,10 +47,10 @@ pub fn report(
     // Rerun writes as it goes: to a temporary name, renamed when complete.
     let partial = results.file(&format!(".{}.tmp", files::RECORDING));
     write_recording(&results, &partial, progress)?;
-    std::fs::rename(&partial, results.file(files::RECORDING)).map_err(|source| {
+    std::fs::rename(&partial, results.file(files::RECORDING)).map_err(|cause| {
         postflight_core::Error::Write {
             path: results.file(files::RECORDING),
-            cause: source,
+            cause,
         }
     })?;
     let mut summary = run_summary(&results, timings);

@@ -70,23 +70,13 @@ pub fn parse(bytes: &[u8], format: Format) -> Result<OctoMap, String> {
 
 /// The text header up to its `data` line: the resolution, and the bytes after.
 fn header(bytes: &[u8], format: Format) -> Result<(f64, &[u8]), String> {
-    let first = match format {
-        Format::Binary => "# Octomap OcTree binary file",
-        Format::Full => "# Octomap OcTree file",
+    let (first, saver, extension) = match format {
+        Format::Binary => ("# Octomap OcTree binary file", "the default", ".bt"),
+        Format::Full => ("# Octomap OcTree file", "-f", ".ot"),
     };
     if !bytes.starts_with(first.as_bytes()) {
         return Err(format!(
-            "it does not start with {first:?}; save the map with octomap_saver ({} for a {})",
-            if format == Format::Binary {
-                "the default"
-            } else {
-                "-f"
-            },
-            if format == Format::Binary {
-                ".bt"
-            } else {
-                ".ot"
-            },
+            "it does not start with {first:?}; save the map with octomap_saver ({saver} for a {extension})"
         ));
     }
     let (mut id, mut resolution) = (None, None);
@@ -154,28 +144,20 @@ impl Reader<'_> {
         leaves: &mut Vec<Leaf>,
     ) -> Result<(), String> {
         if depth >= TREE_DEPTH {
-            return Err(format!(
-                "the tree is deeper than OctoMap's {TREE_DEPTH} levels"
-            ));
+            return Err(too_deep());
         }
         let bits = u16::from(self.byte()?) | (u16::from(self.byte()?) << 8);
-        for i in 0..8 {
-            let key = child_key(key, depth, i);
-            // Low bit alone: free leaf; high bit alone: occupied leaf;
-            // both: inner node; neither: unknown.
-            match (bits >> (2 * i)) & 0b11 {
-                0b10 => leaves.push(Leaf {
-                    key,
-                    depth: depth + 1,
-                }),
-                0b11 => {}
-                _ => continue,
-            }
+        // Per child, low bit alone: free leaf; high bit alone: occupied
+        // leaf; both: inner node, whose own node follows; neither: unknown.
+        let state = |i: u32| (bits >> (2 * i)) & 0b11;
+        for i in (0..8).filter(|&i| state(i) == 0b10) {
+            leaves.push(Leaf {
+                key: child_key(key, depth, i),
+                depth: depth + 1,
+            });
         }
-        for i in 0..8 {
-            if (bits >> (2 * i)) & 0b11 == 0b11 {
-                self.binary_children(child_key(key, depth, i), depth + 1, leaves)?;
-            }
+        for i in (0..8).filter(|&i| state(i) == 0b11) {
+            self.binary_children(child_key(key, depth, i), depth + 1, leaves)?;
         }
         Ok(())
     }
@@ -188,11 +170,6 @@ impl Reader<'_> {
         depth: u32,
         leaves: &mut Vec<Leaf>,
     ) -> Result<(), String> {
-        if depth > TREE_DEPTH {
-            return Err(format!(
-                "the tree is deeper than OctoMap's {TREE_DEPTH} levels"
-            ));
-        }
         let log_odds = f32::from_le_bytes([self.byte()?, self.byte()?, self.byte()?, self.byte()?]);
         let children = self.byte()?;
         if children == 0 {
@@ -202,10 +179,9 @@ impl Reader<'_> {
             }
             return Ok(());
         }
+        // Only inner nodes recurse, so no node lies deeper than this.
         if depth == TREE_DEPTH {
-            return Err(format!(
-                "the tree is deeper than OctoMap's {TREE_DEPTH} levels"
-            ));
+            return Err(too_deep());
         }
         for i in 0..8 {
             if children & (1 << i) != 0 {
@@ -214,6 +190,10 @@ impl Reader<'_> {
         }
         Ok(())
     }
+}
+
+fn too_deep() -> String {
+    format!("the tree is deeper than OctoMap's {TREE_DEPTH} levels")
 }
 
 /// The low key corner of child `i` of the node at `key`, `depth`.

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use super::{parsed, required};
 use crate::error::Error;
 use crate::frame::{Frame, ImageStatus, MessageLocation, PoseStatus};
-use crate::geo::GeoAlignment;
+use crate::geo::{GeoAlignment, Geodetic};
 use crate::pose::{StampedPose, from_parts_xyzw, quaternion_xyzw};
 use crate::run_dir::RunDir;
 use crate::trajectory::Trajectory;
@@ -147,11 +147,8 @@ pub struct GnssFix {
     /// `header.stamp` (else the log time).
     pub time_ns: i64,
     pub topic: String,
-    /// WGS 84 latitude and longitude, degrees.
-    pub latitude_deg: f64,
-    pub longitude_deg: f64,
-    /// Height above the WGS 84 ellipsoid, metres.
-    pub altitude_m: f64,
+    /// Where: altitude above the WGS 84 ellipsoid.
+    pub position: Geodetic,
     /// The fix status: -1 no fix, 0 fix, 1 SBAS, 2 GBAS (RTK).
     pub status: i8,
 }
@@ -182,9 +179,9 @@ fn gnss_table(fixes: &[GnssFix]) -> PolarsResult<DataFrame> {
                 .map(|f| f.topic.as_str())
                 .collect::<Vec<&str>>(),
         ),
-        f64s("latitude_deg", |f| f.latitude_deg),
-        f64s("longitude_deg", |f| f.longitude_deg),
-        f64s("altitude_m", |f| f.altitude_m),
+        f64s("latitude_deg", |f| f.position.latitude_deg),
+        f64s("longitude_deg", |f| f.position.longitude_deg),
+        f64s("altitude_m", |f| f.position.altitude_m),
         Column::new(
             "status".into(),
             // Int32: the fewest polars features (the status is an int8).
@@ -212,9 +209,11 @@ fn gnss_from(df: &DataFrame) -> PolarsResult<Vec<GnssFix>> {
             Ok(GnssFix {
                 time_ns: required(time, i)?,
                 topic: required(topic, i)?.to_string(),
-                latitude_deg: required(&lat, i)?,
-                longitude_deg: required(&lon, i)?,
-                altitude_m: required(&alt, i)?,
+                position: Geodetic {
+                    latitude_deg: required(&lat, i)?,
+                    longitude_deg: required(&lon, i)?,
+                    altitude_m: required(&alt, i)?,
+                },
                 status: i8::try_from(required(status, i)?)
                     .map_err(|_| polars_err!(ComputeError: "status in row {i} is not an int8"))?,
             })

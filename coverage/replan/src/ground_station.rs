@@ -35,8 +35,8 @@ mod mavlink {
 }
 
 /// What the ground-station files need besides the sorties.
-pub struct Placement<'a> {
-    pub origin: &'a GeoOrigin,
+pub struct Placement {
+    pub origin: GeoOrigin,
     /// Where the vehicle takes off (missions' altitudes are above it).
     pub launch: Point3<f64>,
     /// Hover at each inspection waypoint, seconds.
@@ -46,7 +46,7 @@ pub struct Placement<'a> {
     pub min_takeoff_m: f64,
 }
 
-impl Placement<'_> {
+impl Placement {
     fn geodetic(&self, p: &[f64; 3]) -> Geodetic {
         self.origin.to_geodetic(&Point3::from(*p))
     }

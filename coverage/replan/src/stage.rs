@@ -107,7 +107,7 @@ impl ReplanOptions {
             InvalidSetting::check(
                 o.check().is_ok(),
                 keys::GEO_ORIGIN,
-                format!("{}, {}", o.latitude_deg, o.longitude_deg),
+                format!("{}, {}", o.position.latitude_deg, o.position.longitude_deg),
                 "a latitude within ±90 and a longitude within ±180 degrees, all finite",
             )?;
         }
@@ -149,16 +149,22 @@ pub fn replan(
     let launch = take_off(options, &flight)?;
     let mut summary = empty_plan(options, &coverage, launch, gaps.len());
     (summary.geo_origin, summary.geo_origin_from) = geo_origin(options, &flight);
-    let home = launch;
+    let placement = summary.geo_origin.map(|origin| Placement {
+        origin,
+        launch,
+        hover_s: options.hover_s,
+        speed_m_s: options.speed_m_s,
+        min_takeoff_m: options.clearance_m,
+    });
     if gaps.is_empty() {
-        return write(&run, summary, launch, options, started);
+        return write(&run, summary, placement.as_ref(), started);
     }
 
     let given = options.map.as_ref().or(coverage.map.as_ref());
     let (map, _) = ingest::load_map(&flight, given.map(PathBuf::as_path), Some(grid))?;
     summary.frame_id = map.cloud.frame_id.clone();
-    let space = FreeSpace::new(&map.voxels, options.clearance_m, &[home]);
-    let home = clear_home(&space, &map, home, &mut summary)?;
+    let space = FreeSpace::new(&map.voxels, options.clearance_m, &[launch]);
+    let home = clear_home(&space, &map, launch, &mut summary)?;
 
     let (found, mut by_gap) =
         viewpoints(&flight, &coverage, &map, &space, &targets, &gaps, progress)?;
@@ -179,7 +185,7 @@ pub fn replan(
         summary
             .warnings
             .push("no gap voxel can be inspected from a clear, reachable viewpoint".into());
-        return write(&run, summary, launch, options, started);
+        return write(&run, summary, placement.as_ref(), started);
     };
 
     let flights = split_sorties(options, &tour, &points, &space, &map)?;
@@ -202,7 +208,7 @@ pub fn replan(
         .map(|indices| fly(options, &tour, &points, &space, indices, &waypoint))
         .collect();
     summarise(&mut summary, tour);
-    write(&run, summary, launch, options, started)
+    write(&run, summary, placement.as_ref(), started)
 }
 
 /// The map frame on the Earth: as set, else from the flight's GPS fixes;
@@ -530,20 +536,12 @@ fn summarise(summary: &mut ReplanSummary, tour: Tour) {
 fn write(
     run: &RunDir,
     mut summary: ReplanSummary,
-    launch: Point3<f64>,
-    options: &ReplanOptions,
+    placement: Option<&Placement>,
     started: Instant,
 ) -> Result<ReplanSummary, ReplanError> {
     run.write_text(files::PATH_CSV, &ground_station::path_csv(&summary.sorties))?;
     remove_ground_station_files(run)?;
-    if let Some(origin) = summary.geo_origin.filter(|_| !summary.sorties.is_empty()) {
-        let placement = Placement {
-            origin: &origin,
-            launch,
-            hover_s: options.hover_s,
-            speed_m_s: options.speed_m_s,
-            min_takeoff_m: options.clearance_m,
-        };
+    if let Some(placement) = placement.filter(|_| !summary.sorties.is_empty()) {
         let count = summary.sorties.len();
         for (i, sortie) in summary.sorties.iter().enumerate() {
             let name = files::mission(i, count);
@@ -565,9 +563,9 @@ fn write(
 /// sorties, or no geo origin.
 fn remove_ground_station_files(run: &RunDir) -> Result<(), ReplanError> {
     let names = std::fs::read_dir(run.path())
-        .map_err(|source| postflight_core::Error::Open {
+        .map_err(|cause| postflight_core::Error::Open {
             path: run.path().to_owned(),
-            cause: source,
+            cause,
         })?
         .filter_map(|entry| entry.ok()?.file_name().into_string().ok());
     for name in names.filter(|n| files::is_mission(n)) {
