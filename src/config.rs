@@ -21,6 +21,53 @@ pub struct RunConfig {
     pub replan: ReplanConfig,
 }
 
+/// How far apart detection boxes may be and still merge, as `--merge-gap`
+/// and `merge_gap` take it: pixels, or `off`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum MergeGap {
+    Pixels(f32),
+    Off(Off),
+}
+
+/// The word `off` (a unit variant serialises as its name).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Off {
+    Off,
+}
+
+impl MergeGap {
+    pub fn pixels(self) -> Option<f32> {
+        match self {
+            MergeGap::Pixels(gap) => Some(gap),
+            MergeGap::Off(_) => None,
+        }
+    }
+}
+
+impl std::fmt::Display for MergeGap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MergeGap::Pixels(gap) => write!(f, "{gap}"),
+            MergeGap::Off(_) => f.write_str("off"),
+        }
+    }
+}
+
+impl std::str::FromStr for MergeGap {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s.eq_ignore_ascii_case("off") {
+            return Ok(MergeGap::Off(Off::Off));
+        }
+        s.parse()
+            .map(MergeGap::Pixels)
+            .map_err(|_| format!("'{s}' is neither a number of pixels nor 'off'"))
+    }
+}
+
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct IngestConfig {
@@ -44,7 +91,7 @@ pub struct DetectConfig {
     pub embeddings: Option<PathBuf>,
     pub confidence: Option<f32>,
     pub iou: Option<f32>,
-    pub merge_gap: Option<f32>,
+    pub merge_gap: Option<MergeGap>,
     pub image_size: Option<u32>,
     pub tile: Option<u32>,
     pub tile_overlap: Option<f32>,
@@ -175,7 +222,7 @@ impl RunConfig {
             embeddings: c.embeddings.clone(),
             confidence: c.confidence.unwrap_or(d.confidence),
             iou: c.iou.unwrap_or(d.iou),
-            merge_gap: c.merge_gap.unwrap_or(d.merge_gap),
+            merge_gap: c.merge_gap.map_or(d.merge_gap, MergeGap::pixels),
             image_size: c.image_size.unwrap_or(d.image_size),
             tile: c.tile.or(d.tile),
             tile_overlap: c.tile_overlap.unwrap_or(d.tile_overlap),
@@ -279,6 +326,10 @@ mod tests {
         let d = c.detect_options(Path::new("run"), Path::new("m.onnx"), None);
         assert_eq!(d.confidence, 0.4);
         assert!(toml::from_str::<RunConfig>("[detect]\nconfidense = 0.4\n").is_err());
+        let off = RunConfig::parse("[detect]\nmerge_gap = \"off\"\n").unwrap();
+        let d = off.detect_options(Path::new("run"), Path::new("m.onnx"), None);
+        assert_eq!(d.merge_gap, None);
+        assert!(RunConfig::parse("[detect]\nmerge_gap = \"of\"\n").is_err());
         assert!(toml::from_str::<RunConfig>("[detector]\n").is_err());
     }
 

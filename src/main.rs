@@ -331,9 +331,10 @@ struct DetectArgs {
     /// Overlap above which NMS drops the weaker box.
     #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_IOU)]
     iou: f32,
-    /// Same-class boxes this many pixels apart or closer merge into one (a crack found in pieces).
-    #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_MERGE_GAP, value_name = "PIXELS")]
-    merge_gap: f32,
+    /// Same-class boxes of comparable score this many pixels apart or closer merge into one
+    /// (a crack found in pieces); 'off' keeps every box.
+    #[arg(long, default_value_t = config::MergeGap::Pixels(detect::DetectOptions::DEFAULT_MERGE_GAP), value_name = "PIXELS|off")]
+    merge_gap: config::MergeGap,
     /// Input size for models with dynamic input, pixels.
     #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_IMAGE_SIZE)]
     imgsz: u32,
@@ -556,7 +557,7 @@ fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
         embeddings: args.embeddings.clone(),
         confidence: args.confidence,
         iou: args.iou,
-        merge_gap: args.merge_gap,
+        merge_gap: args.merge_gap.pixels(),
         image_size: args.imgsz,
         onnxruntime: args.onnxruntime.clone(),
         tile: args.tile,

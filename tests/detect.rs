@@ -291,7 +291,8 @@ fn reference_detector_meets_recall_and_precision_on_simulated_flights() {
 
 /// The same model, frames and settings through Python onnxruntime + NumPy +
 /// Pillow (detect/python/pipeline.py) give the same boxes and scores, to
-/// 1e-4: resized whole frames, tiles, and the open-vocabulary interface.
+/// 1e-4: resized whole frames, tiles, merging off, and the open-vocabulary
+/// interface.
 /// PNG frames, so both sides decode the same pixels.
 #[test]
 fn rust_matches_python_onnxruntime_on_the_same_frames() {
@@ -325,9 +326,11 @@ fn rust_matches_python_onnxruntime_on_the_same_frames() {
         "--prompt",
         "stain",
     ];
-    let cases: [(&Path, &[&str]); 3] = [
+    let cases: [(&Path, &[&str]); 4] = [
         (&baked, &[]),
         (&baked, &["--tile", "640"]),
+        // GATSBI's confidence, with and without merging (which keeps faint boxes apart).
+        (&baked, &["--confidence", "0.008", "--merge-gap", "off"]),
         (&open, &open_args),
     ];
     for (model, args) in cases {

@@ -121,9 +121,15 @@ def nms(dets, threshold):
     return kept
 
 
+MERGE_SCORE_RATIO = F(0.5)  # as detect/src/boxes.rs
+
+
 def merge_touching(dets, gap):
     def near(a, b):
         return a[0] <= b[2] + gap and b[0] <= a[2] + gap and a[1] <= b[3] + gap and b[1] <= a[3] + gap
+
+    def comparable(a, b):
+        return min(a["score"], b["score"]) >= MERGE_SCORE_RATIO * max(a["score"], b["score"])
 
     merged = True
     while merged:
@@ -131,7 +137,7 @@ def merge_touching(dets, gap):
         for i in range(len(dets)):
             for j in range(i + 1, len(dets)):
                 a, b = dets[i], dets[j]
-                if a["class"] == b["class"] and near(a["box"], b["box"]):
+                if a["class"] == b["class"] and near(a["box"], b["box"]) and comparable(a, b):
                     dets[i] = {
                         "box": tuple(f(p, q) for f, p, q in zip((min, min, max, max), a["box"], b["box"])),
                         "score": max(a["score"], b["score"]),
@@ -169,7 +175,7 @@ def main():
     ap.add_argument("--prompt", action="append")
     ap.add_argument("--confidence", type=float, default=0.25)
     ap.add_argument("--iou", type=float, default=0.5)
-    ap.add_argument("--merge-gap", type=float, default=20.0)
+    ap.add_argument("--merge-gap", default="20", help="pixels, or 'off'")
     ap.add_argument("--imgsz", type=int, default=640)
     ap.add_argument("--tile", type=int)
     ap.add_argument("--tile-overlap", type=float, default=0.2)
@@ -214,7 +220,10 @@ def main():
                     )
                     dets.append({"box": box, "score": score[a], "class": int(cls[a]), "tile": tile})
             dets = [d for d in dets if area(d["box"]) > 0]
-            for d in merge_touching(nms(dets, iou_threshold), F(args.merge_gap)):
+            kept = nms(dets, iou_threshold)
+            if args.merge_gap != "off":
+                kept = merge_touching(kept, F(args.merge_gap))
+            for d in kept:
                 x0, y0, x1, y1 = (float(v) for v in d["box"])
                 found.append(
                     {

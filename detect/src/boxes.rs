@@ -26,12 +26,22 @@ pub fn nms(mut detections: Vec<Detection>, iou: f32) -> Vec<Detection> {
     kept
 }
 
-/// Merge same-class boxes that overlap or lie within `gap` pixels of each
-/// other into their union, keeping the best score: a long crack reported
-/// piecewise (by grid cells or by tiles) becomes one box.
+/// A box merges into a neighbour only when its score is at least this share
+/// of the neighbour's. A faint response beside a confident crack box (as at
+/// GATSBI's confidence of 0.008) is noise or another finding, and merging it
+/// would stretch the crack's box over it.
+pub const MERGE_SCORE_RATIO: f32 = 0.5;
+
+/// Merge same-class boxes of comparable score (see [`MERGE_SCORE_RATIO`])
+/// that overlap or lie within `gap` pixels of each other into their union,
+/// keeping the best score: a long crack reported piecewise (by grid cells or
+/// by tiles) becomes one box.
 pub fn merge_touching(mut detections: Vec<Detection>, gap: f32) -> Vec<Detection> {
     let near = |a: &BoxXyxy, b: &BoxXyxy| {
         a.x0 <= b.x1 + gap && b.x0 <= a.x1 + gap && a.y0 <= b.y1 + gap && b.y0 <= a.y1 + gap
+    };
+    let comparable = |a: &Detection, b: &Detection| {
+        a.score.min(b.score) >= MERGE_SCORE_RATIO * a.score.max(b.score)
     };
     let mut merged = true;
     while merged {
@@ -39,7 +49,7 @@ pub fn merge_touching(mut detections: Vec<Detection>, gap: f32) -> Vec<Detection
         'search: for i in 0..detections.len() {
             for j in i + 1..detections.len() {
                 let (a, b) = (detections[i], detections[j]);
-                if a.class == b.class && near(&a.bbox, &b.bbox) {
+                if a.class == b.class && near(&a.bbox, &b.bbox) && comparable(&a, &b) {
                     detections[i] = Detection {
                         bbox: BoxXyxy {
                             x0: a.bbox.x0.min(b.bbox.x0),
@@ -114,6 +124,14 @@ mod tests {
                 (40.0, 50.0, 0.3, 0)
             ]
         );
+    }
+
+    #[test]
+    fn a_box_scored_far_below_its_neighbour_is_not_merged_into_it() {
+        // 2 px apart, but 0.01 is under half of 0.9: two findings, not one wide box.
+        let out = merge_touching(vec![det(0.0, 0.9, 0), det(12.0, 0.01, 0)], 4.0);
+        let summary: Vec<(f32, f32)> = out.iter().map(|d| (d.bbox.x0, d.bbox.x1)).collect();
+        assert_eq!(summary, vec![(0.0, 10.0), (12.0, 22.0)]);
     }
 
     #[test]

@@ -55,7 +55,8 @@ pub struct DetectOptions {
     pub iou: f32,
     /// Same-class boxes this close, frame pixels, merge into one finding: a
     /// faint stretch of a crack splits the detector's response into pieces.
-    pub merge_gap: f32,
+    /// `None` keeps every box NMS kept.
+    pub merge_gap: Option<f32>,
     /// Input size for models with dynamic input, pixels (square).
     pub image_size: u32,
     /// ONNX Runtime library (default: found by [`locate`]).
@@ -88,7 +89,7 @@ impl DetectOptions {
             embeddings: None,
             confidence: Self::DEFAULT_CONFIDENCE,
             iou: Self::DEFAULT_IOU,
-            merge_gap: Self::DEFAULT_MERGE_GAP,
+            merge_gap: Some(Self::DEFAULT_MERGE_GAP),
             image_size: Self::DEFAULT_IMAGE_SIZE,
             onnxruntime: None,
             tile: None,
@@ -120,12 +121,14 @@ impl DetectOptions {
             self.image_size,
             "a multiple of 32",
         )?;
-        InvalidSetting::check(
-            (0.0..=10_000.0).contains(&self.merge_gap),
-            keys::MERGE_GAP,
-            self.merge_gap,
-            "0 or more pixels",
-        )?;
+        if let Some(gap) = self.merge_gap {
+            InvalidSetting::check(
+                (0.0..=10_000.0).contains(&gap),
+                keys::MERGE_GAP,
+                gap,
+                "0 or more pixels, or off",
+            )?;
+        }
         InvalidSetting::check(
             (1..=256).contains(&self.batch),
             keys::BATCH,
@@ -548,7 +551,11 @@ impl Detector {
             .map(|mut detections| {
                 detections.retain(|d| d.bbox.area() > 0.0);
                 // Grid cells and tiles report a long crack piecewise: join the pieces.
-                merge_touching(nms(detections, options.iou), options.merge_gap)
+                let kept = nms(detections, options.iou);
+                match options.merge_gap {
+                    Some(gap) => merge_touching(kept, gap),
+                    None => kept,
+                }
             })
             .collect())
     }

@@ -51,7 +51,8 @@ pub struct DetectSummary {
     pub tile: Option<u32>,
     pub confidence: f32,
     pub iou: f32,
-    pub merge_gap: f32,
+    /// Pixels; `None` when merging was off.
+    pub merge_gap: Option<f32>,
     pub frames: u64,
     pub frames_run: u64,
     pub detections: u64,
