@@ -251,6 +251,7 @@ impl RunConfig {
                     .max_normal_angle_deg
                     .unwrap_or(d.fusion.max_normal_angle_deg),
             },
+            view: self.view,
             ..d
         }
     }

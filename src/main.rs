@@ -309,6 +309,9 @@ struct LocaliseArgs {
     /// Largest angle between the surfaces of two views of one crack, degrees.
     #[arg(long, default_value_t = localise::FusionOptions::default().max_normal_angle_deg, value_name = "DEGREES")]
     max_normal_angle: f64,
+    /// Settings file (postflight.toml): its [view] table is the View model each view is judged by.
+    #[arg(long, value_name = "postflight.toml")]
+    config: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -570,7 +573,9 @@ fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
 }
 
 fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
+    let config = config::RunConfig::load_or_default(args.config.as_deref())?;
     let options = localise::LocaliseOptions {
+        view: config.view,
         map: args.map.clone(),
         plan: args.plan.clone().map(PlanFile::new),
         max_range_m: args.max_range,

@@ -7,7 +7,8 @@
 //! - The map: point clouds (PLY, PCD), voxel occupancy, the KD-tree of map
 //!   points and ray casting through voxels ([`map`]), with one
 //!   [`FaceSide`] for a voxel's sides.
-//! - The plan that was flown and the View model it was made for ([`plan`]).
+//! - The plan that was flown and the View model it was made for ([`plan`]),
+//!   and a frame's motion blur, which the View model judges ([`motion`]).
 //! - Detections: boxes with their scores ([`detection`]).
 //! - The run directory ([`RunDir`]: atomic writes), the run log of
 //!   `postflight run` ([`RunLog`]), and the file contract ([`outputs`]):
@@ -25,6 +26,7 @@ pub mod flight;
 pub mod frame;
 pub mod geo;
 pub mod map;
+pub mod motion;
 pub mod outputs;
 pub mod plan;
 pub mod pose;
@@ -41,7 +43,9 @@ pub use flight::Flight;
 pub use frame::{Frame, ImageStatus, MessageLocation, PoseStatus};
 pub use map::FaceSide;
 pub use outputs::Stage;
-pub use plan::{FlownPlan, InspectionPlan, PathPoint, PlanFile, ViewModel, Viewpoint, YawUnit};
+pub use plan::{
+    FlownPlan, InspectionPlan, PathPoint, PlanFile, ViewModel, ViewSettings, Viewpoint, YawUnit,
+};
 pub use run_dir::RunDir;
 pub use run_log::{InputFile, RunLog, StageRecord};
 pub use setting::{InvalidSetting, Key};

@@ -10,8 +10,8 @@
 //! is not inspected, the furthest rule any shot got to. Occlusion walks the
 //! voxel map by DDA and searches only occupied voxels for map points near
 //! the line of sight, so a ray that passes beside a surface inside a voxel
-//! is not stopped by the voxel. [`motion`] judges blur from the fitted
-//! camera velocity; [`reach`] tries standpoints across the band and the
+//! is not stopped by the voxel. `postflight_core::motion` judges blur
+//! from the fitted camera velocity; [`reach`] tries standpoints across the band and the
 //! incidence limit for faces nobody inspected, to tell gaps from the
 //! uninspectable; [`targets`] says which voxels are the structure. The
 //! stage ([`stage`]) writes `coverage.parquet` and `coverage.json` (laid
@@ -22,7 +22,6 @@
 pub mod cover;
 pub mod error;
 pub mod face;
-pub mod motion;
 pub mod reach;
 pub mod records;
 pub mod settings;

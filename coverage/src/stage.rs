@@ -9,12 +9,13 @@ use std::time::Instant;
 
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use postflight_core::map::{PointCloud, SlamMap, VoxelGrid, VoxelIndex};
+use postflight_core::motion::frame_blur_px;
 use postflight_core::outputs::coverage::{
     self as outputs, CoverageSummary, ReasonCounts, VoxelRecord, files,
 };
 use postflight_core::outputs::localise::read_defects;
 use postflight_core::{
-    Flight, FlownPlan, Intrinsics, InvalidSetting, Key, PlanFile, PoseAt, RunDir, Stage, ViewModel,
+    Flight, FlownPlan, Intrinsics, InvalidSetting, Key, PlanFile, RunDir, Stage, ViewModel,
     Viewpoint,
 };
 use rayon::prelude::*;
@@ -22,7 +23,6 @@ use rayon::prelude::*;
 use crate::cover::{FaceCover, Shot, cover};
 use crate::error::CoverageError;
 use crate::face::{Face, exposed_faces};
-use crate::motion::{blur_px, velocity};
 use crate::reach::inspectable;
 use crate::records::voxel_records;
 use crate::settings::{CoverageSettings, ViewSettings};
@@ -617,21 +617,8 @@ fn flight_shots(
         if exposure.is_none() {
             out.without_exposure += 1;
         }
-        let blur = exposure.and_then(|e| {
-            let extrinsic = flight.cameras[lens].extrinsic?;
-            let PoseAt::Pose(body) = flight.trajectory.at(frame.time_ns, i64::MAX) else {
-                return None;
-            };
-            let v = velocity(&flight.trajectory, frame.time_ns)?;
-            Some(blur_px(
-                &body,
-                &extrinsic,
-                &lenses[lens],
-                &v,
-                e,
-                &map.voxels,
-            ))
-        });
+        let blur =
+            exposure.and_then(|e| frame_blur_px(flight, frame, &lenses[lens], e, &map.voxels));
         out.shots.push(Shot {
             id: frame.index,
             camera,

@@ -236,12 +236,13 @@ fn main() {
         map: &map,
         structure: None,
         max_range: 30.0,
+        view: &postflight_core::ViewModel::default(),
     };
 
     let start = Instant::now();
     let observations: Vec<Observation> = work
         .par_iter()
-        .map(|(pose, d, t)| scene.place(d.clone(), pose, &k, Some(t)))
+        .map(|(pose, d, t)| scene.place(d.clone(), pose, &k, Some(t), None))
         .collect();
     let placing = start.elapsed().as_secs_f64();
     let start = Instant::now();

@@ -10,6 +10,7 @@
 
 pub mod crop;
 pub mod error;
+pub mod evidence;
 pub mod fusion;
 pub mod observation;
 pub mod records;

@@ -6,10 +6,12 @@
 use std::collections::HashSet;
 
 use nalgebra::{Isometry3, Point2, Point3, Vector3};
-use postflight_core::Intrinsics;
 use postflight_core::detection::FrameDetection;
 use postflight_core::map::{SlamMap, VoxelIndex};
-use postflight_core::outputs::localise::Outcome;
+use postflight_core::outputs::localise::{Outcome, ViewFault};
+use postflight_core::{Intrinsics, ViewModel};
+
+use crate::evidence::{view_faults, view_gsd_mm};
 
 use crate::surface::{self, SurfaceHit};
 use crate::trace::CrackTrace;
@@ -44,6 +46,12 @@ pub struct Placement {
     /// Oblique ground sampling distance of the view, millimetres per pixel
     /// (see [`SurfaceHit::oblique_gsd_mm`]).
     pub oblique_gsd_mm: f64,
+    /// The View model's GSD of the view (fronto-parallel at its range).
+    pub view_gsd_mm: f64,
+    /// The frame's motion blur, pixels (`None`: unknown).
+    pub blur_px: Option<f64>,
+    /// The View model's rules the view breaks.
+    pub view_faults: Vec<ViewFault>,
 }
 
 /// What a detection is placed against.
@@ -53,13 +61,15 @@ pub struct Scene<'a> {
     pub structure: Option<&'a HashSet<VoxelIndex>>,
     /// Rays end here, metres.
     pub max_range: f64,
+    /// The rules each view is judged by.
+    pub view: &'a ViewModel,
 }
 
 /// Pixels from the image border within which a box counts as clipped.
 const BORDER_PX: f32 = 3.0;
 /// Views more oblique than this do not measure length, degrees (the View
 /// model's default largest incidence for an inspection view).
-const MAX_MEASURED_INCIDENCE_DEG: f64 = 60.0;
+pub const MAX_MEASURED_INCIDENCE_DEG: f64 = 60.0;
 /// Rays cast per detection, spread along the crack.
 const RAYS: usize = 7;
 /// Rays whose hit lies this far off the crack's surface met something else
@@ -67,13 +77,15 @@ const RAYS: usize = 7;
 const OFF_SURFACE: f64 = 0.25;
 
 impl Scene<'_> {
-    /// Place a detection seen by a camera at `pose` (`T_world_camera`, optical frame).
+    /// Place a detection seen by a camera at `pose` (`T_world_camera`,
+    /// optical frame) in a frame blurred by `blur_px` (`None`: unknown).
     pub fn place(
         &self,
         detection: FrameDetection,
         pose: &Isometry3<f64>,
         k: &Intrinsics,
         trace: Option<&CrackTrace>,
+        blur_px: Option<f64>,
     ) -> Observation {
         let b = detection.detection.bbox;
         let (w, h) = (k.width as f32, k.height as f32);
@@ -159,8 +171,18 @@ impl Scene<'_> {
             Some(structure) if !near_structure(structure, hit.voxel) => Outcome::Obstacle,
             _ => Outcome::Placed,
         };
+        let f_px = k.fx.min(k.fy);
         observation.placement = Some(Placement {
-            oblique_gsd_mm: hit.oblique_gsd_mm(k.fx.min(k.fy)),
+            oblique_gsd_mm: hit.oblique_gsd_mm(f_px),
+            view_gsd_mm: view_gsd_mm(hit.range, f_px),
+            blur_px,
+            view_faults: view_faults(
+                self.view,
+                hit.range,
+                hit.incidence.to_degrees(),
+                f_px,
+                blur_px,
+            ),
             hit,
             centre,
             extent,
@@ -331,6 +353,7 @@ mod tests {
             map: &map,
             structure: None,
             max_range: 30.0,
+            view: &ViewModel::default(),
         };
         let (pose, k) = camera();
         // A diagonal crack near the image corner, where distortion is strongest.
@@ -341,7 +364,7 @@ mod tests {
             corner[0] < 120.0 && corner[1] < 120.0,
             "crack not in a corner: {corner:?}"
         );
-        let o = scene.place(detection(corner), &pose, &k, Some(&t));
+        let o = scene.place(detection(corner), &pose, &k, Some(&t), None);
         assert_eq!(o.outcome, Outcome::Placed);
         let p = o.placement.unwrap();
         let mid = Point3::from((a.coords + b.coords) / 2.0);
@@ -357,11 +380,11 @@ mod tests {
             distortion: Distortion::None,
             ..k.clone()
         };
-        let wrong = scene.place(detection(corner), &pose, &pinhole, Some(&t));
+        let wrong = scene.place(detection(corner), &pose, &pinhole, Some(&t), None);
         assert!((wrong.placement.unwrap().centre - mid).norm() > 0.05);
         // So would ignoring the mounting.
         let body_only = pose * Isometry3::translation(0.0, 0.12, -0.25);
-        let wrong = scene.place(detection(corner), &body_only, &k, Some(&t));
+        let wrong = scene.place(detection(corner), &body_only, &k, Some(&t), None);
         assert!((wrong.placement.unwrap().centre - mid).norm() > 0.1);
     }
 
@@ -381,9 +404,10 @@ mod tests {
             map: &map,
             structure: None,
             max_range: 1.0,
+            view: &ViewModel::default(),
         };
         assert_eq!(
-            near.place(detection(b), &pose, &k, Some(&t)).outcome,
+            near.place(detection(b), &pose, &k, Some(&t), None).outcome,
             Outcome::NoSurface
         );
         // On a surface that is not the structure.
@@ -392,13 +416,14 @@ mod tests {
             map: &map,
             structure: Some(&elsewhere),
             max_range: 30.0,
+            view: &ViewModel::default(),
         };
         assert_eq!(
-            scene.place(detection(b), &pose, &k, Some(&t)).outcome,
+            scene.place(detection(b), &pose, &k, Some(&t), None).outcome,
             Outcome::Obstacle
         );
         // Without a trace the box's centre and diagonals place it.
-        let o = scene.place(detection(b), &pose, &k, None);
+        let o = scene.place(detection(b), &pose, &k, None, None);
         assert_eq!(o.traced_px, 0);
         assert!(o.placement.unwrap().length_m.is_none());
     }

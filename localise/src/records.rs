@@ -31,10 +31,10 @@ pub fn defect_record(
         face: c.face,
         length_m: c.length_m,
         length_views: c.length_views,
-        length_partial: c.length_partial,
         frames: c.frames,
         confidence: c.confidence,
         max_score: c.max_score,
+        evidence: c.evidence.clone(),
         crop,
         best: view(&observations[c.best]).expect("a candidate's views are placed"),
         views: c

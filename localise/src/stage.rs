@@ -11,11 +11,14 @@ use ingest::Recording;
 use nalgebra::Point3;
 use postflight_core::detection::FrameDetection;
 use postflight_core::map::{SlamMap, VoxelIndex};
+use postflight_core::motion::frame_blur_px;
 use postflight_core::outputs::detect::read_detections;
 use postflight_core::outputs::localise::{
     self as outputs, LocaliseSummary, Outcome, Outcomes, files,
 };
-use postflight_core::{Flight, FlownPlan, Frame, InvalidSetting, PlanFile, RunDir, Stage};
+use postflight_core::{
+    Flight, FlownPlan, Frame, InvalidSetting, PlanFile, RunDir, Stage, ViewSettings,
+};
 use rayon::prelude::*;
 
 use crate::crop::write_crop;
@@ -45,6 +48,9 @@ pub struct LocaliseOptions {
     /// Rays end here, metres.
     pub max_range_m: f64,
     pub fusion: FusionOptions,
+    /// The View model each view is judged by, over the plan's (or the
+    /// defaults): the same settings coverage takes.
+    pub view: ViewSettings,
 }
 
 impl LocaliseOptions {
@@ -57,6 +63,7 @@ impl LocaliseOptions {
             plan: None,
             max_range_m: Self::DEFAULT_MAX_RANGE_M,
             fusion: FusionOptions::default(),
+            view: ViewSettings::default(),
         }
     }
 
@@ -108,10 +115,14 @@ pub fn localise(
         .as_ref()
         .and_then(FlownPlan::target_voxels)
         .map(|targets| targets.iter().copied().collect());
+    let view = options
+        .view
+        .apply(plan.as_ref().and_then(FlownPlan::view).unwrap_or_default());
     let scene = Scene {
         map: &map,
         structure: structure.as_ref(),
         max_range: options.max_range_m,
+        view: &view,
     };
     let recording = Recording::reopen(&flight)?;
 
@@ -269,6 +280,10 @@ fn place_frame(
             )),
         ),
     };
+    // Unknown without an exposure time: the view's blur is then not judged.
+    let blur_px = frame
+        .exposure_s
+        .and_then(|e| frame_blur_px(flight, frame, k, e, &scene.map.voxels));
     let observations = detections
         .iter()
         .map(|d| {
@@ -276,7 +291,7 @@ fn place_frame(
             let crack = gray
                 .as_ref()
                 .and_then(|g| trace(g, [b.x0, b.y0, b.x1, b.y1]));
-            scene.place(d.clone(), &pose, k, crack.as_ref())
+            scene.place(d.clone(), &pose, k, crack.as_ref(), blur_px)
         })
         .collect();
     (observations, warning)

@@ -8,7 +8,7 @@
 use base64::Engine;
 use maud::{DOCTYPE, Markup, PreEscaped, html};
 use postflight_core::outputs::coverage::CoverageSummary;
-use postflight_core::outputs::localise::DefectRecord;
+use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
 use postflight_core::outputs::replan::{ReplanSummary, Unplannable};
 use postflight_core::outputs::report::RunSummary;
 
@@ -87,12 +87,15 @@ pub fn readable_time(rfc3339: &str) -> String {
 }
 
 /// A candidate's estimated length: "≥" marks a lower bound (its views were
-/// cut by the image border), a dash an unknown length.
+/// cut by the image border); an unknown length says why.
 pub fn length_text(d: &DefectRecord) -> String {
-    match (d.length_m, d.length_partial) {
-        (Some(l), false) => format!("{l:.2} m"),
-        (Some(l), true) => format!("\u{2265} {l:.2} m"),
-        (None, _) => "\u{2013}".into(),
+    match (d.length_m, d.evidence.length) {
+        (Some(l), LengthStatus::Partial) => format!("\u{2265} {l:.2} m"),
+        (Some(l), _) => format!("{l:.2} m"),
+        (None, status) => format!(
+            "\u{2013} ({})",
+            status.missing_reason().unwrap_or("not measured")
+        ),
     }
 }
 

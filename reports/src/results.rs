@@ -157,7 +157,14 @@ impl RunResults {
     }
 }
 
-/// How urgently a candidate needs a reviewer's eye.
+/// How urgently a candidate needs a reviewer's eye: its confidence times
+/// its size. A candidate without a measured length counts at the diagonal
+/// of its extent on the surface (what its boxes place), so an unmeasured
+/// crack is not buried beneath every measured one.
 pub fn review_priority(d: &DefectRecord) -> f64 {
-    d.confidence * d.length_m.unwrap_or(0.0).max(0.05)
+    let size = d.length_m.unwrap_or_else(|| {
+        let [lo, hi] = [d.extent_min, d.extent_max];
+        (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt()
+    });
+    d.confidence * size.max(0.05)
 }

@@ -160,6 +160,124 @@ pub struct ViewRecord {
     pub clipped: bool,
 }
 
+/// A rule of the View model a view breaks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ViewFault {
+    /// Farther than the distance band.
+    TooFar,
+    /// Nearer than the distance band.
+    TooClose,
+    /// Seen more obliquely than the largest incidence.
+    TooOblique,
+    /// GSD coarser than the View model's target.
+    TooCoarse,
+    /// The frame is motion-blurred beyond the threshold.
+    Blurred,
+}
+
+impl ViewFault {
+    pub const ALL: [Self; 5] = [
+        Self::TooFar,
+        Self::TooClose,
+        Self::TooOblique,
+        Self::TooCoarse,
+        Self::Blurred,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::TooFar => "too_far",
+            Self::TooClose => "too_close",
+            Self::TooOblique => "too_oblique",
+            Self::TooCoarse => "too_coarse",
+            Self::Blurred => "blurred",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|f| f.as_str() == s)
+    }
+}
+
+/// Whether a candidate's length was measured, and if not, why.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LengthStatus {
+    /// From at least one view that shows the whole crack.
+    Measured,
+    /// Only from views the image border cuts: the crack is at least this long.
+    Partial,
+    /// Every view is too oblique to measure on.
+    TooOblique,
+    /// No view traced the crack's line (its boxes placed it).
+    NotTraced,
+    /// The only traced views are far away and cut by the image border.
+    FarAndCut,
+}
+
+impl LengthStatus {
+    pub const ALL: [Self; 5] = [
+        Self::Measured,
+        Self::Partial,
+        Self::TooOblique,
+        Self::NotTraced,
+        Self::FarAndCut,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Measured => "measured",
+            Self::Partial => "partial",
+            Self::TooOblique => "too_oblique",
+            Self::NotTraced => "not_traced",
+            Self::FarAndCut => "far_and_cut",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|l| l.as_str() == s)
+    }
+
+    /// Why there is no length, for people; `None` when there is one.
+    pub fn missing_reason(self) -> Option<&'static str> {
+        match self {
+            Self::Measured | Self::Partial => None,
+            Self::TooOblique => Some("every view is too oblique to measure on"),
+            Self::NotTraced => Some("no view traced the crack's line"),
+            Self::FarAndCut => Some("its only traced views are far and cut by the image border"),
+        }
+    }
+}
+
+/// How far a candidate's evidence can be trusted, and what it lacks.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Evidence {
+    /// The View model's rules the best view breaks; empty when it meets them.
+    pub view_faults: Vec<ViewFault>,
+    /// The best view's GSD as the View model measures it (fronto-parallel
+    /// at its range), millimetres; see [`ViewRecord::oblique_gsd_mm`] for
+    /// the footprint along the surface.
+    pub view_gsd_mm: f64,
+    /// The best frame's motion blur, pixels; `None` when its exposure time
+    /// is unknown (blur not judged).
+    pub blur_px: Option<f64>,
+    pub length: LengthStatus,
+    /// Narrowest crack width the best view can measure, millimetres: two
+    /// of its pixels along the surface. A narrower crack (a hairline at a
+    /// few mm/px) shows as a line below a pixel wide, and its width is not
+    /// measured from this flight.
+    pub min_measurable_width_mm: f64,
+    /// Weak evidence (the best view breaks the View model, or no length):
+    /// the spot belongs in the follow-up flight.
+    pub reshoot: bool,
+}
+
+impl Evidence {
+    /// The narrowest measurable width spans this many pixels.
+    pub const MIN_WIDTH_PX: f64 = 2.0;
+}
+
 /// One defect candidate in `defects.json`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct DefectRecord {
@@ -173,11 +291,10 @@ pub struct DefectRecord {
     pub face: FaceSide,
     pub length_m: Option<f64>,
     pub length_views: u32,
-    /// The length is a lower bound from views the image border cuts.
-    pub length_partial: bool,
     pub frames: u32,
     pub confidence: f64,
     pub max_score: f64,
+    pub evidence: Evidence,
     /// JPEG of the best view, relative to the run directory (none when its
     /// image could not be decoded).
     pub crop: Option<String>,
@@ -445,15 +562,42 @@ fn defects_table(defects: &[DefectRecord]) -> PolarsResult<DataFrame> {
             d.iter().map(|d| d.length_views).collect::<Vec<u32>>(),
         ),
         Column::new(
-            "length_partial".into(),
-            d.iter().map(|d| d.length_partial).collect::<Vec<bool>>(),
-        ),
-        Column::new(
             "frames".into(),
             d.iter().map(|d| d.frames).collect::<Vec<u32>>(),
         ),
         Column::new("confidence".into(), f(&|d| d.confidence)),
         Column::new("max_score".into(), f(&|d| d.max_score)),
+        Column::new(
+            "view_faults".into(),
+            d.iter()
+                .map(|d| {
+                    let faults: Vec<&str> =
+                        d.evidence.view_faults.iter().map(|f| f.as_str()).collect();
+                    faults.join(",")
+                })
+                .collect::<Vec<String>>(),
+        ),
+        Column::new("view_gsd_mm".into(), f(&|d| d.evidence.view_gsd_mm)),
+        Column::new(
+            "blur_px".into(),
+            d.iter()
+                .map(|d| d.evidence.blur_px)
+                .collect::<Vec<Option<f64>>>(),
+        ),
+        Column::new(
+            "length_status".into(),
+            d.iter()
+                .map(|d| d.evidence.length.as_str())
+                .collect::<Vec<&str>>(),
+        ),
+        Column::new(
+            "min_measurable_width_mm".into(),
+            f(&|d| d.evidence.min_measurable_width_mm),
+        ),
+        Column::new(
+            "reshoot".into(),
+            d.iter().map(|d| d.evidence.reshoot).collect::<Vec<bool>>(),
+        ),
         Column::new(
             "best_frame".into(),
             d.iter().map(|d| d.best.frame).collect::<Vec<u32>>(),
@@ -504,10 +648,19 @@ fn defects_from(
     let (extent_min, extent_max) = (triple("min_")?, triple("max_")?);
     let voxel = [i32s("voxel_x")?, i32s("voxel_y")?, i32s("voxel_z")?];
     let (length, length_views) = (f64s("length_m")?, u32s("length_views")?);
-    let length_partial = df.column("length_partial")?.bool()?;
     let (frames, confidence, max_score) =
         (u32s("frames")?, f64s("confidence")?, f64s("max_score")?);
     let best_frame = u32s("best_frame")?;
+    let (faults, length_status) = (
+        df.column("view_faults")?.str()?,
+        df.column("length_status")?.str()?,
+    );
+    let (view_gsd, blur, min_width) = (
+        f64s("view_gsd_mm")?,
+        f64s("blur_px")?,
+        f64s("min_measurable_width_mm")?,
+    );
+    let reshoot = df.column("reshoot")?.bool()?;
     let best_box = [
         f32s("best_x0")?,
         f32s("best_y0")?,
@@ -536,10 +689,25 @@ fn defects_from(
                 face: parsed(face, i, FaceSide::parse)?,
                 length_m: length.get(i),
                 length_views: required(length_views, i)?,
-                length_partial: required(length_partial, i)?,
                 frames: required(frames, i)?,
                 confidence: required(confidence, i)?,
                 max_score: required(max_score, i)?,
+                evidence: Evidence {
+                    view_faults: required(faults, i)?
+                        .split(',')
+                        .filter(|f| !f.is_empty())
+                        .map(|f| {
+                            ViewFault::parse(f).ok_or_else(
+                                || polars_err!(ComputeError: "unknown view fault {f:?}"),
+                            )
+                        })
+                        .collect::<PolarsResult<_>>()?,
+                    view_gsd_mm: required(view_gsd, i)?,
+                    blur_px: blur.get(i),
+                    length: parsed(length_status, i, LengthStatus::parse)?,
+                    min_measurable_width_mm: required(min_width, i)?,
+                    reshoot: required(reshoot, i)?,
+                },
                 crop: crop.get(i).map(str::to_string),
                 best,
                 views,
@@ -614,10 +782,21 @@ mod tests {
                 face: FaceSide::NegX,
                 length_m: Some(0.42),
                 length_views: 1,
-                length_partial: false,
                 frames: views.len() as u32,
                 confidence: 0.8,
                 max_score: 0.53,
+                evidence: Evidence {
+                    view_faults: if best == 3 {
+                        vec![ViewFault::TooFar, ViewFault::Blurred]
+                    } else {
+                        Vec::new()
+                    },
+                    view_gsd_mm: 3.5,
+                    blur_px: (best == 3).then_some(4.5),
+                    length: LengthStatus::Measured,
+                    min_measurable_width_mm: 7.6,
+                    reshoot: best == 3,
+                },
                 crop: Some(format!("defects/{id}.jpg")),
                 best: views.iter().find(|v| v.frame == best).unwrap().clone(),
                 views,

@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
+use postflight_core::outputs::localise::LengthStatus;
 use postflight_core::outputs::{parsed, required};
 use postflight_core::{FaceSide, RunDir};
 use serde::Serialize;
@@ -37,7 +38,9 @@ pub struct AcceptedDefect {
     pub z: f64,
     pub face: FaceSide,
     pub length_m: Option<f64>,
-    pub length_partial: bool,
+    /// Measured, a lower bound (`partial`), or why it is missing.
+    #[serde(serialize_with = "length_status")]
+    pub length_status: LengthStatus,
     pub confidence: f64,
     pub frames: u32,
     pub best_frame: u32,
@@ -46,6 +49,11 @@ pub struct AcceptedDefect {
     #[serde(rename = "gsd_mm")]
     pub oblique_gsd_mm: f64,
     pub range_m: f64,
+}
+
+/// A length status as its name (the CSV's and Parquet's text).
+fn length_status<S: serde::Serializer>(s: &LengthStatus, to: S) -> Result<S::Ok, S::Error> {
+    to.serialize_str(s.as_str())
 }
 
 /// The accepted defects, in review order.
@@ -71,7 +79,7 @@ pub fn accepted_defects(queue: &Queue) -> Vec<AcceptedDefect> {
                 z: c.position[2],
                 face: c.face,
                 length_m: c.length_m,
-                length_partial: c.length_partial,
+                length_status: c.evidence.length,
                 confidence: c.confidence,
                 frames: c.frames,
                 best_frame: c.best.frame,
@@ -105,10 +113,7 @@ fn accepted_table(rows: &[AcceptedDefect]) -> PolarsResult<DataFrame> {
             "length_m".into(),
             rows.iter().map(|r| r.length_m).collect::<Vec<_>>(),
         ),
-        Column::new(
-            "length_partial".into(),
-            rows.iter().map(|r| r.length_partial).collect::<Vec<_>>(),
-        ),
+        Column::new("length_status".into(), text(|r| r.length_status.as_str())),
         Column::new("confidence".into(), float(|r| r.confidence)),
         Column::new(
             "frames".into(),
@@ -138,7 +143,7 @@ fn accepted_from(df: &DataFrame) -> PolarsResult<Vec<AcceptedDefect>> {
     let severity = df.column("severity")?.i32()?;
     let (x, y, z) = (f64s("x")?, f64s("y")?, f64s("z")?);
     let (length, confidence) = (f64s("length_m")?, f64s("confidence")?);
-    let length_partial = df.column("length_partial")?.bool()?;
+    let length_status = text("length_status")?;
     let (frames, best_frame) = (u32s("frames")?, u32s("best_frame")?);
     let (gsd, range) = (f64s("gsd_mm")?, f64s("range_m")?);
     (0..df.height())
@@ -155,7 +160,7 @@ fn accepted_from(df: &DataFrame) -> PolarsResult<Vec<AcceptedDefect>> {
                 z: required(z, i)?,
                 face: parsed(face, i, FaceSide::parse)?,
                 length_m: length.get(i),
-                length_partial: required(length_partial, i)?,
+                length_status: parsed(length_status, i, LengthStatus::parse)?,
                 confidence: required(confidence, i)?,
                 frames: required(frames, i)?,
                 best_frame: required(best_frame, i)?,
@@ -307,7 +312,11 @@ mod tests {
             z: 3.0,
             face: FaceSide::PosZ,
             length_m,
-            length_partial: length_m.is_none(),
+            length_status: if length_m.is_some() {
+                LengthStatus::Measured
+            } else {
+                LengthStatus::TooOblique
+            },
             confidence: 0.9,
             frames: 4,
             best_frame: 17,

@@ -30,8 +30,12 @@ pub(crate) mod testing {
         serde_json::from_value(serde_json::json!({
             "id": id, "position": [0.0, 0.0, 0.0], "normal": [1.0, 0.0, 0.0],
             "extent_min": [0.0, 0.0, 0.0], "extent_max": [0.0, 0.5, 0.0], "voxel": [0, 0, 0],
-            "face": "+x", "length_m": 0.5, "length_views": 1, "length_partial": false,
+            "face": "+x", "length_m": 0.5, "length_views": 1,
             "frames": 1, "confidence": confidence, "max_score": confidence, "crop": null,
+            "evidence": {
+                "view_faults": [], "view_gsd_mm": 3.0, "blur_px": null, "length": "measured",
+                "min_measurable_width_mm": 6.0, "reshoot": false
+            },
             "best": view, "views": [view]
         }))
         .unwrap()

@@ -7,7 +7,7 @@
 use std::fmt::Write;
 
 use maud::{Markup, PreEscaped, html};
-use postflight_core::outputs::localise::DefectRecord;
+use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
 use reports::html::{length_text, readable_time};
 
 use crate::queue::{Entry, Filter, Progress, Queue};
@@ -312,7 +312,7 @@ fn facts(d: &DefectRecord) -> Markup {
                 th { "length" }
                 td {
                     (length_text(d))
-                    @if d.length_partial {
+                    @if d.evidence.length == LengthStatus::Partial {
                         " " span.sub { "(every view cut by the image border)" }
                     }
                 }

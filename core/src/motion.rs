@@ -5,10 +5,10 @@
 //! carry centimetres of noise, which over one pose interval would read as
 //! metres per second.
 
+use crate::map::VoxelMap;
+use crate::pose::StampedPose;
+use crate::{Flight, Frame, Intrinsics, PoseAt, Trajectory};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
-use postflight_core::map::VoxelMap;
-use postflight_core::pose::StampedPose;
-use postflight_core::{Intrinsics, Trajectory};
 
 /// Poses within this time of the frame feed the velocity fit, seconds.
 const FIT_HALF_WINDOW_S: f64 = 0.2;
@@ -99,10 +99,28 @@ pub fn blur_px(
     }
 }
 
+/// Motion blur of one of `flight`'s frames, pixels, taken through lens `k`
+/// and exposed for `exposure_s`; `None` when its camera's mounting is
+/// unknown or the trajectory gives no pose or velocity at its time.
+pub fn frame_blur_px(
+    flight: &Flight,
+    frame: &Frame,
+    k: &Intrinsics,
+    exposure_s: f64,
+    map: &VoxelMap,
+) -> Option<f64> {
+    let extrinsic = flight.camera(frame)?.extrinsic?;
+    let PoseAt::Pose(body) = flight.trajectory.at(frame.time_ns, i64::MAX) else {
+        return None;
+    };
+    let v = velocity(&flight.trajectory, frame.time_ns)?;
+    Some(blur_px(&body, &extrinsic, k, &v, exposure_s, map))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use postflight_core::map::VoxelGrid;
+    use crate::map::VoxelGrid;
 
     fn lens() -> Intrinsics {
         Intrinsics::pinhole(640, 480, 960.0)
@@ -142,7 +160,7 @@ mod tests {
         for (speed, exposure) in [(0.0, 0.008), (1.0, 0.008), (2.0, 0.008), (2.0, 0.004)] {
             let (trajectory, extrinsic, map) = flight(speed);
             let v = velocity(&trajectory, t).unwrap();
-            let postflight_core::PoseAt::Pose(body) = trajectory.at(t, i64::MAX) else {
+            let PoseAt::Pose(body) = trajectory.at(t, i64::MAX) else {
                 panic!("pose")
             };
             let blur = blur_px(&body, &extrinsic, &lens(), &v, exposure, &map);

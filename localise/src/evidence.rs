@@ -1,0 +1,114 @@
+//! How far a candidate's evidence can be trusted: each view judged by the
+//! View model's rules (distance band, incidence, GSD, blur), whether the
+//! length was measured and why not, the narrowest width the best view can
+//! measure, and whether the spot must be shot again.
+
+use postflight_core::ViewModel;
+use postflight_core::outputs::localise::{Evidence, LengthStatus, ViewFault};
+
+/// The View model's rules a view of a crack at `range_m` and `incidence_deg`
+/// breaks, for a lens of focal length `f_px` (the finer axis) and a frame
+/// blurred by `blur_px` (`None`: unknown, not judged). The GSD is the View
+/// model's: fronto-parallel at the range.
+pub fn view_faults(
+    view: &ViewModel,
+    range_m: f64,
+    incidence_deg: f64,
+    f_px: f64,
+    blur_px: Option<f64>,
+) -> Vec<ViewFault> {
+    let mut faults = Vec::new();
+    if range_m > view.max_distance_m {
+        faults.push(ViewFault::TooFar);
+    }
+    if range_m < view.min_distance_m {
+        faults.push(ViewFault::TooClose);
+    }
+    if incidence_deg > view.max_incidence_deg {
+        faults.push(ViewFault::TooOblique);
+    }
+    if view_gsd_mm(range_m, f_px) > view.max_gsd_mm {
+        faults.push(ViewFault::TooCoarse);
+    }
+    if blur_px.is_some_and(|b| b.is_nan() || b > view.max_blur_px) {
+        faults.push(ViewFault::Blurred);
+    }
+    faults
+}
+
+/// The View model's GSD at `range_m` for focal length `f_px`, millimetres.
+pub fn view_gsd_mm(range_m: f64, f_px: f64) -> f64 {
+    range_m * 1000.0 / f_px
+}
+
+/// What is known of one view of a candidate, for its evidence.
+#[derive(Debug, Clone, Copy)]
+pub struct ViewQuality<'a> {
+    pub faults: &'a [ViewFault],
+    pub view_gsd_mm: f64,
+    pub oblique_gsd_mm: f64,
+    pub blur_px: Option<f64>,
+}
+
+/// A candidate's evidence from its best view and its length's status.
+pub fn evidence(best: ViewQuality, length: LengthStatus) -> Evidence {
+    let reshoot = !best.faults.is_empty() || length.missing_reason().is_some();
+    Evidence {
+        view_faults: best.faults.to_vec(),
+        view_gsd_mm: best.view_gsd_mm,
+        blur_px: best.blur_px,
+        length,
+        min_measurable_width_mm: Evidence::MIN_WIDTH_PX * best.oblique_gsd_mm,
+        reshoot,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_rule_a_view_breaks_is_named() {
+        let view = ViewModel::default();
+        // 1000 px focal length: 5 m is 5 mm/px, inside the 6 mm/px target.
+        assert!(view_faults(&view, 4.0, 30.0, 1000.0, Some(1.0)).is_empty());
+        assert_eq!(
+            view_faults(&view, 10.5, 70.0, 1000.0, Some(4.0)),
+            [
+                ViewFault::TooFar,
+                ViewFault::TooOblique,
+                ViewFault::TooCoarse,
+                ViewFault::Blurred
+            ]
+        );
+        assert_eq!(
+            view_faults(&view, 1.5, 0.0, 1000.0, None),
+            [ViewFault::TooClose]
+        );
+        // Within the band but coarse through a short lens.
+        assert_eq!(
+            view_faults(&view, 4.0, 0.0, 500.0, None),
+            [ViewFault::TooCoarse]
+        );
+    }
+
+    #[test]
+    fn a_missing_length_or_a_broken_rule_asks_for_a_reshoot() {
+        let sharp = ViewQuality {
+            faults: &[],
+            view_gsd_mm: 3.0,
+            oblique_gsd_mm: 3.5,
+            blur_px: Some(0.5),
+        };
+        let measured = evidence(sharp, LengthStatus::Measured);
+        assert!(!measured.reshoot);
+        assert_eq!(measured.min_measurable_width_mm, 7.0);
+        assert!(!evidence(sharp, LengthStatus::Partial).reshoot);
+        assert!(evidence(sharp, LengthStatus::TooOblique).reshoot);
+        let far = ViewQuality {
+            faults: &[ViewFault::TooFar],
+            ..sharp
+        };
+        assert!(evidence(far, LengthStatus::Measured).reshoot);
+    }
+}
