@@ -132,6 +132,8 @@ pub struct ReplanConfig {
     pub home: Option<[f64; 3]>,
     pub clearance_m: Option<f64>,
     pub max_sortie_length_m: Option<f64>,
+    pub battery_minutes: Option<f64>,
+    pub gaps: Option<replan::GapChoice>,
     pub speed_m_s: Option<f64>,
     pub hover_s: Option<f64>,
     pub solver_time_limit_s: Option<f64>,
@@ -285,6 +287,8 @@ impl RunConfig {
             home: c.home.or(d.home),
             clearance_m: c.clearance_m.unwrap_or(d.clearance_m),
             max_sortie_length_m: c.max_sortie_length_m.or(d.max_sortie_length_m),
+            battery_minutes: c.battery_minutes.unwrap_or(d.battery_minutes),
+            gaps: c.gaps.unwrap_or(d.gaps),
             speed_m_s: c.speed_m_s.unwrap_or(d.speed_m_s),
             hover_s: c.hover_s.unwrap_or(d.hover_s),
             ..d
@@ -377,6 +381,8 @@ exposure_s = 0.002
 home = [0.0, 0.0, 0.0]
 clearance_m = 1.0
 max_sortie_length_m = 800.0
+battery_minutes = 20.0
+gaps = "all"
 speed_m_s = 2.0
 hover_s = 2.0
 solver_time_limit_s = 10.0

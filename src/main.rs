@@ -149,7 +149,14 @@ struct ReplanArgs {
     /// Closest approach to any occupied voxel, metres.
     #[arg(long, default_value_t = ReplanOptions::DEFAULT_CLEARANCE_M, value_name = "M")]
     clearance: f64,
-    /// Split the plan into sorties from home no longer than this (battery), metres.
+    /// Which gaps to fly for: the planned voxels the flight missed, every gap, or only the
+    /// candidates to re-shoot; the re-shoots always come too.
+    #[arg(long, default_value = "missed", value_parser = parse_gaps, value_name = "missed|all|reshoot")]
+    gaps: replan::GapChoice,
+    /// One battery's flight time, minutes: each sortie (flying and hovering) fits in it.
+    #[arg(long, default_value_t = ReplanOptions::DEFAULT_BATTERY_MINUTES, value_name = "MIN")]
+    battery_minutes: f64,
+    /// Also keep each sortie from home no longer than this, metres.
     #[arg(long, value_name = "M")]
     max_sortie_length: Option<f64>,
     /// Cruise speed for the time estimate, m/s.
@@ -170,6 +177,10 @@ struct ReplanArgs {
     /// QGroundControl missions, KML and GeoJSON [default: from the flight's GPS fixes].
     #[arg(long, value_name = "LAT,LON,ALT[,YAW_DEG]", value_parser = GeoOrigin::parse, allow_hyphen_values = true)]
     geo_origin: Option<GeoOrigin>,
+}
+
+fn parse_gaps(s: &str) -> Result<replan::GapChoice, String> {
+    replan::GapChoice::parse(s).ok_or_else(|| format!("'{s}' is not one of missed, all, reshoot"))
 }
 
 fn parse_point(s: &str) -> Result<[f64; 3], String> {
@@ -624,6 +635,8 @@ fn replan(args: &ReplanArgs, quiet: bool) -> anyhow::Result<()> {
         home: args.home,
         clearance_m: args.clearance,
         max_sortie_length_m: args.max_sortie_length,
+        battery_minutes: args.battery_minutes,
+        gaps: args.gaps,
         speed_m_s: args.speed,
         hover_s: args.hover,
         geo_origin: args.geo_origin,

@@ -56,6 +56,8 @@ const FLAGS: &[(Key, &str)] = {
         (replan::HOME, "--home"),
         (replan::CLEARANCE, "--clearance"),
         (replan::MAX_SORTIE_LENGTH, "--max-sortie-length"),
+        (replan::BATTERY_MINUTES, "--battery-minutes"),
+        (replan::GAPS, "--gaps"),
         (replan::SPEED, "--speed"),
         (replan::HOVER, "--hover"),
         (replan::GEO_ORIGIN, "--geo-origin"),

@@ -138,9 +138,14 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
         gaps.len()
     );
 
+    // Every gap, planned or not, in one battery.
     let out = replan(
         &run,
         &[
+            "--gaps",
+            "all",
+            "--battery-minutes",
+            "600",
             "--solver-time-limit",
             "3",
             "--geo-origin",
@@ -152,6 +157,16 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
     let geo = ground_station_files(&run, ZURICH);
     assert_eq!(geo["plans"], 1);
     assert_eq!(plan["gap_voxels"].as_u64().unwrap() as usize, gaps.len());
+    // One viewpoint serves every gap it inspects: no more waypoints than a
+    // greedy set cover of the gaps by the candidates.
+    let (waypoints, cover) = (
+        plan["waypoints"].as_u64().unwrap(),
+        plan["set_cover_viewpoints"].as_u64().unwrap(),
+    );
+    assert!(
+        waypoints <= cover,
+        "{waypoints} waypoints, set cover {cover}"
+    );
 
     // Every gap is planned at exactly one waypoint, or listed with a reason.
     let mut planned: Vec<Voxel> = Vec::new();
@@ -252,16 +267,32 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
         plan["solver"]
     );
 
-    // GATSBI's path format: X,Y,Z,Yaw from home, every waypoint included.
+    // GATSBI's path format, X,Y,Z,Yaw, then gimbal pitch, sortie and kind,
+    // under comments giving the frame and units; home to home.
     let csv = std::fs::read_to_string(run.join("replan.csv")).unwrap();
-    let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("X,Y,Z,Yaw"));
-    let rows: Vec<Vec<f64>> = lines
-        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+    assert!(csv.contains("# frame: map") && csv.contains("GimbalPitch: degrees"));
+    let mut lines = csv.lines().filter(|l| !l.starts_with('#'));
+    assert_eq!(lines.next(), Some("X,Y,Z,Yaw,GimbalPitch,Sortie,Point"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert!(rows.iter().all(|r| r.len() == 7));
+    let number = |r: &[&str], k: usize| -> f64 { r[k].parse().unwrap() };
+    let kinds: Vec<&str> = rows.iter().map(|r| r[6]).collect();
+    assert_eq!(
+        kinds.iter().filter(|k| **k == "waypoint").count() as u64,
+        plan["waypoints"].as_u64().unwrap()
+    );
+    assert_eq!((kinds[0], *kinds.last().unwrap()), ("home", "home"));
+    assert!(
+        (number(&rows[0], 0) - home.x).abs() < 1e-3 && (number(&rows[0], 2) - home.z).abs() < 1e-3
+    );
+    // Each waypoint row's gimbal pitch is its waypoint's, in degrees down-negative.
+    let waypoints: Vec<&serde_json::Value> = plan["sorties"][0]["waypoints"]
+        .as_array()
+        .unwrap()
+        .iter()
         .collect();
-    assert!(rows.iter().all(|r| r.len() == 4));
-    assert!(rows.len() >= plan["waypoints"].as_u64().unwrap() as usize);
-    assert!((rows[0][0] - home.x).abs() < 1e-3 && (rows[0][2] - home.z).abs() < 1e-3);
+    let first = rows.iter().find(|r| r[6] == "waypoint").unwrap();
+    assert!((number(first, 4) + f(&waypoints[0]["gimbal_pitch"]).to_degrees()).abs() < 0.06);
 
     // Battery: sorties no longer than the limit, each from home and back,
     // planning the same gaps.
@@ -269,6 +300,10 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
     let out = replan(
         &run,
         &[
+            "--gaps",
+            "all",
+            "--battery-minutes",
+            "600",
             "--solver-time-limit",
             "2",
             "--max-sortie-length",
@@ -294,6 +329,54 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
         }
     }
     assert_eq!(again, planned_set);
+
+    // Battery: sorties within its time, flying and hovering, each from home.
+    let minutes = f(&plan["time_s"]) / 60.0 / 3.0;
+    let out = replan(
+        &run,
+        &[
+            "--gaps",
+            "all",
+            "--solver-time-limit",
+            "2",
+            "--battery-minutes",
+            &minutes.to_string(),
+        ],
+    );
+    assert!(out.status.success(), "replan: {}", stderr(&out));
+    let split = read_json(&run.join("replan.json"));
+    let sorties = split["sorties"].as_array().unwrap();
+    assert!(sorties.len() >= 3, "{} sorties", sorties.len());
+    for s in sorties {
+        let hover = f(&split["hover_s"]) * s["waypoints"].as_array().unwrap().len() as f64;
+        let time = f(&s["length_m"]) / f(&split["speed_m_s"]) + hover;
+        assert_close(time, f(&s["time_s"]), 1e-6, "sortie time");
+        assert!(time <= minutes * 60.0 + 1e-6, "{time} s over {minutes} min");
+        let path = s["path"].as_array().unwrap();
+        assert_eq!(point(&path[0]), point(&split["home"]));
+        assert_eq!(point(path.last().unwrap()), point(&split["home"]));
+    }
+    // The default: the planned voxels the flight missed, fewer than every gap.
+    let out = replan(&run, &["--solver-time-limit", "2"]);
+    assert!(out.status.success(), "replan: {}", stderr(&out));
+    let missed = read_json(&run.join("replan.json"));
+    let table = read_parquet(&run.join("coverage.parquet"));
+    let column = |c: &str| table.column(c).unwrap().bool().unwrap().clone();
+    let (planned, inspected, uninspectable) = (
+        column("planned"),
+        column("inspected"),
+        column("uninspectable"),
+    );
+    let planned_missed = (0..table.height())
+        .filter(|&i| {
+            planned.get(i) == Some(true)
+                && inspected.get(i) == Some(false)
+                && uninspectable.get(i) == Some(false)
+        })
+        .count();
+    assert_eq!(missed["gaps"], "missed");
+    assert_eq!(missed["gap_voxels"].as_u64(), Some(planned_missed as u64));
+    assert!(planned_missed < gaps.len());
 }
 
 #[test]
@@ -339,9 +422,10 @@ fn no_gaps_give_an_empty_plan_and_bad_runs_say_what_to_do() {
     assert_eq!(plan["gap_voxels"], 0);
     assert_eq!(plan["waypoints"], 0);
     assert!(plan["sorties"].as_array().unwrap().is_empty());
-    assert_eq!(
-        std::fs::read_to_string(run.join("replan.csv")).unwrap(),
-        "X,Y,Z,Yaw\n"
+    let csv = std::fs::read_to_string(run.join("replan.csv")).unwrap();
+    assert!(
+        csv.ends_with("\nX,Y,Z,Yaw,GimbalPitch,Sortie,Point\n"),
+        "{csv}"
     );
 
     // Nonsense options are refused with the option named.

@@ -79,6 +79,45 @@ pub enum Unplannable {
     Unreachable,
 }
 
+/// Which gaps a follow-up flight goes back for.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GapChoice {
+    /// The planned voxels the flight missed (every gap when no plan says
+    /// which were planned), and the candidates to re-shoot.
+    #[default]
+    Missed,
+    /// Every gap voxel, planned or not, and the candidates to re-shoot.
+    All,
+    /// Only the candidates to re-shoot.
+    Reshoot,
+}
+
+impl GapChoice {
+    pub const ALL: [Self; 3] = [Self::Missed, Self::All, Self::Reshoot];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Missed => "missed",
+            Self::All => "all",
+            Self::Reshoot => "reshoot",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|g| g.as_str() == s)
+    }
+}
+
+/// A defect candidate whose evidence is weak, flown again.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReshootSpot {
+    /// The candidate's id.
+    pub defect: String,
+    /// The voxel it is on.
+    pub voxel: VoxelIndex,
+}
+
 /// `replan.json`. Its first fields make it an inspection plan (the gap
 /// voxels it inspects as targets, the waypoints as viewpoints in flight
 /// order), so `postflight coverage --viewpoints replan.json` checks it.
@@ -96,12 +135,27 @@ pub struct ReplanSummary {
     pub speed_m_s: f64,
     pub hover_s: f64,
     pub max_sortie_length_m: Option<f64>,
+    /// One battery's flight time, the sorties' limit, minutes.
+    pub battery_minutes: f64,
+    /// Which gaps were chosen.
+    pub gaps: GapChoice,
     /// Gap voxels coverage found (not inspected, not uninspectable).
+    pub coverage_gap_voxels: usize,
+    /// The voxels chosen to fly for: gaps as `gaps` chose them, and the
+    /// re-shoot spots' voxels.
     pub gap_voxels: usize,
-    /// Of those, the ones this plan inspects.
+    /// Candidates to re-shoot among them.
+    pub reshoot_spots: Vec<ReshootSpot>,
+    /// Of the chosen voxels, the ones this plan inspects.
     pub planned_gap_voxels: usize,
     pub uninspectable_gaps: Vec<Uninspectable>,
     pub candidate_viewpoints: usize,
+    /// Viewpoints a greedy set cover needs to inspect every chosen voxel
+    /// the candidates inspect: the tour picks its waypoints among these.
+    pub set_cover_viewpoints: usize,
+    /// Of `time_s`: hovering at waypoints, and flying, seconds.
+    pub hover_time_s: f64,
+    pub travel_time_s: f64,
     pub sorties: Vec<Sortie>,
     pub waypoints: usize,
     pub length_m: f64,

@@ -1,7 +1,9 @@
 //! Waypoint paths as CSV: one row `X,Y,Z,Yaw` per waypoint (metres in the
 //! world frame, yaw in radians unless told otherwise), a header line
 //! optional, `#` comments and blank lines ignored. GATSBI writes its
-//! inspection paths this way, and `replan.csv` is one.
+//! inspection paths this way. A header may name more columns after those
+//! four (`replan.csv` adds the gimbal pitch, sortie and kind of point);
+//! they are not read.
 
 use csv::{ReaderBuilder, StringRecord, Trim};
 
@@ -19,14 +21,16 @@ pub fn parse(text: &str, yaw: YawUnit) -> Result<Vec<PathPoint>, String> {
         .comment(Some(b'#'))
         .from_reader(text.as_bytes());
     let mut points = Vec::new();
+    let mut columns = COLUMNS.len();
     for (i, record) in reader.records().enumerate() {
         let record = record.map_err(|e| format!("not a CSV file: {e}"))?;
         let line = record.position().map_or(0, csv::Position::line);
         if i == 0 && is_header(&record) {
             check_header(&record, line)?;
+            columns = record.len();
             continue;
         }
-        points.push(point(&record, line, yaw)?);
+        points.push(point(&record, line, columns, yaw)?);
     }
     if points.is_empty() {
         return Err("the path has no waypoints; give one `X,Y,Z,Yaw` row per waypoint".into());
@@ -40,7 +44,11 @@ fn is_header(record: &StringRecord) -> bool {
 }
 
 fn check_header(record: &StringRecord, line: u64) -> Result<(), String> {
-    let named: Vec<String> = record.iter().map(str::to_ascii_lowercase).collect();
+    let named: Vec<String> = record
+        .iter()
+        .take(COLUMNS.len())
+        .map(str::to_ascii_lowercase)
+        .collect();
     if named != COLUMNS {
         return Err(format!(
             "line {line}: the header names the columns {}; a waypoint path has the columns X,Y,Z,Yaw in this order",
@@ -50,15 +58,26 @@ fn check_header(record: &StringRecord, line: u64) -> Result<(), String> {
     Ok(())
 }
 
-fn point(record: &StringRecord, line: u64, yaw_unit: YawUnit) -> Result<PathPoint, String> {
-    if record.len() != COLUMNS.len() {
+/// A row of a path with `columns` columns, the first four `X,Y,Z,Yaw`.
+fn point(
+    record: &StringRecord,
+    line: u64,
+    columns: usize,
+    yaw_unit: YawUnit,
+) -> Result<PathPoint, String> {
+    if record.len() != columns {
         return Err(format!(
-            "line {line}: {} columns where a waypoint has 4 (X,Y,Z,Yaw)",
-            record.len()
+            "line {line}: {} columns where a waypoint has {columns} (X,Y,Z,Yaw{})",
+            record.len(),
+            if columns > COLUMNS.len() {
+                " and the header's others"
+            } else {
+                ""
+            }
         ));
     }
     let mut values = [0.0; 4];
-    for (column, (field, value)) in record.iter().zip(&mut values).enumerate() {
+    for (column, (field, value)) in record.iter().take(4).zip(&mut values).enumerate() {
         *value = field
             .parse::<f64>()
             .ok()
@@ -114,6 +133,9 @@ mod tests {
             assert_eq!(path[1].yaw, -1.5);
         }
         let degrees = parse("0,0,0,90", YawUnit::Degrees).unwrap();
+        // replan.csv's own columns after the four.
+        let replan = "# frame: map\nX,Y,Z,Yaw,GimbalPitch,Sortie,Point\n0,0,1,0.5,-30.0,1,home\n";
+        assert_eq!(parse(replan, YawUnit::Radians).unwrap()[0].yaw, 0.5);
         assert!((degrees[0].yaw - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
     }
 

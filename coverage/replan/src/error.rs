@@ -28,12 +28,14 @@ pub enum ReplanError {
     )]
     HomeBlocked { home: [f64; 3], clearance_m: f64 },
     #[error(
-        "the viewpoint at ({:.1}, {:.1}, {:.1}) is a {round_trip_m:.0} m round trip from home, longer than {} {max_m}; raise it or move {} closer",
-        point[0], point[1], point[2], keys::MAX_SORTIE_LENGTH, keys::HOME
+        "the viewpoint at ({:.1}, {:.1}, {:.1}) is a {round_trip_m:.0} m, {:.1} min round trip from home, more than one battery allows ({} {max_m} m, {} {battery_minutes} min); raise them or move {} closer",
+        point[0], point[1], point[2], round_trip_s / 60.0, keys::MAX_SORTIE_LENGTH, keys::BATTERY_MINUTES, keys::HOME
     )]
     SortieTooLong {
         point: [f64; 3],
         round_trip_m: f64,
+        round_trip_s: f64,
         max_m: f64,
+        battery_minutes: f64,
     },
 }

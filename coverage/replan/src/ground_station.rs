@@ -176,6 +176,8 @@ impl Placement {
 struct Step<'a> {
     point: [f64; 3],
     yaw: f64,
+    /// Radians, positive looking down, as the yaw.
+    gimbal_pitch: f64,
     waypoint: Option<&'a Waypoint>,
 }
 
@@ -190,20 +192,18 @@ fn steps(sortie: &Sortie) -> Vec<Step<'_>> {
             steps.push(Step {
                 point: *p,
                 yaw: w.yaw,
+                gimbal_pitch: w.gimbal_pitch,
                 waypoint: Some(w),
             });
             next += 1;
             at_waypoint = true;
         }
         if !at_waypoint {
-            let yaw = sortie
-                .waypoints
-                .get(next)
-                .or(sortie.waypoints.last())
-                .map_or(0.0, |w| w.yaw);
+            let toward = sortie.waypoints.get(next).or(sortie.waypoints.last());
             steps.push(Step {
                 point: *p,
-                yaw,
+                yaw: toward.map_or(0.0, |w| w.yaw),
+                gimbal_pitch: toward.map_or(0.0, |w| w.gimbal_pitch),
                 waypoint: None,
             });
         }
@@ -211,13 +211,41 @@ fn steps(sortie: &Sortie) -> Vec<Step<'_>> {
     steps
 }
 
-/// `replan.csv`: every point of every sortie's path as `X,Y,Z,Yaw` (GATSBI's
-/// inspection path), with the yaw of the waypoint being flown to.
-pub fn path_csv(sorties: &[Sortie]) -> String {
-    let mut text = String::from("X,Y,Z,Yaw\n");
-    for step in sorties.iter().flat_map(steps) {
-        let [x, y, z] = step.point;
-        text += &format!("{x:.3},{y:.3},{z:.3},{:.4}\n", step.yaw);
+/// The columns of `replan.csv`: GATSBI's four, then the gimbal, the
+/// sortie and what the point is.
+pub const PATH_CSV_HEADER: &str = "X,Y,Z,Yaw,GimbalPitch,Sortie,Point";
+
+/// `replan.csv`: every point of every sortie's path, home to home: GATSBI's
+/// `X,Y,Z,Yaw` inspection path (the yaw of the waypoint being flown to),
+/// then the gimbal pitch, the sortie (from 1) and the point's kind (`home`,
+/// `transit` on the collision-free path, `waypoint` to hover and shoot at).
+/// Comment lines above the header give the frame and the units.
+pub fn path_csv(sorties: &[Sortie], frame_id: &str) -> String {
+    let mut text = format!(
+        "# postflight follow-up flight: {} sortie{}, each taking off from and landing at home\n\
+         # frame: {frame_id} (the SLAM map's), z up; X, Y, Z in metres\n\
+         # Yaw: radians, counter-clockwise from the x axis (REP 103); GimbalPitch: degrees, negative looking down\n\
+         {PATH_CSV_HEADER}\n",
+        sorties.len(),
+        if sorties.len() == 1 { "" } else { "s" },
+    );
+    for (n, sortie) in sorties.iter().enumerate() {
+        let steps = steps(sortie);
+        let last = steps.len().saturating_sub(1);
+        for (i, step) in steps.iter().enumerate() {
+            let kind = match step.waypoint {
+                Some(_) => "waypoint",
+                None if i == 0 || i == last => "home",
+                None => "transit",
+            };
+            let [x, y, z] = step.point;
+            text += &format!(
+                "{x:.3},{y:.3},{z:.3},{:.4},{:.1},{},{kind}\n",
+                step.yaw,
+                -step.gimbal_pitch.to_degrees(),
+                n + 1
+            );
+        }
     }
     text
 }

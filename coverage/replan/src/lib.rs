@@ -23,4 +23,5 @@ pub mod tour;
 pub mod viewpoints;
 
 pub use error::ReplanError;
+pub use postflight_core::outputs::replan::GapChoice;
 pub use stage::{ReplanOptions, replan};

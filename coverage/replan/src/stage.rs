@@ -14,15 +14,16 @@ use nalgebra::{Point3, Vector3};
 use postflight_core::geo::GeoOrigin;
 use postflight_core::map::{SlamMap, VoxelGrid, VoxelIndex};
 use postflight_core::outputs::coverage::{self as coverage_outputs, CoverageSummary};
+use postflight_core::outputs::localise::{self as localise_outputs, read_defects};
 use postflight_core::outputs::replan::{
-    ReplanSummary, Sortie, Uninspectable, Unplannable, Waypoint, files,
+    GapChoice, ReplanSummary, ReshootSpot, Sortie, Uninspectable, Unplannable, Waypoint, files,
 };
 use postflight_core::{Flight, InvalidSetting, Key, RunDir, Stage, Viewpoint};
 
 use crate::error::ReplanError;
 use crate::free_space::{FreeSpace, length};
 use crate::ground_station::{self, Placement};
-use crate::tour::{Stops, Tour, TourError, plan_tour};
+use crate::tour::{Budget, Stops, Tour, TourError, plan_tour};
 use crate::viewpoints::{Camera, Candidate, candidates, clusters};
 
 /// The stage's settings, by their key in `postflight.toml`'s `[replan]`.
@@ -37,6 +38,8 @@ pub mod keys {
     pub const SOLVER_TIME_LIMIT: Key = Key::setting("replan", "solver_time_limit_s");
     pub const SEED: Key = Key::setting("replan", "seed");
     pub const GEO_ORIGIN: Key = Key::setting("replan", "geo_origin");
+    pub const BATTERY_MINUTES: Key = Key::setting("replan", "battery_minutes");
+    pub const GAPS: Key = Key::setting("replan", "gaps");
 }
 
 #[derive(Debug, Clone)]
@@ -48,8 +51,13 @@ pub struct ReplanOptions {
     pub home: Option<[f64; 3]>,
     /// Closest the vehicle may come to any occupied voxel, metres.
     pub clearance_m: f64,
-    /// Longest sortie (battery), metres; `None`: one sortie.
+    /// Longest sortie, metres; `None`: as long as the battery lasts.
     pub max_sortie_length_m: Option<f64>,
+    /// Flight time of one battery, minutes: the sorties' limit (with the
+    /// hovers), each taking off from and landing at home.
+    pub battery_minutes: f64,
+    /// Which gaps the follow-up flight goes back for.
+    pub gaps: GapChoice,
     /// Cruise speed for the time estimate, metres per second.
     pub speed_m_s: f64,
     /// Hover at each waypoint for the time estimate, seconds.
@@ -66,6 +74,9 @@ impl ReplanOptions {
     pub const DEFAULT_SPEED_M_S: f64 = 2.0;
     pub const DEFAULT_HOVER_S: f64 = 2.0;
     pub const DEFAULT_SOLVER_TIME_LIMIT_S: f64 = 10.0;
+    /// A DJI Matrice 30T's rated 41 minutes, less the reserve pilots keep
+    /// for wind, the return and landing: about 60% of the rating.
+    pub const DEFAULT_BATTERY_MINUTES: f64 = 25.0;
 
     pub fn new(run: PathBuf) -> Self {
         Self {
@@ -74,6 +85,8 @@ impl ReplanOptions {
             home: None,
             clearance_m: Self::DEFAULT_CLEARANCE_M,
             max_sortie_length_m: None,
+            battery_minutes: Self::DEFAULT_BATTERY_MINUTES,
+            gaps: GapChoice::default(),
             speed_m_s: Self::DEFAULT_SPEED_M_S,
             hover_s: Self::DEFAULT_HOVER_S,
             solver: SolveOptions {
@@ -89,6 +102,12 @@ impl ReplanOptions {
         let at_least_0 = |key: Key, v: f64| InvalidSetting::check(v >= 0.0, key, v, "0 or more");
         at_least_0(keys::CLEARANCE, self.clearance_m)?;
         at_least_0(keys::HOVER, self.hover_s)?;
+        InvalidSetting::check(
+            self.battery_minutes.is_finite() && self.battery_minutes > 0.0,
+            keys::BATTERY_MINUTES,
+            self.battery_minutes,
+            "a positive number of minutes",
+        )?;
         InvalidSetting::check(
             self.speed_m_s > 0.0,
             keys::SPEED,
@@ -145,9 +164,10 @@ pub fn replan(
     let coverage: CoverageSummary = run.read_json(Stage::Coverage.summary_file())?;
     check_view(&coverage.view)?;
     let grid = VoxelGrid::new(coverage.resolution_m, Point3::from(coverage.grid_origin));
-    let (targets, gaps) = read_gaps(&run)?;
+    let chosen = choose_gaps(&run, options.gaps)?;
+    let (targets, gaps) = (&chosen.targets, &chosen.voxels);
     let launch = take_off(options, &flight)?;
-    let mut summary = empty_plan(options, &coverage, launch, gaps.len());
+    let mut summary = empty_plan(options, &coverage, launch, &chosen);
     (summary.geo_origin, summary.geo_origin_from) = geo_origin(options, &flight);
     let placement = summary.geo_origin.map(|origin| Placement {
         origin,
@@ -166,9 +186,13 @@ pub fn replan(
     let space = FreeSpace::new(&map.voxels, options.clearance_m, &[launch]);
     let home = clear_home(&space, &map, launch, &mut summary)?;
 
-    let (found, mut by_gap) =
-        viewpoints(&flight, &coverage, &map, &space, &targets, &gaps, progress)?;
+    let (found, by_gap) = viewpoints(&flight, &coverage, &map, &space, targets, gaps, progress)?;
     summary.candidate_viewpoints = found.len();
+    // One viewpoint serves every gap it inspects: the tour chooses among a
+    // greedy set cover's viewpoints, so it needs no more of them.
+    let cover = set_cover(&found, gaps.len());
+    summary.set_cover_viewpoints = cover.len();
+    let mut by_gap = restrict(by_gap, &found, &cover);
     // Stops: home, then the candidates.
     let points: Vec<Point3<f64>> = std::iter::once(home)
         .chain(found.iter().map(|c| Point3::from(c.viewpoint.position)))
@@ -229,17 +253,92 @@ fn geo_origin(options: &ReplanOptions, flight: &Flight) -> (Option<GeoOrigin>, O
     }
 }
 
-/// Target voxels and the gap voxels among them (sorted), from `coverage.parquet`.
-fn read_gaps(run: &RunDir) -> Result<(Vec<VoxelIndex>, Vec<VoxelIndex>), ReplanError> {
+/// The voxels a follow-up flight goes back for.
+struct ChosenGaps {
+    /// Every target voxel (from `coverage.parquet`).
+    targets: Vec<VoxelIndex>,
+    /// Gap voxels coverage found (not inspected, not uninspectable).
+    coverage_gaps: usize,
+    /// The chosen gaps and the re-shoot spots' voxels, sorted, once each.
+    voxels: Vec<VoxelIndex>,
+    reshoot: Vec<ReshootSpot>,
+}
+
+/// The gaps `choice` asks for, from `coverage.parquet`, with the voxels of
+/// the candidates `defects.json` flags for a re-shoot.
+fn choose_gaps(run: &RunDir, choice: GapChoice) -> Result<ChosenGaps, ReplanError> {
     let records = coverage_outputs::read_coverage(run, coverage_outputs::files::TABLE)?;
     let targets: Vec<VoxelIndex> = records.iter().map(|r| r.voxel).collect();
-    let mut gaps: Vec<VoxelIndex> = records
-        .iter()
-        .filter(|r| !r.inspected && !r.uninspectable)
-        .map(|r| r.voxel)
-        .collect();
-    gaps.sort_unstable();
-    Ok((targets, gaps))
+    let gaps = || records.iter().filter(|r| !r.inspected && !r.uninspectable);
+    let coverage_gaps = gaps().count();
+    let mut voxels: Vec<VoxelIndex> = match choice {
+        // Without a plan nothing says what was planned: every gap was missed.
+        GapChoice::Missed => gaps()
+            .filter(|r| r.planned.unwrap_or(true))
+            .map(|r| r.voxel)
+            .collect(),
+        GapChoice::All => gaps().map(|r| r.voxel).collect(),
+        GapChoice::Reshoot => Vec::new(),
+    };
+    let reshoot: Vec<ReshootSpot> = if run.file(localise_outputs::files::DEFECTS_JSON).exists() {
+        read_defects(run)?
+            .into_iter()
+            .filter(|d| d.evidence.reshoot)
+            .map(|d| ReshootSpot {
+                defect: d.id,
+                voxel: VoxelIndex(d.voxel),
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    voxels.extend(reshoot.iter().map(|r| r.voxel));
+    voxels.sort_unstable();
+    voxels.dedup();
+    Ok(ChosenGaps {
+        targets,
+        coverage_gaps,
+        voxels,
+        reshoot,
+    })
+}
+
+/// A greedy set cover of the gaps (`gaps` of them) by the candidates:
+/// repeatedly the candidate inspecting the most gaps not yet inspected
+/// (ties to the lower index). Returns the chosen candidates' indices.
+fn set_cover(found: &[Candidate], gaps: usize) -> Vec<usize> {
+    let mut open = vec![true; gaps];
+    let mut chosen = Vec::new();
+    loop {
+        let best = found
+            .iter()
+            .enumerate()
+            .map(|(k, c)| (c.inspects.iter().filter(|g| open[**g]).count(), k))
+            .max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)));
+        match best {
+            Some((n, k)) if n > 0 => {
+                for g in &found[k].inspects {
+                    open[*g] = false;
+                }
+                chosen.push(k);
+            }
+            _ => return chosen,
+        }
+    }
+}
+
+/// Each gap's cluster cut to the candidates of `cover` that inspect it
+/// (every gap a candidate inspects has one).
+fn restrict(mut by_gap: Vec<Vec<usize>>, found: &[Candidate], cover: &[usize]) -> Vec<Vec<usize>> {
+    for members in &mut by_gap {
+        members.clear();
+    }
+    for &k in cover {
+        for &g in &found[k].inspects {
+            by_gap[g].push(k);
+        }
+    }
+    by_gap
 }
 
 /// Home: as given, else where the flight took off.
@@ -260,7 +359,7 @@ fn empty_plan(
     options: &ReplanOptions,
     coverage: &CoverageSummary,
     home: Point3<f64>,
-    gap_voxels: usize,
+    chosen: &ChosenGaps,
 ) -> ReplanSummary {
     ReplanSummary {
         frame_id: "map".into(),
@@ -275,10 +374,17 @@ fn empty_plan(
         speed_m_s: options.speed_m_s,
         hover_s: options.hover_s,
         max_sortie_length_m: options.max_sortie_length_m,
-        gap_voxels,
+        battery_minutes: options.battery_minutes,
+        gaps: options.gaps,
+        coverage_gap_voxels: chosen.coverage_gaps,
+        gap_voxels: chosen.voxels.len(),
+        reshoot_spots: chosen.reshoot.clone(),
         planned_gap_voxels: 0,
         uninspectable_gaps: Vec::new(),
         candidate_viewpoints: 0,
+        set_cover_viewpoints: 0,
+        hover_time_s: 0.0,
+        travel_time_s: 0.0,
         sorties: Vec::new(),
         waypoints: 0,
         length_m: 0.0,
@@ -423,8 +529,8 @@ fn solve(
     }
 }
 
-/// The tour's stops (indices into it, from 1) per sortie: the whole tour,
-/// or split for the battery. Splitting bounds each way home by the lattice
+/// The tour's stops (indices into it, from 1) per sortie, split so each
+/// fits one battery (and the longest sortie, if set). Splitting bounds each way home by the lattice
 /// distance (one search from home), then flies the legs home it chose.
 fn split_sorties(
     options: &ReplanOptions,
@@ -433,8 +539,11 @@ fn split_sorties(
     space: &FreeSpace,
     map: &SlamMap,
 ) -> Result<Vec<Vec<usize>>, ReplanError> {
-    let Some(max) = options.max_sortie_length_m else {
-        return Ok(vec![(1..tour.stops.len()).collect()]);
+    let budget = Budget {
+        max_length_m: options.max_sortie_length_m.unwrap_or(f64::INFINITY),
+        max_time_s: options.battery_minutes * 60.0,
+        speed_m_s: options.speed_m_s,
+        hover_s: options.hover_s,
     };
     let home = points[0];
     let from_home = space.distances_from(&home);
@@ -451,11 +560,13 @@ fn split_sorties(
                 (d + (p - grid.center(grid.voxel_of(&p))).norm()) * 1.001 + 0.01
             })
     };
-    crate::tour::sorties(tour, max, &home_m).map_err(|(stop, round_trip_m)| {
+    crate::tour::sorties(tour, &budget, &home_m).map_err(|(stop, round_trip_m)| {
         ReplanError::SortieTooLong {
             point: points[stop].coords.into(),
             round_trip_m,
-            max_m: max,
+            round_trip_s: budget.time_s(round_trip_m, 1),
+            max_m: budget.max_length_m,
+            battery_minutes: options.battery_minutes,
         }
     })
 }
@@ -527,6 +638,8 @@ fn summarise(summary: &mut ReplanSummary, tour: Tour) {
     summary.waypoints = summary.viewpoints.len();
     summary.length_m = summary.sorties.iter().map(|s| s.length_m).sum();
     summary.time_s = summary.sorties.iter().map(|s| s.time_s).sum();
+    summary.hover_time_s = summary.hover_s * summary.waypoints as f64;
+    summary.travel_time_s = summary.length_m / summary.speed_m_s;
     summary.solver = Some(tour.stats);
 }
 
@@ -539,7 +652,10 @@ fn write(
     placement: Option<&Placement>,
     started: Instant,
 ) -> Result<ReplanSummary, ReplanError> {
-    run.write_text(files::PATH_CSV, &ground_station::path_csv(&summary.sorties))?;
+    run.write_text(
+        files::PATH_CSV,
+        &ground_station::path_csv(&summary.sorties, &summary.frame_id),
+    )?;
     remove_ground_station_files(run)?;
     if let Some(placement) = placement.filter(|_| !summary.sorties.is_empty()) {
         let count = summary.sorties.len();

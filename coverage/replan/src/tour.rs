@@ -216,13 +216,35 @@ fn visits(tour: &[u32], vertex_stop: &[usize], sets: &[Vec<u32>]) -> (Vec<usize>
     (order, serves)
 }
 
-/// Splits a tour into sorties that each start and end at home and are at
-/// most `max_m` long, greedily in tour order. `home_m(s)` bounds the length
-/// of the path between home and stop `s` from above. Returns indices into
-/// `tour.stops`, or the first stop whose round trip alone is too long.
+/// What one battery allows a sortie: a flown length and a time (flying at
+/// `speed_m_s`, hovering `hover_s` at each waypoint).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Budget {
+    pub max_length_m: f64,
+    pub max_time_s: f64,
+    pub speed_m_s: f64,
+    pub hover_s: f64,
+}
+
+impl Budget {
+    /// The time of a sortie flying `length_m` with `waypoints` stops, seconds.
+    pub fn time_s(&self, length_m: f64, waypoints: usize) -> f64 {
+        length_m / self.speed_m_s + self.hover_s * waypoints as f64
+    }
+
+    fn fits(&self, length_m: f64, waypoints: usize) -> bool {
+        length_m <= self.max_length_m && self.time_s(length_m, waypoints) <= self.max_time_s
+    }
+}
+
+/// Splits a tour into sorties that each start and end at home and fit the
+/// `budget`, greedily in tour order. `home_m(s)` bounds the length of the
+/// path between home and stop `s` from above. Returns indices into
+/// `tour.stops`, or the first stop whose round trip alone does not fit,
+/// with that round trip's length.
 pub fn sorties(
     tour: &Tour,
-    max_m: f64,
+    budget: &Budget,
     home_m: &dyn Fn(usize) -> f64,
 ) -> Result<Vec<Vec<usize>>, (usize, f64)> {
     let mut out: Vec<Vec<usize>> = Vec::new();
@@ -230,7 +252,7 @@ pub fn sorties(
     let mut so_far = 0.0;
     for i in 1..tour.stops.len() {
         let back = home_m(tour.stops[i]);
-        if 2.0 * back > max_m {
+        if !budget.fits(2.0 * back, 1) {
             return Err((tour.stops[i], 2.0 * back));
         }
         let to_here = if current.is_empty() {
@@ -238,11 +260,11 @@ pub fn sorties(
         } else {
             so_far + length(&tour.legs[i - 1])
         };
-        if to_here + back > max_m {
+        if budget.fits(to_here + back, current.len() + 1) {
+            so_far = to_here;
+        } else {
             out.push(std::mem::take(&mut current));
             so_far = back;
-        } else {
-            so_far = to_here;
         }
         current.push(i);
     }
