@@ -48,6 +48,8 @@ struct Crack {
     samples: Vec<[f64; 3]>,
     centroid: [f64; 3],
     length_m: f64,
+    /// Outward normal of its surface.
+    normal: [f64; 3],
 }
 
 fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
@@ -82,6 +84,7 @@ fn cracks(truth: &Value) -> BTreeMap<i64, Crack> {
                 samples,
                 centroid,
                 length_m: f(&c["length_m"]),
+                normal: vec3(&c["normal"]),
             };
             (c["id"].as_i64().unwrap(), crack)
         })
@@ -220,7 +223,7 @@ fn score(sim: &Path, run: &Path) -> Score {
             .push(dist(&vec3(&best["position"]), &cracks[id].centroid));
         // A length from views the image border cuts is a lower bound, not an estimate.
         if *range <= 5.0
-            && best["length_partial"] == false
+            && best["evidence"]["length"] != "partial"
             && let Some(length) = best["length_m"].as_f64()
         {
             s.length_ratios.push(length / cracks[id].length_m);
@@ -290,6 +293,179 @@ fn check_outputs(run: &Path, summary: &Value) {
     }
 }
 
+/// The truth crack nearest `p` within 0.3 m of its centre line, and the
+/// crack point nearest `p`.
+fn crack_at<'a>(cracks: &'a BTreeMap<i64, Crack>, p: &[f64; 3]) -> Option<(&'a Crack, [f64; 3])> {
+    cracks
+        .values()
+        .map(|c| {
+            let nearest = *c
+                .samples
+                .iter()
+                .min_by(|a, b| dist(a, p).total_cmp(&dist(b, p)))
+                .unwrap();
+            (c, nearest)
+        })
+        .min_by(|a, b| dist(&a.1, p).total_cmp(&dist(&b.1, p)))
+        .filter(|(_, nearest)| dist(nearest, p) <= 0.3)
+}
+
+/// Each candidate on a truth crack has its best view judged by the View
+/// model from truth (the true camera, crack and blur): every candidate
+/// whose best view breaks a rule is flagged for a re-shoot with that rule,
+/// and, away from the limits (3%), the rules named are exactly the broken
+/// ones. Returns (candidates judged, of them breaking a rule).
+fn check_evidence(sim: &Path, run: &Path) -> (usize, usize) {
+    let truth = read_json(&sim.join("truth.json"));
+    let view = &read_json(&sim.join("plan.json"))["view"];
+    let cracks = cracks(&truth);
+    let frames: HashMap<i64, &Value> = truth["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| (f["time_ns"].as_i64().unwrap(), f))
+        .collect();
+    let focal = f(&truth["camera"]["fx"]).min(f(&truth["camera"]["fy"]));
+    let (mut judged, mut breaking) = (0, 0);
+    for d in read_json(&run.join("defects.json"))["defects"]
+        .as_array()
+        .unwrap()
+    {
+        let Some((crack, at)) = crack_at(&cracks, &vec3(&d["position"])) else {
+            continue;
+        };
+        let frame = frames[&d["best"]["time_ns"].as_i64().unwrap()];
+        let camera = vec3(&frame["camera_pose"]["translation"]);
+        let range = dist(&camera, &at);
+        let back = [0, 1, 2].map(|a| (camera[a] - at[a]) / range);
+        let cos = (0..3).map(|a| back[a] * crack.normal[a]).sum::<f64>();
+        let incidence = cos.clamp(-1.0, 1.0).acos().to_degrees();
+        let gsd = range * 1000.0 / focal;
+        let blur = f(&frame["blur_px"]);
+        // (rule, value, limit, broken when above the limit)
+        let rules = [
+            ("too_far", range, f(&view["max_distance_m"]), true),
+            ("too_close", range, f(&view["min_distance_m"]), false),
+            (
+                "too_oblique",
+                incidence,
+                f(&view["max_incidence_deg"]),
+                true,
+            ),
+            ("too_coarse", gsd, f(&view["max_gsd_mm"]), true),
+            ("blurred", blur, f(&view["max_blur_px"]), true),
+        ];
+        let faults: Vec<&str> = d["evidence"]["view_faults"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_str().unwrap())
+            .collect();
+        let broken: Vec<&str> = rules
+            .iter()
+            .filter(|(_, v, limit, above)| if *above { v > limit } else { v < limit })
+            .map(|r| r.0)
+            .collect();
+        let near_a_limit = rules
+            .iter()
+            .any(|(_, v, limit, _)| (v - limit).abs() <= 0.03 * limit);
+        judged += 1;
+        if !broken.is_empty() {
+            breaking += 1;
+            assert_eq!(
+                d["evidence"]["reshoot"], true,
+                "{}: breaks {broken:?}",
+                d["id"]
+            );
+        }
+        if !near_a_limit {
+            assert_eq!(
+                faults, broken,
+                "{}: range {range:.2} m, incidence {incidence:.0} deg, GSD {gsd:.1} mm, blur {blur:.1} px",
+                d["id"]
+            );
+        }
+    }
+    (judged, breaking)
+}
+
+/// Coverage and a follow-up flight for the re-shoots alone: every
+/// candidate flagged for a re-shoot is a spot of the flight (planned at a
+/// waypoint, or listed as uninspectable with why). Returns (flagged, planned).
+fn check_reshoots_are_flown(sim: &Path, run: &Path) -> (usize, usize) {
+    let plan = sim.join("plan.json");
+    let dir = run.parent().unwrap();
+    let run_arg = run.to_str().unwrap();
+    let out = postflight(
+        &[
+            "coverage",
+            "--run",
+            run_arg,
+            "--plan",
+            plan.to_str().unwrap(),
+        ],
+        dir,
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = postflight(
+        &[
+            "replan",
+            "--run",
+            run_arg,
+            "--gaps",
+            "reshoot",
+            "--solver-time-limit",
+            "1",
+        ],
+        dir,
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let replan = read_json(&run.join("replan.json"));
+    let voxel = |v: &Value| -> [i64; 3] { [0, 1, 2].map(|a| v[a].as_i64().unwrap()) };
+    let planned: BTreeSet<[i64; 3]> = replan["target_voxels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(voxel)
+        .collect();
+    let left_out: BTreeSet<[i64; 3]> = replan["uninspectable_gaps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|u| voxel(&u["voxel"]))
+        .collect();
+    let spots: BTreeMap<String, [i64; 3]> = replan["reshoot_spots"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| {
+            (
+                s["defect"].as_str().unwrap().to_string(),
+                voxel(&s["voxel"]),
+            )
+        })
+        .collect();
+    let defects = read_json(&run.join("defects.json"));
+    let mut flagged = 0;
+    for d in defects["defects"].as_array().unwrap() {
+        if d["evidence"]["reshoot"] != true {
+            continue;
+        }
+        flagged += 1;
+        let id = d["id"].as_str().unwrap();
+        let v = spots
+            .get(id)
+            .unwrap_or_else(|| panic!("{id} is not a spot of the flight"));
+        assert_eq!(*v, voxel(&d["voxel"]));
+        assert!(
+            planned.contains(v) || left_out.contains(v),
+            "{id}: neither flown nor explained"
+        );
+    }
+    let flown = spots.values().filter(|v| planned.contains(*v)).count();
+    (flagged, flown)
+}
+
 #[test]
 fn defect_candidates_match_truth_on_simulated_flights() {
     let dir = tempfile::tempdir().unwrap();
@@ -311,6 +487,11 @@ fn defect_candidates_match_truth_on_simulated_flights() {
         s.print(&name);
         assert_meets_targets(&s);
         all = all.add(s);
+        let (judged, breaking) = check_evidence(&sim, &run);
+        let (flagged, flown) = check_reshoots_are_flown(&sim, &run);
+        eprintln!(
+            "{name}: {judged} candidates on cracks judged from truth, {breaking} breaking the View model; {flagged} flagged for a re-shoot, {flown} flown"
+        );
     }
     all.print("all flights");
 }

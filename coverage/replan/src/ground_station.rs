@@ -222,7 +222,7 @@ pub const PATH_CSV_HEADER: &str = "X,Y,Z,Yaw,GimbalPitch,Sortie,Point";
 /// Comment lines above the header give the frame and the units.
 pub fn path_csv(sorties: &[Sortie], frame_id: &str) -> String {
     let mut text = format!(
-        "# postflight follow-up flight: {} sortie{}, each taking off from and landing at home\n\
+        "# postflight follow-up flight: {} sortie{}, taking off from and landing at home\n\
          # frame: {frame_id} (the SLAM map's), z up; X, Y, Z in metres\n\
          # Yaw: radians, counter-clockwise from the x axis (REP 103); GimbalPitch: degrees, negative looking down\n\
          {PATH_CSV_HEADER}\n",
