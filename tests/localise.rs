@@ -159,16 +159,21 @@ impl Score {
     }
 }
 
-fn score(sim: &Path, run: &Path) -> Score {
-    let truth = read_json(&sim.join("truth.json"));
-    let cracks = cracks(&truth);
-    // Which cracks a detection found, and from how far.
-    let frames: HashMap<i64, &Value> = truth["frames"]
+/// The truth frames by their time.
+fn frames_by_time(truth: &Value) -> HashMap<i64, &Value> {
+    truth["frames"]
         .as_array()
         .unwrap()
         .iter()
         .map(|f| (f["time_ns"].as_i64().unwrap(), f))
-        .collect();
+        .collect()
+}
+
+fn score(sim: &Path, run: &Path) -> Score {
+    let truth = read_json(&sim.join("truth.json"));
+    let cracks = cracks(&truth);
+    // Which cracks a detection found, and from how far.
+    let frames = frames_by_time(&truth);
     let mut detected: BTreeMap<i64, f64> = BTreeMap::new();
     for d in detection_rows(run) {
         let frame = frames[&d.time_ns];
@@ -188,20 +193,7 @@ fn score(sim: &Path, run: &Path) -> Score {
     let defects = defects["defects"].as_array().unwrap();
     let mut on: BTreeMap<i64, Vec<&Value>> = BTreeMap::new();
     for d in defects {
-        let p = vec3(&d["position"]);
-        let (id, gap) = cracks
-            .iter()
-            .map(|(id, c)| {
-                let gap = c
-                    .samples
-                    .iter()
-                    .map(|s| dist(s, &p))
-                    .fold(f64::INFINITY, f64::min);
-                (*id, gap)
-            })
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .unwrap();
-        if gap <= 0.3 {
+        if let Some((id, _)) = crack_at(&cracks, &vec3(&d["position"])) {
             on.entry(id).or_default().push(d);
         }
     }
@@ -295,16 +287,16 @@ fn check_outputs(run: &Path, summary: &Value) {
 
 /// The truth crack nearest `p` within 0.3 m of its centre line, and the
 /// crack point nearest `p`.
-fn crack_at<'a>(cracks: &'a BTreeMap<i64, Crack>, p: &[f64; 3]) -> Option<(&'a Crack, [f64; 3])> {
+fn crack_at(cracks: &BTreeMap<i64, Crack>, p: &[f64; 3]) -> Option<(i64, [f64; 3])> {
     cracks
-        .values()
-        .map(|c| {
+        .iter()
+        .map(|(id, c)| {
             let nearest = *c
                 .samples
                 .iter()
                 .min_by(|a, b| dist(a, p).total_cmp(&dist(b, p)))
                 .unwrap();
-            (c, nearest)
+            (*id, nearest)
         })
         .min_by(|a, b| dist(&a.1, p).total_cmp(&dist(&b.1, p)))
         .filter(|(_, nearest)| dist(nearest, p) <= 0.3)
@@ -319,21 +311,17 @@ fn check_evidence(sim: &Path, run: &Path) -> (usize, usize) {
     let truth = read_json(&sim.join("truth.json"));
     let view = &read_json(&sim.join("plan.json"))["view"];
     let cracks = cracks(&truth);
-    let frames: HashMap<i64, &Value> = truth["frames"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|f| (f["time_ns"].as_i64().unwrap(), f))
-        .collect();
+    let frames = frames_by_time(&truth);
     let focal = f(&truth["camera"]["fx"]).min(f(&truth["camera"]["fy"]));
     let (mut judged, mut breaking) = (0, 0);
     for d in read_json(&run.join("defects.json"))["defects"]
         .as_array()
         .unwrap()
     {
-        let Some((crack, at)) = crack_at(&cracks, &vec3(&d["position"])) else {
+        let Some((id, at)) = crack_at(&cracks, &vec3(&d["position"])) else {
             continue;
         };
+        let crack = &cracks[&id];
         let frame = frames[&d["best"]["time_ns"].as_i64().unwrap()];
         let camera = vec3(&frame["camera_pose"]["translation"]);
         let range = dist(&camera, &at);
