@@ -24,7 +24,7 @@ use crate::error::ReplanError;
 use crate::free_space::{FreeSpace, length};
 use crate::ground_station::{self, Placement};
 use crate::tour::{Budget, Stops, Tour, TourError, plan_tour};
-use crate::viewpoints::{Camera, Candidate, candidates, clusters};
+use crate::viewpoints::{Camera, Candidate, candidates, clusters, set_cover};
 
 /// The stage's settings, by their key in `postflight.toml`'s `[replan]`.
 pub mod keys {
@@ -94,6 +94,16 @@ impl ReplanOptions {
                 ..SolveOptions::default()
             },
             geo_origin: None,
+        }
+    }
+
+    /// What one battery allows a sortie.
+    fn budget(&self) -> Budget {
+        Budget {
+            max_length_m: self.max_sortie_length_m.unwrap_or(f64::INFINITY),
+            max_time_s: self.battery_minutes * 60.0,
+            speed_m_s: self.speed_m_s,
+            hover_s: self.hover_s,
         }
     }
 
@@ -186,13 +196,13 @@ pub fn replan(
     let space = FreeSpace::new(&map.voxels, options.clearance_m, &[launch]);
     let home = clear_home(&space, &map, launch, &mut summary)?;
 
-    let (found, by_gap) = viewpoints(&flight, &coverage, &map, &space, targets, gaps, progress)?;
+    let found = viewpoints(&flight, &coverage, &map, &space, targets, gaps, progress)?;
     summary.candidate_viewpoints = found.len();
-    // One viewpoint serves every gap it inspects: the tour chooses among a
-    // greedy set cover's viewpoints, so it needs no more of them.
+    // One viewpoint serves every gap it inspects: the clusters hold only a
+    // greedy set cover's viewpoints, so the tour needs no more of them.
     let cover = set_cover(&found, gaps.len());
     summary.set_cover_viewpoints = cover.len();
-    let mut by_gap = restrict(by_gap, &found, &cover);
+    let mut by_gap = clusters(gaps, &found, &cover, |v| grid.center(v));
     // Stops: home, then the candidates.
     let points: Vec<Point3<f64>> = std::iter::once(home)
         .chain(found.iter().map(|c| Point3::from(c.viewpoint.position)))
@@ -303,44 +313,6 @@ fn choose_gaps(run: &RunDir, choice: GapChoice) -> Result<ChosenGaps, ReplanErro
     })
 }
 
-/// A greedy set cover of the gaps (`gaps` of them) by the candidates:
-/// repeatedly the candidate inspecting the most gaps not yet inspected
-/// (ties to the lower index). Returns the chosen candidates' indices.
-fn set_cover(found: &[Candidate], gaps: usize) -> Vec<usize> {
-    let mut open = vec![true; gaps];
-    let mut chosen = Vec::new();
-    loop {
-        let best = found
-            .iter()
-            .enumerate()
-            .map(|(k, c)| (c.inspects.iter().filter(|g| open[**g]).count(), k))
-            .max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)));
-        match best {
-            Some((n, k)) if n > 0 => {
-                for g in &found[k].inspects {
-                    open[*g] = false;
-                }
-                chosen.push(k);
-            }
-            _ => return chosen,
-        }
-    }
-}
-
-/// Each gap's cluster cut to the candidates of `cover` that inspect it
-/// (every gap a candidate inspects has one).
-fn restrict(mut by_gap: Vec<Vec<usize>>, found: &[Candidate], cover: &[usize]) -> Vec<Vec<usize>> {
-    for members in &mut by_gap {
-        members.clear();
-    }
-    for &k in cover {
-        for &g in &found[k].inspects {
-            by_gap[g].push(k);
-        }
-    }
-    by_gap
-}
-
 /// Home: as given, else where the flight took off.
 fn take_off(options: &ReplanOptions, flight: &Flight) -> Result<Point3<f64>, ReplanError> {
     match options.home {
@@ -427,8 +399,7 @@ fn clear_home(
     })
 }
 
-/// Candidate viewpoints around the gap faces (clear of the map), and the
-/// candidates (indices) that inspect each gap voxel.
+/// Candidate viewpoints around the gap faces (clear of the map).
 fn viewpoints(
     flight: &Flight,
     coverage: &CoverageSummary,
@@ -437,7 +408,7 @@ fn viewpoints(
     targets: &[VoxelIndex],
     gaps: &[VoxelIndex],
     progress: &mut dyn FnMut(u64, u64),
-) -> Result<(Vec<Candidate>, Vec<Vec<usize>>), ReplanError> {
+) -> Result<Vec<Candidate>, ReplanError> {
     let lens = flight
         .cameras
         .first()
@@ -463,8 +434,7 @@ fn viewpoints(
         done.fetch_max(k as u64, Ordering::Relaxed);
     });
     progress(done.load(Ordering::Relaxed), total);
-    let by_gap = clusters(gaps, &found, |v| grid.center(v));
-    Ok((found, by_gap))
+    Ok(found)
 }
 
 /// The tour, and the gap voxels it leaves out.
@@ -530,8 +500,9 @@ fn solve(
 }
 
 /// The tour's stops (indices into it, from 1) per sortie, split so each
-/// fits one battery (and the longest sortie, if set). Splitting bounds each way home by the lattice
-/// distance (one search from home), then flies the legs home it chose.
+/// fits one battery (and the longest sortie, if set). Splitting bounds each
+/// way home by the lattice distance (one search from home), then flies the
+/// legs home it chose.
 fn split_sorties(
     options: &ReplanOptions,
     tour: &Tour,
@@ -539,12 +510,7 @@ fn split_sorties(
     space: &FreeSpace,
     map: &SlamMap,
 ) -> Result<Vec<Vec<usize>>, ReplanError> {
-    let budget = Budget {
-        max_length_m: options.max_sortie_length_m.unwrap_or(f64::INFINITY),
-        max_time_s: options.battery_minutes * 60.0,
-        speed_m_s: options.speed_m_s,
-        hover_s: options.hover_s,
-    };
+    let budget = options.budget();
     let home = points[0];
     let from_home = space.distances_from(&home);
     let grid = map.voxels.grid;
@@ -614,7 +580,7 @@ fn fly(
     }
     let length_m = length(&path);
     Sortie {
-        time_s: length_m / options.speed_m_s + options.hover_s * waypoints.len() as f64,
+        time_s: options.budget().time_s(length_m, waypoints.len()),
         waypoints,
         path: path.iter().map(|p| p.coords.into()).collect(),
         length_m,

@@ -3,7 +3,9 @@
 //! (across the distance band and the incidence limit) are moved to their
 //! voxel's centre; each clear one becomes a viewpoint aimed at the face,
 //! and the coverage stage's own View model judges which gap voxels it
-//! inspects. A gap voxel's cluster is the viewpoints that inspect it.
+//! inspects. A greedy set cover of the gaps keeps a few viewpoints
+//! that inspect them all; a gap voxel's cluster is those of them that
+//! inspect it.
 
 use std::collections::HashSet;
 
@@ -136,17 +138,42 @@ pub fn candidates(
     found
 }
 
-/// The cluster of each gap voxel: up to [`MAX_CLUSTER`] candidates (fewer
-/// for many gaps) that inspect it, those inspecting most gap voxels
-/// first, then the nearest.
+/// A greedy set cover of the gaps (`gaps` of them) by the candidates:
+/// repeatedly the candidate inspecting the most gaps not yet inspected
+/// (ties to the lower index). Returns the chosen candidates' indices.
+pub fn set_cover(candidates: &[Candidate], gaps: usize) -> Vec<usize> {
+    let mut open = vec![true; gaps];
+    let mut chosen = Vec::new();
+    loop {
+        let best = candidates
+            .iter()
+            .enumerate()
+            .map(|(k, c)| (c.inspects.iter().filter(|g| open[**g]).count(), k))
+            .max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)));
+        match best {
+            Some((n, k)) if n > 0 => {
+                for g in &candidates[k].inspects {
+                    open[*g] = false;
+                }
+                chosen.push(k);
+            }
+            _ => return chosen,
+        }
+    }
+}
+
+/// The cluster of each gap voxel among the candidates `allowed` (indices):
+/// up to [`MAX_CLUSTER`] of them (fewer for many gaps) that inspect it,
+/// those inspecting most gap voxels first, then the nearest.
 pub fn clusters(
     gaps: &[VoxelIndex],
     candidates: &[Candidate],
+    allowed: &[usize],
     centre: impl Fn(VoxelIndex) -> Point3<f64>,
 ) -> Vec<Vec<usize>> {
     let mut by_gap: Vec<Vec<usize>> = vec![Vec::new(); gaps.len()];
-    for (k, c) in candidates.iter().enumerate() {
-        for &g in &c.inspects {
+    for &k in allowed {
+        for &g in &candidates[k].inspects {
             by_gap[g].push(k);
         }
     }
