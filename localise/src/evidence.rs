@@ -6,6 +6,8 @@
 use postflight_core::ViewModel;
 use postflight_core::outputs::localise::{Evidence, LengthStatus, ViewFault};
 
+use crate::observation::Placement;
+
 /// The View model's rules a view of a crack at `range_m` and `incidence_deg`
 /// breaks, for a lens of focal length `f_px` (the finer axis) and a frame
 /// blurred by `blur_px` (`None`: unknown, not judged). The GSD is the View
@@ -41,20 +43,11 @@ pub fn view_gsd_mm(range_m: f64, f_px: f64) -> f64 {
     range_m * 1000.0 / f_px
 }
 
-/// What is known of one view of a candidate, for its evidence.
-#[derive(Debug, Clone, Copy)]
-pub struct ViewQuality<'a> {
-    pub faults: &'a [ViewFault],
-    pub view_gsd_mm: f64,
-    pub oblique_gsd_mm: f64,
-    pub blur_px: Option<f64>,
-}
-
 /// A candidate's evidence from its best view and its length's status.
-pub fn evidence(best: ViewQuality, length: LengthStatus) -> Evidence {
-    let reshoot = !best.faults.is_empty() || length.missing_reason().is_some();
+pub fn evidence(best: &Placement, length: LengthStatus) -> Evidence {
+    let reshoot = !best.view_faults.is_empty() || length.missing_reason().is_some();
     Evidence {
-        view_faults: best.faults.to_vec(),
+        view_faults: best.view_faults.clone(),
         view_gsd_mm: best.view_gsd_mm,
         blur_px: best.blur_px,
         length,
@@ -66,6 +59,9 @@ pub fn evidence(best: ViewQuality, length: LengthStatus) -> Evidence {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::surface::SurfaceHit;
+    use nalgebra::{Point3, Vector3};
+    use postflight_core::map::VoxelIndex;
 
     #[test]
     fn every_rule_a_view_breaks_is_named() {
@@ -94,21 +90,33 @@ mod tests {
 
     #[test]
     fn a_missing_length_or_a_broken_rule_asks_for_a_reshoot() {
-        let sharp = ViewQuality {
-            faults: &[],
-            view_gsd_mm: 3.0,
+        let centre = Point3::new(3.0, 0.0, 1.0);
+        let sharp = Placement {
+            hit: SurfaceHit {
+                point: centre,
+                normal: Vector3::x(),
+                voxel: VoxelIndex([6, 0, 2]),
+                range: 3.0,
+                incidence: 0.3,
+            },
+            centre,
+            extent: [centre, centre],
+            radius: 0.2,
+            length_m: Some(0.4),
             oblique_gsd_mm: 3.5,
+            view_gsd_mm: 3.0,
             blur_px: Some(0.5),
+            view_faults: Vec::new(),
         };
-        let measured = evidence(sharp, LengthStatus::Measured);
+        let measured = evidence(&sharp, LengthStatus::Measured);
         assert!(!measured.reshoot);
         assert_eq!(measured.min_measurable_width_mm, 7.0);
-        assert!(!evidence(sharp, LengthStatus::Partial).reshoot);
-        assert!(evidence(sharp, LengthStatus::TooOblique).reshoot);
-        let far = ViewQuality {
-            faults: &[ViewFault::TooFar],
+        assert!(!evidence(&sharp, LengthStatus::Partial).reshoot);
+        assert!(evidence(&sharp, LengthStatus::TooOblique).reshoot);
+        let far = Placement {
+            view_faults: vec![ViewFault::TooFar],
             ..sharp
         };
-        assert!(evidence(far, LengthStatus::Measured).reshoot);
+        assert!(evidence(&far, LengthStatus::Measured).reshoot);
     }
 }

@@ -10,8 +10,8 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::{Point3, Vector3};
 use postflight_core::map::{FaceSide, VoxelIndex};
 
-use crate::evidence::{ViewQuality, evidence};
-use crate::observation::{Observation, Placement};
+use crate::evidence::evidence;
+use crate::observation::{Observation, Placement, measures_length};
 use crate::union_find::UnionFind;
 use postflight_core::outputs::localise::{Evidence, LengthStatus, Outcome};
 
@@ -234,16 +234,7 @@ fn candidate(observations: &[Observation], group: Vec<usize>) -> DefectCandidate
         .collect();
     let confidence = confidence(&scores, &off_surface);
     let voxel = placement(best).hit.voxel;
-    let b = placement(best);
-    let evidence = evidence(
-        ViewQuality {
-            faults: &b.view_faults,
-            view_gsd_mm: b.view_gsd_mm,
-            oblique_gsd_mm: b.oblique_gsd_mm,
-            blur_px: b.blur_px,
-        },
-        status,
-    );
+    let evidence = evidence(placement(best), status);
     DefectCandidate {
         id: String::new(),
         position,
@@ -274,9 +265,10 @@ fn length_status<'a>(
         LengthStatus::Measured
     } else if !measured.is_empty() {
         LengthStatus::Partial
-    } else if group.iter().all(|i| {
-        placement(*i).hit.incidence.to_degrees() > crate::observation::MAX_MEASURED_INCIDENCE_DEG
-    }) {
+    } else if group
+        .iter()
+        .all(|i| !measures_length(placement(*i).hit.incidence))
+    {
         LengthStatus::TooOblique
     } else if group.iter().all(|i| placement(*i).length_m.is_none()) {
         LengthStatus::NotTraced

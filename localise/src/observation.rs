@@ -69,12 +69,18 @@ pub struct Scene<'a> {
 const BORDER_PX: f32 = 3.0;
 /// Views more oblique than this do not measure length, degrees (the View
 /// model's default largest incidence for an inspection view).
-pub const MAX_MEASURED_INCIDENCE_DEG: f64 = 60.0;
+const MAX_MEASURED_INCIDENCE_DEG: f64 = 60.0;
 /// Rays cast per detection, spread along the crack.
 const RAYS: usize = 7;
 /// Rays whose hit lies this far off the crack's surface met something else
 /// (an edge, a background surface), metres.
 const OFF_SURFACE: f64 = 0.25;
+
+/// Whether a view at `incidence` (radians) measures length: at grazing
+/// angles a pixel spans too much surface to measure on.
+pub fn measures_length(incidence: f64) -> bool {
+    incidence.to_degrees() <= MAX_MEASURED_INCIDENCE_DEG
+}
 
 impl Scene<'_> {
     /// Place a detection seen by a camera at `pose` (`T_world_camera`,
@@ -158,13 +164,13 @@ impl Scene<'_> {
         let extent = points
             .iter()
             .fold([points[0], points[0]], |[lo, hi], p| [lo.inf(p), hi.sup(p)]);
-        // At grazing angles a pixel spans too much surface to measure on.
-        let measurable = surface.incidence.to_degrees() <= MAX_MEASURED_INCIDENCE_DEG;
-        let length_m = trace.filter(|_| measurable).map(|t| {
-            let at: Vec<Option<Vector3<f64>>> =
-                on_surface.iter().map(|p| p.map(|p| p.coords)).collect();
-            t.length(&at)
-        });
+        let length_m = trace
+            .filter(|_| measures_length(surface.incidence))
+            .map(|t| {
+                let at: Vec<Option<Vector3<f64>>> =
+                    on_surface.iter().map(|p| p.map(|p| p.coords)).collect();
+                t.length(&at)
+            });
         // The hit at the crack's centre, for its voxel, face, range and angle.
         let hit = SurfaceHit::new(self.map, &origin, centre, surface.normal);
         observation.outcome = match self.structure {
