@@ -89,6 +89,9 @@ fn segment_clearance(map: &VoxelMap, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
     nearest
 }
 
+/// Every gap, planned or not, with a battery that never splits the flight.
+const EVERY_GAP_ONE_BATTERY: [&str; 4] = ["--gaps", "all", "--battery-minutes", "600"];
+
 /// Geo origins of the map frame: `LAT,LON,ALT,YAW_DEG`.
 const ZURICH: [&str; 4] = ["47.397742", "8.545594", "488.0", "23.5"];
 const SYDNEY: [&str; 4] = ["-33.8568", "151.2153", "20.0", "-120.0"];
@@ -139,19 +142,12 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
     );
 
     // Every gap, planned or not, in one battery.
-    let out = replan(
-        &run,
-        &[
-            "--gaps",
-            "all",
-            "--battery-minutes",
-            "600",
-            "--solver-time-limit",
-            "3",
-            "--geo-origin",
-            ZURICH.join(",").as_str(),
-        ],
-    );
+    let zurich = ZURICH.join(",");
+    let args = [
+        &EVERY_GAP_ONE_BATTERY[..],
+        &["--solver-time-limit", "3", "--geo-origin", &zurich],
+    ];
+    let out = replan(&run, &args.concat());
     assert!(out.status.success(), "replan: {}", stderr(&out));
     let plan = read_json(&run.join("replan.json"));
     let geo = ground_station_files(&run, ZURICH);
@@ -297,20 +293,21 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
     // Battery: sorties no longer than the limit, each from home and back,
     // planning the same gaps.
     let limit = f(&plan["length_m"]) / 3.0;
-    let out = replan(
-        &run,
+    let (limit_arg, sydney) = (
+        limit.to_string(),
+        format!("--geo-origin={}", SYDNEY.join(",")),
+    );
+    let args = [
+        &EVERY_GAP_ONE_BATTERY[..],
         &[
-            "--gaps",
-            "all",
-            "--battery-minutes",
-            "600",
             "--solver-time-limit",
             "2",
             "--max-sortie-length",
-            &limit.to_string(),
-            &format!("--geo-origin={}", SYDNEY.join(",")),
+            &limit_arg,
+            &sydney,
         ],
-    );
+    ];
+    let out = replan(&run, &args.concat());
     assert!(out.status.success(), "replan: {}", stderr(&out));
     let split = read_json(&run.join("replan.json"));
     let sorties = split["sorties"].as_array().unwrap();
