@@ -112,25 +112,17 @@ pub fn replan(options: &replan::ReplanOptions, quiet: bool) -> anyhow::Result<()
         tracing::warn!("{w}");
     }
     if !quiet {
-        if summary.gap_voxels == 0 {
-            println!(
-                "no gaps: coverage found nothing to replan; wrote an empty plan into {}",
-                options.run.display()
-            );
+        if let Some(why) = reports::html::nothing_to_fly(&summary) {
+            println!("{why}; wrote an empty plan into {}", options.run.display());
         } else {
             let files: Vec<&str> = ["replan.json", "replan.csv"]
                 .into_iter()
                 .chain(summary.ground_station_files.iter().map(String::as_str))
                 .collect();
             println!(
-                "{} of {} gap voxels planned ({} uninspectable): {} waypoints in {} sorties, {:.0} m, about {:.0} min; {} in {}",
-                summary.planned_gap_voxels,
-                summary.gap_voxels,
+                "{} Uninspectable: {}. {} in {}",
+                reports::html::follow_up_text(&summary),
                 summary.uninspectable_gaps.len(),
-                summary.waypoints,
-                summary.sorties.len(),
-                summary.length_m,
-                summary.time_s / 60.0,
                 files.join(", "),
                 options.run.display()
             );

@@ -9,7 +9,7 @@ use base64::Engine;
 use maud::{DOCTYPE, Markup, PreEscaped, html};
 use postflight_core::outputs::coverage::CoverageSummary;
 use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
-use postflight_core::outputs::replan::{ReplanSummary, Unplannable};
+use postflight_core::outputs::replan::{GapChoice, ReplanSummary, Unplannable};
 use postflight_core::outputs::report::RunSummary;
 
 use crate::results::{RunResults, VoxelStatus, review_priority};
@@ -19,7 +19,7 @@ use crate::views::{Overlay, Side, colour, view};
 const STYLE: &str = r#"
 body{font:14px/1.45 system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;color:#1f2937;margin:0 auto;max-width:1060px;padding:24px}
 h1{font-size:24px;margin:0 0 4px}h2{font-size:19px;margin:32px 0 10px;border-bottom:2px solid #e5e7eb;padding-bottom:4px}
-.sub{color:#6b7280}.warn{background:#fef3c7;border-left:4px solid #f59e0b;padding:8px 12px;margin:10px 0}
+.sub{color:#6b7280}.flag{color:#b45309;font-weight:600}.warn{background:#fef3c7;border-left:4px solid #f59e0b;padding:8px 12px;margin:10px 0}
 .cards{display:flex;flex-wrap:wrap;gap:10px;margin:16px 0}.card{border:1px solid #e5e7eb;border-radius:6px;padding:8px 14px;min-width:120px}
 .card b{display:block;font-size:22px}.card span{color:#6b7280;font-size:12px}
 table{border-collapse:collapse;width:100%;margin:8px 0}th,td{text-align:left;padding:4px 8px;border-bottom:1px solid #e5e7eb;vertical-align:top}
@@ -87,16 +87,34 @@ pub fn readable_time(rfc3339: &str) -> String {
 }
 
 /// A candidate's estimated length: "≥" marks a lower bound (its views were
-/// cut by the image border); an unknown length says why.
+/// cut by the image border), a dash an unknown length ([`evidence_text`]
+/// says why).
 pub fn length_text(d: &DefectRecord) -> String {
     match (d.length_m, d.evidence.length) {
         (Some(l), LengthStatus::Partial) => format!("\u{2265} {l:.2} m"),
         (Some(l), _) => format!("{l:.2} m"),
-        (None, status) => format!(
-            "\u{2013} ({})",
-            status.missing_reason().unwrap_or("not measured")
-        ),
+        (None, _) => "\u{2013}".into(),
     }
+}
+
+/// Why a candidate must be shot again, for people: the View model's rules
+/// its best view breaks and why its length is missing; `None` when its
+/// evidence is sound.
+pub fn evidence_text(d: &DefectRecord) -> Option<String> {
+    let e = &d.evidence;
+    let mut weak = Vec::new();
+    if !e.view_faults.is_empty() {
+        let faults: Vec<String> = e
+            .view_faults
+            .iter()
+            .map(|f| f.as_str().replace('_', " "))
+            .collect();
+        weak.push(format!("best view {}", faults.join(", ")));
+    }
+    if let Some(why) = e.length.missing_reason() {
+        weak.push(format!("no length: {why}"));
+    }
+    e.reshoot.then(|| format!("re-shoot: {}", weak.join("; ")))
 }
 
 fn cards(s: &RunSummary) -> Markup {
@@ -115,7 +133,7 @@ fn cards(s: &RunSummary) -> Markup {
                 (card(c.uninspectable_voxels.to_string(), "uninspectable voxels"))
             }
             @if let Some(r) = &s.replan {
-                (card(format!("{:.0} m", r.length_m), &format!("follow-up flight, {} sorties", r.sorties)))
+                (card(format!("{:.0} m", r.length_m), &format!("follow-up flight, {} sortie{}", r.sorties, if r.sorties == 1 { "" } else { "s" })))
             }
         }
     }
@@ -253,7 +271,7 @@ fn defects_section(r: &RunResults) -> Markup {
         } @else {
             p {
                 (order.len())
-                " candidates, likeliest and largest first (fused confidence \u{d7} length). Each is one physical crack fused from its supporting views; the picture is its best view (closest and most frontal)."
+                " candidates, likeliest and largest first (fused confidence \u{d7} length, or extent where the length is unknown). Each is one physical crack fused from its supporting views; the picture is its best view (meeting the View model if one does, then the finest). Candidates whose evidence is weak are flagged for a re-shoot, and the follow-up flight goes back for them."
             }
             table {
                 tr {
@@ -304,6 +322,7 @@ fn defect_row(r: &RunResults, rank: usize, d: &DefectRecord) -> Markup {
                 b { (d.id) } br;
                 (format!("at ({:.2}, {:.2}, {:.2}) m, face {}", p[0], p[1], p[2], d.face)) br;
                 (d.frames) " supporting frames, best frame " (d.best.frame)
+                @if let Some(weak) = evidence_text(d) { br; span.flag { (weak) } }
                 div.frames { (frames.join("; ")) }
             }
             td.n { (length_text(d)) }
@@ -317,13 +336,59 @@ fn defect_row(r: &RunResults, rank: usize, d: &DefectRecord) -> Markup {
     }
 }
 
+/// Why the follow-up flight has nothing to fly, if it has not (the
+/// report's and the command line's words).
+pub fn nothing_to_fly(p: &ReplanSummary) -> Option<String> {
+    if p.gap_voxels > 0 {
+        return None;
+    }
+    Some(if p.coverage_gap_voxels == 0 {
+        "no gaps: coverage found nothing to replan and no candidate needs a re-shoot".into()
+    } else {
+        format!(
+            "nothing to fly: none of the {} gaps is of the kind chosen ({}) and no candidate needs a re-shoot; --gaps all flies every gap",
+            p.coverage_gap_voxels,
+            p.gaps.as_str()
+        )
+    })
+}
+
+/// What the follow-up flight goes back for and what it is, in a sentence
+/// (the report's and the command line's words).
+pub fn follow_up_text(p: &ReplanSummary) -> String {
+    let n = p.coverage_gap_voxels;
+    let chosen = match p.gaps {
+        GapChoice::Missed => format!("the planned voxels the flight missed, of {n} gaps"),
+        GapChoice::All => format!("all {n} gaps"),
+        GapChoice::Reshoot => format!("none of the {n} gaps"),
+    };
+    let plural = |n: usize, word: &str| format!("{n} {word}{}", if n == 1 { "" } else { "s" });
+    format!(
+        "{} of {} chosen voxels planned ({chosen}, plus {} to re-shoot): {} (a greedy set cover needs {}) in {} within a {:.0}-minute battery: {:.0} m, about {:.1} min ({:.1} min hovering, {:.0} s a waypoint; {:.1} min flying at {:.1} m/s); at least {:.1} m from every occupied voxel.",
+        p.planned_gap_voxels,
+        p.gap_voxels,
+        plural(p.reshoot_spots.len(), "candidate"),
+        plural(p.waypoints, "waypoint"),
+        p.set_cover_viewpoints,
+        plural(p.sorties.len(), "sortie"),
+        p.battery_minutes,
+        p.length_m,
+        p.time_s / 60.0,
+        p.hover_time_s / 60.0,
+        p.hover_s,
+        p.travel_time_s / 60.0,
+        p.speed_m_s,
+        p.clearance_m,
+    )
+}
+
 fn replan_section(r: &RunResults) -> Markup {
     html! {
         h2 { "Follow-up flight for the gaps" }
         @match &r.replan {
             None => p { "No follow-up flight was planned for this run." },
-            Some(p) if p.gap_voxels == 0 => p {
-                "No gaps: the flight inspected everything a flight can; no follow-up is needed."
+            Some(p) if nothing_to_fly(p).is_some() => p {
+                (nothing_to_fly(p).unwrap_or_default())
             },
             Some(p) => (follow_up(r, p)),
         }
@@ -350,20 +415,9 @@ fn follow_up(r: &RunResults, p: &ReplanSummary) -> Markup {
     };
     html! {
         p {
-            (format!(
-                "{} of {} gap voxels planned: {} waypoints in {} sortie(s), {:.0} m, about {:.0} min at {:.1} m/s with {:.0} s per waypoint; at least {:.1} m from every occupied voxel. ",
-                p.planned_gap_voxels,
-                p.gap_voxels,
-                p.waypoints,
-                p.sorties.len(),
-                p.length_m,
-                p.time_s / 60.0,
-                p.speed_m_s,
-                p.hover_s,
-                p.clearance_m,
-            ))
+            (follow_up_text(p)) " "
             "Flyable files: " code { "replan.json" } " (waypoints with yaw and gimbal pitch), "
-            code { "replan.csv" } " (X,Y,Z,Yaw)"
+            code { "replan.csv" } " (X,Y,Z,Yaw with gimbal pitch, sortie and kind of point)"
             @if let (Some(o), false) = (&p.geo_origin, p.ground_station_files.is_empty()) {
                 ", and for ground stations "
                 @for (i, file) in p.ground_station_files.iter().enumerate() {

@@ -8,7 +8,7 @@ use std::fmt::Write;
 
 use maud::{Markup, PreEscaped, html};
 use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
-use reports::html::{length_text, readable_time};
+use reports::html::{evidence_text, length_text, readable_time};
 
 use crate::queue::{Entry, Filter, Progress, Queue};
 use crate::store::{Decision, MAX_NOTE_CHARS, MAX_REVIEWER_CHARS, Verdict};
@@ -237,7 +237,7 @@ pub fn candidate_page(ctx: &Context, queue: &Queue, entry: &Entry, v: &Candidate
             aside {
                 figure.best {
                     (crop_img(d, "crop"))
-                    figcaption { "best view (closest, most frontal), frame " (d.best.frame) }
+                    figcaption { "best view (meeting the View model if one does, then the finest), frame " (d.best.frame) }
                 }
                 (facts(d))
                 @if !v.position.is_empty() {
@@ -315,6 +315,24 @@ fn facts(d: &DefectRecord) -> Markup {
                     @if d.evidence.length == LengthStatus::Partial {
                         " " span.sub { "(every view cut by the image border)" }
                     }
+                }
+            }
+            tr {
+                th { "evidence" }
+                td {
+                    @match evidence_text(d) {
+                        Some(weak) => b { (weak) },
+                        None => "the best view meets the View model (range, incidence, GSD, blur)",
+                    }
+                }
+            }
+            tr {
+                th { "width" }
+                td {
+                    (format!(
+                        "not measured: a crack narrower than {:.1} mm is under two pixels in the best view",
+                        d.evidence.min_measurable_width_mm
+                    ))
                 }
             }
             tr {
