@@ -26,7 +26,7 @@ pub struct ServeArgs {
     #[arg(long, value_name = "FILE")]
     db: Option<PathBuf>,
     /// Address to listen on. Anything but loopback requires an access token.
-    #[arg(long, default_value = "127.0.0.1:8765")]
+    #[arg(long, default_value = postflight_core::outputs::report::DEFAULT_REVIEW_ADDR)]
     addr: SocketAddr,
     /// Access token (at least 16 letters, digits, '-' or '_') [default:
     /// none on loopback, generated otherwise].

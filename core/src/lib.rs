@@ -14,6 +14,8 @@
 //!   `postflight run` ([`RunLog`]), and the file contract ([`outputs`]):
 //!   for every stage its files, its summary and one typed writer and reader
 //!   per table.
+//! - The structure as inspectors name it: elements and places on them
+//!   ([`structure`]).
 //! - Settings named by their key in `postflight.toml` ([`setting`]).
 //!
 //! Nothing heavy: no ONNX Runtime, Rerun, web server or recording format;
@@ -34,6 +36,7 @@ pub mod run_dir;
 pub mod run_log;
 pub mod serde_pose;
 pub mod setting;
+pub mod structure;
 pub mod time;
 pub mod trajectory;
 

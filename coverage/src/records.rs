@@ -55,6 +55,9 @@ pub fn voxel_records(
             views: got.iter().map(|c| c.views).max().unwrap_or(0),
             views_required: need[range].iter().copied().min().unwrap_or(1),
             best,
+            // Named once the structure's elements are known.
+            element: String::new(),
+            place: String::new(),
             reason: if inspected {
                 None
             } else {

@@ -3,7 +3,7 @@
 //! flight (and against the plan's viewpoints, for what was planned), and
 //! writes `coverage.parquet` (one row per target voxel) and `coverage.json`.
 
-use std::collections::{BTreeSet, HashSet};
+use std::collections::{BTreeSet, HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -14,6 +14,7 @@ use postflight_core::outputs::coverage::{
     self as outputs, CoverageSummary, ReasonCounts, VoxelRecord, files,
 };
 use postflight_core::outputs::localise::read_defects;
+use postflight_core::structure::{self, Segmentation};
 use postflight_core::{
     Flight, FlownPlan, Intrinsics, InvalidSetting, Key, PlanFile, RunDir, Stage, ViewModel,
     Viewpoint,
@@ -205,6 +206,7 @@ pub fn coverage(
         &judged.reachable,
         plan_shots.is_some(),
     );
+    let records = name_places(records, &scene);
     let counts = Counts::of(&records, &judged.flown, plan_shots.is_some());
     let seconds = start.elapsed().as_secs_f64();
     let summary = summarise(options, view, &scene, counts, &shots, &need, seconds);
@@ -222,6 +224,8 @@ struct Scene {
     target_set: HashSet<VoxelIndex>,
     /// Where the targets came from, for the summary.
     targets_name: String,
+    /// The targets grouped into the structure's elements.
+    elements: Segmentation,
     faces: Vec<Face>,
     lenses: Vec<Intrinsics>,
 }
@@ -235,15 +239,21 @@ impl Scene {
         let grid = plan.and_then(FlownPlan::grid);
         let (map, _) = ingest::load_map(flight, options.map.as_deref(), grid)?;
         let grid = map.voxels.grid;
-        let (targets, targets_name) = load_targets(&options.targets, plan, &map)?;
+        let LoadedTargets {
+            voxels: targets,
+            name: targets_name,
+            labels,
+        } = load_targets(&options.targets, plan, &map)?;
         let target_set: HashSet<VoxelIndex> = targets.iter().copied().collect();
         let faces = exposed_faces(&grid, &targets, &target_set);
+        let elements = structure::segment(&grid, &targets, &labels);
         Ok(Self {
             grid,
             map,
             targets,
             target_set,
             targets_name,
+            elements,
             faces,
             lenses: lenses(flight)?,
         })
@@ -328,6 +338,7 @@ fn summarise(
         grid_origin: scene.grid.origin.coords.into(),
         map: options.map.clone(),
         targets: scene.targets_name.clone(),
+        structure: scene.elements.structure.clone(),
         target_voxels: n,
         planned_voxels: counts.planned,
         inspected_voxels: counts.inspected,
@@ -524,19 +535,23 @@ pub fn plan_targets(plan: Option<&FlownPlan>) -> Result<&[VoxelIndex], CoverageE
         .ok_or(CoverageError::PathWithoutTargets)
 }
 
-/// The target voxels (deduplicated, in index order) and where they came
-/// from; an error when they miss the map.
+/// The target voxels (deduplicated, in index order), where they came
+/// from, and the element names named boxes give them; an error when they
+/// miss the map.
 fn load_targets(
     source: &Targets,
     plan: Option<&FlownPlan>,
     map: &SlamMap,
-) -> Result<(Vec<VoxelIndex>, String), CoverageError> {
+) -> Result<LoadedTargets, CoverageError> {
+    let mut labels = HashMap::new();
     let (targets, targets_name): (Vec<VoxelIndex>, String) = match source {
         Targets::Plan => (plan_targets(plan)?.to_vec(), "plan".into()),
-        Targets::Boxes(path) => (
-            targets::in_boxes(&map.voxels, &targets::load_boxes(path)?),
-            format!("boxes {}", path.display()),
-        ),
+        Targets::Boxes(path) => {
+            let boxes = targets::load_boxes(path)?;
+            let inside = targets::in_boxes(&map.voxels, &boxes);
+            labels = targets::labels(&map.voxels.grid, &inside, &boxes);
+            (inside, format!("boxes {}", path.display()))
+        }
         Targets::Cloud(path) => (
             targets::of_cloud(&map.voxels.grid, &PointCloud::load(path)?),
             format!("cloud {}", path.display()),
@@ -565,7 +580,40 @@ fn load_targets(
             targets: targets_name,
         });
     }
-    Ok((targets, targets_name))
+    Ok(LoadedTargets {
+        voxels: targets,
+        name: targets_name,
+        labels,
+    })
+}
+
+/// The target voxels, where they came from, and the element names named
+/// boxes give them.
+struct LoadedTargets {
+    voxels: Vec<VoxelIndex>,
+    name: String,
+    labels: HashMap<VoxelIndex, String>,
+}
+
+/// Each voxel's element and its place on it, facing the way its exposed
+/// faces do together.
+fn name_places(mut records: Vec<VoxelRecord>, scene: &Scene) -> Vec<VoxelRecord> {
+    let mut facing: HashMap<VoxelIndex, Vector3<f64>> = HashMap::new();
+    for f in &scene.faces {
+        *facing.entry(f.voxel).or_insert_with(Vector3::zeros) += f.normal;
+    }
+    let structure = &scene.elements.structure;
+    for (r, &e) in records.iter_mut().zip(&scene.elements.element_of) {
+        let normal = facing
+            .get(&r.voxel)
+            .filter(|n| n.norm() > 1e-9)
+            .copied()
+            .unwrap_or_else(Vector3::z);
+        let place = structure.place(e, &scene.grid.center(r.voxel), &normal);
+        r.element = place.element.clone();
+        r.place = place.to_string();
+    }
+    records
 }
 
 /// A plan's viewpoints as shots of the flight's first camera (sharp: a

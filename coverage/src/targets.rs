@@ -3,7 +3,7 @@
 //! GATSBI flights segmented their bridge with), or the voxels of a
 //! separately segmented infrastructure cloud.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeSet, HashMap};
 use std::path::Path;
 
 use nalgebra::Point3;
@@ -12,11 +12,14 @@ use serde::Deserialize;
 
 use crate::error::CoverageError;
 
-/// An axis-aligned box in the world frame, metres.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+/// An axis-aligned box in the world frame, metres; a named box's voxels are
+/// the structure element it names ("pier P2").
+#[derive(Debug, Clone, PartialEq, Deserialize)]
 pub struct AxisBox {
     pub min: [f64; 3],
     pub max: [f64; 3],
+    #[serde(default)]
+    pub name: Option<String>,
 }
 
 impl AxisBox {
@@ -25,7 +28,8 @@ impl AxisBox {
     }
 }
 
-/// Read boxes from JSON: `[{"min": [x, y, z], "max": [x, y, z]}, ...]`.
+/// Read boxes from JSON: `[{"min": [x, y, z], "max": [x, y, z], "name": "pier 1"}, ...]`
+/// (the name is optional).
 pub fn load_boxes(path: &Path) -> Result<Vec<AxisBox>, CoverageError> {
     let bad = |why: String| CoverageError::Targets {
         path: path.to_owned(),
@@ -61,6 +65,26 @@ pub fn in_boxes(map: &VoxelMap, boxes: &[AxisBox]) -> Vec<VoxelIndex> {
     set.into_iter().collect()
 }
 
+/// The element names the named boxes give their voxels (the first named
+/// box holding a voxel's centre).
+pub fn labels(
+    grid: &VoxelGrid,
+    targets: &[VoxelIndex],
+    boxes: &[AxisBox],
+) -> HashMap<VoxelIndex, String> {
+    targets
+        .iter()
+        .filter_map(|v| {
+            let c = grid.center(*v);
+            boxes
+                .iter()
+                .find(|b| b.name.is_some() && b.contains(&c))
+                .and_then(|b| b.name.clone())
+                .map(|name| (*v, name))
+        })
+        .collect()
+}
+
 /// Voxels of `grid` holding points of a segmented infrastructure cloud.
 pub fn of_cloud(grid: &VoxelGrid, cloud: &PointCloud) -> Vec<VoxelIndex> {
     let set: BTreeSet<VoxelIndex> = cloud.points.iter().map(|p| grid.voxel_of(p)).collect();
@@ -83,6 +107,7 @@ mod tests {
         let boxes = [AxisBox {
             min: [0.0, 0.0, 0.0],
             max: [1.0, 1.0, 1.0],
+            name: None,
         }];
         assert_eq!(
             in_boxes(&map, &boxes),

@@ -10,11 +10,11 @@ use maud::{DOCTYPE, Markup, PreEscaped, html};
 use postflight_core::outputs::coverage::CoverageSummary;
 use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
 use postflight_core::outputs::replan::{GapChoice, ReplanSummary, Unplannable};
-use postflight_core::outputs::report::RunSummary;
+use postflight_core::outputs::report::{DEFAULT_REVIEW_ADDR, RunSummary};
 
 use crate::results::{RunResults, VoxelStatus, review_priority};
 use crate::svg::bar_chart;
-use crate::views::{Overlay, Side, colour, view};
+use crate::views::{HEIGHT_COLOURS, Marker, Overlay, Side, colour, view, width_m};
 
 const STYLE: &str = r#"
 body{font:14px/1.45 system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;color:#1f2937;margin:0 auto;max-width:1060px;padding:24px}
@@ -43,7 +43,7 @@ pub fn page(results: &RunResults, summary: &RunSummary) -> String {
             "Flight of " (readable_time(&summary.flight_start)) ", "
             (format!("{:.0}", summary.duration_s)) " s, "
             (summary.frames) " frames (" (summary.frames_with_pose) " with pose). "
-            "Run directory " code { (summary.run.display()) } "."
+            "Files linked below are in the run directory, beside this page."
         }
         @if summary.truncated {
             p.warn {
@@ -52,10 +52,12 @@ pub fn page(results: &RunResults, summary: &RunSummary) -> String {
             }
         }
         (cards(summary))
+        (files_section(results))
         (coverage_section(results))
         (defects_section(results))
         (replan_section(results))
         (run_section(summary))
+        (detections_appendix(results))
     };
     document(&title, html! { style { (PreEscaped(STYLE)) } }, body)
 }
@@ -161,6 +163,7 @@ fn coverage_section(r: &RunResults) -> Markup {
             Some(c) => {
                 (view_model(c))
                 (coverage_table(c))
+                (element_table(r))
                 (legend())
                 (coverage_views(r, c))
                 (miss_reasons(c))
@@ -192,55 +195,105 @@ fn view_model(c: &CoverageSummary) -> Markup {
 fn coverage_table(c: &CoverageSummary) -> Markup {
     let pct = |n: usize, of: usize| {
         if of == 0 {
-            0.0
+            "\u{2013}".to_string()
         } else {
-            100.0 * n as f64 / of as f64
+            format!("{:.1}%", 100.0 * n as f64 / of as f64)
         }
     };
-    let row = |what: &str, n: usize, of: usize| {
-        html! { tr { td { (what) } td.n { (n) } td.n { (format!("{:.1}%", pct(n, of))) } } }
-    };
     let t = c.target_voxels;
+    // Each column one denominator: the targets, then the planned voxels.
+    let row = |what: &str, n: usize, of_planned: Option<usize>| {
+        html! {
+            tr {
+                td { (what) } td.n { (n) } td.n { (pct(n, t)) }
+                @if let Some(p) = c.planned_voxels {
+                    td.n { (of_planned.map_or("\u{2013}".into(), |n| pct(n, p))) }
+                }
+            }
+        }
+    };
     html! {
         table {
-            tr { th { "voxels" } th.n { "count" } th.n { "share" } }
-            (row("target", t, t))
-            @if let Some(p) = c.planned_voxels { (row("planned", p, t)) }
-            (row("inspected", c.inspected_voxels, t))
-            @if let (Some(p), Some(missed)) = (c.planned_voxels, c.planned_missed_voxels) {
-                (row("planned but missed", missed, p))
-            }
-            (row("gaps (a follow-up flight can inspect them)", c.gap_voxels, t))
-            (row("uninspectable (no free viewpoint satisfies the View)", c.uninspectable_voxels, t))
             tr {
-                td { "exposed face area inspected" }
-                td.n {}
-                td.n { (format!("{:.1}%", c.face_area_coverage_pct)) }
+                th { "voxels" } th.n { "count" } th.n { "of target" }
+                @if c.planned_voxels.is_some() { th.n { "of planned" } }
+            }
+            (row("target", t, None))
+            @if let Some(p) = c.planned_voxels { (row("planned", p, Some(p))) }
+            (row("inspected", c.inspected_voxels, None))
+            @if let (Some(p), Some(missed)) = (c.planned_voxels, c.planned_missed_voxels) {
+                (row("planned and inspected", p - missed, Some(p - missed)))
+                (row("planned but missed", missed, Some(missed)))
+            }
+            (row("gaps (a follow-up flight can inspect them)", c.gap_voxels, None))
+            (row("uninspectable (no free viewpoint satisfies the View)", c.uninspectable_voxels, None))
+        }
+        p.sub {
+            (format!("{:.1}% of the exposed face area was inspected.", c.face_area_coverage_pct))
+        }
+    }
+}
+
+/// Surface area per element by coverage status: where the gaps are.
+fn element_table(r: &RunResults) -> Markup {
+    let m2 = |a: f64| format!("{a:.1}");
+    html! {
+        @if !r.element_areas.is_empty() {
+            h3 { "By element" }
+            p.sub {
+                "Exposed surface of the target voxels, m\u{b2}. Elements are found from the map's geometry: piers numbered from the west (south) end, girders from the south (east) side."
+            }
+            table {
+                tr {
+                    th { "element" } th.n { "surface" } th.n { "inspected" }
+                    th.n { "planned, missed" } th.n { "not planned" } th.n { "uninspectable" }
+                }
+                @for a in &r.element_areas {
+                    tr {
+                        td { (a.element) }
+                        td.n { (m2(a.target_m2)) }
+                        td.n {
+                            (m2(a.inspected_m2))
+                            span.sub { (format!(" ({:.0}%)", 100.0 * a.inspected_m2 / a.target_m2.max(1e-9))) }
+                        }
+                        td.n { (m2(a.planned_missed_m2)) }
+                        td.n { (m2(a.not_planned_m2)) }
+                        td.n { (m2(a.uninspectable_m2)) }
+                    }
+                }
             }
         }
     }
 }
 
 fn coverage_views(r: &RunResults, c: &CoverageSummary) -> Markup {
-    let markers: Vec<(String, [f64; 3])> = r
+    let markers: Vec<Marker> = r
         .defects_for_review()
         .iter()
         .enumerate()
-        .map(|(i, d)| ((i + 1).to_string(), d.position))
+        .map(|(i, d)| Marker {
+            label: (i + 1).to_string(),
+            position: d.position,
+            normal: d.normal,
+        })
         .collect();
     let overlay = Overlay {
         markers,
         ..Overlay::default()
     };
+    // Every side at one scale: the widest 500 px.
+    let widths = Side::ALL.map(|side| width_m(&r.voxels, c.resolution_m, side));
+    let widest = widths.iter().copied().fold(1e-9, f64::max);
     html! {
         div.views {
-            @for side in Side::ALL {
+            @for (side, w) in Side::ALL.into_iter().zip(widths) {
                 figure {
-                    (PreEscaped(view(&r.voxels, c.resolution_m, side, &overlay, 500.0)))
+                    (PreEscaped(view(&r.voxels, c.resolution_m, side, &overlay, (500.0 * w / widest).max(160.0))))
                     figcaption { "Target voxels " (side.title()) }
                 }
             }
         }
+        p.sub { "Candidates are marked in the views that face their surface: solid where the spot is in front, hollow where nearer parts hide it." }
     }
 }
 
@@ -297,33 +350,26 @@ fn defect_row(r: &RunResults, rank: usize, d: &DefectRecord) -> Markup {
                 base64::engine::general_purpose::STANDARD.encode(bytes)
             )
         });
-    let frames: Vec<String> = d
-        .views
-        .iter()
-        .map(|v| {
-            let b = v.bbox;
-            format!(
-                "frame {} [{:.0}, {:.0}, {:.0}, {:.0}] {:.2}",
-                v.frame, b[0], b[1], b[2], b[3], v.score
-            )
-        })
-        .collect();
     let p = d.position;
     html! {
         tr {
             td { (rank) }
             td {
-                @match thumb {
-                    Some(src) => img.thumb alt=(format!("best view of {}", d.id)) src=(src);,
-                    None => "(no image)",
+                @match (thumb, &d.crop) {
+                    (Some(src), Some(crop)) => a href=(crop) {
+                        img.thumb alt=(format!("best view of {}", d.id)) src=(src);
+                    },
+                    _ => "(no image)",
                 }
             }
             td {
-                b { (d.id) } br;
-                (format!("at ({:.2}, {:.2}, {:.2}) m, face {}", p[0], p[1], p[2], d.face)) br;
-                (d.frames) " supporting frames, best frame " (d.best.frame)
+                b { (r.place(d).map_or_else(|| "off the mapped elements".to_string(), |p| p.to_string())) } br;
+                span.sub {
+                    (d.id) (format!(" at ({:.2}, {:.2}, {:.2}) m", p[0], p[1], p[2])) "; "
+                    (d.frames) " supporting frames, best frame " (d.best.frame)
+                    " (" a href=(format!("#boxes-{rank}")) { "boxes" } ")"
+                }
                 @if let Some(weak) = evidence_text(d) { br; span.flag { (weak) } }
-                div.frames { (frames.join("; ")) }
             }
             td.n { (length_text(d)) }
             td.n { (format!("{:.1} mm/px", d.best.oblique_gsd_mm)) }
@@ -452,7 +498,11 @@ fn follow_up(r: &RunResults, p: &ReplanSummary) -> Markup {
             @for side in [Side::Top, Side::South] {
                 figure {
                     (PreEscaped(view(&r.voxels, p.resolution, side, &overlay, 500.0)))
-                    figcaption { "Follow-up flight over the structure, " (side.title()) }
+                    figcaption {
+                        "Follow-up flight, " (side.title())
+                        ": waypoints numbered in flight order, coloured by height (ramp, "
+                        (HEIGHT_COLOURS.len()) " steps, low to high)"
+                    }
                 }
             }
         }
@@ -468,6 +518,66 @@ fn follow_up(r: &RunResults, p: &ReplanSummary) -> Markup {
                     td.n { (s.waypoints.iter().map(|w| w.gap_voxels.len()).sum::<usize>()) }
                     td.n { (format!("{:.0} m", s.length_m)) }
                     td.n { (format!("{:.1} min", s.time_s / 60.0)) }
+                }
+            }
+        }
+    }
+}
+
+/// Where to go from here: the review queue and the run's files.
+fn files_section(r: &RunResults) -> Markup {
+    let link = |file: &str, what: &str| {
+        html! {
+            @if r.file(file).is_file() {
+                li { a href=(file) { code { (file) } } " \u{2013} " (what) }
+            }
+        }
+    };
+    html! {
+        h2 { "Review and files" }
+        p {
+            "Decide each candidate in the review queue: "
+            code { "postflight review serve --run <this directory>" }
+            ", then open " a href=(format!("http://{DEFAULT_REVIEW_ADDR}/")) { (format!("http://{DEFAULT_REVIEW_ADDR}/")) } "."
+        }
+        ul {
+            (link("candidates.csv", "the candidates below, with their places, for spreadsheets"))
+            (link("defects.parquet", "defect candidates (polars, pandas, DuckDB)"))
+            (link("defects", "best-view crops of every candidate"))
+            (link("coverage.parquet", "coverage of every target voxel, with its element and place"))
+            (link("replan.csv", "the follow-up flight: X,Y,Z,Yaw with gimbal pitch, sortie and kind of point"))
+            (link("replan.json", "the follow-up flight with every waypoint's gap voxels"))
+            (link("detections.coco.json", "raw detections, COCO"))
+            (link("flight.rrd", "the Rerun recording (rerun flight.rrd)"))
+            (link("summary.json", "the run in numbers"))
+        }
+    }
+}
+
+/// Every supporting detection box of every candidate, out of the way of
+/// the table above.
+fn detections_appendix(r: &RunResults) -> Markup {
+    let order = r.defects_for_review();
+    html! {
+        @if !order.is_empty() {
+            h2 { "Appendix: supporting detections" }
+            p.sub { "Per candidate, its boxes: frame, [x0, y0, x1, y1] in pixels, detector score." }
+            table.frames {
+                tr { th { "#" } th { "candidate" } th { "boxes" } }
+                @for (i, d) in order.iter().enumerate() {
+                    tr id=(format!("boxes-{}", i + 1)) {
+                        td { (i + 1) }
+                        td { (d.id) }
+                        td {
+                            @for (k, v) in d.views.iter().enumerate() {
+                                @if k > 0 { "; " }
+                                (format!(
+                                    "frame {} [{:.0}, {:.0}, {:.0}, {:.0}] {:.2}",
+                                    v.frame, v.bbox[0], v.bbox[1], v.bbox[2], v.bbox[3], v.score
+                                ))
+                            }
+                        }
+                    }
                 }
             }
         }
@@ -492,7 +602,7 @@ fn run_section(s: &RunSummary) -> Markup {
         }
         p {
             "postflight " (v.postflight) "; model "
-            (v.model.as_ref().map_or("-".into(), |m| m.display().to_string()))
+            (v.model.as_ref().and_then(|m| m.file_name()).map_or("-".into(), |m| m.to_string_lossy().into_owned()))
             " (SHA-256 " (v.model_sha256.as_deref().unwrap_or("-")) "); ONNX Runtime "
             (v.onnxruntime.as_deref().unwrap_or("-")) "."
         }

@@ -8,6 +8,8 @@ use postflight_core::outputs::coverage::{self, CoverageSummary, VoxelRecord};
 use postflight_core::outputs::detect::DetectSummary;
 use postflight_core::outputs::localise::{DefectRecord, LocaliseSummary, read_defects};
 use postflight_core::outputs::replan::ReplanSummary;
+use postflight_core::outputs::report::CandidateRow;
+use postflight_core::structure::{ElementMap, Place};
 use postflight_core::{Flight, RunDir, RunLog, Stage};
 
 use crate::error::ReportError;
@@ -90,6 +92,10 @@ pub struct RunResults {
     pub defects: Vec<DefectRecord>,
     pub coverage: Option<CoverageSummary>,
     pub voxels: Vec<TargetVoxel>,
+    /// The structure's elements, to name places by (from coverage).
+    pub elements: Option<ElementMap>,
+    /// Surface area by element and coverage status, in element order.
+    pub element_areas: Vec<ElementArea>,
     pub replan: Option<ReplanSummary>,
     pub log: RunLog,
 }
@@ -106,19 +112,26 @@ impl RunResults {
             None => Vec::new(),
         };
         let coverage: Option<CoverageSummary> = dir.summary(Stage::Coverage)?;
-        let voxels = match coverage {
-            Some(_) => coverage::read_coverage(dir, coverage::files::TABLE)?
-                .iter()
-                .map(TargetVoxel::of)
-                .collect(),
+        let records = match coverage {
+            Some(_) => coverage::read_coverage(dir, coverage::files::TABLE)?,
             None => Vec::new(),
+        };
+        let voxels = records.iter().map(TargetVoxel::of).collect();
+        let elements = match coverage {
+            Some(_) => coverage::element_map(dir)?,
+            None => None,
         };
         Ok(Self {
             detect: dir.summary(Stage::Detect)?,
             localise,
             defects,
+            element_areas: coverage
+                .as_ref()
+                .map(|c| ElementArea::of(c, &records))
+                .unwrap_or_default(),
             coverage,
             voxels,
+            elements,
             replan: dir.summary(Stage::Replan)?,
             log: RunLog::read(dir)?,
             flight,
@@ -154,6 +167,102 @@ impl RunResults {
                 .then_with(|| d[a].id.cmp(&d[b].id))
         });
         order
+    }
+
+    /// Where a candidate is on the structure; `None` before coverage has
+    /// found the structure's elements, or off them.
+    pub fn place(&self, d: &DefectRecord) -> Option<Place> {
+        self.elements
+            .as_ref()?
+            .place(&d.position.into(), &d.normal.into())
+    }
+
+    /// Every candidate's place as text, by id (none before coverage).
+    pub fn places(&self) -> std::collections::HashMap<String, String> {
+        self.defects
+            .iter()
+            .filter_map(|d| Some((d.id.clone(), self.place(d)?.to_string())))
+            .collect()
+    }
+
+    /// The candidates as `candidates.csv` lists them, in review order.
+    pub fn candidate_rows(&self) -> Vec<CandidateRow> {
+        self.defects_for_review()
+            .into_iter()
+            .enumerate()
+            .map(|(i, d)| {
+                let place = self.place(d);
+                CandidateRow {
+                    rank: i as u32 + 1,
+                    id: d.id.clone(),
+                    element: place.as_ref().map(|p| p.element.clone()),
+                    place: place.map(|p| p.to_string()),
+                    position: d.position,
+                    confidence: d.confidence,
+                    review_priority: review_priority(d),
+                    length_m: d.length_m,
+                    length_status: d.evidence.length.as_str().into(),
+                    reshoot: d.evidence.reshoot,
+                    view_faults: d
+                        .evidence
+                        .view_faults
+                        .iter()
+                        .map(|f| f.as_str())
+                        .collect::<Vec<_>>()
+                        .join(";"),
+                    frames: d.frames,
+                    best_frame: d.best.frame,
+                    best_range_m: d.best.range_m,
+                    best_gsd_mm: d.best.oblique_gsd_mm,
+                    crop: d.crop.clone(),
+                }
+            })
+            .collect()
+    }
+}
+
+/// One element's exposed surface (voxel faces), square metres, by the
+/// coverage status of its voxels.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ElementArea {
+    pub element: String,
+    pub target_m2: f64,
+    pub inspected_m2: f64,
+    /// Of voxels planned and missed.
+    pub planned_missed_m2: f64,
+    /// Of voxels neither planned nor inspected.
+    pub not_planned_m2: f64,
+    pub uninspectable_m2: f64,
+}
+
+impl ElementArea {
+    fn of(c: &CoverageSummary, records: &[VoxelRecord]) -> Vec<Self> {
+        let face = c.resolution_m * c.resolution_m;
+        let mut areas: Vec<Self> = c
+            .structure
+            .elements
+            .iter()
+            .map(|e| Self {
+                element: e.name.clone(),
+                ..Self::default()
+            })
+            .collect();
+        for r in records {
+            let Some(a) = areas.iter_mut().find(|a| a.element == r.element) else {
+                continue;
+            };
+            // Each voxel's exposed faces counted under its status, so the
+            // columns add up to the surface, as the voxel counts do.
+            let exposed = f64::from(r.faces_exposed) * face;
+            a.target_m2 += exposed;
+            *match TargetVoxel::of(r).status {
+                VoxelStatus::Inspected => &mut a.inspected_m2,
+                VoxelStatus::PlannedMissed => &mut a.planned_missed_m2,
+                VoxelStatus::NotPlanned => &mut a.not_planned_m2,
+                VoxelStatus::Uninspectable => &mut a.uninspectable_m2,
+            } += exposed;
+        }
+        areas
     }
 }
 

@@ -1,11 +1,11 @@
 //! The report stage: reads what the other stages wrote into a run directory
-//! and writes `flight.rrd`, `report.html`, then `summary.json` (last: the
-//! stage is complete exactly when it exists).
+//! and writes `flight.rrd`, `candidates.csv`, `report.html`, then
+//! `summary.json` (last: the stage is complete exactly when it exists).
 
 use std::path::PathBuf;
 use std::time::Instant;
 
-use postflight_core::outputs::report::{RunSummary, files};
+use postflight_core::outputs::report::{self, RunSummary, files};
 
 use crate::error::ReportError;
 use crate::html;
@@ -53,6 +53,7 @@ pub fn report(
             cause,
         }
     })?;
+    report::write_candidates(results.dir(), &results.candidate_rows())?;
     let mut summary = run_summary(&results, timings);
     let page = html::page(&results, &summary);
     results.dir().write_text(files::REPORT, &page)?;

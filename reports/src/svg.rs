@@ -29,6 +29,17 @@ pub struct Svg {
     width: f64,
     height: f64,
     body: String,
+    /// Picture rectangles `[x0, y0, x1, y1]` already taken by markers and
+    /// labels, which a new label must not overlap.
+    taken: Vec<[f64; 4]>,
+}
+
+/// Approximate extent of 11 px text: width per character and height.
+const CHAR_W: f64 = 6.4;
+const TEXT_H: f64 = 11.0;
+
+fn overlaps(a: &[f64; 4], b: &[f64; 4]) -> bool {
+    a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3]
 }
 
 impl Svg {
@@ -45,6 +56,7 @@ impl Svg {
             width,
             height,
             body: String::new(),
+            taken: Vec::new(),
         }
     }
 
@@ -104,11 +116,94 @@ impl Svg {
         );
     }
 
+    /// Mark a circle of `radius_px` around a plane point as taken.
+    pub fn take(&mut self, u: f64, v: f64, radius_px: f64) {
+        let (x, y) = self.at(u, v);
+        self.taken
+            .push([x - radius_px, y - radius_px, x + radius_px, y + radius_px]);
+    }
+
+    /// Text beside a plane point, `gap` pixels from it, at the first of
+    /// eight positions (right, left, above, below, then the corners, then
+    /// twice as far with a leader line) where it overlaps no other label or
+    /// marker and stays in the picture. Returns whether it found one.
+    pub fn label_clear(&mut self, u: f64, v: f64, gap: f64, text: &str, size: f64) -> bool {
+        let (x, y) = self.at(u, v);
+        let w = CHAR_W * size / TEXT_H * text.chars().count() as f64;
+        let h = size;
+        for far in [1.0, 2.2, 3.4] {
+            let g = gap * far;
+            // Top-left corners of the text box around the point.
+            let spots = [
+                (x + g, y - h / 2.0),
+                (x - g - w, y - h / 2.0),
+                (x - w / 2.0, y - g - h),
+                (x - w / 2.0, y + g),
+                (x + g * 0.7, y - g * 0.7 - h),
+                (x - g * 0.7 - w, y - g * 0.7 - h),
+                (x + g * 0.7, y + g * 0.7),
+                (x - g * 0.7 - w, y + g * 0.7),
+            ];
+            for (tx, ty) in spots {
+                let rect = [tx - 1.0, ty - 1.0, tx + w + 1.0, ty + h + 1.0];
+                let inside = rect[0] >= 0.0
+                    && rect[1] >= 0.0
+                    && rect[2] <= self.width
+                    && rect[3] <= self.height;
+                if !inside || self.taken.iter().any(|t| overlaps(t, &rect)) {
+                    continue;
+                }
+                self.taken.push(rect);
+                if far > 1.0 {
+                    let (lx, ly) = (x.clamp(tx, tx + w), y.clamp(ty, ty + h));
+                    let _ = write!(
+                        self.body,
+                        r##"<line x1="{x:.1}" y1="{y:.1}" x2="{lx:.1}" y2="{ly:.1}" stroke="#6b7280" stroke-width="0.8"/>"##
+                    );
+                }
+                let _ = write!(
+                    self.body,
+                    r#"<text x="{tx:.1}" y="{:.1}" font-size="{size}">{}</text>"#,
+                    ty + h * 0.85,
+                    escape(text)
+                );
+                return true;
+            }
+        }
+        false
+    }
+
+    /// A vertical colour ramp from `low` to `high` (hex colours by height)
+    /// in the upper right corner, labelled with its ends.
+    pub fn ramp(&mut self, colours: &[&str], low: &str, high: &str) {
+        let (x, h) = (self.width - 16.0, 80.0);
+        let step = h / colours.len().max(1) as f64;
+        for (i, c) in colours.iter().enumerate() {
+            let y = 6.0 + h - step * (i as f64 + 1.0);
+            let _ = write!(
+                self.body,
+                r#"<rect x="{x}" y="{y:.1}" width="10" height="{:.1}" fill="{c}"/>"#,
+                step + 0.3
+            );
+        }
+        let _ = write!(
+            self.body,
+            r#"<text x="{tx}" y="14" font-size="10" text-anchor="end">{}</text><text x="{tx}" y="{by}" font-size="10" text-anchor="end">{}</text>"#,
+            escape(high),
+            escape(low),
+            tx = x - 3.0,
+            by = 6.0 + h,
+        );
+        self.taken.push([x - 60.0, 0.0, self.width, 6.0 + h + 4.0]);
+    }
+
     /// A scale bar of `metres` in the lower left corner.
     pub fn scale_bar(&mut self, metres: f64) {
         let len = metres * self.scale;
         let y = self.height - 6.0;
         let x = 6.0;
+        self.taken
+            .push([0.0, y - 12.0, x + len + 40.0, self.height]);
         let _ = write!(
             self.body,
             r##"<path d="M{x} {y0}V{y}H{x1}V{y0}" fill="none" stroke="#333"/><text x="{tx}" y="{ty}" font-size="10">{metres} m</text>"##,
@@ -169,6 +264,25 @@ mod tests {
             escape(r#"<script>"a" & 'b'</script>"#),
             "&lt;script&gt;&quot;a&quot; &amp; &#39;b&#39;&lt;/script&gt;"
         );
+    }
+
+    #[test]
+    fn labels_of_one_spot_never_overlap() {
+        let mut svg = Svg::new([[0.0, 0.0], [10.0, 10.0]], 300.0, 10.0);
+        for text in ["1", "12", "3", "4", "5"] {
+            svg.take(5.0, 5.0, 6.0);
+            assert!(svg.label_clear(5.0, 5.0, 8.0, text, 11.0));
+        }
+        let boxes = &svg.taken;
+        for (i, a) in boxes.iter().enumerate() {
+            for b in &boxes[i + 1..] {
+                // Markers at one spot overlap each other; labels overlap nothing.
+                let marker = |r: &[f64; 4]| (r[2] - r[0] - 12.0).abs() < 1e-9;
+                if !(marker(a) && marker(b)) {
+                    assert!(!overlaps(a, b), "{a:?} {b:?}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -7,19 +7,30 @@ use std::collections::HashMap;
 use crate::results::{TargetVoxel, VoxelStatus};
 use crate::svg::Svg;
 
-/// A direction the structure is looked at from.
+/// A direction the structure is looked at from (map x east, y north).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Side {
     Top,
     Bottom,
-    /// From -y, looking along +y.
+    /// From -y, looking north.
     South,
-    /// From +y, looking along -y.
+    /// From +y, looking south.
     North,
+    /// From +x, looking west.
+    East,
+    /// From -x, looking east.
+    West,
 }
 
 impl Side {
-    pub const ALL: [Self; 4] = [Self::Top, Self::South, Self::North, Self::Bottom];
+    pub const ALL: [Self; 6] = [
+        Self::Top,
+        Self::Bottom,
+        Self::South,
+        Self::North,
+        Self::East,
+        Self::West,
+    ];
 
     pub fn title(self) -> &'static str {
         match self {
@@ -27,11 +38,36 @@ impl Side {
             Self::Bottom => "from below",
             Self::South => "from the south (-y)",
             Self::North => "from the north (+y)",
+            Self::East => "from the east (+x)",
+            Self::West => "from the west (-x)",
         }
     }
 
-    /// Plane coordinates `(u, v)` of a world point (v up in the picture)
-    /// and its depth (larger is nearer the viewer).
+    /// Unit vector from the structure towards the viewer.
+    pub fn toward_viewer(self) -> [f64; 3] {
+        match self {
+            Self::Top => [0.0, 0.0, 1.0],
+            Self::Bottom => [0.0, 0.0, -1.0],
+            Self::South => [0.0, -1.0, 0.0],
+            Self::North => [0.0, 1.0, 0.0],
+            Self::East => [1.0, 0.0, 0.0],
+            Self::West => [-1.0, 0.0, 0.0],
+        }
+    }
+
+    /// The side a surface facing `normal` is best seen from.
+    pub fn facing(normal: [f64; 3]) -> Self {
+        Self::ALL
+            .into_iter()
+            .max_by(|a, b| {
+                dot(a.toward_viewer(), normal).total_cmp(&dot(b.toward_viewer(), normal))
+            })
+            .unwrap_or(Self::Top)
+    }
+
+    /// Plane coordinates `(u, v)` of a world point, as the viewer sees it
+    /// (u to their right, v up in the picture), and its depth (larger is
+    /// nearer the viewer).
     pub fn project(self, p: [f64; 3]) -> (f64, f64, f64) {
         let [x, y, z] = p;
         match self {
@@ -39,9 +75,34 @@ impl Side {
             Self::Bottom => (x, -y, -z),
             Self::South => (x, z, -y),
             Self::North => (-x, z, y),
+            Self::East => (y, z, x),
+            Self::West => (-y, z, -x),
         }
     }
 }
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// A marker for a spot on the surface: drawn only in views that see the
+/// surface it is on.
+#[derive(Debug, Clone)]
+pub struct Marker {
+    pub label: String,
+    pub position: [f64; 3],
+    /// Outward normal of the surface at the spot.
+    pub normal: [f64; 3],
+}
+
+/// A surface turned at least this much towards the viewer is drawn in its
+/// view (cos 75 degrees).
+const SEEN_COS: f64 = 0.26;
+
+/// Follow-up waypoint colours by height, low to high (viridis).
+pub const HEIGHT_COLOURS: [&str; 6] = [
+    "#440154", "#414487", "#2a788e", "#22a884", "#7ad151", "#fde725",
+];
 
 pub fn colour(status: VoxelStatus) -> &'static str {
     match status {
@@ -56,14 +117,30 @@ pub fn colour(status: VoxelStatus) -> &'static str {
 #[derive(Default)]
 pub struct Overlay<'a> {
     /// Numbered markers (defect candidates in review order).
-    pub markers: Vec<(String, [f64; 3])>,
+    pub markers: Vec<Marker>,
     /// Polylines (the follow-up flight's sorties).
     pub paths: Vec<&'a [[f64; 3]]>,
-    /// Waypoints and home.
+    /// Waypoints in flight order, numbered and coloured by height.
     pub points: Vec<[f64; 3]>,
     pub home: Option<[f64; 3]>,
     /// Draw every voxel grey instead of by status.
     pub grey: bool,
+}
+
+/// How wide the voxels are seen from `side`, metres (to draw every side at
+/// one scale).
+pub fn width_m(voxels: &[TargetVoxel], resolution: f64, side: Side) -> f64 {
+    let (lo, hi) = voxels
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            let u = side.project(v.centre).0;
+            (lo.min(u), hi.max(u))
+        });
+    if lo.is_finite() {
+        hi - lo + 2.0 * resolution
+    } else {
+        0.0
+    }
 }
 
 /// One view of the voxels: per picture cell only the voxel nearest the
@@ -94,9 +171,13 @@ pub fn view(
         return String::new();
     }
     let mut svg = Svg::new(bounds, width, 12.0);
-    for i in nearest_per_cell(voxels, resolution, side) {
+    let drawn = nearest_per_cell(voxels, resolution, side);
+    let cell = |c: f64| (c / resolution).floor() as i64;
+    let mut front: HashMap<(i64, i64), f64> = HashMap::new();
+    for &i in &drawn {
         let v = &voxels[i];
-        let (u, w, _) = side.project(v.centre);
+        let (u, w, depth) = side.project(v.centre);
+        front.insert((cell(u), cell(w)), depth);
         let fill = if overlay.grey {
             "#b8bcc4"
         } else {
@@ -114,23 +195,74 @@ pub fn view(
             .collect();
         svg.polyline(&points, "#1f4fd1", 1.5);
     }
-    for p in &overlay.points {
-        let (u, w, _) = side.project(*p);
-        svg.circle(u, w, 1.8, "#1f4fd1", "none");
-    }
+    waypoints(&mut svg, side, &overlay.points);
     if let Some(h) = overlay.home {
         let (u, w, _) = side.project(h);
         svg.circle(u, w, 5.0, "#ffffff", "#1f4fd1");
-        svg.label(u, w, 7.0, 4.0, "home");
+        svg.take(u, w, 5.0);
+        svg.label_clear(u, w, 7.0, "home", 11.0);
     }
-    for (label, p) in &overlay.markers {
-        let (u, w, _) = side.project(*p);
-        svg.circle(u, w, 6.0, "#111827", "#ffffff");
-        svg.label(u, w, 8.0, -6.0, label);
+    // A marker shows where its surface faces the viewer: solid where that
+    // spot is in front, hollow where nearer parts hide it.
+    let shown: Vec<(&Marker, bool)> = overlay
+        .markers
+        .iter()
+        .filter(|m| dot(m.normal, side.toward_viewer()) >= SEEN_COS)
+        .map(|m| {
+            let (u, w, depth) = side.project(m.position);
+            let front = front
+                .get(&(cell(u), cell(w)))
+                .is_none_or(|f| depth >= f - 1.5 * resolution);
+            (m, front)
+        })
+        .collect();
+    for (m, in_front) in &shown {
+        let (u, w, _) = side.project(m.position);
+        if *in_front {
+            svg.circle(u, w, 6.0, "#111827", "#ffffff");
+        } else {
+            svg.circle(u, w, 5.0, "none", "#111827");
+        }
+        svg.take(u, w, 6.0);
+    }
+    for (m, _) in &shown {
+        let (u, w, _) = side.project(m.position);
+        svg.label_clear(u, w, 8.0, &m.label, 11.0);
     }
     let metres = nice_length((bounds[1][0] - bounds[0][0]) / 5.0);
     svg.scale_bar(metres);
     svg.finish(side.title())
+}
+
+/// Waypoints coloured by height and numbered in flight order (a number
+/// that would overlap another is left out), with the colour ramp.
+fn waypoints(svg: &mut Svg, side: Side, points: &[[f64; 3]]) {
+    if points.is_empty() {
+        return;
+    }
+    let (lo, hi) = points
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p[2]), hi.max(p[2]))
+        });
+    let colour_of = |z: f64| {
+        let t = if hi > lo { (z - lo) / (hi - lo) } else { 0.5 };
+        HEIGHT_COLOURS[((t * HEIGHT_COLOURS.len() as f64) as usize).min(HEIGHT_COLOURS.len() - 1)]
+    };
+    svg.ramp(
+        &HEIGHT_COLOURS,
+        &format!("{lo:.1} m"),
+        &format!("{hi:.1} m"),
+    );
+    for p in points {
+        let (u, w, _) = side.project(*p);
+        svg.circle(u, w, 3.5, colour_of(p[2]), "#1f2937");
+        svg.take(u, w, 3.5);
+    }
+    for (i, p) in points.iter().enumerate() {
+        let (u, w, _) = side.project(*p);
+        svg.label_clear(u, w, 4.0, &(i + 1).to_string(), 9.0);
+    }
 }
 
 /// The voxels a view of `side` draws: per picture cell the one nearest the

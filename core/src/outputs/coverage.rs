@@ -11,9 +11,10 @@ use serde::{Deserialize, Serialize};
 
 use super::{required, required3};
 use crate::error::Error;
-use crate::map::VoxelIndex;
+use crate::map::{VoxelGrid, VoxelIndex};
 use crate::plan::ViewModel;
 use crate::run_dir::RunDir;
+use crate::structure::{ElementMap, Structure};
 
 /// Files of the coverage stage.
 pub mod files {
@@ -40,6 +41,8 @@ pub struct CoverageSummary {
     /// The map judged against: a file, or `None` for the flight's recorded map.
     pub map: Option<PathBuf>,
     pub targets: String,
+    /// The targets' elements (coverage.parquet names each voxel's).
+    pub structure: Structure,
     pub target_voxels: usize,
     pub planned_voxels: Option<usize>,
     pub inspected_voxels: usize,
@@ -87,6 +90,10 @@ pub struct VoxelRecord {
     pub views_required: u32,
     /// Its finest inspecting view.
     pub best: Option<BestView>,
+    /// The structure element it is part of (`pier 2`).
+    pub element: String,
+    /// Where it is: `pier 2, east face, 1.4 m above its base`.
+    pub place: String,
     /// Why not inspected: the furthest rule of the View model a camera got
     /// to (`too_far`, `occluded`, ...), or `no_exposed_face`.
     pub reason: Option<String>,
@@ -117,6 +124,33 @@ pub fn write_coverage(
 /// Read a coverage table.
 pub fn read_coverage(run: &RunDir, name: &str) -> Result<Vec<VoxelRecord>, Error> {
     run.read_table(name, coverage_from)
+}
+
+/// The structure's elements as the coverage stage found them, to name
+/// places by; `None` before coverage has run.
+pub fn element_map(run: &RunDir) -> Result<Option<ElementMap>, Error> {
+    if !run.file(files::SUMMARY).is_file() {
+        return Ok(None);
+    }
+    let summary: CoverageSummary = run.read_json(files::SUMMARY)?;
+    let records = read_coverage(run, files::TABLE)?;
+    let index: BTreeMap<&str, usize> = summary
+        .structure
+        .elements
+        .iter()
+        .enumerate()
+        .map(|(i, e)| (e.name.as_str(), i))
+        .collect();
+    let voxels: Vec<(VoxelIndex, usize)> = records
+        .iter()
+        .filter_map(|r| index.get(r.element.as_str()).map(|&e| (r.voxel, e)))
+        .collect();
+    let grid = VoxelGrid::new(summary.resolution_m, summary.grid_origin.into());
+    Ok(Some(ElementMap::new(
+        summary.structure.clone(),
+        grid,
+        voxels,
+    )))
 }
 
 /// GATSBI's classes of a target voxel: inspected or not.
@@ -151,6 +185,14 @@ fn coverage_table(records: &[VoxelRecord], resolution: f64) -> PolarsResult<Data
         col_f("x", 0),
         col_f("y", 1),
         col_f("z", 2),
+        Column::new(
+            "element".into(),
+            r.iter().map(|r| r.element.as_str()).collect::<Vec<&str>>(),
+        ),
+        Column::new(
+            "place".into(),
+            r.iter().map(|r| r.place.as_str()).collect::<Vec<&str>>(),
+        ),
         Column::new("class".into(), r.iter().map(class).collect::<Vec<&str>>()),
         Column::new(
             "planned".into(),
@@ -231,6 +273,7 @@ fn coverage_from(df: &DataFrame) -> PolarsResult<Vec<VoxelRecord>> {
         f64s("best_gsd_mm")?,
     );
     let (shot, reason) = (u32s("best_frame")?, df.column("reason")?.str()?);
+    let (element, place) = (df.column("element")?.str()?, df.column("place")?.str()?);
     (0..df.height())
         .map(|i| {
             Ok(VoxelRecord {
@@ -254,6 +297,8 @@ fn coverage_from(df: &DataFrame) -> PolarsResult<Vec<VoxelRecord>> {
                     }
                     _ => None,
                 },
+                element: required(element, i)?.to_string(),
+                place: required(place, i)?.to_string(),
                 reason: reason.get(i).map(str::to_string),
             })
         })

@@ -33,9 +33,67 @@
     rows[sel].scrollIntoView({ block: "nearest" });
   };
   rows.forEach((r, i) => r.addEventListener("click", (e) => {
-    if (e.target.tagName !== "A") { select(i); go(r.dataset.href); }
+    if (!["A", "BUTTON"].includes(e.target.tagName)) { select(i); go(r.dataset.href); }
   }));
   select(0);
+
+  const needName = () => {
+    if (name && name.value.trim()) return false;
+    flash("Type your name as reviewer first, then press the key again.");
+    if (name) name.focus();
+    return true;
+  };
+  // The words of the severity scale, as the page states it.
+  const SEVERITY = {};
+  document.querySelectorAll("#severity-scale li").forEach((li) => {
+    SEVERITY[li.value] = li.textContent.replace(/^\s*\d+\s*/, "").split(":")[0];
+  });
+  // Decide a queue row through the API (no page load): the row shows the
+  // decision, the progress line the new counts, and the next row is selected.
+  const pending = new Set();
+  const decideRow = async (row, verdict, severity) => {
+    if (!row || pending.has(row) || needName()) return;
+    pending.add(row);
+    const body = {
+      version: Number(row.dataset.version), verdict: verdict,
+      severity: severity || null, reviewer: name.value.trim(),
+    };
+    try {
+      const r = await fetch("/api/candidates/" + encodeURIComponent(row.dataset.id) + "/decisions", {
+        method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body),
+      });
+      const reply = await r.json().catch(() => ({}));
+      if (r.status !== 201) { flash(reply.error || "The decision was refused (" + r.status + ")."); return; }
+      row.dataset.version = String(reply.version);
+      row.querySelector("form.quick input[name=version]").value = String(reply.version);
+      const cell = row.querySelector("td.decision");
+      const v = document.createElement("span");
+      v.className = "v " + verdict;
+      v.textContent = verdict === "needs_repair"
+        ? "needs repair, severity " + severity + " (" + SEVERITY[severity] + ")"
+        : verdict;
+      const by = document.createElement("span");
+      by.className = "sub";
+      by.textContent = "by " + reply.reviewer;
+      cell.replaceChildren(v, " ", by);
+      const q = await (await fetch("/api/candidates")).json();
+      const p = q.progress;
+      $("#reviewed").textContent = p.reviewed + " of " + p.total + " reviewed";
+      const bar = $(".progress progress");
+      if (bar) bar.value = p.reviewed;
+      ["accepted", "needs_repair", "rejected"].forEach((k) => {
+        const c = $("#count-" + k);
+        if (c) c.textContent = String(p[k]);
+      });
+    } finally {
+      pending.delete(row);
+    }
+  };
+  // The row buttons fill in the reviewer (the plain form carries it).
+  document.querySelectorAll("form.quick").forEach((f) => f.addEventListener("submit", (e) => {
+    if (needName()) { e.preventDefault(); return; }
+    f.reviewer.value = name.value.trim();
+  }));
 
   // A candidate: supporting views stepped through with [ and ].
   const main = $("main.candidate");
@@ -53,15 +111,25 @@
     const a = $("#view-" + dir);
     if (a) a.addEventListener("click", (e) => { e.preventDefault(); showView(view + (k ? 1 : -1)); });
   });
+  // Zoom: the frame at its full size in a scrolling box; the box drawn or not.
+  let boxed = true;
+  const zoom = () => { const f = $("#frame"); if (f) f.classList.toggle("zoomed"); };
+  const toggleBox = () => {
+    if (!img) return;
+    boxed = !boxed;
+    views.forEach((li) => {
+      li.dataset.src = li.dataset.src.replace(/\?box=0$/, "") + (boxed ? "" : "?box=0");
+    });
+    img.src = views[view].dataset.src;
+    $("#box-toggle").textContent = boxed ? "hide box (b)" : "show box (b)";
+  };
+  if ($("#zoom")) $("#zoom").addEventListener("click", zoom);
+  if ($("#box-toggle")) $("#box-toggle").addEventListener("click", toggleBox);
+  if (img) img.addEventListener("click", zoom);
 
   let sent = false;
   const decide = (verdict, severity) => {
-    if (sent) return;
-    if (!name.value.trim()) {
-      flash("Type your name as reviewer first, then press the key again.");
-      name.focus();
-      return;
-    }
+    if (sent || needName()) return;
     if (severity) form.severity.value = String(severity);
     if (verdict !== "needs_repair") form.severity.value = "";
     sent = true;
@@ -79,7 +147,13 @@
       if (k === "j" || k === "ArrowDown") select(sel + 1);
       else if (k === "k" || k === "ArrowUp") select(sel - 1);
       else if (k === "Enter" || k === "o") go(rows.length && rows[sel].dataset.href);
-      else done = false;
+      else if (k === "a" || k === "r" || (k >= "1" && k <= "5")) {
+        const row = rows[sel];
+        if (k === "a") decideRow(row, "accepted");
+        else if (k === "r") decideRow(row, "rejected");
+        else decideRow(row, "needs_repair", Number(k));
+        select(sel + 1);
+      } else done = false;
     } else if (k === "a") decide("accepted");
     else if (k === "r") decide("rejected");
     else if (k >= "1" && k <= "5") decide("needs_repair", Number(k));
@@ -89,6 +163,8 @@
     else if (k === "]" || k === ".") showView(view + 1);
     else if (k === "[" || k === ",") showView(view - 1);
     else if (k === "q") go(main.dataset.queue);
+    else if (k === "z") zoom();
+    else if (k === "b") toggleBox();
     else done = false;
     if (done) e.preventDefault();
   });

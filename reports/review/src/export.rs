@@ -2,6 +2,7 @@
 //! their history) and the accepted defects as a report table (CSV and
 //! Parquet), one row per crack an inspector confirmed.
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
@@ -11,7 +12,7 @@ use postflight_core::{FaceSide, RunDir};
 use serde::Serialize;
 
 use crate::queue::Queue;
-use crate::store::{Decision, ReviewError, ReviewStore, Verdict};
+use crate::store::{Decision, ReviewError, ReviewStore, SEVERITY_SCALE, Verdict, severity_meaning};
 use reports::results::RunResults;
 
 /// Files `postflight review export` writes.
@@ -27,7 +28,10 @@ pub mod files {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AcceptedDefect {
     pub id: String,
+    /// Where it is on the structure; `None` before coverage.
+    pub place: Option<String>,
     pub verdict: Verdict,
+    /// 1 (minor) to 5 (urgent), see [`SEVERITY_SCALE`](crate::store::SEVERITY_SCALE).
     pub severity: Option<u8>,
     pub note: String,
     pub reviewer: String,
@@ -56,8 +60,8 @@ fn length_status<S: serde::Serializer>(s: &LengthStatus, to: S) -> Result<S::Ok,
     to.serialize_str(s.as_str())
 }
 
-/// The accepted defects, in review order.
-pub fn accepted_defects(queue: &Queue) -> Vec<AcceptedDefect> {
+/// The accepted defects, in review order, with their places by id.
+pub fn accepted_defects(queue: &Queue, places: &HashMap<String, String>) -> Vec<AcceptedDefect> {
     queue
         .entries
         .iter()
@@ -69,6 +73,7 @@ pub fn accepted_defects(queue: &Queue) -> Vec<AcceptedDefect> {
             let c = e.defect;
             Some(AcceptedDefect {
                 id: c.id.clone(),
+                place: places.get(&c.id).cloned(),
                 verdict: d.verdict,
                 severity: d.severity,
                 note: d.note.clone(),
@@ -95,6 +100,10 @@ fn accepted_table(rows: &[AcceptedDefect]) -> PolarsResult<DataFrame> {
     let float = |f: fn(&AcceptedDefect) -> f64| rows.iter().map(f).collect::<Vec<_>>();
     let columns = vec![
         Column::new("id".into(), text(|r| &r.id)),
+        Column::new(
+            "place".into(),
+            rows.iter().map(|r| r.place.as_deref()).collect::<Vec<_>>(),
+        ),
         Column::new("verdict".into(), text(|r| r.verdict.as_str())),
         Column::new(
             "severity".into(),
@@ -102,6 +111,7 @@ fn accepted_table(rows: &[AcceptedDefect]) -> PolarsResult<DataFrame> {
                 .map(|r| r.severity.map(i32::from))
                 .collect::<Vec<_>>(),
         ),
+        severity_meanings(rows.iter().map(|r| r.severity)),
         Column::new("note".into(), text(|r| &r.note)),
         Column::new("reviewer".into(), text(|r| &r.reviewer)),
         Column::new("decided_at".into(), text(|r| &r.decided_at)),
@@ -139,6 +149,7 @@ fn accepted_from(df: &DataFrame) -> PolarsResult<Vec<AcceptedDefect>> {
     let f64s = |name: &str| df.column(name).and_then(|c| c.f64());
     let u32s = |name: &str| df.column(name).and_then(|c| c.u32());
     let (id, verdict, note) = (text("id")?, text("verdict")?, text("note")?);
+    let place = text("place")?;
     let (reviewer, decided_at, face) = (text("reviewer")?, text("decided_at")?, text("face")?);
     let severity = df.column("severity")?.i32()?;
     let (x, y, z) = (f64s("x")?, f64s("y")?, f64s("z")?);
@@ -150,6 +161,7 @@ fn accepted_from(df: &DataFrame) -> PolarsResult<Vec<AcceptedDefect>> {
         .map(|i| {
             Ok(AcceptedDefect {
                 id: required(id, i)?.to_string(),
+                place: place.get(i).map(str::to_string),
                 verdict: parsed(verdict, i, Verdict::parse)?,
                 severity: severity.get(i).map(|v| v as u8),
                 note: required(note, i)?.to_string(),
@@ -184,6 +196,7 @@ fn decisions_table(decisions: &[Decision]) -> PolarsResult<DataFrame> {
                 .map(|d| d.severity.map(i32::from))
                 .collect::<Vec<_>>(),
         ),
+        severity_meanings(decisions.iter().map(|d| d.severity)),
         Column::new("note".into(), text(|d| &d.note)),
         Column::new("reviewer".into(), text(|d| &d.reviewer)),
         Column::new("decided_at".into(), text(|d| &d.decided_at)),
@@ -193,6 +206,17 @@ fn decisions_table(decisions: &[Decision]) -> PolarsResult<DataFrame> {
         ),
     ];
     DataFrame::new(decisions.len(), columns)
+}
+
+/// What each severity means (the scale written beside the number, so a
+/// spreadsheet needs no key).
+fn severity_meanings(severities: impl Iterator<Item = Option<u8>>) -> Column {
+    Column::new(
+        "severity_meaning".into(),
+        severities
+            .map(|s| s.and_then(severity_meaning))
+            .collect::<Vec<_>>(),
+    )
 }
 
 /// A table as CSV: a header line, RFC 4180 quoting, missing values empty.
@@ -216,13 +240,26 @@ pub fn accepted_csv(rows: &[AcceptedDefect]) -> Result<String, ReviewError> {
 /// ever made in the order made (the audit trail).
 #[derive(Debug, Serialize)]
 pub struct DecisionsExport {
+    /// What severities 1 (minor) to 5 (urgent) mean.
+    pub severity_scale: Vec<SeverityLevel>,
     pub current: Vec<Decision>,
     pub history: Vec<Decision>,
+}
+
+/// One step of the severity scale, as exported.
+#[derive(Debug, Serialize)]
+pub struct SeverityLevel {
+    pub severity: u8,
+    pub meaning: &'static str,
 }
 
 impl DecisionsExport {
     pub fn read(store: &ReviewStore) -> Result<Self, ReviewError> {
         Ok(Self {
+            severity_scale: SEVERITY_SCALE
+                .iter()
+                .map(|&(severity, meaning)| SeverityLevel { severity, meaning })
+                .collect(),
             current: store.current_decisions()?,
             history: store.all_decisions()?,
         })
@@ -234,11 +271,12 @@ pub fn write_all(
     dir: &RunDir,
     store: &ReviewStore,
     queue: &Queue,
+    places: &HashMap<String, String>,
 ) -> Result<[&'static str; 4], ReviewError> {
     let decisions = DecisionsExport::read(store)?;
     dir.write_text(files::DECISIONS_CSV, &decisions_csv(&decisions.current)?)?;
     dir.write_json(files::DECISIONS_JSON, &decisions)?;
-    let accepted = accepted_defects(queue);
+    let accepted = accepted_defects(queue, places);
     dir.write_text(files::ACCEPTED_CSV, &accepted_csv(&accepted)?)?;
     dir.write_table(files::ACCEPTED_TABLE, accepted_table(&accepted))?;
     Ok([
@@ -265,7 +303,7 @@ pub fn export_run(run: &Path, db: &Path, out: &Path) -> Result<Vec<PathBuf>, Rev
     let store = ReviewStore::open(db)?;
     let queue = Queue::new(&results.defects_for_review(), store.current_decisions()?);
     let dir = RunDir::create(out)?;
-    let written = write_all(&dir, &store, &queue)?;
+    let written = write_all(&dir, &store, &queue, &results.places())?;
     Ok(written.iter().map(|name| dir.file(name)).collect())
 }
 
@@ -286,12 +324,14 @@ mod tests {
         };
         let csv = decisions_csv(&[decision]).unwrap();
         assert!(
-            csv.starts_with("candidate,verdict,severity,note,reviewer,decided_at,version\n"),
+            csv.starts_with(
+                "candidate,verdict,severity,severity_meaning,note,reviewer,decided_at,version\n"
+            ),
             "{csv}"
         );
         let row = csv.lines().nth(1).unwrap();
         assert!(
-            row.starts_with("a,needs_repair,3,\"crack, \"\"wide\"\""),
+            row.starts_with("a,needs_repair,3,significant: plan a repair,\"crack, \"\"wide\"\""),
             "{csv}"
         );
     }
@@ -302,6 +342,7 @@ mod tests {
         let run = RunDir::create(dir.path()).unwrap();
         let row = |id: &str, verdict, severity, length_m| AcceptedDefect {
             id: id.into(),
+            place: Some("pier 2, east face, 1.4 m above its base".into()),
             verdict,
             severity,
             note: "at the joint, \"wide\"".into(),

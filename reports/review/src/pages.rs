@@ -4,6 +4,7 @@
 //! text). The pages work without scripts (links and a plain form);
 //! `assets/review.js` adds the keyboard.
 
+use std::collections::HashMap;
 use std::fmt::Write;
 
 use maud::{Markup, PreEscaped, html};
@@ -11,13 +12,28 @@ use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
 use reports::html::{evidence_text, length_text, readable_time};
 
 use crate::queue::{Entry, Filter, Progress, Queue};
-use crate::store::{Decision, MAX_NOTE_CHARS, MAX_REVIEWER_CHARS, Verdict};
+use crate::store::{
+    Decision, MAX_NOTE_CHARS, MAX_REVIEWER_CHARS, SEVERITY_SCALE, Verdict, severity_meaning,
+};
 
 /// What the page is about, for its title and heading.
 pub struct Context<'a> {
     /// The flight's file name.
     pub flight: &'a str,
     pub filter: Filter,
+    /// Each candidate's place on the structure, by id.
+    pub places: &'a HashMap<String, String>,
+}
+
+impl Context<'_> {
+    /// Where a candidate is, or its position when the structure's
+    /// elements are unknown (coverage has not run).
+    fn place(&self, d: &DefectRecord) -> String {
+        self.places.get(&d.id).cloned().unwrap_or_else(|| {
+            let p = d.position;
+            format!("({:.1}, {:.1}, {:.1}) m", p[0], p[1], p[2])
+        })
+    }
 }
 
 /// A review page: the pages' own style and script, and the status line
@@ -40,8 +56,9 @@ fn progress_line(p: &Progress) -> Markup {
     html! {
         p.progress {
             b #reviewed { (p.reviewed) " of " (p.total) " reviewed" }
-            " \u{b7} " (p.accepted) " accepted \u{b7} " (p.needs_repair) " need repair \u{b7} "
-            (p.rejected) " rejected "
+            " \u{b7} " span #count-accepted { (p.accepted) } " accepted \u{b7} "
+            span #count-needs_repair { (p.needs_repair) } " need repair \u{b7} "
+            span #count-rejected { (p.rejected) } " rejected "
             progress value=(p.reviewed) max=(p.total) {}
         }
     }
@@ -86,7 +103,12 @@ fn verdict(d: Option<&Decision>) -> Markup {
             Some(d) => {
                 span class=(format!("v {}", d.verdict.as_str())) {
                     @match (d.verdict, d.severity) {
-                        (Verdict::NeedsRepair, Some(s)) => { "needs repair, severity " (s) },
+                        (Verdict::NeedsRepair, Some(s)) => {
+                            "needs repair, severity " (s)
+                            @if let Some(word) = severity_meaning(s).and_then(|m| m.split(':').next()) {
+                                " (" (word) ")"
+                            }
+                        },
                         (v, _) => (v.as_str()),
                     }
                 }
@@ -95,6 +117,32 @@ fn verdict(d: Option<&Decision>) -> Markup {
             }
         }
     }
+}
+
+/// The severity scale, stated where severities are given.
+fn severity_scale() -> Markup {
+    html! {
+        details.scale #severity-scale open {
+            summary { "Severity of a crack that needs repair: 1 minor \u{2026} 5 urgent" }
+            ol {
+                @for (s, meaning) in SEVERITY_SCALE {
+                    li value=(s) { b { (s) } " " (meaning) }
+                }
+            }
+        }
+    }
+}
+
+/// How many boxes support a candidate, in how many frames (a frame may
+/// hold two boxes of one crack).
+fn support_text(d: &DefectRecord) -> String {
+    let boxes = d.views.len();
+    format!(
+        "{boxes} box{} in {} frame{}",
+        if boxes == 1 { "" } else { "es" },
+        d.frames,
+        if d.frames == 1 { "" } else { "s" }
+    )
 }
 
 /// The queue: candidates in review order, filtered, with progress.
@@ -132,38 +180,58 @@ pub fn queue_page(ctx: &Context, queue: &Queue) -> String {
             table #queue {
                 thead {
                     tr {
-                        th.n { "#" } th { "best view" } th { "candidate" } th.n { "length" }
-                        th.n { "confidence" } th { "decision" }
+                        th.n { "#" } th { "best view" } th { "where" } th.n { "range" }
+                        th.n { "GSD" } th.n { "length" } th { "evidence" } th.n { "conf." }
+                        th { "decision" } th { "decide" }
                     }
                 }
-                tbody { @for e in shown { (queue_row(e, ctx.filter)) } }
+                tbody { @for e in shown { (queue_row(ctx, e)) } }
             }
         }
+        (severity_scale())
         p.keys {
-            "Keys: " kbd { "j" } "/" kbd { "k" } " move, " kbd { "Enter" } " open, "
-            kbd { "i" } " reviewer name, " kbd { "Esc" } " leave a field."
+            "Keys: " kbd { "j" } "/" kbd { "k" } " move, " kbd { "a" } " accept, " kbd { "r" } " reject, "
+            kbd { "1" } "\u{2013}" kbd { "5" } " needs repair with that severity (the row's decision, then the next row), "
+            kbd { "Enter" } " open, " kbd { "i" } " reviewer name, " kbd { "Esc" } " leave a field."
         }
     };
     document(&format!("Review queue: {}", ctx.flight), body)
 }
 
-fn queue_row(e: &Entry, filter: Filter) -> Markup {
+fn queue_row(ctx: &Context, e: &Entry) -> Markup {
     let d = e.defect;
-    let href = candidate_href(&d.id, filter);
-    let views = d.views.len();
+    let href = candidate_href(&d.id, ctx.filter);
     html! {
-        tr.row data-href=(href) {
+        tr.row data-href=(href) data-id=(d.id) data-version=(e.version()) {
             td.n { (e.rank) }
             td { (crop_img(d, "thumb")) }
             td {
-                a href=(href) { (d.id) } br;
-                span.sub {
-                    (views) " view" @if views != 1 { "s" } ", face " (d.face)
+                a href=(href) { (ctx.place(d)) } br;
+                span.sub { (d.id) " \u{b7} " (support_text(d)) }
+            }
+            td.n { (format!("{:.1} m", d.best.range_m)) }
+            td.n { (format!("{:.1} mm", d.best.oblique_gsd_mm)) }
+            td.n { (length_text(d)) }
+            td {
+                @if d.evidence.reshoot {
+                    span.flag title=(evidence_text(d).unwrap_or_default()) { "re-shoot" }
+                } @else {
+                    span.ok { "good" }
                 }
             }
-            td.n { (length_text(d)) }
             td.n { (format!("{:.2}", d.confidence)) }
-            td { (verdict(e.decision.as_ref())) }
+            td.decision { (verdict(e.decision.as_ref())) }
+            td {
+                form.quick method="post"
+                    action=(format!("/candidates/{}/decide", percent_encode(&d.id))) {
+                    input type="hidden" name="version" value=(e.version());
+                    input type="hidden" name="filter" value=(ctx.filter.key());
+                    input type="hidden" name="back" value="queue";
+                    input type="hidden" name="reviewer" value="";
+                    button name="verdict" value="accepted" title="accept (a)" { "\u{2713}" }
+                    button name="verdict" value="rejected" title="reject (r)" { "\u{2717}" }
+                }
+            }
         }
     }
 }
@@ -183,8 +251,8 @@ fn crop_img(d: &DefectRecord, class: &str) -> Markup {
 pub struct CandidateView<'a> {
     /// Supporting view shown first (index into `defect.views`).
     pub view: usize,
-    /// Its pictures of place on the structure (SVG).
-    pub position: Vec<String>,
+    /// Its pictures of place on the structure: (title, SVG).
+    pub position: Vec<(String, String)>,
     /// Every decision on it, oldest first.
     pub history: &'a [Decision],
     /// The decision just sent, if it was refused.
@@ -225,7 +293,7 @@ pub fn candidate_page(ctx: &Context, queue: &Queue, entry: &Entry, v: &Candidate
                 " \u{b7} " (link(&next, "next (j) \u{2192}", "next"))
             }
             h1 {
-                "Candidate " (entry.rank) " of " (p.total) " "
+                "Candidate " (entry.rank) " of " (p.total) ": " span #place { (ctx.place(d)) } " "
                 span.sub #candidate-id { (d.id) }
             }
             (progress_line(&p))
@@ -239,9 +307,13 @@ pub fn candidate_page(ctx: &Context, queue: &Queue, entry: &Entry, v: &Candidate
                     (crop_img(d, "crop"))
                     figcaption { "best view (meeting the View model if one does, then the finest), frame " (d.best.frame) }
                 }
-                (facts(d))
+                (facts(ctx, d))
                 @if !v.position.is_empty() {
-                    div.position { @for svg in &v.position { (PreEscaped(svg)) } }
+                    div.position {
+                        @for (title, svg) in &v.position {
+                            figure { figcaption { (title) } (PreEscaped(svg)) }
+                        }
+                    }
                 }
                 (decision_form(ctx, entry, v))
                 (history(v.history))
@@ -251,6 +323,7 @@ pub fn candidate_page(ctx: &Context, queue: &Queue, entry: &Entry, v: &Candidate
             "Keys: " kbd { "a" } " accept, " kbd { "r" } " reject, " kbd { "1" } "\u{2013}" kbd { "5" }
             " needs repair with that severity, " kbd { "n" } " write a note, " kbd { "j" } "/" kbd { "k" }
             " next/previous candidate, " kbd { "]" } "/" kbd { "[" } " next/previous view, "
+            kbd { "z" } " zoom the frame, " kbd { "b" } " hide or show the box, "
             kbd { "q" } " queue, " kbd { "i" } " reviewer name, " kbd { "Esc" } " leave a field."
         }
     };
@@ -285,13 +358,17 @@ fn views_section(d: &DefectRecord, shown: usize, filter: Filter) -> Markup {
                 p { "No supporting views." }
             } @else {
                 figure {
-                    img #view alt="supporting view with the detection box"
-                        src=(format!("/candidates/{id}/views/{shown}"));
+                    div.frame #frame {
+                        img #view alt="supporting view with the detection box"
+                            src=(format!("/candidates/{id}/views/{shown}"));
+                    }
                     figcaption #view-caption { (caption(shown)) }
                 }
                 p.stepper {
                     a #view-prev href=(step(shown.saturating_sub(1))) { "\u{2190} view ([)" } " "
-                    a #view-next href=(step((shown + 1).min(n - 1))) { "view (]) \u{2192}" }
+                    a #view-next href=(step((shown + 1).min(n - 1))) { "view (]) \u{2192}" } " \u{b7} "
+                    button #zoom type="button" { "zoom (z)" } " "
+                    button #box-toggle type="button" { "hide box (b)" }
                 }
                 ol #view-list hidden {
                     @for k in 0..n {
@@ -303,11 +380,12 @@ fn views_section(d: &DefectRecord, shown: usize, filter: Filter) -> Markup {
     }
 }
 
-fn facts(d: &DefectRecord) -> Markup {
+fn facts(ctx: &Context, d: &DefectRecord) -> Markup {
     let p = d.position;
     let scores: Vec<String> = d.views.iter().map(|v| format!("{:.2}", v.score)).collect();
     html! {
         table.facts {
+            tr { th { "where" } td { (ctx.place(d)) } }
             tr {
                 th { "length" }
                 td {
@@ -348,16 +426,31 @@ fn facts(d: &DefectRecord) -> Markup {
                 td { (format!("{:.2} (best score {:.2})", d.confidence, d.max_score)) }
             }
             tr { th { "detector scores" } td { (scores.join(", ")) } }
-            tr { th { "supporting frames" } td { (d.frames) } }
+            tr { th { "support" } td { (support_text(d)) } }
         }
     }
 }
 
 fn decision_form(ctx: &Context, entry: &Entry, v: &CandidateView) -> Markup {
+    let current = entry.decision.as_ref();
+    let severity = current.and_then(|d| d.severity);
+    // After a refusal the form keeps what was typed; otherwise it shows
+    // the current decision's note.
+    let note = match &v.refused {
+        Some(r) => r.note,
+        None => current.map_or("", |d| d.note.as_str()),
+    };
+    let button = |value: Verdict, text: &str| {
+        let on = current.is_some_and(|d| d.verdict == value);
+        html! {
+            button name="verdict" value=(value.as_str()) class=[on.then_some("current")]
+                aria-pressed=(on) { (text) }
+        }
+    };
     html! {
         section.decide {
             h2 { "Decision" }
-            p { "Current: " (verdict(entry.decision.as_ref())) }
+            p #current { "Current: " (verdict(current)) }
             @if let Some(r) = &v.refused {
                 p.error role="alert" { (r.why) }
             }
@@ -367,23 +460,24 @@ fn decision_form(ctx: &Context, entry: &Entry, v: &CandidateView) -> Markup {
                 input type="hidden" name="filter" value=(ctx.filter.key());
                 label {
                     "Severity (needs repair) "
-                    select name="severity" {
-                        option value="" { "\u{2013}" }
-                        @for s in 1..=5 { option value=(s) { (s) } }
+                    select name="severity" #severity {
+                        option value="" selected[severity.is_none()] { "\u{2013}" }
+                        @for (s, meaning) in SEVERITY_SCALE {
+                            option value=(s) selected[severity == Some(s)] { (s) " \u{2013} " (meaning) }
+                        }
                     }
                 }
                 label {
                     "Note "
-                    textarea name="note" rows="2" maxlength=(MAX_NOTE_CHARS) {
-                        (v.refused.as_ref().map_or("", |r| r.note))
-                    }
+                    textarea name="note" rows="2" maxlength=(MAX_NOTE_CHARS) { (note) }
                 }
                 p.buttons {
-                    button name="verdict" value="accepted" { "Accept (a)" } " "
-                    button name="verdict" value="needs_repair" { "Needs repair (1\u{2013}5)" } " "
-                    button name="verdict" value="rejected" { "Reject (r)" }
+                    (button(Verdict::Accepted, "Accept (a)")) " "
+                    (button(Verdict::NeedsRepair, "Needs repair (1\u{2013}5)")) " "
+                    (button(Verdict::Rejected, "Reject (r)"))
                 }
             }
+            (severity_scale())
         }
     }
 }

@@ -10,17 +10,18 @@ use postflight_core::Flight;
 use postflight_core::outputs::localise::{DefectRecord, ViewRecord};
 
 use reports::results::TargetVoxel;
-use reports::views::{Overlay, Side, nearest_per_cell, view};
+use reports::views::{Marker, Overlay, Side, nearest_per_cell, view};
 
 /// Frames wider than this are scaled down before sending.
 const MAX_WIDTH: u32 = 1280;
 
-/// The frame of a supporting view as JPEG, its detection box drawn (scaled
-/// down to at most [`MAX_WIDTH`] pixels wide).
+/// The frame of a supporting view as JPEG, its detection box drawn unless
+/// `draw_box` is false (scaled down to at most [`MAX_WIDTH`] pixels wide).
 pub fn view_jpeg(
     flight: &Flight,
     recording: &Recording,
     v: &ViewRecord,
+    draw_box: bool,
 ) -> Result<Vec<u8>, String> {
     let frame = flight
         .frame(v.frame)
@@ -29,8 +30,10 @@ pub fn view_jpeg(
         .image(frame)
         .map_err(|e| format!("frame {}: {e}", v.frame))?
         .to_rgb8();
-    let thickness = (img.width() / 320).max(2);
-    localise::crop::draw_box(&mut img, v.bbox, thickness);
+    if draw_box {
+        let thickness = (img.width() / 320).max(2);
+        localise::crop::draw_box(&mut img, v.bbox, thickness);
+    }
     let mut img = DynamicImage::ImageRgb8(img);
     if img.width() > MAX_WIDTH {
         img = img.resize(MAX_WIDTH, u32::MAX, image::imageops::FilterType::Triangle);
@@ -41,30 +44,51 @@ pub fn view_jpeg(
     Ok(out.into_inner())
 }
 
-/// Where a candidate is: the structure's target voxels (grey) seen from
-/// above and from the side facing the candidate, with the candidate marked.
-/// `backdrop` holds per side only the voxels a view draws (see
-/// [`backdrop`]). Empty when the run has no coverage voxels.
+/// Where a candidate is: the structure's target voxels (grey) in plan
+/// (from above, or from below for a spot on an underside) and from the side
+/// its surface faces, with the spot marked; each with its title. `backdrop`
+/// holds per side only the voxels a view draws (see [`backdrop`]). Empty
+/// when the run has no coverage voxels.
 pub fn position_svgs(
     backdrop: &[(Side, Vec<TargetVoxel>)],
     resolution: f64,
     defect: &DefectRecord,
-) -> Vec<String> {
-    let facing = if defect.normal[1] > 0.0 {
-        Side::North
+) -> Vec<(String, String)> {
+    let plan = if defect.normal[2] < -0.5 {
+        Side::Bottom
     } else {
-        Side::South
+        Side::Top
     };
-    backdrop
-        .iter()
-        .filter(|(side, _)| *side == Side::Top || *side == facing)
-        .map(|(side, voxels)| {
+    let elevation = match Side::facing(defect.normal) {
+        Side::Top | Side::Bottom => Side::South,
+        side => side,
+    };
+    [plan, elevation]
+        .into_iter()
+        .filter_map(|side| {
+            let (_, voxels) = backdrop.iter().find(|(s, _)| *s == side)?;
+            // In plan the spot is marked where it lies even on a wall the
+            // plan does not see: it answers "where along the structure".
+            let normal = if side == plan {
+                side.toward_viewer()
+            } else {
+                defect.normal
+            };
             let overlay = Overlay {
-                markers: vec![(String::new(), defect.position)],
+                markers: vec![Marker {
+                    label: String::new(),
+                    position: defect.position,
+                    normal,
+                }],
                 grey: true,
                 ..Overlay::default()
             };
-            view(voxels, resolution, *side, &overlay, 260.0)
+            let title = if side == plan {
+                format!("In plan, {}", side.title())
+            } else {
+                format!("Elevation {}", side.title())
+            };
+            Some((title, view(voxels, resolution, side, &overlay, 440.0)))
         })
         .collect()
 }
@@ -73,7 +97,7 @@ pub fn position_svgs(
 /// viewer per picture cell: computed once per server, so a candidate page
 /// draws hundreds of squares, not the whole structure.
 pub fn backdrop(voxels: &[TargetVoxel], resolution: f64) -> Vec<(Side, Vec<TargetVoxel>)> {
-    [Side::Top, Side::South, Side::North]
+    Side::ALL
         .into_iter()
         .map(|side| {
             let front = nearest_per_cell(voxels, resolution, side);

@@ -41,6 +41,27 @@ impl Verdict {
     }
 }
 
+/// The severity scale of a crack that needs repair: 1 is the least urgent,
+/// 5 the most. Shown on the pages and written into the exports.
+pub const SEVERITY_SCALE: [(u8, &str); 5] = [
+    (
+        1,
+        "minor: record it, recheck at the next routine inspection",
+    ),
+    (2, "moderate: monitor it, recheck sooner"),
+    (3, "significant: plan a repair"),
+    (4, "serious: repair soon"),
+    (5, "urgent: act now, restrict use until repaired"),
+];
+
+/// What a severity means, from [`SEVERITY_SCALE`].
+pub fn severity_meaning(severity: u8) -> Option<&'static str> {
+    SEVERITY_SCALE
+        .iter()
+        .find(|(s, _)| *s == severity)
+        .map(|(_, m)| *m)
+}
+
 /// One decision, as recorded.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Decision {

@@ -86,6 +86,9 @@ pub(super) struct DecisionForm {
     reviewer: String,
     #[serde(default)]
     filter: String,
+    /// `queue`: decided from a queue row, so back to the queue.
+    #[serde(default)]
+    back: String,
 }
 
 impl DecisionForm {
@@ -139,6 +142,7 @@ pub(super) async fn decide_form(
         Ok(_) => {
             let queue = app.queue(current);
             let next = match queue.neighbour(&id, filter, true) {
+                Some(_) if form.back == "queue" => format!("/?filter={}", filter.key()),
                 Some(e) => candidate_href(&e.defect.id, filter),
                 None => format!("/?filter={}", filter.key()),
             };
@@ -205,11 +209,21 @@ pub(super) async fn crop(
     Ok(jpeg(bytes))
 }
 
+/// `?box=0`: the frame without its detection box (it can hide the crack).
+#[derive(Debug, Default, Deserialize)]
+pub(super) struct ViewQuery {
+    #[serde(rename = "box")]
+    draw_box: Option<u8>,
+}
+
 pub(super) async fn view_image(
     State(app): State<Arc<App>>,
     path: Result<Path<(String, usize)>, PathRejection>,
+    q: Result<Query<ViewQuery>, QueryRejection>,
 ) -> Result<Response, HttpError> {
     let Path((id, k)) = path.map_err(|r| HttpError::text(r.status(), r.body_text()))?;
+    let Query(q) = q.map_err(|r| HttpError::text(r.status(), r.body_text()))?;
+    let draw_box = q.draw_box != Some(0);
     let d = app.defect(&id)?;
     let view = d.views.get(k).cloned().ok_or_else(|| {
         HttpError::text(
@@ -222,7 +236,7 @@ pub(super) async fn view_image(
     })?;
     let worker = app.clone();
     let bytes = tokio::task::spawn_blocking(move || {
-        view_jpeg(&worker.results.flight, &worker.recording, &view)
+        view_jpeg(&worker.results.flight, &worker.recording, &view, draw_box)
     })
     .await
     .map_err(|e| HttpError::text(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))?

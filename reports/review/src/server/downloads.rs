@@ -45,7 +45,7 @@ pub(super) async fn decisions_json(State(app): State<Arc<App>>) -> Result<Respon
 pub(super) async fn accepted(State(app): State<Arc<App>>) -> Result<Response, HttpError> {
     let current = app.store(|s| s.current_decisions()).await?;
     let queue = app.queue(current);
-    let csv = accepted_csv(&accepted_defects(&queue))?;
+    let csv = accepted_csv(&accepted_defects(&queue, &app.places))?;
     Ok(download(
         "text/csv; charset=utf-8",
         "accepted-defects.csv",

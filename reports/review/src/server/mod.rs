@@ -18,6 +18,7 @@ mod browser;
 mod downloads;
 mod errors;
 
+use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
@@ -76,6 +77,8 @@ struct App {
     store: Mutex<ReviewStore>,
     token: Option<String>,
     flight: String,
+    /// Each candidate's place on the structure, by id.
+    places: HashMap<String, String>,
 }
 
 impl App {
@@ -114,6 +117,7 @@ impl App {
         Context {
             flight: &self.flight,
             filter,
+            places: &self.places,
         }
     }
 
@@ -177,6 +181,7 @@ pub fn serve(options: ServeOptions, on_ready: impl FnOnce(&Listening)) -> Result
         backdrop: backdrop(&results.voxels, resolution),
         resolution,
         order,
+        places: results.places(),
         store: Mutex::new(store),
         token,
         flight,
