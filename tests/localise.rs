@@ -50,6 +50,10 @@ struct Crack {
     length_m: f64,
     /// Outward normal of its surface.
     normal: [f64; 3],
+    /// The scene part it is drawn on (`pier west`, `deck`, `tower`).
+    part: String,
+    /// The plan-grid voxel holding its centroid.
+    voxel: [i64; 3],
 }
 
 fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
@@ -85,6 +89,8 @@ fn cracks(truth: &Value) -> BTreeMap<i64, Crack> {
                 centroid,
                 length_m: f(&c["length_m"]),
                 normal: vec3(&c["normal"]),
+                part: c["part"].as_str().unwrap().to_string(),
+                voxel: [0, 1, 2].map(|a| c["voxel"][a].as_i64().unwrap()),
             };
             (c["id"].as_i64().unwrap(), crack)
         })
@@ -454,6 +460,137 @@ fn check_reshoots_are_flown(sim: &Path, run: &Path) -> (usize, usize) {
     (flagged, flown)
 }
 
+/// The element postflight should name for a scene part: piers numbered
+/// from the west, girders from the south, as the simulator lays them out.
+fn element_of_part(part: &str) -> &str {
+    match part {
+        "pier west" => "pier 1",
+        "pier east" => "pier 2",
+        "girder south" => "girder 1",
+        "girder middle" => "girder 2",
+        "girder north" => "girder 3",
+        other => other,
+    }
+}
+
+/// The face word for a true surface normal, and whether it is clear of the
+/// boundaries between words (10 degrees).
+fn face_of_normal(n: &[f64; 3], deck: bool) -> (String, bool) {
+    let tilt = n[2].clamp(-1.0, 1.0).asin().to_degrees();
+    if tilt.abs() >= 45.0 {
+        let word = match (tilt > 0.0, deck) {
+            (true, _) => "top",
+            (false, true) => "soffit",
+            (false, false) => "underside",
+        };
+        return (word.into(), (tilt.abs() - 45.0).abs() > 10.0);
+    }
+    let bearing = n[1].atan2(n[0]).to_degrees().rem_euclid(360.0);
+    let words = [
+        "east",
+        "north-east",
+        "north",
+        "north-west",
+        "west",
+        "south-west",
+        "south",
+        "south-east",
+    ];
+    let sector = ((bearing / 45.0).round() as usize) % 8;
+    let off = (bearing - 45.0 * (bearing / 45.0).round()).abs();
+    let side = if deck { "edge" } else { "face" };
+    (
+        format!("{} {side}", words[sector]),
+        (22.5 - off) > 10.0 && (tilt.abs() - 45.0).abs() > 10.0,
+    )
+}
+
+/// Every candidate in the report's table (`candidates.csv`) on a truth
+/// crack names the crack's scene part as its element, and the face its
+/// true normal faces; every truth crack's voxel that is a target is named
+/// by its part in coverage.parquet. Returns (candidates named, voxels named).
+fn check_places(sim: &Path, run: &Path) -> (usize, usize) {
+    let out = postflight(
+        &["report", "--run", run.to_str().unwrap()],
+        run.parent().unwrap(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let cracks = cracks(&read_json(&sim.join("truth.json")));
+    let table = read_csv(&run.join("candidates.csv"));
+    let text = |name: &str| -> Vec<Option<String>> {
+        table
+            .column(name)
+            .unwrap()
+            .str()
+            .unwrap()
+            .iter()
+            .map(|v| v.map(str::to_string))
+            .collect()
+    };
+    let number = |name: &str| -> Vec<f64> {
+        table
+            .column(name)
+            .unwrap()
+            .f64()
+            .unwrap()
+            .iter()
+            .map(Option::unwrap)
+            .collect()
+    };
+    let (ids, places, elements) = (text("id"), text("place"), text("element"));
+    let (x, y, z) = (number("x"), number("y"), number("z"));
+    let mut named = 0;
+    for i in 0..table.height() {
+        let id = ids[i].as_deref().unwrap();
+        let place = places[i]
+            .as_deref()
+            .unwrap_or_else(|| panic!("{id} has no place"));
+        let element = elements[i].as_deref().unwrap();
+        assert!(place.starts_with(element), "{id}: {place}");
+        let Some((crack, _)) = crack_at(&cracks, &[x[i], y[i], z[i]]) else {
+            continue;
+        };
+        let crack = &cracks[&crack];
+        assert_eq!(element, element_of_part(&crack.part), "{id}: {place}");
+        let (face, clear) = face_of_normal(&crack.normal, crack.part == "deck");
+        if clear {
+            assert!(
+                place.starts_with(&format!("{element}, {face},")),
+                "{id}: {place}, true face {face}"
+            );
+        }
+        named += 1;
+    }
+    let voxels = read_parquet(&run.join("coverage.parquet"));
+    let int = |name: &str| -> Vec<i64> {
+        voxels
+            .column(name)
+            .unwrap()
+            .cast(&polars::prelude::DataType::Int64)
+            .unwrap()
+            .i64()
+            .unwrap()
+            .iter()
+            .map(Option::unwrap)
+            .collect()
+    };
+    let (vx, vy, vz) = (int("voxel_x"), int("voxel_y"), int("voxel_z"));
+    let voxel_element: HashMap<[i64; 3], String> = (0..voxels.height())
+        .map(|i| {
+            let e = voxels.column("element").unwrap().str().unwrap().get(i);
+            ([vx[i], vy[i], vz[i]], e.unwrap().to_string())
+        })
+        .collect();
+    let mut voxels_named = 0;
+    for crack in cracks.values() {
+        if let Some(e) = voxel_element.get(&crack.voxel) {
+            assert_eq!(e, element_of_part(&crack.part), "voxel {:?}", crack.voxel);
+            voxels_named += 1;
+        }
+    }
+    (named, voxels_named)
+}
+
 #[test]
 fn defect_candidates_match_truth_on_simulated_flights() {
     let dir = tempfile::tempdir().unwrap();
@@ -479,8 +616,9 @@ fn defect_candidates_match_truth_on_simulated_flights() {
         all = all.add(s);
         let (judged, breaking) = check_evidence(&sim, &run);
         let (flagged, flown) = check_reshoots_are_flown(&sim, &run);
+        let (named, voxels_named) = check_places(&sim, &run);
         eprintln!(
-            "{name}: {judged} candidates on cracks judged from truth, {breaking} breaking the View model; {flagged} flagged for a re-shoot, {flown} flown"
+            "{name}: {judged} candidates on cracks judged from truth, {breaking} breaking the View model; {flagged} flagged for a re-shoot, {flown} flown; {named} candidates and {voxels_named} crack voxels named by their scene part"
         );
     }
     all.print("all flights");

@@ -315,7 +315,7 @@ impl Groups {
         let (zlo, zhi) = min_max(voxels.iter().map(|v| f64::from(v.0[2])));
         let height = (zhi - zlo + 1.0) * grid.resolution;
         if height >= length {
-            groups.towers = components(voxels, &set);
+            groups.towers = columns(components(voxels, &set));
             return groups;
         }
         let min_run = SPAN_RUN_SHARE * length;
@@ -340,7 +340,7 @@ impl Groups {
         }
         let rest_set: HashSet<VoxelIndex> = rest.iter().copied().collect();
         let span_bottom = span.iter().map(|v| v.0[2]).min().unwrap_or(i32::MIN);
-        for part in components(&rest, &rest_set) {
+        for part in columns(components(&rest, &rest_set)) {
             // Below the superstructure it is a pier; otherwise a small
             // piece (an end, a bracket) belongs to the deck.
             if part.iter().any(|v| v.0[2] < span_bottom) {
@@ -458,6 +458,49 @@ fn components(voxels: &[VoxelIndex], set: &HashSet<VoxelIndex>) -> Vec<Vec<Voxel
         parts.push(part);
     }
     parts
+}
+
+/// Parts one above another (footprints overlapping in plan) joined into one
+/// column: a tower or pier the map or the plan's targets cut into bands.
+fn columns(parts: Vec<Vec<VoxelIndex>>) -> Vec<Vec<VoxelIndex>> {
+    let footprint = |part: &[VoxelIndex]| {
+        part.iter()
+            .fold([i32::MAX, i32::MAX, i32::MIN, i32::MIN], |b, v| {
+                [
+                    b[0].min(v.0[0]),
+                    b[1].min(v.0[1]),
+                    b[2].max(v.0[0]),
+                    b[3].max(v.0[1]),
+                ]
+            })
+    };
+    let mut merged: Vec<(Vec<VoxelIndex>, [i32; 4])> = Vec::new();
+    for part in parts {
+        let mut fp = footprint(&part);
+        let mut part = part;
+        // Join every column this part overlaps, until none is left.
+        while let Some(i) = merged
+            .iter()
+            .position(|(_, b)| b[0] <= fp[2] && fp[0] <= b[2] && b[1] <= fp[3] && fp[1] <= b[3])
+        {
+            let (other, b) = merged.swap_remove(i);
+            part.extend(other);
+            fp = [
+                fp[0].min(b[0]),
+                fp[1].min(b[1]),
+                fp[2].max(b[2]),
+                fp[3].max(b[3]),
+            ];
+        }
+        merged.push((part, fp));
+    }
+    merged
+        .into_iter()
+        .map(|(mut part, _)| {
+            part.sort_by_key(|v| v.0[2]);
+            part
+        })
+        .collect()
 }
 
 fn min_max(values: impl Iterator<Item = f64>) -> (f64, f64) {
@@ -590,6 +633,18 @@ mod tests {
             place.to_string(),
             "tower, north-east face, 7.2 m above its base"
         );
+    }
+
+    #[test]
+    fn a_tower_cut_into_bands_is_one_tower() {
+        let grid = VoxelGrid::new(0.5, Point3::origin());
+        let mut targets = Vec::new();
+        for z in [0.0, 4.0, 8.0] {
+            cuboid(&grid, [-2.0, -2.0, z], [2.0, 2.0, z + 3.0], &mut targets);
+        }
+        let s = segment(&grid, &targets, &HashMap::new());
+        assert_eq!(s.structure.elements.len(), 1);
+        assert_eq!(s.structure.elements[0].name, "tower");
     }
 
     #[test]

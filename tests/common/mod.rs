@@ -179,6 +179,16 @@ pub fn read_parquet(path: &Path) -> DataFrame {
     ParquetReader::new(file).finish().unwrap()
 }
 
+/// A CSV table with a header line, whole.
+pub fn read_csv(path: &Path) -> DataFrame {
+    CsvReadOptions::default()
+        .with_has_header(true)
+        .try_into_reader_with_file_path(Some(path.to_owned()))
+        .unwrap()
+        .finish()
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
 pub fn detection_rows(run: &Path) -> Vec<DetectionRow> {
     let df = read_parquet(&run.join("detections.parquet"));
     let time = df.column("time_ns").unwrap().i64().unwrap().clone();
