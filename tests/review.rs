@@ -22,7 +22,8 @@ fn reviewed_run() -> &'static Path {
     static RUN: OnceLock<PathBuf> = OnceLock::new();
     RUN.get_or_init(|| {
         let dir = locked_fixture_dir("review-fixture");
-        let sim = simulate_into(&dir, "sim", &["--frames", "120"]);
+        // A tower: about 30 candidates, enough to work through a queue.
+        let sim = simulate_into(&dir, "sim", &["--scene", "tower", "--frames", "160"]);
         let run = dir.join("run");
         ingest_ok(&sim.join("flight.mcap"), &run, &[]);
         let model = root().join("detect/models/crack-baked.onnx");
@@ -302,6 +303,92 @@ async fn text_after(client: &fantoccini::Client, css: &str, before: &str) -> Str
     }
 }
 
+/// Chromedriver driving a headless Chromium with its own profile in
+/// `dir`: the driver (killed when dropped), a runtime, the capabilities and
+/// the driver's port.
+fn chromium(
+    dir: &Path,
+) -> (
+    Driver,
+    tokio::runtime::Runtime,
+    serde_json::Map<String, Value>,
+    u16,
+) {
+    let port = free_port();
+    let driver = Driver(
+        Command::new("chromedriver")
+            .arg(format!("--port={port}"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("chromedriver (Debian's chromium-driver; scripts/setup --test installs it)"),
+    );
+    let profile = dir.join("chromium");
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    let mut caps = serde_json::Map::new();
+    caps.insert(
+        "goog:chromeOptions".into(),
+        json!({
+            "binary": "/usr/bin/chromium",
+            "args": ["--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+                     "--disable-background-networking", "--disable-component-update",
+                     "--disable-sync", "--disable-quic", "--no-first-run",
+                     format!("--user-data-dir={}", profile.display())]
+        }),
+    );
+    (driver, runtime, caps, port)
+}
+
+/// A session with the driver at `port`, once it answers.
+async fn session(caps: &serde_json::Map<String, Value>, port: u16) -> fantoccini::Client {
+    for _ in 0..100 {
+        let connector = hyper_util::client::legacy::connect::HttpConnector::new();
+        if let Ok(c) = fantoccini::ClientBuilder::new(connector)
+            .capabilities(caps.clone())
+            .connect(&format!("http://127.0.0.1:{port}"))
+            .await
+        {
+            return c;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    panic!("no chromedriver session on port {port}");
+}
+
+/// What a candidate's decision form shows: the chosen severity, the
+/// verdict whose button is marked current, and the note.
+async fn form_state(client: &fantoccini::Client) -> (String, String, String) {
+    let value = |css: &'static str| async move {
+        client
+            .find(fantoccini::Locator::Css(css))
+            .await
+            .unwrap_or_else(|e| panic!("{css}: {e}"))
+            .prop("value")
+            .await
+            .unwrap()
+            .unwrap_or_default()
+    };
+    (
+        value("#severity").await,
+        value("#decision button[aria-pressed=true]").await,
+        value("#decision textarea").await,
+    )
+}
+
+/// The text of the first element matching `css`.
+async fn text_of(client: &fantoccini::Client, css: &str) -> String {
+    client
+        .find(fantoccini::Locator::Css(css))
+        .await
+        .unwrap_or_else(|e| panic!("{css}: {e}"))
+        .text()
+        .await
+        .unwrap()
+}
+
 #[test]
 fn a_reviewer_accepts_and_rejects_by_keyboard_in_chromium_and_exactly_that_is_stored() {
     let run = reviewed_run();
@@ -315,49 +402,10 @@ fn a_reviewer_accepts_and_rejects_by_keyboard_in_chromium_and_exactly_that_is_st
         ids.len()
     );
 
-    let port = free_port();
-    let _driver = Driver(
-        Command::new("chromedriver")
-            .arg(format!("--port={port}"))
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("chromedriver (Debian's chromium-driver; scripts/setup --test installs it)"),
-    );
-    let profile = tmp.path().join("chromium");
-    let runtime = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .unwrap();
+    let (_driver, runtime, caps, port) = chromium(tmp.path());
     let reviewer = "Ann <Inspector> & Co";
     runtime.block_on(async {
-        let mut caps = serde_json::Map::new();
-        caps.insert(
-            "goog:chromeOptions".into(),
-            json!({
-                "binary": "/usr/bin/chromium",
-                "args": ["--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                         "--disable-background-networking", "--disable-component-update",
-                         "--disable-sync", "--disable-quic", "--no-first-run",
-                         format!("--user-data-dir={}", profile.display())]
-            }),
-        );
-        let mut client = None;
-        for _ in 0..100 {
-            let connector = hyper_util::client::legacy::connect::HttpConnector::new();
-            match fantoccini::ClientBuilder::new(connector)
-                .capabilities(caps.clone())
-                .connect(&format!("http://127.0.0.1:{port}"))
-                .await
-            {
-                Ok(c) => {
-                    client = Some(c);
-                    break;
-                }
-                Err(_) => tokio::time::sleep(Duration::from_millis(100)).await,
-            }
-        }
-        let client = client.expect("a chromedriver session");
+        let client = session(&caps, port).await;
         client.goto(&server.url).await.unwrap();
         text_after(&client, "#reviewed", "").await;
         // Name yourself once (kept for later pages), leave the field, open
@@ -411,7 +459,17 @@ fn a_reviewer_accepts_and_rejects_by_keyboard_in_chromium_and_exactly_that_is_st
             .text()
             .await
             .unwrap();
-        assert_eq!(decided, "needs repair, severity 4");
+        assert_eq!(decided, "needs repair, severity 4 (serious)");
+        // The form starts from the current decision: severity 4 chosen,
+        // its button marked, its note in the box.
+        assert_eq!(
+            form_state(&client).await,
+            (
+                "4".into(),
+                "needs_repair".into(),
+                "spalled edge, 2 mm".into()
+            )
+        );
         press(&client, 'q').await;
         let progress = text_after(&client, "#reviewed", "").await;
         assert_eq!(progress, format!("3 of {} reviewed", ids.len()));
@@ -466,6 +524,95 @@ fn a_reviewer_accepts_and_rejects_by_keyboard_in_chromium_and_exactly_that_is_st
     };
     assert_eq!(column("id"), [ids[0].clone(), ids[2].clone()]);
     assert_eq!(column("verdict"), ["accepted", "needs_repair"]);
+}
+
+/// What the test presses on each of the first 20 rows, and what it means.
+const ROW_KEYS: [(char, &str, Option<i64>); 4] = [
+    ('a', "accepted", None),
+    ('r', "rejected", None),
+    ('3', "needs_repair", Some(3)),
+    ('5', "needs_repair", Some(5)),
+];
+
+#[test]
+fn an_inspector_decides_twenty_candidates_from_the_queue_rows_by_keyboard_in_under_a_minute() {
+    let run = reviewed_run();
+    let tmp = tempfile::tempdir().unwrap();
+    let db = tmp.path().join("review.sqlite");
+    let server = Server::start(run, &db, &[]);
+    let ids = candidate_ids(&server);
+    assert!(
+        ids.len() >= 20,
+        "the simulated run has {} candidates",
+        ids.len()
+    );
+    let (_driver, runtime, caps, port) = chromium(tmp.path());
+    let reviewer = "Bo Inspector";
+    let took = runtime.block_on(async {
+        let client = session(&caps, port).await;
+        client.goto(&server.url).await.unwrap();
+        text_after(&client, "#reviewed", "").await;
+        // The scale is stated on the queue, worst end named.
+        let scale = text_of(&client, "#severity-scale").await;
+        assert!(scale.contains("1 minor \u{2026} 5 urgent"), "{scale}");
+        assert!(scale.contains("5 urgent: act now"), "{scale}");
+        client
+            .find(fantoccini::Locator::Css("#reviewer"))
+            .await
+            .unwrap()
+            .send_keys(reviewer)
+            .await
+            .unwrap();
+        press(&client, fantoccini::key::Key::Escape.into()).await;
+        let start = Instant::now();
+        for k in 0..20 {
+            press(&client, ROW_KEYS[k % ROW_KEYS.len()].0).await;
+        }
+        let done = format!("20 of {} reviewed", ids.len());
+        let deadline = Instant::now() + Duration::from_secs(60);
+        while text_of(&client, "#reviewed").await != done {
+            assert!(Instant::now() < deadline, "the queue never showed {done:?}");
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        let took = start.elapsed();
+        // Each row shows its decision in place, with the scale's word.
+        let third = text_of(&client, "tr.row:nth-child(3) td.decision").await;
+        assert_eq!(
+            third,
+            format!("needs repair, severity 3 (significant) by {reviewer}")
+        );
+        // The candidate page's form shows that decision.
+        client
+            .goto(&format!("{}/candidates/{}", server.base, url_path(&ids[3])))
+            .await
+            .unwrap();
+        text_after(&client, "#candidate-id", "").await;
+        assert_eq!(
+            form_state(&client).await,
+            ("5".into(), "needs_repair".into(), String::new())
+        );
+        client.close().await.unwrap();
+        took
+    });
+    eprintln!(
+        "20 candidates decided from the queue rows in {:.1} s",
+        took.as_secs_f64()
+    );
+    assert!(took < Duration::from_secs(60), "{took:?}");
+    // Exactly one decision per row, each the key's (the rows' requests may
+    // be stored in any order).
+    let expected: BTreeSet<String> = ids[..20]
+        .iter()
+        .enumerate()
+        .map(|(i, id)| {
+            let (_, verdict, severity) = ROW_KEYS[i % ROW_KEYS.len()];
+            json!([id, 1, verdict, severity, "", reviewer]).to_string()
+        })
+        .collect();
+    let stored = stored_decisions(&db);
+    assert_eq!(stored.len(), 20);
+    let stored: BTreeSet<String> = stored.iter().map(Value::to_string).collect();
+    assert_eq!(stored, expected);
 }
 
 // ---- load ------------------------------------------------------------------

@@ -51,6 +51,7 @@
   // Decide a queue row through the API (no page load): the row shows the
   // decision, the progress line the new counts, and the next row is selected.
   const pending = new Set();
+  let progressSeq = 0;
   const decideRow = async (row, verdict, severity) => {
     if (!row || pending.has(row) || needName()) return;
     pending.add(row);
@@ -76,7 +77,11 @@
       by.className = "sub";
       by.textContent = "by " + reply.reviewer;
       cell.replaceChildren(v, " ", by);
+      // Progress as of the last request sent: sent after its decision was
+      // stored, so the last one sent counts every decision stored before it.
+      const seq = ++progressSeq;
       const q = await (await fetch("/api/candidates")).json();
+      if (seq !== progressSeq) return;
       const p = q.progress;
       $("#reviewed").textContent = p.reviewed + " of " + p.total + " reviewed";
       const bar = $(".progress progress");
