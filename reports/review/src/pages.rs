@@ -57,7 +57,7 @@ fn progress_line(p: &Progress) -> Markup {
         p.progress {
             b #reviewed { (p.reviewed) " of " (p.total) " reviewed" }
             " \u{b7} " span #count-accepted { (p.accepted) } " accepted \u{b7} "
-            span #count-needs_repair { (p.needs_repair) } " need repair \u{b7} "
+            span #count-needs_repair { (p.needs_repair) } " needing repair \u{b7} "
             span #count-rejected { (p.rejected) } " rejected "
             progress value=(p.reviewed) max=(p.total) {}
         }
@@ -314,6 +314,7 @@ pub fn candidate_page(ctx: &Context, queue: &Queue, entry: &Entry, v: &Candidate
                             figure { figcaption { (title) } (PreEscaped(svg)) }
                         }
                     }
+                    p.sub { "The spot: solid where it is in front, hollow where nearer parts hide it." }
                 }
                 (decision_form(ctx, entry, v))
                 (history(v.history))
