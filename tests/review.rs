@@ -358,6 +358,33 @@ async fn session(caps: &serde_json::Map<String, Value>, port: u16) -> fantoccini
     panic!("no chromedriver session on port {port}");
 }
 
+/// A review server over the fixture run with a new database, and the
+/// candidates' ids in review order (at least `at_least` of them).
+fn fresh_review(at_least: usize) -> (tempfile::TempDir, PathBuf, Server, Vec<String>) {
+    let tmp = tempfile::tempdir().unwrap();
+    let db = tmp.path().join("review.sqlite");
+    let server = Server::start(reviewed_run(), &db, &[]);
+    let ids = candidate_ids(&server);
+    assert!(
+        ids.len() >= at_least,
+        "the simulated run has {} candidates",
+        ids.len()
+    );
+    (tmp, db, server, ids)
+}
+
+/// Type the reviewer's name and leave the field.
+async fn name_reviewer(client: &fantoccini::Client, name: &str) {
+    client
+        .find(fantoccini::Locator::Css("#reviewer"))
+        .await
+        .unwrap()
+        .send_keys(name)
+        .await
+        .unwrap();
+    press(client, fantoccini::key::Key::Escape.into()).await;
+}
+
 /// What a candidate's decision form shows: the chosen severity, the
 /// verdict whose button is marked current, and the note.
 async fn form_state(client: &fantoccini::Client) -> (String, String, String) {
@@ -392,16 +419,7 @@ async fn text_of(client: &fantoccini::Client, css: &str) -> String {
 #[test]
 fn a_reviewer_accepts_and_rejects_by_keyboard_in_chromium_and_exactly_that_is_stored() {
     let run = reviewed_run();
-    let tmp = tempfile::tempdir().unwrap();
-    let db = tmp.path().join("review.sqlite");
-    let server = Server::start(run, &db, &[]);
-    let ids = candidate_ids(&server);
-    assert!(
-        ids.len() >= 3,
-        "the simulated run has {} candidates",
-        ids.len()
-    );
-
+    let (tmp, db, server, ids) = fresh_review(3);
     let (_driver, runtime, caps, port) = chromium(tmp.path());
     let reviewer = "Ann <Inspector> & Co";
     runtime.block_on(async {
@@ -410,14 +428,7 @@ fn a_reviewer_accepts_and_rejects_by_keyboard_in_chromium_and_exactly_that_is_st
         text_after(&client, "#reviewed", "").await;
         // Name yourself once (kept for later pages), leave the field, open
         // the first candidate, accept it, reject the one that follows.
-        client
-            .find(fantoccini::Locator::Css("#reviewer"))
-            .await
-            .unwrap()
-            .send_keys("Ann <Inspector> & Co")
-            .await
-            .unwrap();
-        press(&client, fantoccini::key::Key::Escape.into()).await;
+        name_reviewer(&client, reviewer).await;
         press(&client, fantoccini::key::Key::Enter.into()).await;
         let first = text_after(&client, "#candidate-id", "").await;
         press(&client, 'a').await;
@@ -536,16 +547,7 @@ const ROW_KEYS: [(char, &str, Option<i64>); 4] = [
 
 #[test]
 fn an_inspector_decides_twenty_candidates_from_the_queue_rows_by_keyboard_in_under_a_minute() {
-    let run = reviewed_run();
-    let tmp = tempfile::tempdir().unwrap();
-    let db = tmp.path().join("review.sqlite");
-    let server = Server::start(run, &db, &[]);
-    let ids = candidate_ids(&server);
-    assert!(
-        ids.len() >= 20,
-        "the simulated run has {} candidates",
-        ids.len()
-    );
+    let (tmp, db, server, ids) = fresh_review(20);
     let (_driver, runtime, caps, port) = chromium(tmp.path());
     let reviewer = "Bo Inspector";
     let took = runtime.block_on(async {
@@ -556,14 +558,7 @@ fn an_inspector_decides_twenty_candidates_from_the_queue_rows_by_keyboard_in_und
         let scale = text_of(&client, "#severity-scale").await;
         assert!(scale.contains("1 minor \u{2026} 5 urgent"), "{scale}");
         assert!(scale.contains("5 urgent: act now"), "{scale}");
-        client
-            .find(fantoccini::Locator::Css("#reviewer"))
-            .await
-            .unwrap()
-            .send_keys(reviewer)
-            .await
-            .unwrap();
-        press(&client, fantoccini::key::Key::Escape.into()).await;
+        name_reviewer(&client, reviewer).await;
         let start = Instant::now();
         for k in 0..20 {
             press(&client, ROW_KEYS[k % ROW_KEYS.len()].0).await;

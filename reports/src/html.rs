@@ -5,6 +5,8 @@
 //! maud's templates, which escape every value unless told it is markup
 //! (the SVG pictures, built by [`crate::svg`], which escapes its own text).
 
+use std::collections::BTreeMap;
+
 use base64::Engine;
 use maud::{DOCTYPE, Markup, PreEscaped, html};
 use postflight_core::outputs::coverage::CoverageSummary;
@@ -500,12 +502,13 @@ fn follow_up(r: &RunResults, p: &ReplanSummary) -> Markup {
                     (PreEscaped(view(&r.voxels, p.resolution, side, &overlay, 500.0)))
                     figcaption {
                         "Follow-up flight, " (side.title())
-                        ": waypoints numbered in flight order, coloured by height (ramp, "
+                        ": waypoints numbered in flight order (numbers that would overlap left out), coloured by height (ramp, "
                         (HEIGHT_COLOURS.len()) " steps, low to high)"
                     }
                 }
             }
         }
+        (gaps_by_element(r, p))
         table {
             tr {
                 th { "sortie" } th.n { "waypoints" } th.n { "gap voxels" }
@@ -522,6 +525,55 @@ fn follow_up(r: &RunResults, p: &ReplanSummary) -> Markup {
             }
         }
     }
+}
+
+/// Which elements the follow-up flight goes back to, and at which of its
+/// waypoints (numbered in flight order, as in the pictures).
+fn gaps_by_element(r: &RunResults, p: &ReplanSummary) -> Markup {
+    let mut by_element: BTreeMap<&str, (usize, Vec<usize>)> = BTreeMap::new();
+    let waypoints = p.sorties.iter().flat_map(|s| &s.waypoints);
+    for (i, w) in waypoints.enumerate() {
+        for v in &w.gap_voxels {
+            let element = r
+                .voxel_elements
+                .get(v)
+                .map_or("off the targets", String::as_str);
+            let entry = by_element.entry(element).or_default();
+            entry.0 += 1;
+            if entry.1.last() != Some(&(i + 1)) {
+                entry.1.push(i + 1);
+            }
+        }
+    }
+    html! {
+        @if !by_element.is_empty() {
+            table {
+                tr { th { "element" } th.n { "gap voxels" } th { "at waypoints" } }
+                @for (element, (voxels, at)) in &by_element {
+                    tr { td { (element) } td.n { (voxels) } td { (number_ranges(at)) } }
+                }
+            }
+        }
+    }
+}
+
+/// Increasing numbers as ranges: `1–4, 7, 9–10`.
+fn number_ranges(numbers: &[usize]) -> String {
+    let mut out: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < numbers.len() {
+        let start = numbers[i];
+        while i + 1 < numbers.len() && numbers[i + 1] == numbers[i] + 1 {
+            i += 1;
+        }
+        out.push(if numbers[i] == start {
+            start.to_string()
+        } else {
+            format!("{start}\u{2013}{}", numbers[i])
+        });
+        i += 1;
+    }
+    out.join(", ")
 }
 
 /// Where to go from here: the review queue and the run's files.
@@ -610,5 +662,20 @@ fn run_section(s: &RunSummary) -> Markup {
             h3 { "Warnings" }
             ul { @for w in &s.warnings { li { (w) } } }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn waypoint_numbers_read_as_ranges() {
+        assert_eq!(
+            number_ranges(&[1, 2, 3, 4, 7, 9, 10]),
+            "1\u{2013}4, 7, 9\u{2013}10"
+        );
+        assert_eq!(number_ranges(&[5]), "5");
+        assert_eq!(number_ranges(&[]), "");
     }
 }

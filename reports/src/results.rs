@@ -2,8 +2,10 @@
 //! reports draw from, read once. A stage that has not run is `None`, so a
 //! report can be made at any point of the pipeline.
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+use postflight_core::map::VoxelIndex;
 use postflight_core::outputs::coverage::{self, CoverageSummary, VoxelRecord};
 use postflight_core::outputs::detect::DetectSummary;
 use postflight_core::outputs::localise::{DefectRecord, LocaliseSummary, read_defects};
@@ -96,6 +98,8 @@ pub struct RunResults {
     pub elements: Option<ElementMap>,
     /// Surface area by element and coverage status, in element order.
     pub element_areas: Vec<ElementArea>,
+    /// Each target voxel's element.
+    pub voxel_elements: HashMap<VoxelIndex, String>,
     pub replan: Option<ReplanSummary>,
     pub log: RunLog,
 }
@@ -125,6 +129,10 @@ impl RunResults {
             detect: dir.summary(Stage::Detect)?,
             localise,
             defects,
+            voxel_elements: records
+                .iter()
+                .map(|r| (r.voxel, r.element.clone()))
+                .collect(),
             element_areas: coverage
                 .as_ref()
                 .map(|c| ElementArea::of(c, &records))
@@ -178,7 +186,7 @@ impl RunResults {
     }
 
     /// Every candidate's place as text, by id (none before coverage).
-    pub fn places(&self) -> std::collections::HashMap<String, String> {
+    pub fn places(&self) -> HashMap<String, String> {
         self.defects
             .iter()
             .filter_map(|d| Some((d.id.clone(), self.place(d)?.to_string())))
