@@ -201,24 +201,28 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
         gaps.len()
     );
 
-    // The plan, judged by the coverage stage alone, inspects them all.
-    coverage(
-        &run,
-        &[
-            "--plan",
-            plan_file.to_str().unwrap(),
-            "--viewpoints",
-            run.join("replan.json").to_str().unwrap(),
-        ],
-    );
-    let after = coverage_rows(&run.join("coverage-viewpoints.parquet"));
-    let missed: Vec<&Voxel> = planned_set.iter().filter(|v| !after[*v].0).collect();
-    assert!(
-        missed.is_empty(),
-        "{} planned gap voxels not inspected: {:?}",
-        missed.len(),
-        &missed[..missed.len().min(5)]
-    );
+    // The plan, judged by the coverage stage alone, inspects them all:
+    // read from replan.json, and from replan.csv as a ground station gets
+    // it (its waypoint rows, with their gimbal pitch).
+    for file in ["replan.json", "replan.csv"] {
+        coverage(
+            &run,
+            &[
+                "--plan",
+                plan_file.to_str().unwrap(),
+                "--viewpoints",
+                run.join(file).to_str().unwrap(),
+            ],
+        );
+        let after = coverage_rows(&run.join("coverage-viewpoints.parquet"));
+        let missed: Vec<&Voxel> = planned_set.iter().filter(|v| !after[*v].0).collect();
+        assert!(
+            missed.is_empty(),
+            "{file}: {} planned gap voxels not inspected: {:?}",
+            missed.len(),
+            &missed[..missed.len().min(5)]
+        );
+    }
 
     // The flown path: home to home, through every waypoint in order, and
     // never within the clearance of the map.

@@ -201,6 +201,9 @@ pub struct PathPoint {
     pub position: [f64; 3],
     /// Heading about world z, radians (ROS: counter-clockwise from x).
     pub yaw: f64,
+    /// Camera pitch, radians, positive looking down, when the path gives
+    /// it; else the camera is taken as mounted on the vehicle.
+    pub gimbal_pitch: Option<f64>,
 }
 
 /// The plan that was flown, as the inspector has it.
@@ -248,7 +251,7 @@ impl FlownPlan {
                 .map(|p| Viewpoint {
                     position: p.position,
                     yaw: p.yaw,
-                    gimbal_pitch: mount_pitch,
+                    gimbal_pitch: p.gimbal_pitch.unwrap_or(mount_pitch),
                 })
                 .collect(),
         }

@@ -2,8 +2,9 @@
 //! world frame, yaw in radians unless told otherwise), a header line
 //! optional, `#` comments and blank lines ignored. GATSBI writes its
 //! inspection paths this way. A header may name more columns after those
-//! four (`replan.csv` adds the gimbal pitch, sortie and kind of point);
-//! they are not read.
+//! four; of them `GimbalPitch` (degrees, negative looking down, as DJI
+//! gives it) sets the camera's pitch, and `Point` keeps only the rows that
+//! are `waypoint`s (not `home` or `transit`), as `replan.csv` writes them.
 
 use csv::{ReaderBuilder, StringRecord, Trim};
 
@@ -22,20 +23,63 @@ pub fn parse(text: &str, yaw: YawUnit) -> Result<Vec<PathPoint>, String> {
         .from_reader(text.as_bytes());
     let mut points = Vec::new();
     let mut columns = COLUMNS.len();
+    let mut extra = Extra::default();
     for (i, record) in reader.records().enumerate() {
         let record = record.map_err(|e| format!("not a CSV file: {e}"))?;
         let line = record.position().map_or(0, csv::Position::line);
         if i == 0 && is_header(&record) {
             check_header(&record, line)?;
             columns = record.len();
+            extra = Extra::of(&record);
             continue;
         }
-        points.push(point(&record, line, columns, yaw)?);
+        let mut p = point(&record, line, columns, yaw)?;
+        if extra.point.is_some_and(|k| &record[k] != "waypoint") {
+            continue;
+        }
+        if let Some(k) = extra.gimbal_pitch {
+            let pitch = record[k]
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    format!(
+                        "line {line}, column {}: {} is not a finite number (GimbalPitch, degrees)",
+                        k + 1,
+                        shown(&record[k])
+                    )
+                })?;
+            p.gimbal_pitch = Some(-pitch.to_radians());
+        }
+        points.push(p);
     }
     if points.is_empty() {
         return Err("the path has no waypoints; give one `X,Y,Z,Yaw` row per waypoint".into());
     }
     Ok(points)
+}
+
+/// Where the optional columns a header names are.
+#[derive(Debug, Default)]
+struct Extra {
+    gimbal_pitch: Option<usize>,
+    point: Option<usize>,
+}
+
+impl Extra {
+    fn of(header: &StringRecord) -> Self {
+        let find = |name: &str| {
+            header
+                .iter()
+                .skip(COLUMNS.len())
+                .position(|f| f.eq_ignore_ascii_case(name))
+                .map(|k| k + COLUMNS.len())
+        };
+        Self {
+            gimbal_pitch: find("gimbalpitch"),
+            point: find("point"),
+        }
+    }
 }
 
 /// A first row that is not all numbers names the columns.
@@ -105,6 +149,7 @@ fn point(
     Ok(PathPoint {
         position: [x, y, z],
         yaw,
+        gimbal_pitch: None,
     })
 }
 
@@ -133,10 +178,19 @@ mod tests {
             assert_eq!(path[1].yaw, -1.5);
         }
         let degrees = parse("0,0,0,90", YawUnit::Degrees).unwrap();
-        // replan.csv's own columns after the four.
-        let replan = "# frame: map\nX,Y,Z,Yaw,GimbalPitch,Sortie,Point\n0,0,1,0.5,-30.0,1,home\n";
-        assert_eq!(parse(replan, YawUnit::Radians).unwrap()[0].yaw, 0.5);
+        // replan.csv's own columns after the four: its waypoints with their
+        // gimbal pitch (30 degrees down), not home.
+        let replan = "# frame: map\nX,Y,Z,Yaw,GimbalPitch,Sortie,Point\n0,0,1,0.1,0.0,1,home\n1,0,1,0.5,-30.0,1,waypoint\n";
+        let flown = parse(replan, YawUnit::Radians).unwrap();
+        assert_eq!(flown.len(), 1);
+        assert_eq!(flown[0].yaw, 0.5);
+        assert!((flown[0].gimbal_pitch.unwrap() - 30f64.to_radians()).abs() < 1e-12);
+        assert_eq!(path_without_pitch(with), None);
         assert!((degrees[0].yaw - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+    }
+
+    fn path_without_pitch(text: &str) -> Option<f64> {
+        parse(text, YawUnit::Radians).unwrap()[0].gimbal_pitch
     }
 
     #[test]
@@ -152,6 +206,10 @@ mod tests {
             ("1,2,3,NaN\n", "line 1, column 4: \"NaN\""),
             ("0,0,0,90\n", "--yaw-degrees"),
             ("X,Y,Z,Yaw\n# nothing\n", "no waypoints"),
+            (
+                "X,Y,Z,Yaw,GimbalPitch\n1,2,3,0,down\n",
+                "line 2, column 5: \"down\" is not a finite number (GimbalPitch",
+            ),
             ("", "no waypoints"),
         ];
         for (text, want) in cases {
