@@ -157,6 +157,17 @@ impl RunDir {
         })
     }
 
+    /// Write the CSV table `name` (the table, or why it could not be built).
+    pub fn write_csv(&self, name: &str, table: PolarsResult<DataFrame>) -> Result<(), Error> {
+        let text = table
+            .and_then(crate::outputs::csv_text)
+            .map_err(|cause| Error::Table {
+                path: self.file(name),
+                cause,
+            })?;
+        self.write_text(name, &text)
+    }
+
     /// Read the Parquet table `name` into what `parse` makes of it.
     pub fn read_table<T>(
         &self,

@@ -533,6 +533,13 @@ impl ElementMap {
         }
     }
 
+    /// The element target voxel `v` is part of.
+    pub fn element_of(&self, v: VoxelIndex) -> Option<&Element> {
+        self.element_of
+            .get(&v)
+            .map(|&e| &self.structure.elements[e])
+    }
+
     /// The element of the target voxel nearest `point` (within two voxels).
     pub fn element_at(&self, point: &Point3<f64>) -> Option<usize> {
         let at = self.grid.voxel_of(point);

@@ -4,17 +4,19 @@
 
 use postflight_core::map::{VoxelGrid, VoxelIndex};
 use postflight_core::outputs::coverage::{BestView, VoxelRecord};
+use postflight_core::structure::Place;
 
 use crate::cover::FaceCover;
 use crate::face::Face;
 use crate::view::Miss;
 
 /// Per-voxel records from per-face results (faces are grouped by voxel, in
-/// target order).
+/// target order), with each target's place on the structure.
 #[allow(clippy::too_many_arguments)]
 pub fn voxel_records(
     grid: &VoxelGrid,
     targets: &[VoxelIndex],
+    places: &[Place],
     faces: &[Face],
     need: &[u32],
     flown: &[FaceCover],
@@ -24,7 +26,7 @@ pub fn voxel_records(
 ) -> Vec<VoxelRecord> {
     let mut records = Vec::with_capacity(targets.len());
     let mut i = 0;
-    for &voxel in targets {
+    for (&voxel, place) in targets.iter().zip(places) {
         let start = i;
         while i < faces.len() && faces[i].voxel == voxel {
             i += 1;
@@ -55,9 +57,8 @@ pub fn voxel_records(
             views: got.iter().map(|c| c.views).max().unwrap_or(0),
             views_required: need[range].iter().copied().min().unwrap_or(1),
             best,
-            // Named once the structure's elements are known.
-            element: String::new(),
-            place: String::new(),
+            element: place.element.clone(),
+            place: place.to_string(),
             reason: if inspected {
                 None
             } else {

@@ -14,7 +14,7 @@ use postflight_core::outputs::coverage::{
     self as outputs, CoverageSummary, ReasonCounts, VoxelRecord, files,
 };
 use postflight_core::outputs::localise::read_defects;
-use postflight_core::structure::{self, Segmentation};
+use postflight_core::structure::{self, Place, Segmentation};
 use postflight_core::{
     Flight, FlownPlan, Intrinsics, InvalidSetting, Key, PlanFile, RunDir, Stage, ViewModel,
     Viewpoint,
@@ -199,6 +199,7 @@ pub fn coverage(
     let records = voxel_records(
         &scene.grid,
         &scene.targets,
+        &scene.places,
         &scene.faces,
         &need,
         &judged.flown,
@@ -206,7 +207,6 @@ pub fn coverage(
         &judged.reachable,
         plan_shots.is_some(),
     );
-    let records = name_places(records, &scene);
     let counts = Counts::of(&records, &judged.flown, plan_shots.is_some());
     let seconds = start.elapsed().as_secs_f64();
     let summary = summarise(options, view, &scene, counts, &shots, &need, seconds);
@@ -226,6 +226,8 @@ struct Scene {
     targets_name: String,
     /// The targets grouped into the structure's elements.
     elements: Segmentation,
+    /// Each target's place on them.
+    places: Vec<Place>,
     faces: Vec<Face>,
     lenses: Vec<Intrinsics>,
 }
@@ -247,6 +249,7 @@ impl Scene {
         let target_set: HashSet<VoxelIndex> = targets.iter().copied().collect();
         let faces = exposed_faces(&grid, &targets, &target_set);
         let elements = structure::segment(&grid, &targets, &labels);
+        let places = places(&grid, &targets, &faces, &elements);
         Ok(Self {
             grid,
             map,
@@ -254,6 +257,7 @@ impl Scene {
             target_set,
             targets_name,
             elements,
+            places,
             faces,
             lenses: lenses(flight)?,
         })
@@ -595,25 +599,30 @@ struct LoadedTargets {
     labels: HashMap<VoxelIndex, String>,
 }
 
-/// Each voxel's element and its place on it, facing the way its exposed
-/// faces do together.
-fn name_places(mut records: Vec<VoxelRecord>, scene: &Scene) -> Vec<VoxelRecord> {
+/// Each target's place on its element, facing the way its exposed faces
+/// do together (up when they cancel out).
+fn places(
+    grid: &VoxelGrid,
+    targets: &[VoxelIndex],
+    faces: &[Face],
+    elements: &Segmentation,
+) -> Vec<Place> {
     let mut facing: HashMap<VoxelIndex, Vector3<f64>> = HashMap::new();
-    for f in &scene.faces {
+    for f in faces {
         *facing.entry(f.voxel).or_insert_with(Vector3::zeros) += f.normal;
     }
-    let structure = &scene.elements.structure;
-    for (r, &e) in records.iter_mut().zip(&scene.elements.element_of) {
-        let normal = facing
-            .get(&r.voxel)
-            .filter(|n| n.norm() > 1e-9)
-            .copied()
-            .unwrap_or_else(Vector3::z);
-        let place = structure.place(e, &scene.grid.center(r.voxel), &normal);
-        r.element = place.element.clone();
-        r.place = place.to_string();
-    }
-    records
+    targets
+        .iter()
+        .zip(&elements.element_of)
+        .map(|(v, &e)| {
+            let normal = facing
+                .get(v)
+                .filter(|n| n.norm() > 1e-9)
+                .copied()
+                .unwrap_or_else(Vector3::z);
+            elements.structure.place(e, &grid.center(*v), &normal)
+        })
+        .collect()
 }
 
 /// A plan's viewpoints as shots of the flight's first camera (sharp: a

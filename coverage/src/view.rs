@@ -104,8 +104,7 @@ pub fn look(
     if incidence_deg > view.max_incidence_deg {
         return Err(Miss::BackFacing);
     }
-    // Fronto-parallel footprint of a pixel at the face's distance.
-    let gsd_mm = distance_m * 1000.0 / k.fx.min(k.fy);
+    let gsd_mm = ViewModel::gsd_mm(distance_m, k);
     if gsd_mm > view.max_gsd_mm {
         return Err(Miss::TooCoarse);
     }

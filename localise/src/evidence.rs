@@ -9,14 +9,13 @@ use postflight_core::outputs::localise::{Evidence, LengthStatus, ViewFault};
 use crate::observation::Placement;
 
 /// The View model's rules a view of a crack at `range_m` and `incidence_deg`
-/// breaks, for a lens of focal length `f_px` (the finer axis) and a frame
-/// blurred by `blur_px` (`None`: unknown, not judged). The GSD is the View
-/// model's: fronto-parallel at the range.
+/// breaks, seen at the View model's GSD `gsd_mm` ([`ViewModel::gsd_mm`]) in
+/// a frame blurred by `blur_px` (`None`: unknown, not judged).
 pub fn view_faults(
     view: &ViewModel,
     range_m: f64,
     incidence_deg: f64,
-    f_px: f64,
+    gsd_mm: f64,
     blur_px: Option<f64>,
 ) -> Vec<ViewFault> {
     let mut faults = Vec::new();
@@ -29,18 +28,13 @@ pub fn view_faults(
     if incidence_deg > view.max_incidence_deg {
         faults.push(ViewFault::TooOblique);
     }
-    if view_gsd_mm(range_m, f_px) > view.max_gsd_mm {
+    if gsd_mm > view.max_gsd_mm {
         faults.push(ViewFault::TooCoarse);
     }
     if blur_px.is_some_and(|b| b.is_nan() || b > view.max_blur_px) {
         faults.push(ViewFault::Blurred);
     }
     faults
-}
-
-/// The View model's GSD at `range_m` for focal length `f_px`, millimetres.
-pub fn view_gsd_mm(range_m: f64, f_px: f64) -> f64 {
-    range_m * 1000.0 / f_px
 }
 
 /// A candidate's evidence from its best view and its length's status.
@@ -66,10 +60,10 @@ mod tests {
     #[test]
     fn every_rule_a_view_breaks_is_named() {
         let view = ViewModel::default();
-        // 1000 px focal length: 5 m is 5 mm/px, inside the 6 mm/px target.
-        assert!(view_faults(&view, 4.0, 30.0, 1000.0, Some(1.0)).is_empty());
+        // A 1000 px focal length: GSD in mm/px is the range in metres.
+        assert!(view_faults(&view, 4.0, 30.0, 4.0, Some(1.0)).is_empty());
         assert_eq!(
-            view_faults(&view, 10.5, 70.0, 1000.0, Some(4.0)),
+            view_faults(&view, 10.5, 70.0, 10.5, Some(4.0)),
             [
                 ViewFault::TooFar,
                 ViewFault::TooOblique,
@@ -78,12 +72,12 @@ mod tests {
             ]
         );
         assert_eq!(
-            view_faults(&view, 1.5, 0.0, 1000.0, None),
+            view_faults(&view, 1.5, 0.0, 1.5, None),
             [ViewFault::TooClose]
         );
         // Within the band but coarse through a short lens.
         assert_eq!(
-            view_faults(&view, 4.0, 0.0, 500.0, None),
+            view_faults(&view, 4.0, 0.0, 8.0, None),
             [ViewFault::TooCoarse]
         );
     }

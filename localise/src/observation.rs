@@ -11,7 +11,7 @@ use postflight_core::map::{SlamMap, VoxelIndex};
 use postflight_core::outputs::localise::{Outcome, ViewFault};
 use postflight_core::{Intrinsics, ViewModel};
 
-use crate::evidence::{view_faults, view_gsd_mm};
+use crate::evidence::view_faults;
 
 use crate::surface::{self, SurfaceHit};
 use crate::trace::CrackTrace;
@@ -177,16 +177,16 @@ impl Scene<'_> {
             Some(structure) if !near_structure(structure, hit.voxel) => Outcome::Obstacle,
             _ => Outcome::Placed,
         };
-        let f_px = k.fx.min(k.fy);
+        let view_gsd_mm = ViewModel::gsd_mm(hit.range, k);
         observation.placement = Some(Placement {
-            oblique_gsd_mm: hit.oblique_gsd_mm(f_px),
-            view_gsd_mm: view_gsd_mm(hit.range, f_px),
+            oblique_gsd_mm: hit.oblique_gsd_mm(k.fx.min(k.fy)),
+            view_gsd_mm,
             blur_px,
             view_faults: view_faults(
                 self.view,
                 hit.range,
                 hit.incidence.to_degrees(),
-                f_px,
+                view_gsd_mm,
                 blur_px,
             ),
             hit,

@@ -101,6 +101,18 @@ pub fn length_text(d: &DefectRecord) -> String {
     }
 }
 
+/// Where a candidate is, for people: its place on the structure, else
+/// (before coverage has found the elements, or off them) its position.
+pub fn place_text(place: Option<&str>, d: &DefectRecord) -> String {
+    match place {
+        Some(p) => p.to_string(),
+        None => {
+            let p = d.position;
+            format!("at ({:.1}, {:.1}, {:.1}) m", p[0], p[1], p[2])
+        }
+    }
+}
+
 /// Why a candidate must be shot again, for people: the View model's rules
 /// its best view breaks and why its length is missing; `None` when its
 /// evidence is sound.
@@ -365,7 +377,7 @@ fn defect_row(r: &RunResults, rank: usize, d: &DefectRecord) -> Markup {
                 }
             }
             td {
-                b { (r.place(d).map_or_else(|| "off the mapped elements".to_string(), |p| p.to_string())) } br;
+                b { (place_text(r.place(d).map(|p| p.to_string()).as_deref(), d)) } br;
                 span.sub {
                     (d.id) (format!(" at ({:.2}, {:.2}, {:.2}) m", p[0], p[1], p[2])) "; "
                     (d.frames) " supporting frames, best frame " (d.best.frame)
@@ -535,9 +547,10 @@ fn gaps_by_element(r: &RunResults, p: &ReplanSummary) -> Markup {
     for (i, w) in waypoints.enumerate() {
         for v in &w.gap_voxels {
             let element = r
-                .voxel_elements
-                .get(v)
-                .map_or("off the targets", String::as_str);
+                .elements
+                .as_ref()
+                .and_then(|m| m.element_of(*v))
+                .map_or("off the targets", |e| e.name.as_str());
             let entry = by_element.entry(element).or_default();
             entry.0 += 1;
             if entry.1.last() != Some(&(i + 1)) {

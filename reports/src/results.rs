@@ -5,7 +5,6 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use postflight_core::map::VoxelIndex;
 use postflight_core::outputs::coverage::{self, CoverageSummary, VoxelRecord};
 use postflight_core::outputs::detect::DetectSummary;
 use postflight_core::outputs::localise::{DefectRecord, LocaliseSummary, read_defects};
@@ -98,8 +97,6 @@ pub struct RunResults {
     pub elements: Option<ElementMap>,
     /// Surface area by element and coverage status, in element order.
     pub element_areas: Vec<ElementArea>,
-    /// Each target voxel's element.
-    pub voxel_elements: HashMap<VoxelIndex, String>,
     pub replan: Option<ReplanSummary>,
     pub log: RunLog,
 }
@@ -121,18 +118,13 @@ impl RunResults {
             None => Vec::new(),
         };
         let voxels = records.iter().map(TargetVoxel::of).collect();
-        let elements = match coverage {
-            Some(_) => coverage::element_map(dir)?,
-            None => None,
-        };
+        let elements = coverage
+            .as_ref()
+            .map(|c| coverage::element_map(c, &records));
         Ok(Self {
             detect: dir.summary(Stage::Detect)?,
             localise,
             defects,
-            voxel_elements: records
-                .iter()
-                .map(|r| (r.voxel, r.element.clone()))
-                .collect(),
             element_areas: coverage
                 .as_ref()
                 .map(|c| ElementArea::of(c, &records))
@@ -194,36 +186,15 @@ impl RunResults {
     }
 
     /// The candidates as `candidates.csv` lists them, in review order.
-    pub fn candidate_rows(&self) -> Vec<CandidateRow> {
+    pub fn candidate_rows(&self) -> Vec<CandidateRow<'_>> {
         self.defects_for_review()
             .into_iter()
             .enumerate()
-            .map(|(i, d)| {
-                let place = self.place(d);
-                CandidateRow {
-                    rank: i as u32 + 1,
-                    id: d.id.clone(),
-                    element: place.as_ref().map(|p| p.element.clone()),
-                    place: place.map(|p| p.to_string()),
-                    position: d.position,
-                    confidence: d.confidence,
-                    review_priority: review_priority(d),
-                    length_m: d.length_m,
-                    length_status: d.evidence.length.as_str().into(),
-                    reshoot: d.evidence.reshoot,
-                    view_faults: d
-                        .evidence
-                        .view_faults
-                        .iter()
-                        .map(|f| f.as_str())
-                        .collect::<Vec<_>>()
-                        .join(";"),
-                    frames: d.frames,
-                    best_frame: d.best.frame,
-                    best_range_m: d.best.range_m,
-                    best_gsd_mm: d.best.oblique_gsd_mm,
-                    crop: d.crop.clone(),
-                }
+            .map(|(i, d)| CandidateRow {
+                rank: i as u32 + 1,
+                defect: d,
+                place: self.place(d),
+                review_priority: review_priority(d),
             })
             .collect()
     }

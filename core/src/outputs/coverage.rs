@@ -126,14 +126,9 @@ pub fn read_coverage(run: &RunDir, name: &str) -> Result<Vec<VoxelRecord>, Error
     run.read_table(name, coverage_from)
 }
 
-/// The structure's elements as the coverage stage found them, to name
-/// places by; `None` before coverage has run.
-pub fn element_map(run: &RunDir) -> Result<Option<ElementMap>, Error> {
-    if !run.file(files::SUMMARY).is_file() {
-        return Ok(None);
-    }
-    let summary: CoverageSummary = run.read_json(files::SUMMARY)?;
-    let records = read_coverage(run, files::TABLE)?;
+/// The structure's elements as the coverage stage found them (its summary
+/// and table), to name places by.
+pub fn element_map(summary: &CoverageSummary, records: &[VoxelRecord]) -> ElementMap {
     let index: BTreeMap<&str, usize> = summary
         .structure
         .elements
@@ -146,11 +141,7 @@ pub fn element_map(run: &RunDir) -> Result<Option<ElementMap>, Error> {
         .filter_map(|r| index.get(r.element.as_str()).map(|&e| (r.voxel, e)))
         .collect();
     let grid = VoxelGrid::new(summary.resolution_m, summary.grid_origin.into());
-    Ok(Some(ElementMap::new(
-        summary.structure.clone(),
-        grid,
-        voxels,
-    )))
+    ElementMap::new(summary.structure.clone(), grid, voxels)
 }
 
 /// GATSBI's classes of a target voxel: inspected or not.

@@ -198,6 +198,23 @@ impl ViewFault {
     pub fn parse(s: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|f| f.as_str() == s)
     }
+
+    /// Faults as the tables write them: their names joined by `,` (empty
+    /// for none).
+    pub fn list(faults: &[Self]) -> String {
+        let names: Vec<&str> = faults.iter().map(|f| f.as_str()).collect();
+        names.join(",")
+    }
+
+    /// The faults of a [`list`](Self::list).
+    pub fn parse_list(s: &str) -> PolarsResult<Vec<Self>> {
+        s.split(',')
+            .filter(|f| !f.is_empty())
+            .map(|f| {
+                Self::parse(f).ok_or_else(|| polars_err!(ComputeError: "unknown view fault {f:?}"))
+            })
+            .collect()
+    }
 }
 
 /// Whether a candidate's length was measured, and if not, why.
@@ -570,11 +587,7 @@ fn defects_table(defects: &[DefectRecord]) -> PolarsResult<DataFrame> {
         Column::new(
             "view_faults".into(),
             d.iter()
-                .map(|d| {
-                    let faults: Vec<&str> =
-                        d.evidence.view_faults.iter().map(|f| f.as_str()).collect();
-                    faults.join(",")
-                })
+                .map(|d| ViewFault::list(&d.evidence.view_faults))
                 .collect::<Vec<String>>(),
         ),
         Column::new("view_gsd_mm".into(), f(&|d| d.evidence.view_gsd_mm)),
@@ -693,15 +706,7 @@ fn defects_from(
                 confidence: required(confidence, i)?,
                 max_score: required(max_score, i)?,
                 evidence: Evidence {
-                    view_faults: required(faults, i)?
-                        .split(',')
-                        .filter(|f| !f.is_empty())
-                        .map(|f| {
-                            ViewFault::parse(f).ok_or_else(
-                                || polars_err!(ComputeError: "unknown view fault {f:?}"),
-                            )
-                        })
-                        .collect::<PolarsResult<_>>()?,
+                    view_faults: ViewFault::parse_list(required(faults, i)?)?,
                     view_gsd_mm: required(view_gsd, i)?,
                     blur_px: blur.get(i),
                     length: parsed(length_status, i, LengthStatus::parse)?,

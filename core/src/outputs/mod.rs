@@ -3,7 +3,10 @@
 //! summary is written last, so a stage is complete exactly when its summary
 //! exists ([`RunDir::open`](crate::RunDir::open) checks it).
 
-use polars::prelude::{ChunkedArray, PolarsDataType, PolarsResult, StringChunked, polars_err};
+use polars::prelude::{
+    ChunkedArray, CsvWriter, DataFrame, PolarsDataType, PolarsResult, SerWriter, StringChunked,
+    polars_err,
+};
 
 pub mod coverage;
 pub mod detect;
@@ -60,6 +63,14 @@ impl Stage {
 }
 
 /// Row `i` of a column that has a value in every row of its table.
+/// A table as CSV text: a header line, RFC 4180 quoting, missing values
+/// empty.
+pub fn csv_text(mut table: DataFrame) -> PolarsResult<String> {
+    let mut out = Vec::new();
+    CsvWriter::new(&mut out).finish(&mut table)?;
+    Ok(String::from_utf8(out).expect("polars writes UTF-8 CSV"))
+}
+
 pub fn required<T: PolarsDataType>(
     column: &ChunkedArray<T>,
     i: usize,

@@ -9,8 +9,10 @@ use std::path::PathBuf;
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::localise::{DefectRecord, ViewFault};
 use crate::error::Error;
 use crate::run_dir::RunDir;
+use crate::structure::Place;
 
 /// Files of the report stage.
 pub mod files {
@@ -81,120 +83,91 @@ pub struct Versions {
 
 /// One row of `candidates.csv`: a defect candidate as the report lists it.
 #[derive(Debug, Clone, PartialEq)]
-pub struct CandidateRow {
+pub struct CandidateRow<'a> {
     /// Place in the review order, from 1.
     pub rank: u32,
-    pub id: String,
-    /// Where it is on the structure (`pier 2, east face, 1.4 m above its
-    /// base`); `None` before coverage has found the structure's elements.
-    pub place: Option<String>,
-    pub element: Option<String>,
-    /// World frame, metres.
-    pub position: [f64; 3],
-    pub confidence: f64,
+    pub defect: &'a DefectRecord,
+    /// Where it is on the structure; `None` before coverage has found the
+    /// structure's elements, or off them.
+    pub place: Option<Place>,
     pub review_priority: f64,
-    pub length_m: Option<f64>,
-    /// `measured`, `partial`, ... (see `LengthStatus`).
-    pub length_status: String,
-    pub reshoot: bool,
-    /// The best view's broken View rules, `;`-separated.
-    pub view_faults: String,
-    pub frames: u32,
-    pub best_frame: u32,
-    pub best_range_m: f64,
-    pub best_gsd_mm: f64,
-    /// JPEG of the best view, relative to the run directory.
-    pub crop: Option<String>,
 }
 
 /// Write `candidates.csv`.
 pub fn write_candidates(run: &RunDir, rows: &[CandidateRow]) -> Result<(), Error> {
-    let mut table = candidates_table(rows).map_err(|cause| Error::Table {
-        path: run.file(files::CANDIDATES),
-        cause,
-    })?;
-    let mut out = Vec::new();
-    CsvWriter::new(&mut out)
-        .finish(&mut table)
-        .map_err(|cause| Error::Table {
-            path: run.file(files::CANDIDATES),
-            cause,
-        })?;
-    run.write_text(
-        files::CANDIDATES,
-        &String::from_utf8(out).expect("polars writes UTF-8 CSV"),
-    )
+    run.write_csv(files::CANDIDATES, candidates_table(rows))
 }
 
 fn candidates_table(r: &[CandidateRow]) -> PolarsResult<DataFrame> {
-    let col = |name: &str, a: usize| {
+    let f = |name: &str, value: &dyn Fn(&DefectRecord) -> f64| {
         Column::new(
             name.into(),
-            r.iter().map(|r| r.position[a]).collect::<Vec<f64>>(),
+            r.iter().map(|r| value(r.defect)).collect::<Vec<f64>>(),
+        )
+    };
+    let u = |name: &str, value: &dyn Fn(&DefectRecord) -> u32| {
+        Column::new(
+            name.into(),
+            r.iter().map(|r| value(r.defect)).collect::<Vec<u32>>(),
         )
     };
     let columns = vec![
         Column::new("rank".into(), r.iter().map(|r| r.rank).collect::<Vec<_>>()),
         Column::new(
             "id".into(),
-            r.iter().map(|r| r.id.as_str()).collect::<Vec<_>>(),
+            r.iter().map(|r| r.defect.id.as_str()).collect::<Vec<_>>(),
         ),
         Column::new(
             "place".into(),
-            r.iter().map(|r| r.place.as_deref()).collect::<Vec<_>>(),
+            r.iter()
+                .map(|r| r.place.as_ref().map(Place::to_string))
+                .collect::<Vec<_>>(),
         ),
         Column::new(
             "element".into(),
-            r.iter().map(|r| r.element.as_deref()).collect::<Vec<_>>(),
+            r.iter()
+                .map(|r| r.place.as_ref().map(|p| p.element.as_str()))
+                .collect::<Vec<_>>(),
         ),
-        col("x", 0),
-        col("y", 1),
-        col("z", 2),
-        Column::new(
-            "confidence".into(),
-            r.iter().map(|r| r.confidence).collect::<Vec<_>>(),
-        ),
+        f("x", &|d| d.position[0]),
+        f("y", &|d| d.position[1]),
+        f("z", &|d| d.position[2]),
+        f("confidence", &|d| d.confidence),
         Column::new(
             "review_priority".into(),
             r.iter().map(|r| r.review_priority).collect::<Vec<_>>(),
         ),
         Column::new(
             "length_m".into(),
-            r.iter().map(|r| r.length_m).collect::<Vec<_>>(),
+            r.iter().map(|r| r.defect.length_m).collect::<Vec<_>>(),
         ),
         Column::new(
             "length_status".into(),
             r.iter()
-                .map(|r| r.length_status.as_str())
+                .map(|r| r.defect.evidence.length.as_str())
                 .collect::<Vec<_>>(),
         ),
         Column::new(
             "reshoot".into(),
-            r.iter().map(|r| r.reshoot).collect::<Vec<_>>(),
+            r.iter()
+                .map(|r| r.defect.evidence.reshoot)
+                .collect::<Vec<_>>(),
         ),
         Column::new(
             "view_faults".into(),
-            r.iter().map(|r| r.view_faults.as_str()).collect::<Vec<_>>(),
+            r.iter()
+                .map(|r| ViewFault::list(&r.defect.evidence.view_faults))
+                .collect::<Vec<_>>(),
         ),
-        Column::new(
-            "frames".into(),
-            r.iter().map(|r| r.frames).collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "best_frame".into(),
-            r.iter().map(|r| r.best_frame).collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "best_range_m".into(),
-            r.iter().map(|r| r.best_range_m).collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "best_gsd_mm".into(),
-            r.iter().map(|r| r.best_gsd_mm).collect::<Vec<_>>(),
-        ),
+        u("frames", &|d| d.frames),
+        u("best_frame", &|d| d.best.frame),
+        f("best_range_m", &|d| d.best.range_m),
+        f("best_gsd_mm", &|d| d.best.oblique_gsd_mm),
         Column::new(
             "crop".into(),
-            r.iter().map(|r| r.crop.as_deref()).collect::<Vec<_>>(),
+            r.iter()
+                .map(|r| r.defect.crop.as_deref())
+                .collect::<Vec<_>>(),
         ),
     ];
     DataFrame::new(r.len(), columns)

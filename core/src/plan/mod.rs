@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 
+use crate::Intrinsics;
 use crate::error::Error;
 use crate::map::{VoxelGrid, VoxelIndex};
 
@@ -55,6 +56,14 @@ impl Default for ViewModel {
             max_gsd_mm: 6.0,
             views_required: 1,
         }
+    }
+}
+
+impl ViewModel {
+    /// The View model's GSD: a pixel's fronto-parallel footprint at
+    /// `distance_m` through lens `k` (its finer axis), millimetres.
+    pub fn gsd_mm(distance_m: f64, k: &Intrinsics) -> f64 {
+        distance_m * 1000.0 / k.fx.min(k.fy)
     }
 }
 

@@ -38,17 +38,7 @@ pub fn parse(text: &str, yaw: YawUnit) -> Result<Vec<PathPoint>, String> {
             continue;
         }
         if let Some(k) = extra.gimbal_pitch {
-            let pitch = record[k]
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    format!(
-                        "line {line}, column {}: {} is not a finite number (GimbalPitch, degrees)",
-                        k + 1,
-                        shown(&record[k])
-                    )
-                })?;
+            let pitch = number(&record[k], line, k, "GimbalPitch, degrees")?;
             p.gimbal_pitch = Some(-pitch.to_radians());
         }
         points.push(p);
@@ -122,18 +112,7 @@ fn point(
     }
     let mut values = [0.0; 4];
     for (column, (field, value)) in record.iter().take(4).zip(&mut values).enumerate() {
-        *value = field
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| {
-                format!(
-                    "line {line}, column {}: {} is not a finite number ({})",
-                    column + 1,
-                    shown(field),
-                    COLUMNS[column].to_uppercase()
-                )
-            })?;
+        *value = number(field, line, column, &COLUMNS[column].to_uppercase())?;
     }
     let [x, y, z, yaw] = values;
     let yaw = match yaw_unit {
@@ -151,6 +130,22 @@ fn point(
         yaw,
         gimbal_pitch: None,
     })
+}
+
+/// The finite number in `field` (column `column` from 0, named `what`), or
+/// an error naming its line and column.
+fn number(field: &str, line: u64, column: usize, what: &str) -> Result<f64, String> {
+    field
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| {
+            format!(
+                "line {line}, column {}: {} is not a finite number ({what})",
+                column + 1,
+                shown(field)
+            )
+        })
 }
 
 /// A field as an error quotes it: escaped (one line) and at most 40

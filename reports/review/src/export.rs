@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
 use postflight_core::outputs::localise::LengthStatus;
-use postflight_core::outputs::{parsed, required};
+use postflight_core::outputs::{csv_text, parsed, required};
 use postflight_core::{FaceSide, RunDir};
 use serde::Serialize;
 
@@ -220,10 +220,8 @@ fn severity_meanings(severities: impl Iterator<Item = Option<u8>>) -> Column {
 }
 
 /// A table as CSV: a header line, RFC 4180 quoting, missing values empty.
-fn csv(mut table: DataFrame) -> Result<String, ReviewError> {
-    let mut out = Vec::new();
-    CsvWriter::new(&mut out).finish(&mut table)?;
-    Ok(String::from_utf8(out).expect("polars writes UTF-8 CSV"))
+fn csv(table: DataFrame) -> Result<String, ReviewError> {
+    Ok(csv_text(table)?)
 }
 
 /// The current decisions as CSV.

@@ -9,7 +9,7 @@ use std::fmt::Write;
 
 use maud::{Markup, PreEscaped, html};
 use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
-use reports::html::{evidence_text, length_text, readable_time};
+use reports::html::{evidence_text, length_text, place_text, readable_time};
 
 use crate::queue::{Entry, Filter, Progress, Queue};
 use crate::store::{
@@ -29,10 +29,7 @@ impl Context<'_> {
     /// Where a candidate is, or its position when the structure's
     /// elements are unknown (coverage has not run).
     fn place(&self, d: &DefectRecord) -> String {
-        self.places.get(&d.id).cloned().unwrap_or_else(|| {
-            let p = d.position;
-            format!("({:.1}, {:.1}, {:.1}) m", p[0], p[1], p[2])
-        })
+        place_text(self.places.get(&d.id).map(String::as_str), d)
     }
 }
 
