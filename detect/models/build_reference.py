@@ -61,10 +61,10 @@ def splat(k, x, y, w):
         k[y0 + dy, x0 + dx] += w * f
 
 
-def line_kernels():
-    """[ORIENTATIONS * 3 * 2, 1, K, K]: for each orientation and each third of a
-    stroke 2 * HALF_LENGTH + 1 pixels long (back, middle, front), the mean of
-    side A less the stroke's mean, then the same for side B."""
+def side_kernels():
+    """[ORIENTATIONS * 3 * 2, K, K] (float64): for each orientation and each
+    third of a stroke 2 * HALF_LENGTH + 1 pixels long (back, middle, front),
+    the mean of side A less the stroke's mean, then the same for side B."""
     c = KERNEL // 2
     thirds = (range(-HALF_LENGTH, -1), range(-1, 2), range(2, HALF_LENGTH + 1))
     kernels = []
@@ -80,8 +80,23 @@ def line_kernels():
                     for s in SIDES:
                         splat(k, c + t * d[0] + side * s * n[0], c + t * d[1] + side * s * n[1],
                               1.0 / (len(ts) * len(SIDES)))
-                kernels.append(k.astype(np.float32))
-    return np.stack(kernels)[:, None, :, :]
+                kernels.append(k)
+    return np.stack(kernels)
+
+
+def stroke_kernels():
+    """[ORIENTATIONS * 6, 1, K, K]: per orientation and third, with a and b the
+    two sides' contrast (side_kernels), 2a - b then 2b - a. A crack is darker
+    than both sides and its sides are alike (one surface):
+    2 min(a, b) - max(a, b) = min(2a - b, 2b - a) penalises a dark line
+    between different surfaces (a pole against the sky). Being linear, both
+    terms come straight out of the convolution, and one minimum over the six
+    channels of an orientation takes both the sides and the weakest third."""
+    k = side_kernels()
+    a, b = k[0::2], k[1::2]
+    out = np.empty_like(k)
+    out[0::2], out[1::2] = 2 * a - b, 2 * b - a
+    return out.astype(np.float32)[:, None, :, :]
 
 
 def exact_dot(a, b):
@@ -122,18 +137,14 @@ def backbone(nodes, inits):
     """Nodes from `images` to `score` [B,1,N] and `boxes` [B,4,N]."""
     inits += [
         const("w_gray", np.array([0.299, 0.587, 0.114], dtype=np.float32).reshape(1, 3, 1, 1)),
-        const("w_line", line_kernels()),
-        const("c0", np.array([0], dtype=np.int64)),
-        const("c1", np.array([1], dtype=np.int64)),
-        const("c_end", np.array([6 * ORIENTATIONS], dtype=np.int64)),
+        const("w_line", stroke_kernels()),
         const("line_pads", np.array([0, 0, KERNEL // 2, KERNEL // 2, 0, 0, KERNEL // 2, KERNEL // 2], dtype=np.int64)),
-        const("thirds_shape", np.array([0, ORIENTATIONS, 3, -1], dtype=np.int64)),
+        const("orientations_shape", np.array([0, ORIENTATIONS, 6, -1], dtype=np.int64)),
         const("saturation_w", np.array(SATURATION_WEIGHT, dtype=np.float32)),
         const("density_max", np.array(DENSITY, dtype=np.float32)),
         const("saturation_max", np.array(SATURATION, dtype=np.float32)),
         # Added to brightness before dividing by it, so black stays finite.
         const("dark_floor", np.array(0.05, dtype=np.float32)),
-        const("c2", np.array([2], dtype=np.int64)),
         const("threshold", np.array(THRESHOLD, dtype=np.float32)),
         const("gain", np.array(GAIN, dtype=np.float32)),
         const("half", np.array(0.5, dtype=np.float32)),
@@ -156,7 +167,7 @@ def backbone(nodes, inits):
         # Edge padding: a crack at the frame's border is not darker than the
         # zeros beyond it.
         n("Pad", ["gray", "line_pads"], ["gray_padded"], mode="edge"),
-        n("Conv", ["gray_padded", "w_line"], ["sides"]),
+        n("Conv", ["gray_padded", "w_line"], ["strokes"]),
         n("ReduceMax", ["images", "i1_axes"], ["rgb_max"], keepdims=1),
         n("ReduceMin", ["images", "i1_axes"], ["rgb_min"], keepdims=1),
         n("Sub", ["rgb_max", "rgb_min"], ["chroma_px"]),
@@ -166,19 +177,10 @@ def backbone(nodes, inits):
         n("Sub", ["saturation", "saturation_max"], ["saturation_over"]),
         n("Relu", ["saturation_over"], ["saturation_excess"]),
         n("Mul", ["saturation_excess", "saturation_w"], ["colour_penalty"]),
-        # Even channels are side A, odd side B. A crack is darker than both
-        # sides, and its sides are alike (one surface): 2 min - max penalises
-        # a dark line between different surfaces (a pole against the sky).
-        n("Slice", ["sides", "c0", "c_end", "c1", "c2"], ["side_a"]),
-        n("Slice", ["sides", "c1", "c_end", "c1", "c2"], ["side_b"]),
-        n("Min", ["side_a", "side_b"], ["side_min"]),
-        n("Max", ["side_a", "side_b"], ["side_max"]),
-        n("Mul", ["side_min", "two"], ["side_min2"]),
-        n("Sub", ["side_min2", "side_max"], ["stroke"]),
         # A line is dark along its whole length: the weakest third counts
         # (the corner of a dark object is dark along one third only).
-        n("Reshape", ["stroke", "thirds_shape"], ["stroke_thirds"]),
-        n("ReduceMin", ["stroke_thirds", "i2"], ["stroke_whole"], keepdims=0),
+        n("Reshape", ["strokes", "orientations_shape"], ["stroke_parts"]),
+        n("ReduceMin", ["stroke_parts", "i2"], ["stroke_whole"], keepdims=0),
         n("ReduceMax", ["stroke_whole", "i1_axes"], ["line_flat"], keepdims=1),
         n("Shape", ["gray"], ["shape"]),
         n("Reshape", ["line_flat", "shape"], ["line_raw"]),

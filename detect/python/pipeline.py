@@ -7,7 +7,8 @@ baseline its speed is compared with (postflight-bench detect).
 It reads camera frames straight from the flight MCAP, and mirrors the Rust
 pre- and post-processing step by step in float32: Ultralytics letterbox with
 OpenCV INTER_LINEAR pixel-centre bilinear resizing rounded to 8 bits, gray
-114 padding, optional tiles, best class per anchor, class-aware NMS (ties
+114 padding (for a dynamic input, the smallest rectangle padded to the
+model's stride, as Ultralytics' LetterBox(auto=True)), optional tiles, best class per anchor, class-aware NMS (ties
 broken by position), then merging same-class boxes within --merge-gap px.
 
 Writes JSON: {"frames": n, "seconds": s, "run_seconds": s,
@@ -78,14 +79,18 @@ def taps(src, dst):
     return i0, np.minimum(i0 + 1, src - 1), (s - i).astype(F)
 
 
-def letterbox(img, size_w, size_h):
-    """[3, size_h, size_w] float32 input and (scale, pad_x, pad_y)."""
+def letterbox(img, size_w, size_h, stride):
+    """[3, H, W] float32 input and (scale, pad_x, pad_y) for a size_w x size_h
+    input, or with a stride (dynamic input) the smallest rectangle within it."""
     h, w = img.shape[:2]
     scale = min(F(size_w) / F(w), F(size_h) / F(h))
     # Rust's f32::round: half away from zero.
     new_w = max(int(math.floor(float(F(w) * scale) + 0.5)), 1)
     new_h = max(int(math.floor(float(F(h) * scale) + 0.5)), 1)
-    pad_x, pad_y = (size_w - new_w) // 2, (size_h - new_h) // 2
+    if stride is not None:
+        size_w = new_w + max(size_w - new_w, 0) % stride
+        size_h = new_h + max(size_h - new_h, 0) % stride
+    pad_x, pad_y = max(size_w - new_w, 0) // 2, max(size_h - new_h, 0) // 2
     if (new_w, new_h) == (w, h):
         resized = img
     else:
@@ -186,7 +191,11 @@ def main():
     inputs = session.get_inputs()
     image_input = next(i for i in inputs if len(i.shape) == 4)
     h, w = image_input.shape[2:]
-    size_w, size_h = (w, h) if isinstance(w, int) and isinstance(h, int) else (args.imgsz, args.imgsz)
+    if isinstance(w, int) and isinstance(h, int):
+        size_w, size_h, stride = w, h, None
+    else:
+        size_w, size_h = args.imgsz, args.imgsz
+        stride = int(session.get_modelmeta().custom_metadata_map.get("stride", 32))
     feeds = {}
     text = [i for i in inputs if i.name != image_input.name]
     if text:
@@ -203,7 +212,7 @@ def main():
             height, width = img.shape[:2]
             dets = []
             for x, y, ww, wh, tile in windows(width, height, args.tile, args.tile_overlap):
-                x_in, (scale, pad_x, pad_y) = letterbox(img[y : y + wh, x : x + ww], size_w, size_h)
+                x_in, (scale, pad_x, pad_y) = letterbox(img[y : y + wh, x : x + ww], size_w, size_h, stride)
                 t = time.perf_counter()
                 out = session.run(None, {image_input.name: x_in[None], **feeds})[0][0]
                 run_seconds += time.perf_counter() - t

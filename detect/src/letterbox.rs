@@ -1,7 +1,10 @@
 //! Letterboxing as Ultralytics does it: scale the image to fit the model
 //! input keeping its aspect ratio (bilinear, with OpenCV's `INTER_LINEAR`
 //! pixel-centre alignment, rounded back to 8 bits), centre it on gray (114)
-//! padding, and map boxes back to the original pixels afterwards.
+//! padding, and map boxes back to the original pixels afterwards. A model
+//! with a dynamic input gets the smallest such rectangle, as Ultralytics
+//! predicts with one (`LetterBox(auto=True)`): a 640x480 frame runs as
+//! 640x480, not padded to 640x640.
 //!
 //! The arithmetic is spelled out (f32, horizontal then vertical) so that a
 //! NumPy reimplementation gives bit-identical inputs: see
@@ -24,19 +27,44 @@ pub struct Placement {
     pub pad_y: f32,
 }
 
-impl Placement {
-    /// The placement of a `width` x `height` image in a `size_w` x `size_h` input.
-    pub fn fit(width: u32, height: u32, size_w: u32, size_h: u32) -> Self {
+/// The model input's size, for an image of a given size.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InputSize {
+    /// The model's fixed input, `(width, height)`.
+    Fixed(u32, u32),
+    /// A dynamic input: the image scaled to fit a `size` square, padded only
+    /// up to a multiple of the model's `stride`.
+    Rect { size: u32, stride: u32 },
+}
+
+impl InputSize {
+    /// The input `(width, height)` for a `width` x `height` image, and where
+    /// the image goes in it.
+    pub fn place(self, width: u32, height: u32) -> ((u32, u32), Placement) {
+        let (size_w, size_h, stride) = match self {
+            Self::Fixed(w, h) => (w, h, None),
+            Self::Rect { size, stride } => (size, size, Some(stride)),
+        };
         let scale = (size_w as f32 / width as f32).min(size_h as f32 / height as f32);
         let (new_w, new_h) = scaled(width, height, scale);
-        Self {
+        let (size_w, size_h) = match stride {
+            None => (size_w, size_h),
+            Some(s) => (
+                new_w + size_w.saturating_sub(new_w) % s,
+                new_h + size_h.saturating_sub(new_h) % s,
+            ),
+        };
+        let placement = Placement {
             scale,
             // Ultralytics splits odd padding with the extra pixel right/bottom.
-            pad_x: ((size_w - new_w) / 2) as f32,
-            pad_y: ((size_h - new_h) / 2) as f32,
-        }
+            pad_x: (size_w.saturating_sub(new_w) / 2) as f32,
+            pad_y: (size_h.saturating_sub(new_h) / 2) as f32,
+        };
+        ((size_w, size_h), placement)
     }
+}
 
+impl Placement {
     /// A box in model input pixels, back in image pixels.
     pub fn to_image(&self, b: &BoxXyxy) -> BoxXyxy {
         BoxXyxy {
@@ -55,17 +83,14 @@ fn scaled(width: u32, height: u32, scale: f32) -> (u32, u32) {
     )
 }
 
-/// Letterbox `img` into a `size_w` x `size_h` RGB input, written as planar
-/// float32 0..1 (`[3, size_h, size_w]`) into `out`.
-pub fn letterbox(img: &RgbImage, size_w: u32, size_h: u32, out: &mut [f32]) -> Placement {
-    assert_eq!(
-        out.len(),
-        3 * (size_w * size_h) as usize,
-        "input buffer size"
-    );
-    let placement = Placement::fit(img.width(), img.height(), size_w, size_h);
+/// Letterbox `img` into the model input `size` gives it, written as planar
+/// float32 0..1 (`[3, height, width]`) into `out`; returns the input's
+/// `(width, height)` and the image's placement in it.
+pub fn letterbox(img: &RgbImage, size: InputSize, out: &mut Vec<f32>) -> ((u32, u32), Placement) {
+    let ((size_w, size_h), placement) = size.place(img.width(), img.height());
     let (new_w, new_h) = scaled(img.width(), img.height(), placement.scale);
-    out.fill(f32::from(PAD) / 255.0);
+    out.clear();
+    out.resize(3 * (size_w * size_h) as usize, f32::from(PAD) / 255.0);
     let plane = (size_w * size_h) as usize;
     let (px, py) = (placement.pad_x as usize, placement.pad_y as usize);
     let mut put = |x: usize, y: usize, rgb: [u8; 3]| {
@@ -107,7 +132,7 @@ pub fn letterbox(img: &RgbImage, size_w: u32, size_h: u32, out: &mut [f32]) -> P
             }
         }
     }
-    placement
+    ((size_w, size_h), placement)
 }
 
 /// Bilinear taps resizing `from` pixels to `to`: for each output pixel, the
@@ -134,8 +159,8 @@ mod tests {
     #[test]
     fn wide_image_is_padded_top_and_bottom_and_boxes_map_back() {
         let img = RgbImage::from_pixel(640, 480, image::Rgb([255, 0, 0]));
-        let mut input = vec![0.0; 3 * 640 * 640];
-        let p = letterbox(&img, 640, 640, &mut input);
+        let mut input = Vec::new();
+        let (_, p) = letterbox(&img, InputSize::Fixed(640, 640), &mut input);
         assert_eq!(
             p,
             Placement {
@@ -169,8 +194,8 @@ mod tests {
     fn resizing_interpolates_between_pixel_centres() {
         // Two columns, 0 and 200, stretched to four: OpenCV gives 0, 50, 150, 200.
         let img = RgbImage::from_fn(2, 1, |x, _| image::Rgb([(x * 200) as u8; 3]));
-        let mut input = vec![0.0; 3 * 4 * 4];
-        let p = letterbox(&img, 4, 4, &mut input);
+        let mut input = Vec::new();
+        let (_, p) = letterbox(&img, InputSize::Fixed(4, 4), &mut input);
         assert_eq!((p.scale, p.pad_y), (2.0, 1.0));
         let row: Vec<f32> = input[4..8].iter().map(|v| v * 255.0).collect();
         for (got, want) in row.iter().zip([0.0, 50.0, 150.0, 200.0]) {
@@ -178,8 +203,8 @@ mod tests {
         }
         // Halving averages neighbours: 10 and 30 give 20.
         let img = RgbImage::from_fn(4, 2, |x, _| image::Rgb([[10, 30, 50, 70][x as usize]; 3]));
-        let mut input = vec![0.0; 3 * 2 * 2];
-        letterbox(&img, 2, 2, &mut input);
+        let mut input = Vec::new();
+        letterbox(&img, InputSize::Fixed(2, 2), &mut input);
         let row: Vec<f32> = input[0..2].iter().map(|v| (v * 255.0).round()).collect();
         assert_eq!(row, [20.0, 60.0]);
     }
@@ -187,7 +212,7 @@ mod tests {
     #[test]
     fn large_image_is_scaled_down() {
         let img = RgbImage::new(1920, 1080);
-        let p = Placement::fit(img.width(), img.height(), 640, 640);
+        let (_, p) = InputSize::Fixed(640, 640).place(img.width(), img.height());
         assert!((p.scale - 1.0 / 3.0).abs() < 1e-6);
         assert_eq!((p.pad_x, p.pad_y), (0.0, 140.0));
         let b = p.to_image(&BoxXyxy {
@@ -197,5 +222,26 @@ mod tests {
             y1: 500.0,
         });
         assert!((b.x1 - 1920.0).abs() < 1e-3 && (b.y1 - 1080.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn a_dynamic_input_is_the_smallest_stride_multiple_rectangle() {
+        let rect = InputSize::Rect {
+            size: 640,
+            stride: 32,
+        };
+        // A VGA frame runs as it is: no padding rows.
+        let (size, p) = rect.place(640, 480);
+        assert_eq!(
+            (size, p.scale, p.pad_x, p.pad_y),
+            ((640, 480), 1.0, 0.0, 0.0)
+        );
+        // Full HD shrinks to 640x360, padded to 384 rows (12 above, 12 below),
+        // as Ultralytics' LetterBox(auto=True) gives.
+        let (size, p) = rect.place(1920, 1080);
+        assert_eq!((size, p.pad_x, p.pad_y), ((640, 384), 0.0, 12.0));
+        // A fixed input is filled whatever the image.
+        let (size, p) = InputSize::Fixed(640, 640).place(640, 480);
+        assert_eq!((size, p.pad_y), ((640, 640), 80.0));
     }
 }

@@ -3,6 +3,7 @@
 //! into `detections.parquet`, `detections.coco.json` and `detect.json`.
 
 use std::borrow::Cow;
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::mpsc::sync_channel;
 use std::time::Instant;
@@ -19,7 +20,7 @@ use rayon::prelude::*;
 use crate::boxes::{merge_touching, nms};
 use crate::decode::decode;
 use crate::error::DetectError;
-use crate::letterbox::{PAD, Placement, letterbox};
+use crate::letterbox::{InputSize, PAD, Placement, letterbox};
 use crate::prompts::Embeddings;
 use crate::runtime::{Device, Runtime, locate};
 use crate::signature::{Signature, Vocabulary};
@@ -57,7 +58,8 @@ pub struct DetectOptions {
     /// faint stretch of a crack splits the detector's response into pieces.
     /// `None` keeps every box NMS kept.
     pub merge_gap: Option<f32>,
-    /// Input size for models with dynamic input, pixels (square).
+    /// Input size for models with dynamic input, pixels: an image is scaled
+    /// to fit this square, then padded only to the model's stride.
     pub image_size: u32,
     /// ONNX Runtime library (default: found by [`locate`]).
     pub onnxruntime: Option<PathBuf>,
@@ -78,6 +80,9 @@ impl DetectOptions {
     pub const DEFAULT_IOU: f32 = 0.5;
     pub const DEFAULT_MERGE_GAP: f32 = 20.0;
     pub const DEFAULT_IMAGE_SIZE: u32 = 640;
+    /// The stride a dynamic input is padded to when the model's metadata
+    /// does not give one (YOLO's largest).
+    pub const DEFAULT_STRIDE: u32 = 32;
     pub const DEFAULT_TILE_OVERLAP: f32 = 0.2;
     pub const DEFAULT_BATCH: usize = 4;
 
@@ -151,14 +156,17 @@ struct Prepared {
 /// A window of a frame, letterboxed for the model.
 struct View {
     window: Window,
+    /// Model input, `[3, height, width]`.
     input: Vec<f32>,
+    /// The input's `(width, height)`.
+    size: (u32, u32),
     placement: Placement,
 }
 
 fn prepare(
     recording: &Recording,
     frame: &Frame,
-    (w, h): (u32, u32),
+    size: InputSize,
     options: &DetectOptions,
 ) -> Result<Prepared, FailedFrame> {
     let img = recording
@@ -176,18 +184,19 @@ fn prepare(
     )
     .into_iter()
     .map(|window| {
-        let mut input = vec![0.0f32; 3 * (w * h) as usize];
-        let placement = if window.tile < 0 {
-            letterbox(&img, w, h, &mut input)
+        let mut input = Vec::new();
+        let (size, placement) = if window.tile < 0 {
+            letterbox(&img, size, &mut input)
         } else {
             let crop =
                 image::imageops::crop_imm(&img, window.x, window.y, window.width, window.height)
                     .to_image();
-            letterbox(&crop, w, h, &mut input)
+            letterbox(&crop, size, &mut input)
         };
         View {
             window,
             input,
+            size,
             placement,
         }
     })
@@ -199,6 +208,12 @@ fn prepare(
         width: img.width(),
         height: img.height(),
     })
+}
+
+/// The model's stride from its metadata (Ultralytics writes `stride`).
+fn model_stride(session: &ort::session::Session) -> Option<u32> {
+    let stride = session.metadata().ok()?.custom("stride")?;
+    stride.trim().parse().ok().filter(|s| *s > 0)
 }
 
 /// Class names of a model with a baked vocabulary, from its `names` metadata
@@ -237,7 +252,6 @@ pub fn detect(
     let warnings: Vec<String> = session.warning.iter().cloned().collect();
     let device = session.device;
     let (mut detector, classes) = Detector::new(session.session, options)?;
-    let (w, h) = detector.size;
 
     let total = flight.frames.len() as u64;
     let (runnable, unreadable): (Vec<&Frame>, Vec<&Frame>) = flight
@@ -261,6 +275,11 @@ pub fn detect(
         progress,
     )?;
     failed.sort_by_key(|f| f.frame);
+    // What the whole frame ran as (tiles run at the tile size).
+    let (w, h) = runnable
+        .iter()
+        .find_map(|f| Some(detector.size.place(f.width?, f.height?).0))
+        .unwrap_or((options.image_size, options.image_size));
     if ran == 0
         && let Some(first) = failed.first()
     {
@@ -316,7 +335,7 @@ fn infer_all(
     total: u64,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<(Vec<FrameDetection>, u64), DetectError> {
-    let (w, h) = detector.size;
+    let size = detector.size;
     let mut found: Vec<FrameDetection> = Vec::new();
     let mut ran = 0u64;
     let mut run_error = None;
@@ -327,7 +346,7 @@ fn infer_all(
             for chunk in runnable.chunks(8) {
                 let prepared: Vec<_> = chunk
                     .par_iter()
-                    .map(|f| prepare(recording, f, (w, h), options))
+                    .map(|f| prepare(recording, f, size, options))
                     .collect();
                 for p in prepared {
                     if tx.send(p).is_err() {
@@ -376,8 +395,8 @@ fn infer_all(
 struct Detector {
     session: ort::session::Session,
     signature: Signature,
-    /// Model input `(width, height)`.
-    size: (u32, u32),
+    /// How large an input each view gets.
+    size: InputSize,
     /// Classes the output scores.
     classes: usize,
     /// Views per `run`.
@@ -400,9 +419,13 @@ impl Detector {
             why,
         };
         let signature = Signature::of_session(&session).map_err(model_error)?;
-        let (h, w) = signature
-            .input_size
-            .unwrap_or((options.image_size, options.image_size));
+        let size = match signature.input_size {
+            Some((h, w)) => InputSize::Fixed(w, h),
+            None => InputSize::Rect {
+                size: options.image_size,
+                stride: model_stride(&session).unwrap_or(DetectOptions::DEFAULT_STRIDE),
+            },
+        };
         let (text, names) = match &signature.vocabulary {
             Vocabulary::Baked => (
                 None,
@@ -432,7 +455,7 @@ impl Detector {
             .unwrap_or(names.len());
         let detector = Self {
             session,
-            size: (w, h),
+            size,
             classes,
             batch: signature.batch.unwrap_or(options.batch),
             text: text.map(|(name, _, tensor)| (name, tensor)),
@@ -469,16 +492,20 @@ impl Detector {
         frames: &[Prepared],
         options: &DetectOptions,
     ) -> Result<Vec<Vec<Detection>>, DetectError> {
-        let (w, h) = self.size;
-        let plane = 3 * (w * h) as usize;
-        let views: Vec<(usize, &View)> = frames
-            .iter()
-            .enumerate()
-            .flat_map(|(i, p)| p.views.iter().map(move |v| (i, v)))
-            .collect();
+        // Views of one input size run together: a frame and its tiles can differ.
+        let mut by_size: BTreeMap<(u32, u32), Vec<(usize, &View)>> = BTreeMap::new();
+        for (i, p) in frames.iter().enumerate() {
+            for v in &p.views {
+                by_size.entry(v.size).or_default().push((i, v));
+            }
+        }
         let mut per_frame = vec![Vec::new(); frames.len()];
         let mut stacked = Vec::new();
-        for chunk in views.chunks(self.batch) {
+        let chunks = by_size
+            .iter()
+            .flat_map(|(&size, views)| views.chunks(self.batch).map(move |c| (size, c)));
+        for ((w, h), chunk) in chunks {
+            let plane = 3 * (w * h) as usize;
             let failed = |why: String| DetectError::Inference {
                 frame: frames[chunk[0].0].frame,
                 why,

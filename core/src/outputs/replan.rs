@@ -161,6 +161,9 @@ pub struct ReplanSummary {
     pub length_m: f64,
     pub time_s: f64,
     pub solver: Option<ReplanSolverStats>,
+    /// Where the stage's time went.
+    #[serde(default)]
+    pub phases: ReplanPhases,
     /// The map frame on the Earth, if known: from the settings, or the
     /// flight's GPS fixes (`geo_origin_from` says which).
     #[serde(default)]
@@ -175,12 +178,37 @@ pub struct ReplanSummary {
     pub warnings: Vec<String>,
 }
 
+/// Where the replan stage's time went, seconds (`seconds` also counts
+/// reading the inputs and writing the outputs).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ReplanPhases {
+    /// Inflating the map by the clearance and clearing home.
+    pub clearance_s: f64,
+    /// Drawing candidate viewpoints, judging them under the View model, the
+    /// set cover and the clusters.
+    pub viewpoints_s: f64,
+    /// GTSP solves and repairs.
+    pub solve_s: f64,
+    /// Collision-free paths of the legs, and splitting the tour into sorties.
+    pub paths_s: f64,
+    /// Solves: the first, then one repair per lazy collision check that
+    /// re-costed a leg.
+    pub rounds: usize,
+}
+
 /// What the solver and the collision checks did.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ReplanSolverStats {
     pub vertices: usize,
+    /// Clusters of the GTSP: gap voxels that the same viewpoints inspect are
+    /// one cluster, and a voxel inspected from every viewpoint of another's
+    /// cluster needs none (serving that one serves it).
     pub clusters: usize,
-    /// GTSP solves (the first with straight-line costs).
+    /// Gap voxels the tour serves.
+    #[serde(default)]
+    pub gap_voxels: usize,
+    /// Solves: the first with straight-line costs, then a repair of the
+    /// last tour after each lazy collision check that re-costed a leg.
     pub rounds: usize,
     /// Legs given a collision-free path.
     pub legs_checked: usize,
@@ -189,7 +217,11 @@ pub struct ReplanSolverStats {
     /// The last solve's tour had no leg over the detour limit (false: the
     /// round limit was reached and that tour is flown as it is).
     pub converged: bool,
-    /// The last solve's statistics.
-    pub last_solve: SolveStats,
+    /// The first solve's statistics.
+    pub first_solve: SolveStats,
+    /// Solving and collision checks, seconds.
     pub solve_seconds: f64,
+    /// Of `solve_seconds`, finding the legs' collision-free paths.
+    #[serde(default)]
+    pub paths_seconds: f64,
 }

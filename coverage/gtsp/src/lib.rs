@@ -11,7 +11,7 @@ mod search;
 mod solver;
 
 pub use parse::ParseError;
-pub use solver::{Solution, SolveOptions, SolveStats, solve};
+pub use solver::{Solution, SolveOptions, SolveStats, repair, solve};
 
 /// A GTSP instance: integer arc costs between `n` vertices and the sets
 /// that partition (a subset of) them. Vertices are 0-based here; the file

@@ -193,9 +193,12 @@ pub fn replan(
     let given = options.map.as_ref().or(coverage.map.as_ref());
     let (map, _) = ingest::load_map(&flight, given.map(PathBuf::as_path), Some(grid))?;
     summary.frame_id = map.cloud.frame_id.clone();
+    let phase = Instant::now();
     let space = FreeSpace::new(&map.voxels, options.clearance_m, &[launch]);
     let home = clear_home(&space, &map, launch, &mut summary)?;
+    summary.phases.clearance_s = phase.elapsed().as_secs_f64();
 
+    let phase = Instant::now();
     let found = viewpoints(&flight, &coverage, &map, &space, targets, gaps, progress)?;
     summary.candidate_viewpoints = found.len();
     // One viewpoint serves every gap it inspects: the clusters hold only a
@@ -203,6 +206,7 @@ pub fn replan(
     let cover = set_cover(&found, gaps.len());
     summary.set_cover_viewpoints = cover.len();
     let mut by_gap = clusters(gaps, &found, &cover, |v| grid.center(v));
+    summary.phases.viewpoints_s = phase.elapsed().as_secs_f64();
     // Stops: home, then the candidates.
     let points: Vec<Point3<f64>> = std::iter::once(home)
         .chain(found.iter().map(|c| Point3::from(c.viewpoint.position)))
@@ -222,6 +226,9 @@ pub fn replan(
         return write(&run, summary, placement.as_ref(), started);
     };
 
+    summary.phases.solve_s = tour.stats.solve_seconds - tour.stats.paths_seconds;
+    summary.phases.rounds = tour.stats.rounds;
+    let phase = Instant::now();
     let flights = split_sorties(options, &tour, &points, &space, &map)?;
     let waypoint = |i: usize| {
         let v = &found[tour.stops[i] - 1].viewpoint;
@@ -241,6 +248,7 @@ pub fn replan(
         .iter()
         .map(|indices| fly(options, &tour, &points, &space, indices, &waypoint))
         .collect();
+    summary.phases.paths_s = tour.stats.paths_seconds + phase.elapsed().as_secs_f64();
     summarise(&mut summary, tour);
     write(&run, summary, placement.as_ref(), started)
 }
@@ -362,6 +370,7 @@ fn empty_plan(
         length_m: 0.0,
         time_s: 0.0,
         solver: None,
+        phases: Default::default(),
         geo_origin: None,
         geo_origin_from: None,
         ground_station_files: Vec::new(),

@@ -1,12 +1,13 @@
-//! The follow-up tour: a GTSP over the clusters (one per gap voxel, plus
-//! home), solved with straight-line costs first; then, as in GATSBI, the
-//! legs of the tour are flown on collision-free paths and, while a leg's
-//! path is more than [`DETOUR_LIMIT`] times its cost, those costs are
-//! replaced by the paths' lengths and the GTSP is solved again.
+//! The follow-up tour: a GTSP over the clusters (gap voxels' viewpoints,
+//! plus home), solved with straight-line costs first; then, as in GATSBI,
+//! the legs of the tour are flown on collision-free paths and, while a
+//! leg's path is more than [`DETOUR_LIMIT`] times its cost, those costs are
+//! replaced by the paths' lengths and the tour is repaired: a local search
+//! from the last tour, since a changed leg rarely needs a full solve.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
-use gtsp::{Instance, SolveOptions, SolveStats, solve};
+use gtsp::{Instance, SolveOptions, SolveStats, repair, solve};
 use nalgebra::Point3;
 use postflight_core::outputs::replan::ReplanSolverStats;
 
@@ -16,9 +17,6 @@ use crate::free_space::{FreeSpace, length};
 pub const DETOUR_LIMIT: f64 = 1.25;
 /// Solves before the lazy collision check gives up re-solving.
 const MAX_ROUNDS: usize = 20;
-/// Re-solves after the first get this share of its time limit: they start
-/// from costs that changed only on a few legs.
-const RESOLVE_SHARE: f64 = 0.3;
 /// GTSP costs are integers: centimetres.
 const UNITS_PER_M: f64 = 100.0;
 /// Cost of a leg with no collision-free path, metres.
@@ -27,7 +25,7 @@ const NO_PATH_M: f64 = 1.0e5;
 /// Where the tour goes: stop 0 is home, stop k > 0 is candidate k - 1.
 pub struct Stops<'a> {
     pub points: &'a [Point3<f64>],
-    /// Candidates (as stops) that may inspect each gap voxel.
+    /// Sets of candidates (as stops) of which the tour visits one each.
     pub clusters: &'a [Vec<usize>],
 }
 
@@ -61,7 +59,8 @@ pub fn plan_tour(
     // clusters is copied, its copies 0 apart.
     let mut vertex_stop = vec![0usize];
     let mut sets = vec![vec![0u32]];
-    for members in stops.clusters {
+    let essential = essential_clusters(stops.clusters);
+    for members in essential.iter().map(|&c| &stops.clusters[c]) {
         let set = members
             .iter()
             .map(|&stop| {
@@ -77,15 +76,18 @@ pub fn plan_tour(
     let straight = |a: usize, b: usize| (stops.points[a] - stops.points[b]).norm();
     let mut stats = ReplanSolverStats {
         vertices: n,
-        clusters: stops.clusters.len(),
+        clusters: essential.len(),
+        gap_voxels: stops.clusters.len(),
         rounds: 0,
         legs_checked: 0,
         legs_recosted: 0,
         converged: false,
-        last_solve: SolveStats::default(),
+        first_solve: SolveStats::default(),
         solve_seconds: 0.0,
+        paths_seconds: 0.0,
     };
     let started = std::time::Instant::now();
+    let mut last: Option<Vec<u32>> = None;
     loop {
         let cost: Vec<i32> = (0..n * n)
             .map(|k| {
@@ -98,20 +100,17 @@ pub fn plan_tour(
             .collect();
         let inst = Instance::new("replan", n, cost, sets.clone())
             .expect("clusters are disjoint and not empty");
-        let round_options = SolveOptions {
-            time_limit: options.time_limit.map(|t| {
-                if stats.rounds == 0 {
-                    t
-                } else {
-                    t.mul_f64(RESOLVE_SHARE)
-                }
-            }),
-            ..options.clone()
+        let solution = match &last {
+            None => solve(&inst, options),
+            Some(tour) => repair(&inst, tour),
         };
-        let solution = solve(&inst, &round_options);
+        if stats.rounds == 0 {
+            stats.first_solve = solution.stats;
+        }
         stats.rounds += 1;
-        stats.last_solve = solution.stats;
-        let (order, serves) = visits(&solution.tour, &vertex_stop, &sets);
+        let order = visits(&solution.tour, &vertex_stop);
+        last = Some(solution.tour);
+        let paths_started = std::time::Instant::now();
         // Fly every leg not flown yet; re-cost those over the detour limit.
         let mut recosted = 0;
         let mut unreachable = Vec::new();
@@ -139,6 +138,7 @@ pub fn plan_tour(
                 recosted += 1;
             }
         }
+        stats.paths_seconds += paths_started.elapsed().as_secs_f64();
         if !unreachable.is_empty() {
             unreachable.sort_unstable();
             unreachable.dedup();
@@ -154,8 +154,8 @@ pub fn plan_tour(
                 .map(|i| leg_path(&flown, stops, order[i], order[(i + 1) % order.len()]))
                 .collect();
             return Ok(Tour {
+                serves: first_visits(&order, stops.clusters),
                 stops: order,
-                serves,
                 legs,
                 stats,
             });
@@ -184,36 +184,71 @@ fn leg_path(flown: &FlownLegs, stops: &Stops, a: usize, b: usize) -> Vec<Point3<
     }
 }
 
-/// The stops of a GTSP tour from home, each candidate once (a candidate
-/// chosen by several clusters serves them all at its first visit), and the
-/// clusters (gap voxels) each stop serves.
-fn visits(tour: &[u32], vertex_stop: &[usize], sets: &[Vec<u32>]) -> (Vec<usize>, Vec<Vec<usize>>) {
-    let mut cluster_of = vec![0usize; vertex_stop.len()];
-    for (c, set) in sets.iter().enumerate() {
-        for &v in set {
-            cluster_of[v as usize] = c;
+/// The clusters a tour must visit (indices, ascending): each distinct one
+/// once, and none holding every stop of another, since visiting that one
+/// visits it. Any tour through these visits every cluster.
+fn essential_clusters(clusters: &[Vec<usize>]) -> Vec<usize> {
+    let sorted: Vec<Vec<usize>> = clusters
+        .iter()
+        .map(|c| {
+            let mut c = c.clone();
+            c.sort_unstable();
+            c.dedup();
+            c
+        })
+        .collect();
+    // Smallest first, so any cluster inside another is kept before it.
+    let mut order: Vec<usize> = (0..clusters.len()).collect();
+    order.sort_by(|&a, &b| sorted[a].len().cmp(&sorted[b].len()).then(a.cmp(&b)));
+    let mut kept = Vec::new();
+    let mut kept_with: HashMap<usize, Vec<usize>> = HashMap::new();
+    let inside =
+        |small: &[usize], large: &[usize]| small.iter().all(|s| large.binary_search(s).is_ok());
+    for c in order {
+        let members = &sorted[c];
+        let covered = members.iter().any(|s| {
+            kept_with
+                .get(s)
+                .is_some_and(|ks| ks.iter().any(|&k| inside(&sorted[k], members)))
+        });
+        if !covered {
+            for &s in members {
+                kept_with.entry(s).or_default().push(c);
+            }
+            kept.push(c);
         }
     }
+    kept.sort_unstable();
+    kept
+}
+
+/// The stops of a GTSP tour from home, each candidate once (a candidate
+/// chosen by several clusters is visited at its first copy).
+fn visits(tour: &[u32], vertex_stop: &[usize]) -> Vec<usize> {
     let home = tour
         .iter()
         .position(|&v| v == 0)
         .expect("home is in every tour");
-    let mut order: Vec<usize> = Vec::new();
-    let mut serves: Vec<Vec<usize>> = Vec::new();
-    let mut at: HashMap<usize, usize> = HashMap::new();
-    for k in 0..tour.len() {
-        let v = tour[(home + k) % tour.len()] as usize;
-        let stop = vertex_stop[v];
-        let slot = *at.entry(stop).or_insert_with(|| {
-            order.push(stop);
-            serves.push(Vec::new());
-            order.len() - 1
-        });
-        if v != 0 {
-            serves[slot].push(cluster_of[v] - 1);
-        }
+    let mut seen = HashSet::new();
+    (0..tour.len())
+        .map(|k| vertex_stop[tour[(home + k) % tour.len()] as usize])
+        .filter(|&stop| seen.insert(stop))
+        .collect()
+}
+
+/// For each stop of `order`, the clusters it is the first visit of.
+fn first_visits(order: &[usize], clusters: &[Vec<usize>]) -> Vec<Vec<usize>> {
+    let at: HashMap<usize, usize> = order.iter().enumerate().map(|(i, &s)| (s, i)).collect();
+    let mut serves = vec![Vec::new(); order.len()];
+    for (c, members) in clusters.iter().enumerate() {
+        let first = members
+            .iter()
+            .filter_map(|s| at.get(s))
+            .min()
+            .expect("the tour visits a stop of every cluster");
+        serves[*first].push(c);
     }
-    (order, serves)
+    serves
 }
 
 /// What one battery allows a sortie: a flown length and a time (flying at
@@ -345,5 +380,15 @@ mod tests {
                 .collect::<std::collections::BTreeSet<_>>(),
             &[1, 3].into()
         );
+    }
+
+    #[test]
+    fn only_clusters_holding_no_other_cluster_are_solved_and_every_cluster_is_served() {
+        let clusters = vec![vec![1, 2], vec![2, 1], vec![1, 2, 3], vec![3, 4], vec![4]];
+        // [2, 1] repeats [1, 2]; [1, 2, 3] holds [1, 2]; [3, 4] holds [4].
+        assert_eq!(essential_clusters(&clusters), vec![0, 4]);
+        // A tour through 2 and 4 serves all five.
+        let serves = first_visits(&[0, 2, 4], &clusters);
+        assert_eq!(serves, vec![vec![], vec![0, 1, 2], vec![3, 4]]);
     }
 }
