@@ -6,6 +6,7 @@
 //! from the last tour, since a changed leg rarely needs a full solve.
 
 use std::collections::{HashMap, HashSet};
+use std::time::Duration;
 
 use gtsp::{Instance, SolveOptions, SolveStats, repair, solve};
 use nalgebra::Point3;
@@ -17,6 +18,11 @@ use crate::free_space::{FreeSpace, length};
 pub const DETOUR_LIMIT: f64 = 1.25;
 /// Solves before the lazy collision check gives up re-solving.
 const MAX_ROUNDS: usize = 20;
+/// The first solve's time limit is this...
+const SOLVE_BASE: Duration = Duration::from_secs(1);
+/// ...and this much more per cluster, within the configured limit: the
+/// search usually ends on its own well before.
+const SOLVE_PER_CLUSTER: Duration = Duration::from_millis(2);
 /// GTSP costs are integers: centimetres.
 const UNITS_PER_M: f64 = 100.0;
 /// Cost of a leg with no collision-free path, metres.
@@ -101,7 +107,7 @@ pub fn plan_tour(
         let inst = Instance::new("replan", n, cost, sets.clone())
             .expect("clusters are disjoint and not empty");
         let solution = match &last {
-            None => solve(&inst, options),
+            None => solve(&inst, &scaled_limit(options, essential.len())),
             Some(tour) => repair(&inst, tour),
         };
         if stats.rounds == 0 {
@@ -160,6 +166,15 @@ pub fn plan_tour(
                 stats,
             });
         }
+    }
+}
+
+/// `options` with a time limit for `clusters` clusters.
+fn scaled_limit(options: &SolveOptions, clusters: usize) -> SolveOptions {
+    let scaled = SOLVE_BASE + SOLVE_PER_CLUSTER * clusters as u32;
+    SolveOptions {
+        time_limit: Some(options.time_limit.map_or(scaled, |t| t.min(scaled))),
+        ..options.clone()
     }
 }
 

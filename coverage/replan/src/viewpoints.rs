@@ -7,7 +7,8 @@
 //! that inspect them all; a gap voxel's cluster is those of them that
 //! inspect it.
 
-use std::collections::HashSet;
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, HashSet};
 
 use coverage::cover::{Shot, judge};
 use coverage::face::Face;
@@ -141,25 +142,33 @@ pub fn candidates(
 /// A greedy set cover of the gaps (`gaps` of them) by the candidates:
 /// repeatedly the candidate inspecting the most gaps not yet inspected
 /// (ties to the lower index). Returns the chosen candidates' indices.
+///
+/// Lazily: a candidate's count only falls as gaps are covered, so counts
+/// are kept in a heap and recounted only when they come to the top.
 pub fn set_cover(candidates: &[Candidate], gaps: usize) -> Vec<usize> {
     let mut open = vec![true; gaps];
+    let open_count = |c: &Candidate, open: &[bool]| c.inspects.iter().filter(|g| open[**g]).count();
+    let mut heap: BinaryHeap<(usize, Reverse<usize>)> = candidates
+        .iter()
+        .enumerate()
+        .map(|(k, c)| (open_count(c, &open), Reverse(k)))
+        .filter(|(n, _)| *n > 0)
+        .collect();
     let mut chosen = Vec::new();
-    loop {
-        let best = candidates
-            .iter()
-            .enumerate()
-            .map(|(k, c)| (c.inspects.iter().filter(|g| open[**g]).count(), k))
-            .max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)));
-        match best {
-            Some((n, k)) if n > 0 => {
-                for g in &candidates[k].inspects {
-                    open[*g] = false;
-                }
-                chosen.push(k);
+    while let Some((n, Reverse(k))) = heap.pop() {
+        let now = open_count(&candidates[k], &open);
+        if now < n {
+            if now > 0 {
+                heap.push((now, Reverse(k)));
             }
-            _ => return chosen,
+            continue;
         }
+        for g in &candidates[k].inspects {
+            open[*g] = false;
+        }
+        chosen.push(k);
     }
+    chosen
 }
 
 /// The cluster of each gap voxel among the candidates `allowed` (indices):
@@ -193,4 +202,66 @@ pub fn clusters(
         members.truncate(keep);
     }
     by_gap
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The plain greedy: recount every candidate each time.
+    fn eager_set_cover(candidates: &[Candidate], gaps: usize) -> Vec<usize> {
+        let mut open = vec![true; gaps];
+        let mut chosen = Vec::new();
+        loop {
+            let best = candidates
+                .iter()
+                .enumerate()
+                .map(|(k, c)| (c.inspects.iter().filter(|g| open[**g]).count(), k))
+                .max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)));
+            match best {
+                Some((n, k)) if n > 0 => {
+                    close(&candidates[k], &mut open);
+                    chosen.push(k);
+                }
+                _ => return chosen,
+            }
+        }
+    }
+
+    fn close(c: &Candidate, open: &mut [bool]) {
+        for g in &c.inspects {
+            open[*g] = false;
+        }
+    }
+
+    #[test]
+    fn the_lazy_set_cover_chooses_as_the_plain_greedy_does() {
+        // 300 candidates over 500 gaps, overlapping at random, many ties.
+        let mut state = 12345u64;
+        let mut next = |n: u64| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) % n
+        };
+        let candidates: Vec<Candidate> = (0..300)
+            .map(|_| {
+                let mut inspects: Vec<usize> =
+                    (0..1 + next(12)).map(|_| next(500) as usize).collect();
+                inspects.sort_unstable();
+                inspects.dedup();
+                Candidate {
+                    viewpoint: Viewpoint {
+                        position: [0.0; 3],
+                        yaw: 0.0,
+                        gimbal_pitch: 0.0,
+                    },
+                    inspects,
+                }
+            })
+            .collect();
+        let lazy = set_cover(&candidates, 500);
+        assert_eq!(lazy, eager_set_cover(&candidates, 500));
+        assert!(lazy.len() > 50, "{}", lazy.len());
+    }
 }
