@@ -9,6 +9,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
+use postflight_core::outputs::ingest::{IngestSummary, files as ingest_files};
 use postflight_core::run_log::{InputFile, RUN_LOG, sha256};
 use postflight_core::time::now_rfc3339;
 use postflight_core::{PlanFile, RunDir, RunLog, Stage, StageRecord};
@@ -36,6 +37,7 @@ pub struct RunInputs {
 
 /// Run every stage that is not up to date.
 pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
+    let started = Instant::now();
     check_inputs(inputs)?;
     let dir = RunDir::create(&inputs.out)?;
     write_reference_model(inputs)?;
@@ -75,7 +77,25 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
         }
         previous = fingerprint;
     }
+    if !quiet {
+        println!("{}", processed(&dir, started.elapsed().as_secs_f64())?);
+    }
     Ok(())
+}
+
+/// How long the run took against how long the flight flew: "processed
+/// 583 s of flight in 41 s, 7% of its flying time".
+fn processed(dir: &RunDir, seconds: f64) -> anyhow::Result<String> {
+    let ingest: IngestSummary = dir.read_json(ingest_files::SUMMARY)?;
+    let flown = ingest.duration_s;
+    let share = if flown > 0.0 {
+        format!(", {:.0}% of its flying time", 100.0 * seconds / flown)
+    } else {
+        String::new()
+    };
+    Ok(format!(
+        "processed {flown:.0} s of flight in {seconds:.0} s{share}"
+    ))
 }
 
 /// Every input file given exists, before anything is written.

@@ -184,6 +184,26 @@ fn the_demo_reports_the_simulated_cracks_and_the_simulated_gap() {
     let summary = read_json(&run.join("summary.json"));
     let html = std::fs::read_to_string(run.join("report.html")).unwrap();
 
+    // The run weighs its time against the flight's.
+    let flown = read_json(&run.join("ingest.json"))["duration_s"]
+        .as_f64()
+        .unwrap();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("processed "))
+        .unwrap_or_else(|| panic!("no closing line:\n{text}"));
+    let numbers: Vec<f64> = line
+        .split(|c: char| !c.is_ascii_digit())
+        .filter(|w| !w.is_empty())
+        .map(|w| w.parse().unwrap())
+        .collect();
+    assert!(line.ends_with("% of its flying time"), "{line}");
+    assert_eq!(numbers[0], flown.round(), "{line}");
+    assert!(
+        (numbers[2] - 100.0 * numbers[1] / flown).abs() <= 1.0,
+        "{line}"
+    );
+
     // Frames: what the simulator recorded (its dropped frames are not in the file).
     let recorded = truth["frames"]
         .as_array()
