@@ -116,7 +116,7 @@ fn ground_station_files(run: &Path, origin: [&str; 4]) -> Value {
 }
 
 fn flight(dir: &Path) -> (PathBuf, PathBuf) {
-    let sim = simulate_into(dir, "bridge", &[]);
+    let sim = simulate_into(dir, "bridge", &["--scene", "girder-bridge", "--seed", "1"]);
     let run = dir.join("run");
     ingest_ok(&sim.join("flight.mcap"), &run, &[]);
     coverage(&run, &["--plan", sim.join("plan.json").to_str().unwrap()]);

@@ -249,9 +249,15 @@ fn the_same_seed_gives_byte_identical_files() {
     let small = [
         "--frames", "12", "--width", "160", "--height", "120", "--scene", "tower",
     ];
-    let a = simulate_into(dir.path(), "a", &[&small[..], &["--seed", "5"]].concat());
-    let b = simulate_into(dir.path(), "b", &[&small[..], &["--seed", "5"]].concat());
-    let c = simulate_into(dir.path(), "c", &[&small[..], &["--seed", "6"]].concat());
+    // Fresh flights: the fixture cache would hand both runs the same files.
+    let (a, b, c) = (
+        dir.path().join("a"),
+        dir.path().join("b"),
+        dir.path().join("c"),
+    );
+    simulate_fresh(&a, &[&small[..], &["--seed", "5"]].concat());
+    simulate_fresh(&b, &[&small[..], &["--seed", "5"]].concat());
+    simulate_fresh(&c, &[&small[..], &["--seed", "6"]].concat());
     for file in ["flight.mcap", "map.ply", "plan.json", "truth.json"] {
         let (x, y) = (
             std::fs::read(a.join(file)).unwrap(),

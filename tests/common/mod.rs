@@ -151,14 +151,65 @@ pub fn locked_fixture_dir(name: &str) -> PathBuf {
     dir
 }
 
-/// Run `postflight simulate` into `dir/name`, which must succeed.
+/// The flight `postflight simulate` makes with `args`, in `dir/name` (a
+/// copy from the fixture cache).
 pub fn simulate_into(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
     let out = dir.join(name);
+    copy_dir(&simulated(args), &out);
+    out
+}
+
+/// Simulate a flight into `out` with `args`, now (not from the fixture cache).
+pub fn simulate_fresh(out: &Path, args: &[&str]) {
     let mut all = vec!["simulate", "--out", out.to_str().unwrap()];
     all.extend_from_slice(args);
-    let result = postflight(&all, dir);
+    let result = postflight(&all, out.parent().unwrap());
     assert!(result.status.success(), "{}", stderr(&result));
-    out
+}
+
+/// The flight `postflight simulate` makes with `args`, made once per build of
+/// postflight (the simulator is deterministic) and shared by every test and
+/// test binary that flies it. Tests get copies: some damage their flight.
+fn simulated(args: &[&str]) -> PathBuf {
+    use std::hash::{Hash, Hasher};
+    let exe = std::fs::metadata(env!("CARGO_BIN_EXE_postflight")).unwrap();
+    let mut build = std::hash::DefaultHasher::new();
+    (exe.len(), exe.modified().unwrap()).hash(&mut build);
+    let mut flight = std::hash::DefaultHasher::new();
+    args.hash(&mut flight);
+    let (build, flight) = (format!("{:016x}", build.finish()), flight.finish());
+    let cache = Path::new(env!("CARGO_TARGET_TMPDIR")).join("simulated");
+    let done = cache.join(format!("{build}-{flight:016x}"));
+    if done.is_dir() {
+        return done;
+    }
+    std::fs::create_dir_all(&cache).unwrap();
+    // Flights of earlier builds are stale.
+    for entry in std::fs::read_dir(&cache).unwrap().flatten() {
+        if !entry.file_name().to_string_lossy().starts_with(&build) {
+            let _ = std::fs::remove_dir_all(entry.path());
+        }
+    }
+    let making = tempfile::Builder::new()
+        .prefix(&format!("{build}-making-"))
+        .tempdir_in(&cache)
+        .unwrap()
+        .keep();
+    simulate_fresh(&making.join("flight"), args);
+    // Another test may have made it meanwhile: either copy will do.
+    if std::fs::rename(making.join("flight"), &done).is_err() {
+        assert!(done.is_dir(), "{} was not made", done.display());
+    }
+    let _ = std::fs::remove_dir_all(&making);
+    done
+}
+
+/// Copy the files of directory `from` into a new directory `to`.
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap().flatten() {
+        std::fs::copy(entry.path(), to.join(entry.file_name())).unwrap();
+    }
 }
 
 /// A row of detections.parquet.
