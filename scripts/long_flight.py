@@ -35,7 +35,7 @@ def main():
     with open(src, "rb") as f:
         reader = make_reader(f)
         summary = reader.get_summary()
-        messages = [(schema, channel, message) for schema, channel, message in reader.iter_messages(log_time_order=True)]
+        messages = list(reader.iter_messages(log_time_order=True))
     lap_images = sum(1 for s, c, _ in messages if s.name == IMAGE)
     stamps = [m.log_time for s, c, m in messages if c.topic not in ONCE]
     image_times = [m.log_time for s, c, m in messages if s.name == IMAGE]
@@ -70,7 +70,9 @@ def main():
             lap += 1
         for schema, channel, m in messages:
             if channel.topic == "/map":
-                writer.add_message(channel_ids[channel.id], last + 500_000_000, restamp(m.data, last - m.log_time + 500_000_000), last + 500_000_000)
+                # Half a second after the last message, as the simulator logs it.
+                at = last + 500_000_000
+                writer.add_message(channel_ids[channel.id], at, restamp(m.data, at - m.log_time), at)
         writer.finish()
     print(f"{out}: {written} frames in {lap} laps of {lap_images} ({lap_ns / 1e9:.0f} s each)")
 

@@ -8,8 +8,9 @@ It reads camera frames straight from the flight MCAP, and mirrors the Rust
 pre- and post-processing step by step in float32: Ultralytics letterbox with
 OpenCV INTER_LINEAR pixel-centre bilinear resizing rounded to 8 bits, gray
 114 padding (for a dynamic input, the smallest rectangle padded to the
-model's stride, as Ultralytics' LetterBox(auto=True)), optional tiles, best class per anchor, class-aware NMS (ties
-broken by position), then merging same-class boxes within --merge-gap px.
+model's stride, as Ultralytics' LetterBox(auto=True)), optional tiles, best
+class per anchor, class-aware NMS (ties broken by position), then merging
+same-class boxes within --merge-gap px.
 
 Writes JSON: {"frames": n, "seconds": s, "run_seconds": s,
 "detections": [{"time_ns", "x0", "y0", "x1", "y1", "score", "class", "tile"}]}.

@@ -41,17 +41,17 @@ impl InputSize {
     /// The input `(width, height)` for a `width` x `height` image, and where
     /// the image goes in it.
     pub fn place(self, width: u32, height: u32) -> ((u32, u32), Placement) {
-        let (size_w, size_h, stride) = match self {
-            Self::Fixed(w, h) => (w, h, None),
-            Self::Rect { size, stride } => (size, size, Some(stride)),
+        let (fit_w, fit_h) = match self {
+            Self::Fixed(w, h) => (w, h),
+            Self::Rect { size, .. } => (size, size),
         };
-        let scale = (size_w as f32 / width as f32).min(size_h as f32 / height as f32);
+        let scale = (fit_w as f32 / width as f32).min(fit_h as f32 / height as f32);
         let (new_w, new_h) = scaled(width, height, scale);
-        let (size_w, size_h) = match stride {
-            None => (size_w, size_h),
-            Some(s) => (
-                new_w + size_w.saturating_sub(new_w) % s,
-                new_h + size_h.saturating_sub(new_h) % s,
+        let (size_w, size_h) = match self {
+            Self::Fixed(w, h) => (w, h),
+            Self::Rect { size, stride } => (
+                new_w + size.saturating_sub(new_w) % stride,
+                new_h + size.saturating_sub(new_h) % stride,
             ),
         };
         let placement = Placement {

@@ -62,7 +62,6 @@ impl Stage {
     }
 }
 
-/// Row `i` of a column that has a value in every row of its table.
 /// A table as CSV text: a header line, RFC 4180 quoting, missing values
 /// empty.
 pub fn csv_text(mut table: DataFrame) -> PolarsResult<String> {
@@ -71,6 +70,7 @@ pub fn csv_text(mut table: DataFrame) -> PolarsResult<String> {
     Ok(String::from_utf8(out).expect("polars writes UTF-8 CSV"))
 }
 
+/// Row `i` of a column that has a value in every row of its table.
 pub fn required<T: PolarsDataType>(
     column: &ChunkedArray<T>,
     i: usize,

@@ -204,9 +204,6 @@ pub struct ReplanSolverStats {
     /// one cluster, and a voxel inspected from every viewpoint of another's
     /// cluster needs none (serving that one serves it).
     pub clusters: usize,
-    /// Gap voxels the tour serves.
-    #[serde(default)]
-    pub gap_voxels: usize,
     /// Solves: the first with straight-line costs, then a repair of the
     /// last tour after each lazy collision check that re-costed a leg.
     pub rounds: usize,

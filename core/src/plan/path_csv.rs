@@ -33,10 +33,10 @@ pub fn parse(text: &str, yaw: YawUnit) -> Result<Vec<PathPoint>, String> {
             extra = Extra::of(&record);
             continue;
         }
-        let mut p = point(&record, line, columns, yaw)?;
         if extra.point.is_some_and(|k| &record[k] != "waypoint") {
             continue;
         }
+        let mut p = point(&record, line, columns, yaw)?;
         if let Some(k) = extra.gimbal_pitch {
             let pitch = number(&record[k], line, k, "GimbalPitch, degrees")?;
             p.gimbal_pitch = Some(-pitch.to_radians());

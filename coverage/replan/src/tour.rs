@@ -83,7 +83,6 @@ pub fn plan_tour(
     let mut stats = ReplanSolverStats {
         vertices: n,
         clusters: essential.len(),
-        gap_voxels: stops.clusters.len(),
         rounds: 0,
         legs_checked: 0,
         legs_recosted: 0,

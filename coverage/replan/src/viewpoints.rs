@@ -220,17 +220,13 @@ mod tests {
                 .max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)));
             match best {
                 Some((n, k)) if n > 0 => {
-                    close(&candidates[k], &mut open);
+                    for g in &candidates[k].inspects {
+                        open[*g] = false;
+                    }
                     chosen.push(k);
                 }
                 _ => return chosen,
             }
-        }
-    }
-
-    fn close(c: &Candidate, open: &mut [bool]) {
-        for g in &c.inspects {
-            open[*g] = false;
         }
     }
 
