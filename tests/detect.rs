@@ -246,12 +246,9 @@ fn tiles_find_cracks_that_a_shrunk_frame_loses() {
 /// least 0.9 of the crack views, precision at least 0.8 of the boxes.
 fn reference_detector_meets_recall_and_precision(scene: &str) {
     let dir = tempfile::tempdir().unwrap();
-    let baked = models().join("crack-baked.onnx");
-    let sim = simulate_into(dir.path(), scene, &["--scene", scene, "--seed", "1"]);
-    let run = dir.path().join(format!("{scene}-run"));
-    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
-    let out = detect(&run, &["--model", baked.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", stderr(&out));
+    let sim_args = ["--scene", scene, "--seed", "1"];
+    let sim = simulate_into(dir.path(), scene, &sim_args);
+    let run = detected_into(dir.path(), &format!("{scene}-run"), &sim_args);
     let s = score(&read_json(&sim.join("truth.json")), &detections(&run));
     eprintln!(
         "{scene}: recall {:.3} ({} of {} views), precision {:.3} ({} of {} boxes)",

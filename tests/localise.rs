@@ -13,20 +13,7 @@ use serde_json::Value;
 /// Simulate, ingest and detect; returns (sim dir, run dir).
 fn detected_flight(dir: &Path, name: &str, sim_args: &[&str]) -> (PathBuf, PathBuf) {
     let sim = simulate_into(dir, name, sim_args);
-    let run = dir.join(format!("{name}-run"));
-    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
-    let model = root().join("detect/models/crack-baked.onnx");
-    let out = postflight(
-        &[
-            "detect",
-            "--run",
-            run.to_str().unwrap(),
-            "--model",
-            model.to_str().unwrap(),
-        ],
-        dir,
-    );
-    assert!(out.status.success(), "{}", stderr(&out));
+    let run = detected_into(dir, &format!("{name}-run"), sim_args);
     (sim, run)
 }
 

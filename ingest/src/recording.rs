@@ -13,6 +13,7 @@ use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use mcap::records::op;
 
@@ -91,9 +92,18 @@ pub struct Recording {
     chunk_cache: Mutex<Option<(u64, Vec<u8>)>>,
     /// How the topics later stages read again decode ([`Recording::reopen`]).
     pub(crate) wires: HashMap<String, crate::ros::Wire>,
+    /// The map's pages below this offset were handed back
+    /// ([`Recording::release_before`]).
+    released: AtomicUsize,
 }
 
 const RECORD_PREFIX: usize = 9; // opcode u8 + length u64
+
+/// Readers going front to back hand back the pages they have left this
+/// far behind them...
+const RELEASE_LAG: usize = 64 << 20;
+/// ...this much at a time.
+const RELEASE_STEP: usize = 32 << 20;
 
 impl Recording {
     /// Open and map `path`, checking it is an MCAP file or a ROS 1 bag.
@@ -140,6 +150,7 @@ impl Recording {
             container,
             chunk_cache: Mutex::new(None),
             wires: HashMap::new(),
+            released: AtomicUsize::new(0),
         })
     }
 
@@ -158,11 +169,51 @@ impl Recording {
 
     /// Walk the whole recording once, calling `visit` for every channel and
     /// message in file order. Damage is recorded in the report, never fatal.
-    pub fn scan(&self, visit: impl FnMut(ScanEvent<'_>)) -> ScanReport {
+    pub fn scan(&self, mut visit: impl FnMut(ScanEvent<'_>)) -> ScanReport {
+        let visit = |event: ScanEvent<'_>| {
+            if let ScanEvent::Progress { bytes } = event {
+                self.release_before(bytes as usize);
+            }
+            visit(event)
+        };
         match self.container {
             Container::Mcap => scan_mcap(&self.map, visit),
             Container::Bag => crate::bag::scan(&self.map, visit),
         }
+    }
+
+    /// Hands back the map's pages more than [`RELEASE_LAG`] below `offset`,
+    /// where a reader going front to back has got to. The kernel keeps them
+    /// in its page cache, but they stop counting as this process's memory:
+    /// a flight of many gigabytes is read in bounded resident memory. A
+    /// page read again is simply mapped again.
+    fn release_before(&self, offset: usize) {
+        let to = offset.saturating_sub(RELEASE_LAG);
+        let from = self.released.load(Ordering::Relaxed);
+        if to < from {
+            // Going back (another pass): the pages from here on may be mapped
+            // again, and are handed back again as the reader passes them.
+            let _ = self
+                .released
+                .compare_exchange(from, to, Ordering::Relaxed, Ordering::Relaxed);
+            return;
+        }
+        if to < from + RELEASE_STEP
+            || self
+                .released
+                .compare_exchange(from, to, Ordering::Relaxed, Ordering::Relaxed)
+                .is_err()
+        {
+            return;
+        }
+        // SAFETY: the map is a read-only file mapping, so MADV_DONTNEED drops
+        // only this process's view of the pages; reading them again reads the
+        // file's same bytes. Nothing is ever written through the map.
+        #[cfg(unix)]
+        let _ = unsafe {
+            self.map
+                .unchecked_advise_range(memmap2::UncheckedAdvice::DontNeed, from, to - from)
+        };
     }
 
     /// Fetch the payload of one message found by an earlier scan.
@@ -173,6 +224,7 @@ impl Recording {
             why: why.to_string(),
         };
         let buf: &[u8] = &self.map;
+        self.release_before(location.chunk_offset.unwrap_or(location.record_offset) as usize);
         if self.container == Container::Bag {
             let mut cache = self.chunk_cache.lock().unwrap_or_else(|e| e.into_inner());
             return crate::bag::read_message(buf, location, &mut cache).map_err(|e| bad(&e));
@@ -655,5 +707,94 @@ impl ChannelLinks {
             _ => {}
         }
         Ok(())
+    }
+}
+
+#[cfg(all(test, target_os = "linux"))]
+mod tests {
+    use super::*;
+
+    /// This process's resident file-backed memory, bytes (/proc).
+    fn resident_file_bytes() -> u64 {
+        let status = std::fs::read_to_string("/proc/self/status").unwrap();
+        let line = status.lines().find(|l| l.starts_with("RssFile:")).unwrap();
+        let kb: u64 = line.split_whitespace().nth(1).unwrap().parse().unwrap();
+        kb * 1024
+    }
+
+    /// Message `i`'s payload: `MESSAGE` bytes of its own.
+    fn payload(i: usize) -> Vec<u8> {
+        (0..MESSAGE).map(|k| (k / 4096 + i) as u8).collect()
+    }
+
+    const MESSAGE: usize = 4 << 20;
+    const MESSAGES: usize = 64;
+
+    #[test]
+    fn a_long_recording_read_front_to_back_stays_within_bounded_resident_memory() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("long.mcap");
+        let file = std::io::BufWriter::new(File::create(&path).unwrap());
+        let mut out = mcap::WriteOptions::new()
+            .compression(None)
+            .chunk_size(Some(MESSAGE as u64))
+            // Checksums of 256 MiB would take this debug build a while.
+            .calculate_chunk_crcs(false)
+            .calculate_data_section_crc(false)
+            .create(file)
+            .unwrap();
+        let channel = out
+            .add_channel(0, "/blob", "application/octet-stream", &Default::default())
+            .unwrap();
+        for i in 0..MESSAGES {
+            let header = mcap::records::MessageHeader {
+                channel_id: channel,
+                sequence: i as u32,
+                log_time: i as u64,
+                publish_time: i as u64,
+            };
+            out.write_to_known_channel(&header, &payload(i)).unwrap();
+        }
+        out.finish().unwrap();
+        drop(out);
+        let size = (MESSAGE * MESSAGES) as u64;
+        // Without handing pages back, each pass would map the whole file.
+        let bound = (RELEASE_LAG + RELEASE_STEP + 2 * MESSAGE) as u64;
+        assert!(bound + (64 << 20) < size);
+
+        let recording = Recording::open(&path).unwrap();
+        let base = resident_file_bytes();
+        let mut peak = base;
+        let mut locations = Vec::new();
+        recording.scan(|event| {
+            if let ScanEvent::Message(m) = event {
+                locations.push(m.location);
+            }
+            peak = peak.max(resident_file_bytes());
+        });
+        assert_eq!(locations.len(), MESSAGES);
+        assert!(
+            peak - base < bound,
+            "the scan held {} MiB of {}",
+            (peak - base) >> 20,
+            size >> 20
+        );
+
+        // A second pass, reading every message: the same bound, the same bytes.
+        let base = resident_file_bytes();
+        let mut peak = base;
+        for (i, location) in locations.iter().enumerate() {
+            assert!(
+                recording.read_message(*location).unwrap() == payload(i),
+                "message {i}"
+            );
+            peak = peak.max(resident_file_bytes());
+        }
+        assert!(
+            peak.saturating_sub(base) < bound,
+            "reading held {} MiB of {}",
+            (peak - base) >> 20,
+            size >> 20
+        );
     }
 }

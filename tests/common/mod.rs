@@ -2,6 +2,7 @@
 //! independent MCAP writer), fixture generation and running the binary.
 #![allow(dead_code)]
 
+use std::hash::{DefaultHasher, Hash, Hasher};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -167,37 +168,109 @@ pub fn simulate_fresh(out: &Path, args: &[&str]) {
     assert!(result.status.success(), "{}", stderr(&result));
 }
 
-/// The flight `postflight simulate` makes with `args`, made once per build of
-/// postflight (the simulator is deterministic) and shared by every test and
-/// test binary that flies it. Tests get copies: some damage their flight.
+/// The flight `postflight simulate` makes with `args`, made once per
+/// version of the simulator's sources (it is deterministic) and shared by
+/// every test and test binary that flies it. Tests get copies: some damage
+/// their flight.
 fn simulated(args: &[&str]) -> PathBuf {
-    use std::hash::{Hash, Hasher};
+    made_once("simulated", simulator_sources(), &args, |out| {
+        simulate_fresh(out, args)
+    })
+}
+
+/// A hash of every file the simulator is built from (the crates of the
+/// flight model and the simulator, the binary's commands, the locked
+/// dependencies): a flight made by any build of the same sources is the
+/// same flight, so a fresh clone reuses what an earlier clone simulated
+/// into the same target directory.
+fn simulator_sources() -> u64 {
+    static HASH: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
+    *HASH.get_or_init(|| {
+        let mut files = Vec::new();
+        for dir in ["core", "ingest", "src"] {
+            files_under(&root().join(dir), &mut files);
+        }
+        files.extend(["Cargo.toml", "Cargo.lock"].map(|f| root().join(f)));
+        files.sort();
+        let mut h = DefaultHasher::new();
+        for f in &files {
+            f.strip_prefix(root()).unwrap().hash(&mut h);
+            std::fs::read(f).unwrap().hash(&mut h);
+        }
+        h.finish()
+    })
+}
+
+fn files_under(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).unwrap().flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            files_under(&path, out);
+        } else {
+            out.push(path);
+        }
+    }
+}
+
+/// The reference detector's run (`ingest`, then `detect` with
+/// crack-baked.onnx) over the flight `postflight simulate` makes with
+/// `sim_args`, in `dir/name` (a copy from the fixture cache, like
+/// [`simulate_into`]): detection is the slowest stage, and the detect,
+/// localise and other truth tests fly the same default flights.
+pub fn detected_into(dir: &Path, name: &str, sim_args: &[&str]) -> PathBuf {
+    let model = root().join("detect/models/crack-baked.onnx");
+    let meta = std::fs::metadata(&model).unwrap();
+    let key = (sim_args, meta.len(), meta.modified().unwrap());
+    let cached = made_once("detected", this_build(), &key, |out| {
+        ingest_ok(&simulated(sim_args).join("flight.mcap"), out, &[]);
+        let run = out.to_str().unwrap();
+        let model = model.to_str().unwrap();
+        let result = postflight(
+            &["detect", "--run", run, "--model", model],
+            out.parent().unwrap(),
+        );
+        assert!(result.status.success(), "{}", stderr(&result));
+    });
+    let out = dir.join(name);
+    copy_dir(&cached, &out);
+    out
+}
+
+/// A hash of this build of postflight (the binary's size and time).
+fn this_build() -> u64 {
     let exe = std::fs::metadata(env!("CARGO_BIN_EXE_postflight")).unwrap();
-    let mut build = std::hash::DefaultHasher::new();
-    (exe.len(), exe.modified().unwrap()).hash(&mut build);
-    let mut flight = std::hash::DefaultHasher::new();
-    args.hash(&mut flight);
-    let (build, flight) = (format!("{:016x}", build.finish()), flight.finish());
-    let cache = Path::new(env!("CARGO_TARGET_TMPDIR")).join("simulated");
-    let done = cache.join(format!("{build}-{flight:016x}"));
+    let mut h = DefaultHasher::new();
+    (exe.len(), exe.modified().unwrap()).hash(&mut h);
+    h.finish()
+}
+
+/// The directory `make` fills for `key`, made once per `generation` (a
+/// hash of what makes it: a build, or the sources of one) under
+/// `CARGO_TARGET_TMPDIR/kind` and shared by every test and test binary
+/// that asks for it; what other generations made is removed.
+fn made_once<K: Hash>(kind: &str, generation: u64, key: &K, make: impl FnOnce(&Path)) -> PathBuf {
+    let mut made = DefaultHasher::new();
+    key.hash(&mut made);
+    let (generation, made) = (format!("{generation:016x}"), made.finish());
+    let cache = Path::new(env!("CARGO_TARGET_TMPDIR")).join(kind);
+    let done = cache.join(format!("{generation}-{made:016x}"));
     if done.is_dir() {
         return done;
     }
     std::fs::create_dir_all(&cache).unwrap();
-    // Flights of earlier builds are stale.
     for entry in std::fs::read_dir(&cache).unwrap().flatten() {
-        if !entry.file_name().to_string_lossy().starts_with(&build) {
+        if !entry.file_name().to_string_lossy().starts_with(&generation) {
             let _ = std::fs::remove_dir_all(entry.path());
         }
     }
     let making = tempfile::Builder::new()
-        .prefix(&format!("{build}-making-"))
+        .prefix(&format!("{generation}-making-"))
         .tempdir_in(&cache)
         .unwrap()
         .keep();
-    simulate_fresh(&making.join("flight"), args);
+    make(&making.join("made"));
     // Another test may have made it meanwhile: either copy will do.
-    if std::fs::rename(making.join("flight"), &done).is_err() {
+    if std::fs::rename(making.join("made"), &done).is_err() {
         assert!(done.is_dir(), "{} was not made", done.display());
     }
     let _ = std::fs::remove_dir_all(&making);
