@@ -790,6 +790,11 @@ mod tests {
             );
             peak = peak.max(resident_file_bytes());
         }
+        eprintln!(
+            "reading {} MiB held at most {} MiB of it",
+            size >> 20,
+            peak.saturating_sub(base) >> 20
+        );
         assert!(
             peak.saturating_sub(base) < bound,
             "reading held {} MiB of {}",
