@@ -3,7 +3,9 @@
 //! the legs of the tour are flown on collision-free paths and, while a
 //! leg's path is more than [`DETOUR_LIMIT`] times its cost, those costs are
 //! replaced by the paths' lengths and the tour is repaired: a local search
-//! from the last tour, since a changed leg rarely needs a full solve.
+//! from the last tour, since a changed leg rarely needs a full solve. Every
+//! [`RESOLVE_EVERY`] rounds still re-costing, a full solve with every cost
+//! learnt so far breaks repairs that trade one detour for another.
 
 use std::collections::{HashMap, HashSet};
 use std::time::Duration;
@@ -18,6 +20,9 @@ use crate::free_space::{FreeSpace, length};
 pub const DETOUR_LIMIT: f64 = 1.25;
 /// Solves before the lazy collision check gives up re-solving.
 const MAX_ROUNDS: usize = 20;
+/// Repairs that have not settled the tour after this many rounds give way
+/// to a full solve with every cost learnt so far.
+const RESOLVE_EVERY: usize = 5;
 /// The first solve's time limit is this...
 const SOLVE_BASE: Duration = Duration::from_secs(1);
 /// ...and this much more per cluster, within the configured limit: the
@@ -106,8 +111,8 @@ pub fn plan_tour(
         let inst = Instance::new("replan", n, cost, sets.clone())
             .expect("clusters are disjoint and not empty");
         let solution = match &last {
-            None => solve(&inst, &scaled_limit(options, essential.len())),
-            Some(tour) => repair(&inst, tour),
+            Some(tour) if !stats.rounds.is_multiple_of(RESOLVE_EVERY) => repair(&inst, tour),
+            _ => solve(&inst, &scaled_limit(options, essential.len())),
         };
         if stats.rounds == 0 {
             stats.first_solve = solution.stats;
