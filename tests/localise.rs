@@ -10,11 +10,11 @@ use std::path::{Path, PathBuf};
 use common::*;
 use serde_json::Value;
 
-/// Simulate, ingest and detect; returns (sim dir, run dir).
+/// Simulate, ingest and detect; returns (sim dir, run dir). The sim dir is
+/// the fixture cache's, read only.
 fn detected_flight(dir: &Path, name: &str, sim_args: &[&str]) -> (PathBuf, PathBuf) {
-    let sim = simulate_into(dir, name, sim_args);
     let run = detected_into(dir, &format!("{name}-run"), sim_args);
-    (sim, run)
+    (simulated(sim_args), run)
 }
 
 fn localise(run: &Path, args: &[&str]) -> std::process::Output {

@@ -170,9 +170,9 @@ pub fn simulate_fresh(out: &Path, args: &[&str]) {
 
 /// The flight `postflight simulate` makes with `args`, made once per
 /// version of the simulator's sources (it is deterministic) and shared by
-/// every test and test binary that flies it. Tests get copies: some damage
-/// their flight.
-fn simulated(args: &[&str]) -> PathBuf {
+/// every test and test binary that flies it: read only. A test that changes
+/// its flight takes a copy ([`simulate_into`]).
+pub fn simulated(args: &[&str]) -> PathBuf {
     made_once("simulated", simulator_sources(), &args, |out| {
         simulate_fresh(out, args)
     })

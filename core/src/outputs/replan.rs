@@ -204,8 +204,9 @@ pub struct ReplanSolverStats {
     /// one cluster, and a voxel inspected from every viewpoint of another's
     /// cluster needs none (serving that one serves it).
     pub clusters: usize,
-    /// Solves: the first with straight-line costs, then a repair of the
-    /// last tour after each lazy collision check that re-costed a leg.
+    /// Solves: the first with straight-line costs, then, after each lazy
+    /// collision check that re-costed a leg, a repair of the last tour
+    /// (every fifth round a full solve with the costs learnt so far).
     pub rounds: usize,
     /// Legs given a collision-free path.
     pub legs_checked: usize,
