@@ -738,8 +738,12 @@ mod tests {
             self.peak = self.peak.max(Self::now());
         }
 
-        fn held_mib(&self) -> u64 {
-            (self.peak - self.base) >> 20
+        /// Says how much of `size_mib` the pass `what` held, which must be
+        /// under `bound_mib`.
+        fn check(&self, what: &str, size_mib: u64, bound_mib: u64) {
+            let held = (self.peak - self.base) >> 20;
+            eprintln!("{what} {size_mib} MiB held at most {held} MiB of it");
+            assert!(held < bound_mib, "{what} held {held} MiB");
         }
     }
 
@@ -777,9 +781,9 @@ mod tests {
         }
         out.finish().unwrap();
         drop(out);
-        let size_mib = (MESSAGE * MESSAGES) >> 20;
+        let size_mib = ((MESSAGE * MESSAGES) >> 20) as u64;
         let bound_mib = ((RELEASE_LAG + RELEASE_STEP + 2 * MESSAGE) >> 20) as u64;
-        assert!(bound_mib + 64 < size_mib as u64);
+        assert!(bound_mib + 64 < size_mib);
 
         let recording = Recording::open(&path).unwrap();
         let mut resident = Resident::start();
@@ -792,15 +796,7 @@ mod tests {
         });
         assert_eq!(report.corrupt_chunks, 0);
         assert_eq!(locations.len(), MESSAGES);
-        eprintln!(
-            "scanning {size_mib} MiB held at most {} MiB of it",
-            resident.held_mib()
-        );
-        assert!(
-            resident.held_mib() < bound_mib,
-            "the scan held {} MiB",
-            resident.held_mib()
-        );
+        resident.check("scanning", size_mib, bound_mib);
 
         // A second pass, reading every message: the same bound, the same bytes.
         let mut resident = Resident::start();
@@ -811,14 +807,6 @@ mod tests {
             );
             resident.sample();
         }
-        eprintln!(
-            "reading {size_mib} MiB held at most {} MiB of it",
-            resident.held_mib()
-        );
-        assert!(
-            resident.held_mib() < bound_mib,
-            "reading held {} MiB",
-            resident.held_mib()
-        );
+        resident.check("reading", size_mib, bound_mib);
     }
 }
