@@ -4,6 +4,7 @@
 //! Exit codes: 0 success (warnings are printed, not fatal); 1 the input or a
 //! stage failed (the message says what and how to fix it); 2 bad usage.
 
+mod batch;
 mod config;
 mod demo;
 mod pipeline;
@@ -69,6 +70,20 @@ enum Command {
     /// The human review queue: inspectors accept or reject each defect candidate.
     #[command(subcommand)]
     Review(review::ReviewCommand),
+    /// Many flights from a manifest: run them here or on Slurm, follow
+    /// them, or write a Kubernetes Job for them.
+    #[command(subcommand)]
+    Batch(batch::BatchCommand),
+    /// Write a fleet directory's tables (fleet/defects.parquet,
+    /// coverage.parquet, flights.parquet; Hive-partitioned by structure) and
+    /// fleet/index.html linking every flight's report.
+    Fleet(FleetDirArgs),
+}
+
+#[derive(Args)]
+struct FleetDirArgs {
+    /// The fleet directory (`postflight batch run --out`).
+    fleet_dir: PathBuf,
 }
 
 #[derive(Args)]
@@ -477,15 +492,22 @@ fn main() -> ExitCode {
 
 /// Word settings in errors as this command line and its config file gave them.
 fn word_settings(cli: &Cli, matches: &clap::ArgMatches) {
-    let sources = wording::Sources::of(matches);
+    let mut sources = wording::Sources::of(matches);
+    if let Command::Batch(_) = &cli.command {
+        sources = sources.with_config_source("a config file (the manifest's `config` column)");
+    }
     let config = match &cli.command {
-        Command::Run(args) => args.config.as_deref(),
-        Command::Coverage(args) => args.config.as_deref(),
+        Command::Run(args) => args.config.clone(),
+        Command::Coverage(args) => args.config.clone(),
+        Command::Batch(command) => batch::task_config(command),
         _ => None,
     };
     // An unreadable config file is reported when the command reads it.
-    let sources = match config.map(|path| (path, config::RunConfig::load(path))) {
-        Some((path, Ok(config))) => sources.with_config(path, &config),
+    let sources = match config.map(|path| {
+        let config = config::RunConfig::load(&path);
+        (path, config)
+    }) {
+        Some((path, Ok(config))) => sources.with_config(&path, &config),
         _ => sources,
     };
     sources.install();
@@ -521,6 +543,8 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
         Command::Review(command) => review::run(command, cli.quiet),
         Command::Run(args) => run_pipeline(args, cli.quiet),
         Command::Demo(args) => demo::demo(&args.out, args.force, cli.quiet),
+        Command::Batch(command) => batch::run(command, cli.quiet),
+        Command::Fleet(args) => batch::fleet_tables(&args.fleet_dir, cli.quiet),
     }
 }
 

@@ -35,8 +35,8 @@ pub struct RunInputs {
     pub force: Option<Stage>,
 }
 
-/// Run every stage that is not up to date.
-pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
+/// Run every stage that is not up to date; the stages that ran.
+pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<Vec<Stage>> {
     let started = Instant::now();
     check_inputs(inputs)?;
     let dir = RunDir::create(&inputs.out)?;
@@ -49,6 +49,7 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
         .flat_map(|r| r.inputs.values().cloned())
         .collect();
     let mut previous = String::new();
+    let mut ran = Vec::new();
     for stage in Stage::ALL {
         let Some(stage_inputs) = stage_inputs(stage, inputs) else {
             forget_without_targets(stage, &mut log, &dir, quiet)?;
@@ -74,13 +75,14 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<()> {
                 finished: now_rfc3339(),
             });
             log.write(&dir)?;
+            ran.push(stage);
         }
         previous = fingerprint;
     }
     if !quiet {
         println!("{}", processed(&dir, started.elapsed().as_secs_f64())?);
     }
-    Ok(())
+    Ok(ran)
 }
 
 /// How long the run took against how long the flight flew: "processed

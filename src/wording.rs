@@ -75,6 +75,9 @@ pub struct Sources {
     given: BTreeSet<String>,
     /// The config file, with the `(table, key)`s it sets.
     config: Option<(PathBuf, BTreeSet<(String, String)>)>,
+    /// Where a config file would be given, when none is: `--config` unless
+    /// the command takes it from elsewhere.
+    config_source: Option<&'static str>,
 }
 
 impl Sources {
@@ -101,7 +104,15 @@ impl Sources {
             flags: flags_of(&command),
             given,
             config: None,
+            config_source: None,
         }
+    }
+
+    /// Where this command takes its config file from (`the manifest's
+    /// `config` column`), for settings no config file was given for.
+    pub fn with_config_source(mut self, source: &'static str) -> Self {
+        self.config_source = Some(source);
+        self
     }
 
     /// The config file in use, and what it sets.
@@ -130,7 +141,10 @@ impl Sources {
             (Some(flag), None) => Some(flag.to_string()),
             (None, None) => match &self.config {
                 Some((path, _)) => Some(format!("[{table}] {name} in {}", path.display())),
-                None => Some(format!("[{table}] {name} of a --config file")),
+                None => Some(format!(
+                    "[{table}] {name} of {}",
+                    self.config_source.unwrap_or("a --config file")
+                )),
             },
         }
     }

@@ -18,7 +18,8 @@ use crate::results::{RunResults, VoxelStatus, review_priority};
 use crate::svg::bar_chart;
 use crate::views::{HEIGHT_COLOURS, Marker, Overlay, Side, colour, view, width_m};
 
-const STYLE: &str = r#"
+/// The report's styles (the fleet's index page uses them too).
+pub const STYLE: &str = r#"
 body{font:14px/1.45 system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;color:#1f2937;margin:0 auto;max-width:1060px;padding:24px}
 h1{font-size:24px;margin:0 0 4px}h2{font-size:19px;margin:32px 0 10px;border-bottom:2px solid #e5e7eb;padding-bottom:4px}
 .sub{color:#6b7280}.flag{color:#b45309;font-weight:600}.warn{background:#fef3c7;border-left:4px solid #f59e0b;padding:8px 12px;margin:10px 0}
