@@ -422,6 +422,27 @@ struct SimulateArgs {
     /// Yaw noise of the recorded poses, degrees (1 sigma, per pose).
     #[arg(long, default_value_t = sim::flight::YAW_NOISE.to_degrees(), value_name = "DEGREES")]
     yaw_noise: f64,
+    /// Fly an earlier simulated flight's structure and cracks again (its
+    /// directory), changed by --grow and --new and recorded in another SLAM
+    /// frame (--frame-offset); truth.json lists every change.
+    #[arg(long, value_name = "FLIGHT_DIR")]
+    repeat_of: Option<PathBuf>,
+    /// With --repeat-of: the share of cracks that grow (each by a quarter
+    /// to three quarters of its length).
+    #[arg(
+        long,
+        default_value_t = 0.2,
+        value_name = "SHARE",
+        requires = "repeat_of"
+    )]
+    grow: f64,
+    /// With --repeat-of: new cracks.
+    #[arg(long, default_value_t = 5, value_name = "N", requires = "repeat_of")]
+    new: usize,
+    /// With --repeat-of: this flight's SLAM frame against the earlier one's:
+    /// a shift (metres) and a yaw (degrees).
+    #[arg(long, default_value = "0,0,0,0", value_name = "X,Y,Z,YAW_DEG", value_parser = sim::repeat::FrameOffset::parse, allow_hyphen_values = true, requires = "repeat_of")]
+    frame_offset: sim::repeat::FrameOffset,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -586,6 +607,12 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
             ImageFormatArg::Jpeg => sim::ImageFormat::Jpeg,
             ImageFormatArg::Png => sim::ImageFormat::Png,
         },
+        repeat: args.repeat_of.as_ref().map(|of| sim::repeat::Repeat {
+            of: of.clone(),
+            grow: args.grow,
+            new: args.new,
+            frame_offset: args.frame_offset,
+        }),
         ..sim::SimOptions::new(args.out.clone())
     };
     stages::simulate(&options, quiet)

@@ -327,3 +327,111 @@ fn a_mesh_from_an_obj_file_flies_end_to_end() {
         "{err}"
     );
 }
+
+#[test]
+fn a_repeat_flight_keeps_the_cracks_grows_some_adds_new_ones_and_records_in_its_own_frame() {
+    let earlier = simulated(&["--frames", "40"]);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("repeat");
+    simulate_fresh(
+        &out,
+        &[
+            "--frames",
+            "40",
+            "--seed",
+            "2",
+            "--repeat-of",
+            earlier.to_str().unwrap(),
+            "--grow",
+            "0.3",
+            "--new",
+            "4",
+            "--frame-offset",
+            "0.5,-0.2,0.1,10",
+        ],
+    );
+    let (before, after) = (
+        read_json(&earlier.join("truth.json")),
+        read_json(&out.join("truth.json")),
+    );
+    let repeat = &after["repeat"];
+    // The earlier frame to this one: 10 degrees about z, then the shift.
+    let to_this = |p: &Value| {
+        let r = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 10f64.to_radians());
+        r * Point3::from(vec3(p)) + Vector3::new(0.5, -0.2, 0.1)
+    };
+    let before_cracks = before["cracks"].as_array().unwrap();
+    let after_cracks = after["cracks"].as_array().unwrap();
+    assert_eq!(after_cracks.len(), before_cracks.len() + 4);
+    let changes = repeat["changes"].as_array().unwrap();
+    let count = |c: &str| changes.iter().filter(|x| x["change"] == c).count();
+    assert_eq!(count("new"), 4);
+    assert!(
+        count("grown") >= 5,
+        "about 30% of {} cracks grow",
+        before_cracks.len()
+    );
+    for (was, change) in before_cracks.iter().zip(changes) {
+        let now = &after_cracks[was["id"].as_u64().unwrap() as usize];
+        let was_line: Vec<Point3<f64>> = was["lines"][0]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(to_this)
+            .collect();
+        let now_line: Vec<Point3<f64>> = now["lines"][0]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| Point3::from(vec3(p)))
+            .collect();
+        // Every earlier point is still on the crack, where the frame puts it.
+        for p in &was_line {
+            let nearest = now_line
+                .iter()
+                .map(|q| (q - p).norm())
+                .fold(f64::INFINITY, f64::min);
+            assert!(nearest < 1e-9, "crack {} moved by {nearest} m", was["id"]);
+        }
+        let (length_before, length) = (f(&was["length_m"]), f(&now["length_m"]));
+        assert_close(
+            f(&change["length_before_m"]),
+            length_before,
+            1e-9,
+            "length before",
+        );
+        assert_close(f(&change["length_m"]), length, 1e-9, "length now");
+        match change["change"].as_str().unwrap() {
+            "grown" => assert!(
+                length > 1.1 * length_before,
+                "crack {} grew {length_before} -> {length}",
+                was["id"]
+            ),
+            "unchanged" => assert!(length < 1.1 * length_before),
+            other => panic!("an earlier crack cannot be {other}"),
+        }
+    }
+    // The map is recorded in the new frame too: the earlier map's points
+    // moved by the offset lie on this flight's map.
+    use postflight_core::map::{PointCloud, SlamMap};
+    let cloud = |dir: &std::path::Path| PointCloud::load(&dir.join("map.ply")).unwrap();
+    let new_map = SlamMap::new(cloud(&out), 0.5).unwrap();
+    // (Each flight samples its map afresh: compare where they are dense.)
+    let mut gaps: Vec<f64> = cloud(&earlier)
+        .points
+        .iter()
+        .step_by(97)
+        .map(|p| {
+            new_map
+                .nearest(&to_this(&serde_json::json!([p.x, p.y, p.z])))
+                .distance
+        })
+        .collect();
+    gaps.sort_by(f64::total_cmp);
+    let (median, p90) = (gaps[gaps.len() / 2], gaps[gaps.len() * 9 / 10]);
+    eprintln!("earlier map to the repeat's: median {median:.3} m, 90th percentile {p90:.3} m");
+    assert!(
+        median < 0.1 && p90 < 0.3,
+        "median {median} m, 90th percentile {p90} m"
+    );
+}

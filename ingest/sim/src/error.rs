@@ -12,6 +12,9 @@ pub enum SimError {
     /// parser's, with the line where it applies.
     #[error("mesh {}: {reason}", path.display())]
     Mesh { path: PathBuf, reason: String },
+    /// `--repeat-of` names no flight this one can repeat.
+    #[error("--repeat-of {}: {why}", path.display())]
+    Repeat { path: PathBuf, why: String },
     #[error("the structure is too small to plan a flight around")]
     StructureTooSmall,
     #[error("cannot write {}: {cause}", path.display())]

@@ -19,6 +19,7 @@ mod obj;
 pub mod planner;
 pub mod record;
 pub mod render;
+pub mod repeat;
 pub mod rng;
 pub mod scene;
 pub mod truth;
@@ -63,6 +64,8 @@ pub struct SimOptions {
     pub image_format: ImageFormat,
     /// Noise of the recorded SLAM poses.
     pub pose_noise: truth::PoseNoise,
+    /// Fly an earlier flight's structure and cracks again, changed.
+    pub repeat: Option<repeat::Repeat>,
 }
 
 /// Compression of recorded camera frames (`sensor_msgs/CompressedImage` format).
@@ -96,6 +99,7 @@ impl SimOptions {
                 position_m: flight::POSITION_NOISE,
                 yaw_rad: flight::YAW_NOISE,
             },
+            repeat: None,
         }
     }
 }
@@ -186,6 +190,11 @@ pub fn simulate(
             .collect(),
         coverage: true_coverage(&world, &recorded.views),
         frames: recorded.frames,
+        repeat: options
+            .repeat
+            .as_ref()
+            .zip(world.changes.clone())
+            .map(|(r, changes)| repeat::truth(r, changes)),
     };
     write_json(&options.out.join("plan.json"), &world.plan)?;
     write_json(&options.out.join("truth.json"), &truth)?;
@@ -219,6 +228,8 @@ fn check(options: &SimOptions) -> Result<(), SimError> {
 struct World {
     scene: Scene,
     cracks: Cracks,
+    /// A repeat flight's changes since the earlier one.
+    changes: Option<Vec<repeat::CrackChange>>,
     plan: postflight_core::InspectionPlan,
     flight: Flight,
     k: Intrinsics,
@@ -238,7 +249,21 @@ impl World {
             })?,
         };
         let seed = options.seed;
-        let cracks = Cracks::generate(&scene, options.cracks, &mut Rng::stream(seed, "cracks"));
+        let (scene, cracks, changes) = match &options.repeat {
+            None => {
+                let cracks =
+                    Cracks::generate(&scene, options.cracks, &mut Rng::stream(seed, "cracks"));
+                (scene, cracks, None)
+            }
+            Some(r) => {
+                let earlier = repeat::Earlier::read(r, &scene.name)?;
+                let (cracks, changes) = repeat::change(&scene, earlier.cracks(&scene), r, seed);
+                // The world as this flight's SLAM frame records it.
+                let iso = r.frame_offset.isometry();
+                let cracks = Cracks(cracks.0.iter().map(|c| c.transformed(&iso)).collect());
+                (scene.transformed(&iso), cracks, Some(changes))
+            }
+        };
         let plan = planner::plan(
             &scene,
             postflight_core::map::DEFAULT_RESOLUTION,
@@ -253,6 +278,7 @@ impl World {
             rays: RayTable::new(&k),
             scene,
             cracks,
+            changes,
             plan,
             flight,
             k,

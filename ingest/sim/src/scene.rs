@@ -250,6 +250,17 @@ impl Scene {
         b.build(name)
     }
 
+    /// The scene in another frame: each point `p` at `iso * p`.
+    pub fn transformed(&self, iso: &nalgebra::Isometry3<f64>) -> Self {
+        Builder {
+            triangles: self.triangles.iter().map(|t| t.map(|p| iso * p)).collect(),
+            part_of: self.part_of.clone(),
+            parts: self.parts.clone(),
+        }
+        .build(&self.name)
+        .expect("a rigid motion of a valid mesh is valid")
+    }
+
     /// First hit of the ray `origin + t * dir` (unit `dir`) with `t <= max`.
     pub fn cast(&self, origin: &Point3<f64>, dir: &Vector3<f64>, max: f64) -> Option<Hit> {
         let ray = Ray::new(

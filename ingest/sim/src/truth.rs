@@ -177,6 +177,9 @@ pub struct Truth {
     pub frames: Vec<FrameTruth>,
     /// Per-voxel coverage under the plan's View model, flown and planned.
     pub coverage: crate::coverage::CoverageTruth,
+    /// A repeat flight's earlier flight, frame and changes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub repeat: Option<crate::repeat::RepeatTruth>,
 }
 
 /// White noise added to each recorded pose, 1 sigma.

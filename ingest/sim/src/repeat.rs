@@ -1,0 +1,201 @@
+//! Repeat inspections with known change: the structure and the cracks of an
+//! earlier simulated flight, some grown by known amounts and new ones added,
+//! flown again and recorded in another SLAM frame (a second flight's SLAM
+//! starts somewhere else). `truth.json` lists every change and the frame.
+
+use std::path::PathBuf;
+
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use postflight_core::serde_pose::PoseJson;
+use serde::{Deserialize, Serialize};
+
+use crate::crack::Cracks;
+use crate::error::SimError;
+use crate::rng::Rng;
+use crate::scene::Scene;
+
+/// A repeat of an earlier simulated flight.
+#[derive(Debug, Clone)]
+pub struct Repeat {
+    /// The earlier flight's directory (its `truth.json`).
+    pub of: PathBuf,
+    /// Share of the earlier cracks that grow (0 to 1).
+    pub grow: f64,
+    /// New cracks.
+    pub new: usize,
+    /// Where this flight's SLAM frame records what the earlier one recorded
+    /// at the origin.
+    pub frame_offset: FrameOffset,
+}
+
+/// A gravity-aligned frame change (as between two LIO-SAM sessions):
+/// `x,y,z` metres and a yaw about z in degrees.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FrameOffset {
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+    pub yaw_deg: f64,
+}
+
+impl FrameOffset {
+    /// `X,Y,Z,YAW_DEG`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        let v: Vec<f64> = s
+            .split(',')
+            .map(|x| x.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| format!("expected X,Y,Z,YAW_DEG (metres, degrees): {e}"))?;
+        match v[..] {
+            [x, y, z, yaw_deg] if v.iter().all(|c| c.is_finite()) => Ok(Self { x, y, z, yaw_deg }),
+            _ => Err("expected four finite numbers X,Y,Z,YAW_DEG (metres, degrees)".into()),
+        }
+    }
+
+    /// The earlier flight's frame to this one's: a point `p` recorded there
+    /// is recorded at `isometry() * p` here.
+    pub fn isometry(&self) -> Isometry3<f64> {
+        Isometry3::from_parts(
+            Translation3::new(self.x, self.y, self.z),
+            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), self.yaw_deg.to_radians()),
+        )
+    }
+}
+
+/// What the earlier flight's `truth.json` says about the world.
+#[derive(Debug, Deserialize)]
+pub(crate) struct Earlier {
+    pub scene: String,
+    pub seed: u64,
+    cracks: Vec<serde::de::IgnoredAny>,
+    #[serde(default)]
+    repeat: Option<serde::de::IgnoredAny>,
+}
+
+impl Earlier {
+    /// The earlier flight of `repeat`, checked to be an original flight of
+    /// the scene `scene`.
+    pub fn read(repeat: &Repeat, scene: &str) -> Result<Self, SimError> {
+        let path = repeat.of.join("truth.json");
+        let bad = |why: String| SimError::Repeat {
+            path: path.clone(),
+            why,
+        };
+        let text = std::fs::read_to_string(&path).map_err(|e| {
+            bad(format!(
+                "cannot read it ({e}); give the directory of a simulated flight"
+            ))
+        })?;
+        let earlier: Self = serde_json::from_str(&text)
+            .map_err(|e| bad(format!("not a simulator's truth.json ({e})")))?;
+        if earlier.repeat.is_some() {
+            return Err(bad("is itself a repeat; repeat the original flight".into()));
+        }
+        if earlier.scene != scene {
+            return Err(bad(format!(
+                "flew the structure '{}', not '{scene}'; give the same --scene or --mesh",
+                earlier.scene
+            )));
+        }
+        if !(0.0..=1.0).contains(&repeat.grow) {
+            return Err(bad(format!(
+                "--grow {} is not a share from 0 to 1",
+                repeat.grow
+            )));
+        }
+        Ok(earlier)
+    }
+
+    /// Its cracks, drawn again as it drew them.
+    pub fn cracks(&self, scene: &Scene) -> Cracks {
+        Cracks::generate(
+            scene,
+            self.cracks.len(),
+            &mut Rng::stream(self.seed, "cracks"),
+        )
+    }
+}
+
+/// How one crack changed since the earlier flight.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct CrackChange {
+    pub id: u32,
+    pub change: Change,
+    /// Its length in the earlier flight, metres (none for a new crack).
+    pub length_before_m: Option<f64>,
+    pub length_m: f64,
+}
+
+#[derive(Debug, Clone, Copy, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Change {
+    Unchanged,
+    Grown,
+    New,
+}
+
+/// `truth.json`'s account of a repeat flight.
+#[derive(Debug, Clone, Serialize)]
+pub struct RepeatTruth {
+    pub of: PathBuf,
+    pub frame_offset: FrameOffset,
+    /// The earlier flight's frame in this one's (`T_this_earlier`).
+    pub earlier_to_this: PoseJson,
+    /// Every crack of this flight, and the earlier flight's cracks' fate.
+    pub changes: Vec<CrackChange>,
+}
+
+/// The earlier flight's cracks changed as `repeat` asks (grown at their
+/// tips by a quarter to three quarters of their length, new ones added),
+/// and the change of each; in the earlier flight's frame.
+pub(crate) fn change(
+    scene: &Scene,
+    mut cracks: Cracks,
+    repeat: &Repeat,
+    seed: u64,
+) -> (Cracks, Vec<CrackChange>) {
+    let mut rng = Rng::stream(seed, "crack growth");
+    let mut changes: Vec<CrackChange> = Vec::new();
+    for crack in &mut cracks.0 {
+        let before = crack.length();
+        let grows = rng.uniform() < repeat.grow;
+        let by = before * rng.range(0.25, 0.75);
+        let grown = if grows {
+            crack.extend(scene, by, &mut rng)
+        } else {
+            0.0
+        };
+        changes.push(CrackChange {
+            id: crack.id,
+            // Growth a face edge stopped short is no growth to see.
+            change: if grown > 0.1 * before {
+                Change::Grown
+            } else {
+                Change::Unchanged
+            },
+            length_before_m: Some(before),
+            length_m: crack.length(),
+        });
+    }
+    let old = cracks.0.len();
+    cracks.add(scene, repeat.new, &mut Rng::stream(seed, "new cracks"));
+    for crack in &cracks.0[old..] {
+        changes.push(CrackChange {
+            id: crack.id,
+            change: Change::New,
+            length_before_m: None,
+            length_m: crack.length(),
+        });
+    }
+    (cracks, changes)
+}
+
+/// The truth of a repeat: where it came from and what changed.
+pub(crate) fn truth(repeat: &Repeat, changes: Vec<CrackChange>) -> RepeatTruth {
+    RepeatTruth {
+        of: std::path::absolute(&repeat.of).unwrap_or_else(|_| repeat.of.clone()),
+        frame_offset: repeat.frame_offset,
+        earlier_to_this: PoseJson::from(&repeat.frame_offset.isometry()),
+        changes,
+    }
+}
