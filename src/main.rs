@@ -74,10 +74,25 @@ enum Command {
     /// them, or write a Kubernetes Job for them.
     #[command(subcommand)]
     Batch(batch::BatchCommand),
+    /// What changed since an earlier inspection of the same structure:
+    /// registers the two flights' maps and classifies every defect candidate
+    /// (new, grown, unchanged, not seen again, not re-inspected); writes
+    /// changes.json and changes.parquet into the later run.
+    Compare(CompareArgs),
     /// Write a fleet directory's tables (fleet/defects.parquet,
     /// coverage.parquet, flights.parquet; Hive-partitioned by structure) and
     /// fleet/index.html linking every flight's report.
     Fleet(FleetDirArgs),
+}
+
+#[derive(Args)]
+struct CompareArgs {
+    /// The earlier run directory (localised).
+    #[arg(long, value_name = "RUN_A")]
+    before: PathBuf,
+    /// The later run directory (with coverage); the results go here.
+    #[arg(long, value_name = "RUN_B")]
+    after: PathBuf,
 }
 
 #[derive(Args)]
@@ -566,6 +581,7 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
         Command::Demo(args) => demo::demo(&args.out, args.force, cli.quiet),
         Command::Batch(command) => batch::run(command, cli.quiet),
         Command::Fleet(args) => batch::fleet_tables(&args.fleet_dir, cli.quiet),
+        Command::Compare(args) => compare(args, cli.quiet),
     }
 }
 
@@ -726,6 +742,34 @@ fn run_pipeline(args: &RunArgs, quiet: bool) -> anyhow::Result<()> {
             "run complete: {}",
             args.out
                 .join(postflight_core::outputs::report::files::REPORT)
+                .display()
+        );
+    }
+    Ok(())
+}
+
+fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<()> {
+    let options = compare::CompareOptions::new(args.before.clone(), args.after.clone());
+    let summary = compare::compare(&options)?;
+    if !quiet {
+        let r = &summary.registration;
+        let t = r.transform.translation;
+        println!(
+            "registered: shift {:.3}, {:.3}, {:.3} m, yaw {:.2} deg; residual {:.3} m RMS over {:.0}% of the earlier map",
+            t[0], t[1], t[2], r.yaw_deg, r.rms_m, r.overlap_pct
+        );
+        let counts: Vec<String> = summary
+            .counts
+            .iter()
+            .filter(|(_, n)| **n > 0)
+            .map(|(k, n)| format!("{n} {}", k.replace('_', " ")))
+            .collect();
+        println!(
+            "changes since {}: {}; written to {}",
+            &summary.before_flight_start[..10.min(summary.before_flight_start.len())],
+            counts.join(", "),
+            args.after
+                .join(postflight_core::outputs::changes::files::SUMMARY)
                 .display()
         );
     }

@@ -7,7 +7,7 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use crate::pose::{from_parts_xyzw, quaternion_xyzw};
 
 /// A pose as JSON writes it.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PoseJson {
     pub translation: [f64; 3],
     pub rotation_xyzw: [f64; 4],

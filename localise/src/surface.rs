@@ -3,7 +3,7 @@
 //! to the map points there (KD-tree neighbours, least squares). A voxel is
 //! half a metre; the plane puts the hit within the map's own noise.
 
-use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
+use nalgebra::{Point3, Vector3};
 use postflight_core::map::{FaceSide, SlamMap, VoxelIndex};
 
 /// A ray's hit on the mapped surface.
@@ -268,31 +268,12 @@ fn planes(points: &[Point3<f64>]) -> Vec<Plane> {
     found
 }
 
-/// Least-squares plane through points: centroid and unit normal.
+/// Least-squares plane through enough points: centroid and unit normal.
 fn fit_plane(points: &[Point3<f64>]) -> Option<(Point3<f64>, Vector3<f64>)> {
     if points.len() < PLANE_POINTS {
         return None;
     }
-    let n = points.len() as f64;
-    let c = points.iter().map(|p| p.coords).sum::<Vector3<f64>>() / n;
-    let mut cov = Matrix3::zeros();
-    for p in points {
-        let d = p.coords - c;
-        cov += d * d.transpose();
-    }
-    let eig = SymmetricEigen::new(cov / n);
-    let (k, _) = eig
-        .eigenvalues
-        .iter()
-        .enumerate()
-        .min_by(|a, b| a.1.total_cmp(b.1))?;
-    // A line of points (or one point) has no plane.
-    let mut sorted = [eig.eigenvalues[0], eig.eigenvalues[1], eig.eigenvalues[2]];
-    sorted.sort_by(f64::total_cmp);
-    if sorted[1] < 1e-6 {
-        return None;
-    }
-    Some((Point3::from(c), eig.eigenvectors.column(k).normalize()))
+    postflight_core::map::plane::fit_plane(points)
 }
 
 #[cfg(test)]

@@ -4,6 +4,7 @@
 pub mod cloud;
 pub mod octomap;
 mod pcd;
+pub mod plane;
 mod ply;
 pub mod raycast;
 pub mod side;

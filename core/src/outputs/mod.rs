@@ -8,6 +8,7 @@ use polars::prelude::{
     polars_err,
 };
 
+pub mod changes;
 pub mod coverage;
 pub mod detect;
 pub mod ingest;

@@ -1,0 +1,159 @@
+//! What `postflight compare` writes into the later run: `changes.json`
+//! (the registration of the two flights' maps and every candidate's change
+//! since the earlier flight) and `changes.parquet` (the changes, one row
+//! each; positions in this run's frame, metres).
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use polars::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::error::Error;
+use crate::run_dir::RunDir;
+use crate::serde_pose::PoseJson;
+
+/// Files of the comparison, in the later run.
+pub mod files {
+    pub const SUMMARY: &str = "changes.json";
+    pub const TABLE: &str = "changes.parquet";
+}
+
+/// `changes.json`.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct ChangesSummary {
+    /// The earlier run, and when its flight started (RFC 3339).
+    pub before: PathBuf,
+    pub before_flight_start: String,
+    /// This run.
+    pub after: PathBuf,
+    pub registration: RegistrationRecord,
+    /// Changes by kind (`new`, `grown`, ...).
+    pub counts: BTreeMap<String, usize>,
+    pub changes: Vec<ChangeRecord>,
+    pub seconds: f64,
+}
+
+/// How the earlier flight's map was put onto this one's.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct RegistrationRecord {
+    /// `T_after_before`: the earlier frame in this run's.
+    pub transform: PoseJson,
+    /// Its yaw, pitch and roll, degrees.
+    pub yaw_deg: f64,
+    pub pitch_deg: f64,
+    pub roll_deg: f64,
+    /// Point-to-plane residual of the inliers, RMS, metres.
+    pub rms_m: f64,
+    /// Share of the earlier map's points on this one's, percent.
+    pub overlap_pct: f64,
+    pub iterations: usize,
+}
+
+/// What became of a defect candidate between the flights.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ChangeKind {
+    /// Seen now, not by the earlier flight.
+    New,
+    /// Seen by both; longer now by more than both flights' measurement spread.
+    Grown,
+    /// Seen by both, as long as before within the spread.
+    Unchanged,
+    /// Seen before; this flight inspected its place and found nothing.
+    NotSeenAgain,
+    /// Seen before; this flight did not inspect its place, so nothing is
+    /// known of it now.
+    NotReinspected,
+}
+
+impl ChangeKind {
+    pub const ALL: [Self; 5] = [
+        Self::New,
+        Self::Grown,
+        Self::Unchanged,
+        Self::NotSeenAgain,
+        Self::NotReinspected,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::New => "new",
+            Self::Grown => "grown",
+            Self::Unchanged => "unchanged",
+            Self::NotSeenAgain => "not_seen_again",
+            Self::NotReinspected => "not_reinspected",
+        }
+    }
+
+    /// As people read it: "not seen again".
+    pub fn words(self) -> &'static str {
+        match self {
+            Self::NotSeenAgain => "not seen again",
+            Self::NotReinspected => "not re-inspected",
+            other => other.as_str(),
+        }
+    }
+}
+
+/// One candidate's change.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct ChangeRecord {
+    pub change: ChangeKind,
+    /// The candidate in this run, and its match in the earlier one.
+    pub after: Option<String>,
+    pub before: Option<String>,
+    /// Where it is, this run's frame.
+    pub position: [f64; 3],
+    /// The structure element there, as this run's coverage names it.
+    pub element: Option<String>,
+    pub length_before_m: Option<f64>,
+    pub length_after_m: Option<f64>,
+    /// Growth in length, and the two flights' measurement spread it is
+    /// judged against (the sum of each candidate's), metres.
+    pub growth_m: Option<f64>,
+    pub spread_m: Option<f64>,
+    /// For a new candidate: whether the earlier flight inspected its place
+    /// (`false`: it may be old, first seen now).
+    pub earlier_inspected: Option<bool>,
+}
+
+/// Write `changes.parquet` and, last, `changes.json`.
+pub fn write_changes(run: &RunDir, summary: &ChangesSummary) -> Result<(), Error> {
+    run.write_table(files::TABLE, changes_table(&summary.changes))?;
+    run.write_json(files::SUMMARY, summary)
+}
+
+/// `changes.json` of a run, `None` when it was not compared with an earlier one.
+pub fn read_changes(run: &RunDir) -> Result<Option<ChangesSummary>, Error> {
+    if !run.file(files::SUMMARY).is_file() {
+        return Ok(None);
+    }
+    run.read_json(files::SUMMARY).map(Some)
+}
+
+fn changes_table(c: &[ChangeRecord]) -> PolarsResult<DataFrame> {
+    let text = |get: fn(&ChangeRecord) -> Option<&str>| c.iter().map(get).collect::<Vec<_>>();
+    let f = |get: fn(&ChangeRecord) -> Option<f64>| c.iter().map(get).collect::<Vec<_>>();
+    let columns = vec![
+        Column::new(
+            "change".into(),
+            c.iter().map(|c| c.change.as_str()).collect::<Vec<_>>(),
+        ),
+        Column::new("after".into(), text(|c| c.after.as_deref())),
+        Column::new("before".into(), text(|c| c.before.as_deref())),
+        Column::new("x".into(), f(|c| Some(c.position[0]))),
+        Column::new("y".into(), f(|c| Some(c.position[1]))),
+        Column::new("z".into(), f(|c| Some(c.position[2]))),
+        Column::new("element".into(), text(|c| c.element.as_deref())),
+        Column::new("length_before_m".into(), f(|c| c.length_before_m)),
+        Column::new("length_after_m".into(), f(|c| c.length_after_m)),
+        Column::new("growth_m".into(), f(|c| c.growth_m)),
+        Column::new("spread_m".into(), f(|c| c.spread_m)),
+        Column::new(
+            "earlier_inspected".into(),
+            c.iter().map(|c| c.earlier_inspected).collect::<Vec<_>>(),
+        ),
+    ];
+    DataFrame::new(c.len(), columns)
+}

@@ -1,0 +1,267 @@
+//! What changed between two flights of one structure: the earlier flight's
+//! defect candidates, moved into the later flight's frame, matched with
+//! the later ones (a face that agrees, the same element, extents within the
+//! link distance), and each classified: new, grown, unchanged, not seen
+//! again, or not re-inspected.
+
+use std::collections::HashMap;
+
+use nalgebra::{Isometry3, Point3, Vector3};
+use postflight_core::map::{VoxelGrid, VoxelIndex};
+use postflight_core::outputs::changes::{ChangeKind, ChangeRecord};
+use postflight_core::outputs::coverage::{CoverageSummary, VoxelRecord};
+use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
+use postflight_core::structure::ElementMap;
+
+/// How candidates are matched.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MatchOptions {
+    /// Largest gap between two candidates' extents, metres.
+    pub link_distance_m: f64,
+    /// Largest angle between their surfaces' normals, degrees (a face).
+    pub max_normal_angle_deg: f64,
+    /// How far a length measurement spreads: this share of the length.
+    pub length_spread: f64,
+}
+
+impl Default for MatchOptions {
+    fn default() -> Self {
+        Self {
+            link_distance_m: localise::FusionOptions::default().link_distance,
+            // Wider than one flight's fusion allows: a normal fitted in each
+            // flight, at a surface's edge, can differ by more.
+            max_normal_angle_deg: 45.0,
+            // Lengths measured from 5 m or closer come within about 10% of
+            // the truth (docs/evaluation.md).
+            length_spread: 0.1,
+        }
+    }
+}
+
+/// A run's coverage: which target voxels it inspected, and their elements.
+pub struct Inspected {
+    grid: VoxelGrid,
+    inspected: HashMap<VoxelIndex, bool>,
+    elements: ElementMap,
+}
+
+impl Inspected {
+    pub fn new(summary: &CoverageSummary, records: &[VoxelRecord]) -> Self {
+        Self {
+            grid: VoxelGrid::new(summary.resolution_m, summary.grid_origin.into()),
+            inspected: records.iter().map(|r| (r.voxel, r.inspected)).collect(),
+            elements: postflight_core::outputs::coverage::element_map(summary, records),
+        }
+    }
+
+    /// Whether the run inspected the target voxel under a surface point
+    /// (its own, or a neighbour's when the point sits on a voxel's edge);
+    /// `None` when no target voxel is there.
+    pub fn at(&self, point: &Point3<f64>, normal: &Vector3<f64>) -> Option<bool> {
+        // Just inside the surface: the structure's voxel, not the air's.
+        let inside = point - normal * (0.25 * self.grid.resolution);
+        let v = self.grid.voxel_of(&inside);
+        if let Some(&inspected) = self.inspected.get(&v) {
+            return Some(inspected);
+        }
+        let near: Vec<bool> = neighbours(v)
+            .filter_map(|n| self.inspected.get(&n).copied())
+            .collect();
+        (!near.is_empty()).then(|| near.iter().any(|i| *i))
+    }
+
+    /// The element at a point, by name.
+    pub fn element(&self, point: &Point3<f64>) -> Option<String> {
+        self.elements
+            .element_at(point)
+            .map(|e| self.elements.structure.elements[e].name.clone())
+    }
+}
+
+fn neighbours(v: VoxelIndex) -> impl Iterator<Item = VoxelIndex> {
+    let [x, y, z] = v.0;
+    (-1..=1).flat_map(move |dx| {
+        (-1..=1).flat_map(move |dy| (-1..=1).map(move |dz| VoxelIndex([x + dx, y + dy, z + dz])))
+    })
+}
+
+/// A candidate in the later flight's frame.
+#[derive(Debug, Clone)]
+struct Placed<'a> {
+    defect: &'a DefectRecord,
+    position: Point3<f64>,
+    normal: Vector3<f64>,
+    min: Point3<f64>,
+    max: Point3<f64>,
+    element: Option<String>,
+}
+
+impl<'a> Placed<'a> {
+    fn new(defect: &'a DefectRecord, to_after: &Isometry3<f64>, after: &Inspected) -> Self {
+        let corners = (0..8).map(|k| {
+            let pick = |axis: usize| {
+                if k >> axis & 1 == 0 {
+                    defect.extent_min[axis]
+                } else {
+                    defect.extent_max[axis]
+                }
+            };
+            to_after * Point3::new(pick(0), pick(1), pick(2))
+        });
+        let (mut min, mut max) = (
+            Point3::from([f64::INFINITY; 3]),
+            Point3::from([f64::NEG_INFINITY; 3]),
+        );
+        for c in corners {
+            min = min.inf(&c);
+            max = max.sup(&c);
+        }
+        let position = to_after * Point3::from(defect.position);
+        Self {
+            defect,
+            position,
+            normal: to_after * Vector3::from(defect.normal),
+            min,
+            max,
+            element: after.element(&position),
+        }
+    }
+
+    /// The gap between the two extents, metres (0 when they overlap).
+    fn gap(&self, other: &Placed) -> f64 {
+        let d = (self.min - other.max)
+            .sup(&(other.min - self.max))
+            .sup(&Vector3::zeros());
+        d.norm()
+    }
+
+    /// On one face of one element, within the link distance.
+    fn matches(&self, other: &Placed, options: &MatchOptions) -> bool {
+        let same_element = match (&self.element, &other.element) {
+            (Some(a), Some(b)) => a == b,
+            _ => true,
+        };
+        let angle = self.normal.angle(&other.normal).to_degrees();
+        same_element
+            && angle <= options.max_normal_angle_deg
+            && self.gap(other) <= options.link_distance_m
+    }
+}
+
+/// Every change between `before` (the earlier candidates, `to_after` moving
+/// them into this frame) and `after`, new and grown first.
+pub fn changes(
+    before: &[DefectRecord],
+    after: &[DefectRecord],
+    to_after: &Isometry3<f64>,
+    inspected_after: &Inspected,
+    inspected_before: Option<&Inspected>,
+    options: &MatchOptions,
+) -> Vec<ChangeRecord> {
+    let identity = Isometry3::identity();
+    let earlier: Vec<Placed> = before
+        .iter()
+        .map(|d| Placed::new(d, to_after, inspected_after))
+        .collect();
+    let later: Vec<Placed> = after
+        .iter()
+        .map(|d| Placed::new(d, &identity, inspected_after))
+        .collect();
+    let pairs = match_pairs(&earlier, &later, options);
+    let mut records = Vec::new();
+    let mut matched_before = vec![false; earlier.len()];
+    for (b, now) in later.iter().enumerate() {
+        let record = match pairs.get(&b) {
+            Some(&a) => {
+                matched_before[a] = true;
+                seen_again(&earlier[a], now, options)
+            }
+            None => {
+                let back = to_after.inverse();
+                let earlier_inspected = inspected_before
+                    .and_then(|i| i.at(&(back * now.position), &(back * now.normal)));
+                ChangeRecord {
+                    earlier_inspected,
+                    ..record(ChangeKind::New, None, Some(now))
+                }
+            }
+        };
+        records.push(record);
+    }
+    for (was, _) in earlier.iter().zip(&matched_before).filter(|(_, m)| !**m) {
+        let kind = match inspected_after.at(&was.position, &was.normal) {
+            Some(true) => ChangeKind::NotSeenAgain,
+            _ => ChangeKind::NotReinspected,
+        };
+        records.push(record(kind, Some(was), None));
+    }
+    records.sort_by_key(|r| r.change);
+    records
+}
+
+/// Matches, later candidate to earlier: closest pairs first, each
+/// candidate in one pair at most.
+fn match_pairs(
+    earlier: &[Placed],
+    later: &[Placed],
+    options: &MatchOptions,
+) -> HashMap<usize, usize> {
+    let mut candidates: Vec<(f64, usize, usize)> = Vec::new();
+    for (b, now) in later.iter().enumerate() {
+        for (a, was) in earlier.iter().enumerate() {
+            if was.matches(now, options) {
+                candidates.push(((was.position - now.position).norm(), a, b));
+            }
+        }
+    }
+    candidates.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let (mut taken, mut pairs) = (vec![false; earlier.len()], HashMap::new());
+    for (_, a, b) in candidates {
+        if !taken[a] && !pairs.contains_key(&b) {
+            taken[a] = true;
+            pairs.insert(b, a);
+        }
+    }
+    pairs
+}
+
+/// A candidate seen in both flights: grown when its length grew by more
+/// than the two measurements' spread. An earlier length that is a lower
+/// bound (its views cut by the image border) cannot show growth.
+fn seen_again(was: &Placed, now: &Placed, options: &MatchOptions) -> ChangeRecord {
+    let base = record(ChangeKind::Unchanged, Some(was), Some(now));
+    let (Some(before), Some(after)) = (was.defect.length_m, now.defect.length_m) else {
+        return base;
+    };
+    if was.defect.evidence.length == LengthStatus::Partial {
+        return base;
+    }
+    let spread = options.length_spread * (before + after);
+    let growth = after - before;
+    ChangeRecord {
+        change: if growth > spread {
+            ChangeKind::Grown
+        } else {
+            ChangeKind::Unchanged
+        },
+        growth_m: Some(growth),
+        spread_m: Some(spread),
+        ..base
+    }
+}
+
+fn record(kind: ChangeKind, was: Option<&Placed>, now: Option<&Placed>) -> ChangeRecord {
+    let at = now.or(was).expect("a change has a candidate");
+    ChangeRecord {
+        change: kind,
+        after: now.map(|p| p.defect.id.clone()),
+        before: was.map(|p| p.defect.id.clone()),
+        position: at.position.into(),
+        element: at.element.clone(),
+        length_before_m: was.and_then(|p| p.defect.length_m),
+        length_after_m: now.and_then(|p| p.defect.length_m),
+        growth_m: None,
+        spread_m: None,
+        earlier_inspected: None,
+    }
+}

@@ -1,0 +1,17 @@
+//! Why two runs could not be compared, each saying what to do.
+
+use std::path::PathBuf;
+
+#[derive(Debug, thiserror::Error)]
+pub enum CompareError {
+    #[error("cannot register {} onto {}: {cause}", before.display(), after.display())]
+    Register {
+        before: PathBuf,
+        after: PathBuf,
+        cause: crate::register::RegisterError,
+    },
+    #[error(transparent)]
+    Ingest(#[from] ingest::IngestError),
+    #[error(transparent)]
+    Core(#[from] postflight_core::Error),
+}

@@ -1,0 +1,19 @@
+//! Repeat inspections of one structure: what changed since the last flight.
+//!
+//! [`register`] puts the earlier flight's map onto the later one's (their
+//! SLAM frames differ): a coarse yaw search, then point-to-plane ICP, with
+//! the transform, the residual and the overlap, refusing maps that do not
+//! overlap enough to trust. [`changes`] moves the earlier defect candidates
+//! into the later frame, matches them with the later ones and classifies
+//! each. [`stage`] reads both run directories and writes `changes.json` and
+//! `changes.parquet` into the later one (laid out in
+//! `postflight_core::outputs::changes`).
+
+pub mod changes;
+pub mod error;
+pub mod register;
+pub mod stage;
+
+pub use error::CompareError;
+pub use register::{RegisterOptions, Registration, register};
+pub use stage::{CompareOptions, compare};

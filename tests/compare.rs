@@ -1,0 +1,289 @@
+//! `postflight compare` on a simulated repeat inspection: the earlier
+//! flight, then the same structure flown again with grown and new cracks
+//! and another SLAM frame (0.5 m and 10 degrees off); the registration and
+//! the classification checked against the simulator's truth. The tower: a
+//! silo fits many yaws, and its flights see some thirty cracks from close.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use common::*;
+use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use serde_json::Value;
+
+const REPEAT: [&str; 8] = [
+    "--seed",
+    "2",
+    "--grow",
+    "0.3",
+    "--new",
+    "5",
+    "--frame-offset",
+    "0.5,0,0,10",
+];
+
+fn pose(v: &Value) -> Isometry3<f64> {
+    let t = vec3(&v["translation"]);
+    let q = v["rotation_xyzw"].as_array().unwrap();
+    let q = Quaternion::new(f(&q[3]), f(&q[0]), f(&q[1]), f(&q[2]));
+    Isometry3::from_parts(
+        Translation3::new(t[0], t[1], t[2]),
+        UnitQuaternion::from_quaternion(q),
+    )
+}
+
+/// `postflight run` on a simulated flight with its plan.
+fn run(sim: &Path, out: &Path) {
+    let result = postflight(
+        &[
+            "run",
+            "--flight",
+            sim.join("flight.mcap").to_str().unwrap(),
+            "--plan",
+            sim.join("plan.json").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        out.parent().unwrap(),
+    );
+    assert!(result.status.success(), "{}", stderr(&result));
+}
+
+/// Crack ids seen whole (90% of it in view at least) from 5 m or closer,
+/// as the flight's truth has it: what a flight can measure.
+fn seen_close(truth: &Value) -> std::collections::BTreeSet<u64> {
+    let centroids: BTreeMap<u64, Point3<f64>> = crack_points(truth)
+        .into_iter()
+        .map(|(id, points)| {
+            let sum: Vector3<f64> = points.iter().map(|p| p.coords).sum();
+            (id, Point3::from(sum / points.len() as f64))
+        })
+        .collect();
+    let mut seen = std::collections::BTreeSet::new();
+    for frame in truth["frames"].as_array().unwrap() {
+        if frame["dropped"].as_bool().unwrap() {
+            continue;
+        }
+        let camera = Point3::from(vec3(&frame["camera_pose"]["translation"]));
+        for c in frame["cracks"].as_array().unwrap() {
+            let id = c["id"].as_u64().unwrap();
+            if f(&c["visible_fraction"]) >= 0.9 && (centroids[&id] - camera).norm() <= 5.0 {
+                seen.insert(id);
+            }
+        }
+    }
+    seen
+}
+
+/// Every truth crack's points (centre lines and branches).
+fn crack_points(truth: &Value) -> BTreeMap<u64, Vec<Point3<f64>>> {
+    truth["cracks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            let points = c["lines"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .flat_map(|l| l.as_array().unwrap().iter().map(|p| Point3::from(vec3(p))))
+                .collect();
+            (c["id"].as_u64().unwrap(), points)
+        })
+        .collect()
+}
+
+/// The candidate of a run on each truth crack: the nearest to its centre
+/// line, within 0.3 m.
+fn candidates_on_cracks(truth: &Value, run: &Path) -> BTreeMap<u64, String> {
+    let cracks = crack_points(truth);
+    let defects = read_json(&run.join("defects.json"));
+    let mut on: BTreeMap<u64, (f64, String)> = BTreeMap::new();
+    for d in defects["defects"].as_array().unwrap() {
+        let p = Point3::from(vec3(&d["position"]));
+        let nearest = cracks
+            .iter()
+            .map(|(id, points)| {
+                let gap = points
+                    .iter()
+                    .map(|q| (q - p).norm())
+                    .fold(f64::INFINITY, f64::min);
+                (gap, *id)
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some((gap, crack)) = nearest.filter(|(gap, _)| *gap <= 0.3) {
+            let best = on.entry(crack).or_insert((f64::INFINITY, String::new()));
+            if gap < best.0 {
+                *best = (gap, d["id"].as_str().unwrap().to_string());
+            }
+        }
+    }
+    on.into_iter().map(|(crack, (_, id))| (crack, id)).collect()
+}
+
+#[test]
+fn a_repeat_inspection_is_registered_and_its_changes_classified_against_truth() {
+    let earlier = simulated(&["--scene", "tower"]);
+    let mut args = vec!["--scene", "tower", "--repeat-of", earlier.to_str().unwrap()];
+    args.extend(REPEAT);
+    let later = simulated(&args);
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    run(&earlier, &a);
+    run(&later, &b);
+    let out = postflight(
+        &[
+            "compare",
+            "--before",
+            a.to_str().unwrap(),
+            "--after",
+            b.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    eprintln!("{}", String::from_utf8_lossy(&out.stdout));
+    let changes = read_json(&b.join("changes.json"));
+    let (truth_a, truth_b) = (
+        read_json(&earlier.join("truth.json")),
+        read_json(&later.join("truth.json")),
+    );
+
+    // Registration against the frame change the simulator applied.
+    let estimated = pose(&changes["registration"]["transform"]);
+    let truth = pose(&truth_b["repeat"]["earlier_to_this"]);
+    let error = estimated.inverse() * truth;
+    let (shift, turn) = (
+        error.translation.vector.norm(),
+        error.rotation.angle().to_degrees(),
+    );
+    eprintln!(
+        "registration error: {:.1} mm, {:.3} deg",
+        shift * 1000.0,
+        turn
+    );
+    assert!(
+        shift < 0.05 && turn < 0.5,
+        "registration off by {shift} m, {turn} deg"
+    );
+
+    // Each truth crack's class: by the later candidate on it, or for one
+    // the later flight did not see, by the earlier candidate on it.
+    let class_after: BTreeMap<String, String> = changes["changes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|c| {
+            Some((
+                c["after"].as_str()?.to_string(),
+                c["change"].as_str()?.to_string(),
+            ))
+        })
+        .collect();
+    let class_before: BTreeMap<String, String> = changes["changes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|c| c["after"].is_null())
+        .filter_map(|c| {
+            Some((
+                c["before"].as_str()?.to_string(),
+                c["change"].as_str()?.to_string(),
+            ))
+        })
+        .collect();
+    let (on_a, on_b) = (
+        candidates_on_cracks(&truth_a, &a),
+        candidates_on_cracks(&truth_b, &b),
+    );
+    let (close_a, close_b) = (seen_close(&truth_a), seen_close(&truth_b));
+    let seen_b: std::collections::BTreeSet<u64> = truth_b["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| !f["dropped"].as_bool().unwrap())
+        .flat_map(|f| {
+            f["cracks"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|c| c["id"].as_u64().unwrap())
+        })
+        .collect();
+    let mut tally: BTreeMap<String, (usize, usize)> = BTreeMap::new();
+    for change in truth_b["repeat"]["changes"].as_array().unwrap() {
+        let id = change["id"].as_u64().unwrap();
+        let truth_class = change["change"].as_str().unwrap();
+        let (expected, ours) = match truth_class {
+            "new" if close_b.contains(&id) => {
+                ("new", on_b.get(&id).and_then(|c| class_after.get(c)))
+            }
+            "grown" | "unchanged" if close_a.contains(&id) && close_b.contains(&id) => {
+                (truth_class, on_b.get(&id).and_then(|c| class_after.get(c)))
+            }
+            // The later flight never had it in view (and found nothing there).
+            _ if close_a.contains(&id)
+                && !seen_b.contains(&id)
+                && !on_b.contains_key(&id)
+                && on_a.contains_key(&id) =>
+            {
+                (
+                    "not_reinspected",
+                    on_a.get(&id).and_then(|c| class_before.get(c)),
+                )
+            }
+            _ => continue,
+        };
+        let t = tally.entry(expected.to_string()).or_default();
+        t.1 += 1;
+        if ours.map(String::as_str) == Some(expected) {
+            t.0 += 1;
+        } else {
+            eprintln!("crack {id}: truth {expected}, classified {ours:?}");
+        }
+    }
+    let (right, all) = tally.values().fold((0, 0), |s, t| (s.0 + t.0, s.1 + t.1));
+    eprintln!("classified right, by truth class: {tally:?}; {right} of {all}");
+    assert!(all >= 20, "too few cracks to judge: {tally:?}");
+    assert!(
+        right as f64 >= 0.9 * all as f64,
+        "{right} of {all} right: {tally:?}"
+    );
+    for kind in ["new", "grown", "unchanged"] {
+        assert!(
+            tally.get(kind).is_some_and(|t| t.1 > 0),
+            "no {kind} crack judged: {tally:?}"
+        );
+    }
+}
+
+/// Compare refuses maps of different structures, leaving nothing behind.
+#[test]
+fn runs_of_different_structures_are_refused_with_the_overlap_they_have() {
+    let bridge = simulated(&["--frames", "40"]);
+    let tower = simulated(&["--frames", "40", "--scene", "tower"]);
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    run(&bridge, &a);
+    run(&tower, &b);
+    let out = postflight(
+        &[
+            "compare",
+            "--before",
+            a.to_str().unwrap(),
+            "--after",
+            b.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(!out.status.success());
+    let e = stderr(&out);
+    assert!(
+        e.contains("overlap in only") && e.contains("same structure"),
+        "{e}"
+    );
+    assert_eq!(e.trim().lines().count(), 1, "{e}");
+    assert!(!b.join("changes.json").exists());
+}
