@@ -215,14 +215,9 @@ fn parse_gaps(s: &str) -> Result<replan::GapChoice, String> {
 }
 
 fn parse_point(s: &str) -> Result<[f64; 3], String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|e| format!("expected X,Y,Z in metres: {e}"))?;
-    match v[..] {
-        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
-        _ => Err("expected three finite numbers X,Y,Z in metres".into()),
+    match postflight_core::setting::comma_numbers(s).as_deref() {
+        Some(&[x, y, z]) => Ok([x, y, z]),
+        _ => Err(format!("expected three numbers X,Y,Z in metres, not '{s}'")),
     }
 }
 

@@ -48,20 +48,7 @@ fn reference(structure: &str) -> PathBuf {
     let runs = RUNS.get_or_init(|| {
         let dir = locked_fixture_dir("batch-reference");
         for (structure, _, args) in GOOD {
-            let sim = simulated(args);
-            let out = postflight(
-                &[
-                    "run",
-                    "--flight",
-                    sim.join("flight.mcap").to_str().unwrap(),
-                    "--plan",
-                    sim.join("plan.json").to_str().unwrap(),
-                    "--out",
-                    dir.join(structure).to_str().unwrap(),
-                ],
-                &dir,
-            );
-            assert!(out.status.success(), "{}", stderr(&out));
+            run_simulated(&simulated(args), &dir.join(structure));
         }
         dir
     });

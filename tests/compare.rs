@@ -34,21 +34,18 @@ fn pose(v: &Value) -> Isometry3<f64> {
     )
 }
 
-/// `postflight run` on a simulated flight with its plan.
-fn run(sim: &Path, out: &Path) {
-    let result = postflight(
+/// `postflight compare --before a --after b`.
+fn compare(a: &Path, b: &Path) -> std::process::Output {
+    postflight(
         &[
-            "run",
-            "--flight",
-            sim.join("flight.mcap").to_str().unwrap(),
-            "--plan",
-            sim.join("plan.json").to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
+            "compare",
+            "--before",
+            a.to_str().unwrap(),
+            "--after",
+            b.to_str().unwrap(),
         ],
-        out.parent().unwrap(),
-    );
-    assert!(result.status.success(), "{}", stderr(&result));
+        a.parent().unwrap(),
+    )
 }
 
 /// Crack ids seen whole (90% of it in view at least) from 5 m or closer,
@@ -131,18 +128,9 @@ fn a_repeat_inspection_is_registered_and_its_changes_classified_against_truth() 
     let later = simulated(&args);
     let dir = tempfile::tempdir().unwrap();
     let (a, b) = (dir.path().join("a"), dir.path().join("b"));
-    run(&earlier, &a);
-    run(&later, &b);
-    let out = postflight(
-        &[
-            "compare",
-            "--before",
-            a.to_str().unwrap(),
-            "--after",
-            b.to_str().unwrap(),
-        ],
-        dir.path(),
-    );
+    run_simulated(&earlier, &a);
+    run_simulated(&later, &b);
+    let out = compare(&a, &b);
     assert!(out.status.success(), "{}", stderr(&out));
     eprintln!("{}", String::from_utf8_lossy(&out.stdout));
     let changes = read_json(&b.join("changes.json"));
@@ -266,18 +254,9 @@ fn runs_of_different_structures_are_refused_with_the_overlap_they_have() {
     let tower = simulated(&["--frames", "40", "--scene", "tower"]);
     let dir = tempfile::tempdir().unwrap();
     let (a, b) = (dir.path().join("a"), dir.path().join("b"));
-    run(&bridge, &a);
-    run(&tower, &b);
-    let out = postflight(
-        &[
-            "compare",
-            "--before",
-            a.to_str().unwrap(),
-            "--after",
-            b.to_str().unwrap(),
-        ],
-        dir.path(),
-    );
+    run_simulated(&bridge, &a);
+    run_simulated(&tower, &b);
+    let out = compare(&a, &b);
     assert!(!out.status.success());
     let e = stderr(&out);
     assert!(

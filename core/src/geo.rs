@@ -36,11 +36,9 @@ impl GeoOrigin {
     /// `LAT,LON,ALT[,YAW_DEG]`: degrees, metres, and the yaw of the map's
     /// x axis from east (default 0).
     pub fn parse(text: &str) -> Result<Self, String> {
-        let values: Vec<f64> = text
-            .split(',')
-            .map(|v| v.trim().parse::<f64>())
-            .collect::<Result<_, _>>()
-            .map_err(|e| format!("expected LAT,LON,ALT[,YAW_DEG] in degrees and metres: {e}"))?;
+        let values = crate::setting::comma_numbers(text).ok_or_else(|| {
+            format!("expected LAT,LON,ALT[,YAW_DEG] in degrees and metres, not '{text}'")
+        })?;
         Self::from_values(&values)
     }
 

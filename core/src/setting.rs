@@ -98,6 +98,15 @@ impl InvalidSetting {
     }
 }
 
+/// A value given as comma-separated numbers (`0.5,-2,1.2`, spaces allowed),
+/// as flags such as a point or an offset take it; `None` unless every item
+/// is a finite number.
+pub fn comma_numbers(text: &str) -> Option<Vec<f64>> {
+    text.split(',')
+        .map(|v| v.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

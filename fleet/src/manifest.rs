@@ -81,6 +81,27 @@ impl FlightEntry {
     }
 }
 
+#[cfg(test)]
+impl FlightEntry {
+    /// A flight of structure `b` named `n`, for tests.
+    pub(crate) fn example(index: usize) -> Self {
+        Self {
+            index,
+            source: format!("row {}", index + 1),
+            structure: "b".into(),
+            date: None,
+            name: Some("n".into()),
+            flight: "f.mcap".into(),
+            map: None,
+            plan: None,
+            yaw_degrees: false,
+            targets: None,
+            model: None,
+            config: None,
+        }
+    }
+}
+
 impl Manifest {
     /// Read a manifest: `.toml`, else CSV.
     pub fn load(path: &Path) -> Result<Self, Error> {

@@ -131,21 +131,7 @@ mod tests {
     use crate::manifest::FlightEntry;
 
     fn record(state: TaskState, worker: Worker) -> TaskRecord {
-        let entry = FlightEntry {
-            index: 0,
-            source: "row 1".into(),
-            structure: "b".into(),
-            date: None,
-            name: Some("n".into()),
-            flight: "f.mcap".into(),
-            map: None,
-            plan: None,
-            yaw_degrees: false,
-            targets: None,
-            model: None,
-            config: None,
-        };
-        let mut r = TaskRecord::start(&entry);
+        let mut r = TaskRecord::start(&FlightEntry::example(0));
         r.state = state;
         r.worker = worker;
         r

@@ -160,27 +160,10 @@ fn host_name() -> String {
 mod tests {
     use super::*;
 
-    fn entry() -> FlightEntry {
-        FlightEntry {
-            index: 2,
-            source: "row 3".into(),
-            structure: "b".into(),
-            date: None,
-            name: Some("n".into()),
-            flight: "f.mcap".into(),
-            map: None,
-            plan: None,
-            yaw_degrees: false,
-            targets: None,
-            model: None,
-            config: None,
-        }
-    }
-
     #[test]
     fn a_failed_task_keeps_the_first_line_of_its_error() {
-        let record =
-            TaskRecord::start(&entry()).end(1.5, Err("stage ingest failed: x\nmore".into()));
+        let record = TaskRecord::start(&FlightEntry::example(2))
+            .end(1.5, Err("stage ingest failed: x\nmore".into()));
         assert_eq!(record.state, TaskState::Failed);
         assert_eq!(record.error.as_deref(), Some("stage ingest failed: x"));
         let dir = tempfile::tempdir().unwrap();
@@ -190,7 +173,7 @@ mod tests {
 
     #[test]
     fn a_running_record_of_a_process_that_is_gone_is_not_alive() {
-        let mut record = TaskRecord::start(&entry());
+        let mut record = TaskRecord::start(&FlightEntry::example(2));
         record.worker = Worker::Local;
         record.pid = u32::MAX - 1;
         assert_eq!(record.local_process_alive(), Some(false));

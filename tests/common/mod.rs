@@ -297,6 +297,24 @@ pub struct DetectionRow {
     pub prompt: String,
 }
 
+/// `postflight run` on a simulated flight (`simulate`'s directory) with
+/// its plan, into `out`.
+pub fn run_simulated(sim: &Path, out: &Path) {
+    let result = postflight(
+        &[
+            "run",
+            "--flight",
+            sim.join("flight.mcap").to_str().unwrap(),
+            "--plan",
+            sim.join("plan.json").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        out.parent().unwrap(),
+    );
+    assert!(result.status.success(), "{}", stderr(&result));
+}
+
 /// A Parquet table, whole.
 pub fn read_parquet(path: &Path) -> DataFrame {
     let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));

@@ -41,14 +41,11 @@ pub struct FrameOffset {
 impl FrameOffset {
     /// `X,Y,Z,YAW_DEG`.
     pub fn parse(s: &str) -> Result<Self, String> {
-        let v: Vec<f64> = s
-            .split(',')
-            .map(|x| x.trim().parse::<f64>())
-            .collect::<Result<_, _>>()
-            .map_err(|e| format!("expected X,Y,Z,YAW_DEG (metres, degrees): {e}"))?;
-        match v[..] {
-            [x, y, z, yaw_deg] if v.iter().all(|c| c.is_finite()) => Ok(Self { x, y, z, yaw_deg }),
-            _ => Err("expected four finite numbers X,Y,Z,YAW_DEG (metres, degrees)".into()),
+        match postflight_core::setting::comma_numbers(s).as_deref() {
+            Some(&[x, y, z, yaw_deg]) => Ok(Self { x, y, z, yaw_deg }),
+            _ => Err(format!(
+                "expected four numbers X,Y,Z,YAW_DEG (metres, degrees), not '{s}'"
+            )),
         }
     }
 

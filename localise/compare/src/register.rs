@@ -25,6 +25,9 @@ pub struct RegisterOptions {
     pub max_distance_m: [f64; 3],
     /// A point of the earlier map lies on the later one within this, metres.
     pub inlier_m: f64,
+    /// Points this far above the earlier map's ground count towards the
+    /// overlap, metres (every flight's map has a flat ground).
+    pub above_ground_m: f64,
     /// The least share of the earlier map's points on the later one to
     /// trust the registration.
     pub min_overlap: f64,
@@ -37,6 +40,7 @@ impl Default for RegisterOptions {
             normal_radius_m: 0.3,
             max_distance_m: [2.0, 0.5, 0.15],
             inlier_m: 0.1,
+            above_ground_m: 0.5,
             min_overlap: 0.3,
         }
     }
@@ -50,10 +54,11 @@ pub struct Registration {
     pub transform: Isometry3<f64>,
     /// Point-to-plane distance of the inlier correspondences, RMS, metres.
     pub rms_m: f64,
-    /// Share of the earlier map's (thinned) points within
+    /// Share of the earlier map's (thinned) points above its ground within
     /// [`RegisterOptions::inlier_m`] of the later map.
     pub overlap: f64,
-    /// The thinned earlier map's points, and those on the later map.
+    /// The thinned earlier map's points above its ground, and those on the
+    /// later map.
     pub points: usize,
     pub inliers: usize,
     pub iterations: usize,
@@ -95,11 +100,7 @@ pub fn register(
         .into_iter()
         .map(|(start, yaw)| {
             let (t, _) = icp(&probe, after, &mut normals, start, rough);
-            (
-                fit(&probe, after, &mut normals, &t, options.inlier_m),
-                t,
-                yaw,
-            )
+            (fit(&probe, after, &mut normals, &t, options), t, yaw)
         })
         .collect();
     starts.sort_by(|a, b| b.0.better(&a.0));
@@ -112,12 +113,13 @@ pub fn register(
                 t,
                 iterations,
                 yaw,
-                fit(&source, after, &mut normals, &t, options.inlier_m),
+                fit(&source, after, &mut normals, &t, options),
             )
         })
         .max_by(|a, b| a.3.better(&b.3))
         .expect("at least one coarse alignment");
-    let overlap = fit.inliers as f64 / source.len() as f64;
+    let structure = above_ground(&source, options);
+    let overlap = fit.inliers as f64 / structure.max(1) as f64;
     if overlap < options.min_overlap {
         return Err(RegisterError::TooLittleOverlap {
             overlap,
@@ -128,7 +130,7 @@ pub fn register(
         transform,
         rms_m: fit.rms_m,
         overlap,
-        points: source.len(),
+        points: structure,
         inliers: fit.inliers,
         iterations,
         coarse_yaw_deg: yaw.to_degrees(),
@@ -316,7 +318,25 @@ fn icp_step(
     ))
 }
 
-/// How well `source` under `transform` lies on `after`.
+/// The level of a map's ground: the 5th percentile of its heights (SLAM
+/// maps of a gravity-aligned system are z up).
+fn ground_level(points: &[Point3<f64>]) -> f64 {
+    let mut z: Vec<f64> = points.iter().map(|p| p.z).collect();
+    z.sort_by(f64::total_cmp);
+    z.get(z.len() / 20).copied().unwrap_or(0.0)
+}
+
+/// The points of `source` above its ground.
+fn above_ground(source: &[Point3<f64>], options: &RegisterOptions) -> usize {
+    let ground = ground_level(source);
+    source
+        .iter()
+        .filter(|p| p.z > ground + options.above_ground_m)
+        .count()
+}
+
+/// How well `source`'s points above its ground (any two maps share a
+/// flat ground) lie on `after` under `transform`.
 struct Fit {
     inliers: usize,
     rms_m: f64,
@@ -336,13 +356,17 @@ fn fit(
     after: &SlamMap,
     normals: &mut Normals,
     transform: &Isometry3<f64>,
-    inlier_m: f64,
+    options: &RegisterOptions,
 ) -> Fit {
+    let ground = ground_level(source);
     let (mut inliers, mut squares) = (0, 0.0);
-    for p in source {
+    for p in source
+        .iter()
+        .filter(|p| p.z > ground + options.above_ground_m)
+    {
         let p = transform * p;
         let q = after.nearest(&p);
-        if q.distance > inlier_m {
+        if q.distance > options.inlier_m {
             continue;
         }
         inliers += 1;
@@ -420,12 +444,24 @@ mod tests {
     }
 
     #[test]
-    fn maps_of_different_places_are_refused() {
+    fn maps_of_different_places_are_refused_though_their_grounds_agree() {
         let before = structure();
-        let after: Vec<Point3<f64>> = before
+        // The same ground, and on it a lone round pole instead of walls.
+        let mut after: Vec<Point3<f64>> = before
             .iter()
-            .map(|p| Point3::new(p.x * 0.3 + 40.0, p.y * 2.5, p.z * 0.5))
+            .filter(|p| p.z.abs() < 0.01)
+            .copied()
             .collect();
+        for i in 0..60 {
+            for j in 0..30 {
+                let a = f64::from(i) * std::f64::consts::TAU / 60.0;
+                after.push(Point3::new(
+                    3.0 + 0.3 * a.cos(),
+                    3.0 + 0.3 * a.sin(),
+                    f64::from(j) * 0.1,
+                ));
+            }
+        }
         let e = register(&map(before), &map(after), &RegisterOptions::default()).unwrap_err();
         assert!(matches!(e, RegisterError::TooLittleOverlap { .. }), "{e}");
     }
