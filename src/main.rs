@@ -746,6 +746,19 @@ fn run_pipeline(args: &RunArgs, quiet: bool) -> anyhow::Result<()> {
 fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<()> {
     let options = compare::CompareOptions::new(args.before.clone(), args.after.clone());
     let summary = compare::compare(&options)?;
+    // The later run's report gets its "changes since" section.
+    let after = postflight_core::RunDir::create(&args.after)?;
+    if after
+        .summary::<postflight_core::outputs::report::RunSummary>(Stage::Report)?
+        .is_some()
+    {
+        stages::report(
+            &reports::ReportOptions {
+                run: args.after.clone(),
+            },
+            quiet,
+        )?;
+    }
     if !quiet {
         let r = &summary.registration;
         let t = r.transform.translation;

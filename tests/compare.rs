@@ -157,6 +157,43 @@ fn a_repeat_inspection_is_registered_and_its_changes_classified_against_truth() 
         "registration off by {shift} m, {turn} deg"
     );
 
+    // The later run's report says what changed, with the crack before and
+    // now side by side, and lists new and grown candidates first.
+    let report = std::fs::read_to_string(b.join("report.html")).unwrap();
+    assert!(
+        report.contains("Changes since 2025-06-15"),
+        "no changes section"
+    );
+    let first: std::collections::BTreeSet<String> = changes["changes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|c| c["change"] == "new" || c["change"] == "grown")
+        .map(|c| c["after"].as_str().unwrap().to_string())
+        .collect();
+    assert!(
+        report.matches("alt=\"the crack before\"").count()
+            >= changes["counts"]["grown"].as_u64().unwrap() as usize
+    );
+    let order = read_csv(&b.join("candidates.csv"));
+    let ids: Vec<String> = order
+        .column("id")
+        .unwrap()
+        .str()
+        .unwrap()
+        .iter()
+        .flatten()
+        .map(str::to_string)
+        .collect();
+    assert_eq!(
+        ids[..first.len()]
+            .iter()
+            .cloned()
+            .collect::<std::collections::BTreeSet<_>>(),
+        first,
+        "new and grown candidates come first in the review order"
+    );
+
     // Each truth crack's class: by the later candidate on it, or for one
     // the later flight did not see, by the earlier candidate on it.
     let class_after: BTreeMap<String, String> = changes["changes"]

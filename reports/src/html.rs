@@ -9,6 +9,7 @@ use std::collections::BTreeMap;
 
 use base64::Engine;
 use maud::{DOCTYPE, Markup, PreEscaped, html};
+use postflight_core::outputs::changes::{ChangeKind, ChangeRecord, files as changes_files};
 use postflight_core::outputs::coverage::CoverageSummary;
 use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
 use postflight_core::outputs::replan::{GapChoice, ReplanSummary, Unplannable};
@@ -56,6 +57,7 @@ pub fn page(results: &RunResults, summary: &RunSummary) -> String {
         }
         (cards(summary))
         (files_section(results))
+        (changes_section(results))
         (coverage_section(results))
         (defects_section(results))
         (replan_section(results))
@@ -354,17 +356,117 @@ fn defects_section(r: &RunResults) -> Markup {
     }
 }
 
-fn defect_row(r: &RunResults, rank: usize, d: &DefectRecord) -> Markup {
-    let thumb = d
-        .crop
+/// A JPEG as a `data:` address, for a page that carries its pictures.
+fn jpeg_data(bytes: &[u8]) -> String {
+    format!(
+        "data:image/jpeg;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(bytes)
+    )
+}
+
+/// A candidate's best-view crop as a `data:` address.
+fn crop_data(r: &RunResults, d: &DefectRecord) -> Option<String> {
+    let bytes = std::fs::read(r.file(d.crop.as_ref()?)).ok()?;
+    Some(jpeg_data(&bytes))
+}
+
+/// What changed since the earlier inspection `postflight compare` was given.
+fn changes_section(r: &RunResults) -> Markup {
+    let Some(c) = &r.changes else {
+        return html! {};
+    };
+    let since = c
+        .before_flight_start
+        .get(..10)
+        .unwrap_or(&c.before_flight_start);
+    let g = &c.registration;
+    let t = g.transform.translation;
+    let count = |k: ChangeKind| c.counts.get(k.as_str()).copied().unwrap_or(0);
+    let listed: Vec<&ChangeRecord> = c
+        .changes
+        .iter()
+        .filter(|ch| ch.change != ChangeKind::Unchanged)
+        .collect();
+    html! {
+        h2 { "Changes since " (since) }
+        p {
+            "Compared with the inspection of " (readable_time(&c.before_flight_start)) " ("
+            code { (c.before.display()) } "). Its map was registered onto this flight's: shifted "
+            (format!("{:.2}, {:.2}, {:.2} m", t[0], t[1], t[2])) " and turned "
+            (format!("{:.1}\u{b0}", g.yaw_deg)) ", leaving "
+            (format!("{:.0} mm", 1000.0 * g.rms_m)) " RMS between the surfaces over "
+            (format!("{:.0}%", g.overlap_pct)) " of the earlier map."
+        }
+        div.cards {
+            @for k in ChangeKind::ALL {
+                div.card { b { (count(k)) } span { (k.words()) } }
+            }
+        }
+        @if listed.is_empty() {
+            p { "Every crack seen before is seen again, and none has grown or is new." }
+        } @else {
+            p.sub {
+                "New and grown cracks first. A crack is grown when it is longer by more than both flights' measurement spread; "
+                "one not re-inspected was not inspected by this flight, so nothing is known of it now. "
+                (count(ChangeKind::Unchanged)) " unchanged cracks are listed in changes.parquet."
+            }
+            table {
+                tr {
+                    th { "change" } th { "before" } th { "now" } th { "where" }
+                    th.n { "length before" } th.n { "now" } th.n { "growth" }
+                }
+                @for ch in listed { (change_row(r, ch)) }
+            }
+        }
+    }
+}
+
+fn change_row(r: &RunResults, ch: &ChangeRecord) -> Markup {
+    let now = ch
+        .after
         .as_ref()
-        .and_then(|c| std::fs::read(r.file(c)).ok())
-        .map(|bytes| {
-            format!(
-                "data:image/jpeg;base64,{}",
-                base64::engine::general_purpose::STANDARD.encode(bytes)
-            )
-        });
+        .and_then(|id| r.defects.iter().find(|d| &d.id == id));
+    let before = ch
+        .before
+        .as_ref()
+        .and_then(|id| r.earlier_crop(id))
+        .map(|b| jpeg_data(&b));
+    let metres =
+        |m: Option<f64>| m.map_or_else(|| "\u{2013}".to_string(), |m| format!("{m:.2}\u{a0}m"));
+    let place = match now {
+        Some(d) => place_text(r.place(d).map(|p| p.to_string()).as_deref(), d),
+        None => ch.element.clone().unwrap_or_default(),
+    };
+    html! {
+        tr {
+            td {
+                @match ch.change {
+                    ChangeKind::New | ChangeKind::Grown => b.flag { (ch.change.words()) },
+                    other => (other.words()),
+                }
+                @if ch.earlier_inspected == Some(false) {
+                    br; span.sub { "the earlier flight did not inspect here" }
+                }
+            }
+            td { @if let Some(src) = before { img.thumb alt="the crack before" src=(src); } }
+            td { @if let Some(src) = now.and_then(|d| crop_data(r, d)) { img.thumb alt="the crack now" src=(src); } }
+            td {
+                (place) br;
+                span.sub { (ch.after.as_deref().or(ch.before.as_deref()).unwrap_or_default()) }
+            }
+            td.n { (metres(ch.length_before_m)) }
+            td.n { (metres(ch.length_after_m)) }
+            td.n {
+                @if let (Some(g), Some(s)) = (ch.growth_m, ch.spread_m) {
+                    (format!("{g:+.2} m")) br; span.sub { (format!("spread {s:.2} m")) }
+                }
+            }
+        }
+    }
+}
+
+fn defect_row(r: &RunResults, rank: usize, d: &DefectRecord) -> Markup {
+    let thumb = crop_data(r, d);
     let p = d.position;
     html! {
         tr {
@@ -611,6 +713,7 @@ fn files_section(r: &RunResults) -> Markup {
             (link("defects.parquet", "defect candidates (polars, pandas, DuckDB)"))
             (link("defects", "best-view crops of every candidate"))
             (link("coverage.parquet", "coverage of every target voxel, with its element and place"))
+            (link(changes_files::TABLE, "every candidate's change since the earlier inspection"))
             (link("replan.csv", "the follow-up flight: X,Y,Z,Yaw with gimbal pitch, sortie and kind of point"))
             (link("replan.json", "the follow-up flight with every waypoint's gap voxels"))
             (link("detections.coco.json", "raw detections, COCO"))

@@ -5,6 +5,7 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+use postflight_core::outputs::changes::{ChangeKind, ChangeRecord, ChangesSummary, read_changes};
 use postflight_core::outputs::coverage::{self, CoverageSummary, VoxelRecord};
 use postflight_core::outputs::detect::DetectSummary;
 use postflight_core::outputs::localise::{DefectRecord, LocaliseSummary, read_defects};
@@ -98,6 +99,10 @@ pub struct RunResults {
     /// Surface area by element and coverage status, in element order.
     pub element_areas: Vec<ElementArea>,
     pub replan: Option<ReplanSummary>,
+    /// What changed since an earlier inspection (`postflight compare`).
+    pub changes: Option<ChangesSummary>,
+    /// The earlier run's candidates, by id (empty when it cannot be read).
+    pub earlier: HashMap<String, DefectRecord>,
     pub log: RunLog,
 }
 
@@ -121,6 +126,7 @@ impl RunResults {
         let elements = coverage
             .as_ref()
             .map(|c| coverage::element_map(c, &records));
+        let changes = read_changes(dir)?;
         Ok(Self {
             detect: dir.summary(Stage::Detect)?,
             localise,
@@ -133,9 +139,23 @@ impl RunResults {
             voxels,
             elements,
             replan: dir.summary(Stage::Replan)?,
+            earlier: changes.as_ref().map(earlier_candidates).unwrap_or_default(),
+            changes,
             log: RunLog::read(dir)?,
             flight,
         })
+    }
+
+    /// A candidate's change since the earlier inspection.
+    pub fn change_of(&self, id: &str) -> Option<&ChangeRecord> {
+        let changes = &self.changes.as_ref()?.changes;
+        changes.iter().find(|c| c.after.as_deref() == Some(id))
+    }
+
+    /// A JPEG of the earlier run's candidate `id` (its best view).
+    pub fn earlier_crop(&self, id: &str) -> Option<Vec<u8>> {
+        let crop = self.earlier.get(id)?.crop.as_ref()?;
+        std::fs::read(self.changes.as_ref()?.before.join(crop)).ok()
     }
 
     /// The run directory.
@@ -157,13 +177,20 @@ impl RunResults {
             .collect()
     }
 
-    /// The same order as indices into `defects`.
+    /// The same order as indices into `defects`: after a comparison with
+    /// an earlier inspection, new and grown cracks first.
     pub fn review_order(&self) -> Vec<usize> {
         let d = &self.defects;
+        // `false` (new or grown) sorts first.
+        let older = |i: usize| {
+            let change = self.change_of(&d[i].id).map(|c| c.change);
+            !matches!(change, Some(ChangeKind::New | ChangeKind::Grown))
+        };
         let mut order: Vec<usize> = (0..d.len()).collect();
         order.sort_by(|&a, &b| {
-            review_priority(&d[b])
-                .total_cmp(&review_priority(&d[a]))
+            older(a)
+                .cmp(&older(b))
+                .then_with(|| review_priority(&d[b]).total_cmp(&review_priority(&d[a])))
                 .then_with(|| d[a].id.cmp(&d[b].id))
         });
         order
@@ -255,4 +282,13 @@ pub fn review_priority(d: &DefectRecord) -> f64 {
         (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt()
     });
     d.confidence * size.max(0.05)
+}
+
+/// The earlier run's candidates by id, read for their pictures; none when
+/// that run has moved or is unreadable (the comparison's figures stand).
+fn earlier_candidates(changes: &ChangesSummary) -> HashMap<String, DefectRecord> {
+    let dir = RunDir::open(&changes.before, Stage::Localise);
+    dir.and_then(|d| read_defects(&d))
+        .map(|defects| defects.into_iter().map(|d| (d.id.clone(), d)).collect())
+        .unwrap_or_default()
 }

@@ -11,6 +11,7 @@ pub mod pages;
 pub mod pictures;
 pub mod queue;
 pub mod server;
+pub mod since;
 pub mod store;
 
 pub use queue::{Filter, Queue};

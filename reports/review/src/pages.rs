@@ -12,6 +12,7 @@ use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
 use reports::html::{evidence_text, length_text, place_text, readable_time};
 
 use crate::queue::{Entry, Filter, Progress, Queue};
+use crate::since::Since;
 use crate::store::{
     Decision, MAX_NOTE_CHARS, MAX_REVIEWER_CHARS, SEVERITY_SCALE, Verdict, severity_meaning,
 };
@@ -23,6 +24,8 @@ pub struct Context<'a> {
     pub filter: Filter,
     /// Each candidate's place on the structure, by id.
     pub places: &'a HashMap<String, String>,
+    /// Each candidate's change since an earlier inspection, by id.
+    pub since: &'a HashMap<String, Since>,
 }
 
 impl Context<'_> {
@@ -205,6 +208,7 @@ fn queue_row(ctx: &Context, e: &Entry) -> Markup {
             td {
                 a href=(href) { (ctx.place(d)) } br;
                 span.sub { (d.id) " \u{b7} " (support_text(d)) }
+                @if let Some(since) = ctx.since.get(&d.id) { br; (since_line(since)) }
             }
             td.n { (format!("{:.1} m", d.best.range_m)) }
             td.n { (format!("{:.1} mm", d.best.oblique_gsd_mm)) }
@@ -378,12 +382,36 @@ fn views_section(d: &DefectRecord, shown: usize, filter: Filter) -> Markup {
     }
 }
 
+/// A candidate's change since the earlier inspection; new and grown ones
+/// stand out.
+fn since_line(since: &Since) -> Markup {
+    use postflight_core::outputs::changes::ChangeKind;
+    html! {
+        @if matches!(since.change, ChangeKind::New | ChangeKind::Grown) {
+            span.flag.since { (since.text()) }
+        } @else {
+            span.sub.since { (since.text()) }
+        }
+    }
+}
+
 fn facts(ctx: &Context, d: &DefectRecord) -> Markup {
     let p = d.position;
     let scores: Vec<String> = d.views.iter().map(|v| format!("{:.2}", v.score)).collect();
     html! {
         table.facts {
             tr { th { "where" } td { (ctx.place(d)) } }
+            @if let Some(since) = ctx.since.get(&d.id) {
+                tr {
+                    th { "since " (since.date) }
+                    td {
+                        (since_line(since))
+                        @if let Some(before) = since.length_before_m {
+                            br; span.sub { (format!("{before:.2} m long then")) }
+                        }
+                    }
+                }
+            }
             tr {
                 th { "length" }
                 td {

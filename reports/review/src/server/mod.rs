@@ -79,6 +79,8 @@ struct App {
     flight: String,
     /// Each candidate's place on the structure, by id.
     places: HashMap<String, String>,
+    /// Each candidate's change since an earlier inspection, by id.
+    since: HashMap<String, crate::since::Since>,
 }
 
 impl App {
@@ -118,6 +120,7 @@ impl App {
             flight: &self.flight,
             filter,
             places: &self.places,
+            since: &self.since,
         }
     }
 
@@ -182,6 +185,7 @@ pub fn serve(options: ServeOptions, on_ready: impl FnOnce(&Listening)) -> Result
         resolution,
         order,
         places: results.places(),
+        since: crate::since::pasts(results.changes.as_ref())?,
         store: Mutex::new(store),
         token,
         flight,
