@@ -253,16 +253,8 @@ fn flights_table(runs: &[FleetRun]) -> PolarsResult<DataFrame> {
             .map(|r| r.record.as_ref().and_then(f))
             .collect::<Vec<_>>()
     };
-    let summary_f64 = |f: fn(&RunSummary) -> Option<f64>| {
-        runs.iter()
-            .map(|r| r.summary.as_ref().and_then(f))
-            .collect::<Vec<_>>()
-    };
-    let summary_u64 = |f: fn(&RunSummary) -> Option<u64>| {
-        runs.iter()
-            .map(|r| r.summary.as_ref().and_then(f))
-            .collect::<Vec<_>>()
-    };
+    let summary_f64 = |f: fn(&RunSummary) -> Option<f64>| from_summary(runs, f);
+    let summary_u64 = |f: fn(&RunSummary) -> Option<u64>| from_summary(runs, f);
     let mut columns = flight_columns(runs.iter());
     columns.extend([
         Column::new(
@@ -277,16 +269,12 @@ fn flights_table(runs: &[FleetRun]) -> PolarsResult<DataFrame> {
         ),
         Column::new(
             "flight_start".into(),
-            runs.iter()
-                .map(|r| r.summary.as_ref().map(|s| s.flight_start.clone()))
-                .collect::<Vec<_>>(),
+            from_summary(runs, |s| Some(s.flight_start.clone())),
         ),
         Column::new("duration_s".into(), summary_f64(|s| Some(s.duration_s))),
         Column::new(
             "truncated".into(),
-            runs.iter()
-                .map(|r| r.summary.as_ref().map(|s| s.truncated))
-                .collect::<Vec<_>>(),
+            from_summary(runs, |s| Some(s.truncated)),
         ),
         Column::new("frames".into(), summary_u64(|s| Some(s.frames))),
         Column::new(
@@ -325,14 +313,18 @@ fn flights_table(runs: &[FleetRun]) -> PolarsResult<DataFrame> {
                 })
                 .collect::<Vec<_>>(),
         ),
-        Column::new("postflight_version".into(), summary_version(runs)),
+        Column::new(
+            "postflight_version".into(),
+            from_summary(runs, |s| Some(s.versions.postflight.clone())),
+        ),
     ]);
     DataFrame::new(height, columns)
 }
 
-fn summary_version(runs: &[FleetRun]) -> Vec<Option<String>> {
+/// One value per run from its report's summary (none before the report).
+fn from_summary<T>(runs: &[FleetRun], f: impl Fn(&RunSummary) -> Option<T>) -> Vec<Option<T>> {
     runs.iter()
-        .map(|r| r.summary.as_ref().map(|s| s.versions.postflight.clone()))
+        .map(|r| r.summary.as_ref().and_then(&f))
         .collect()
 }
 
