@@ -747,11 +747,7 @@ fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<()> {
     let options = compare::CompareOptions::new(args.before.clone(), args.after.clone());
     let summary = compare::compare(&options)?;
     // The later run's report gets its "changes since" section.
-    let after = postflight_core::RunDir::create(&args.after)?;
-    if after
-        .summary::<postflight_core::outputs::report::RunSummary>(Stage::Report)?
-        .is_some()
-    {
+    if postflight_core::RunDir::open(&args.after, Stage::Report).is_ok() {
         stages::report(
             &reports::ReportOptions {
                 run: args.after.clone(),
@@ -766,15 +762,15 @@ fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<()> {
             "registered: shift {:.3}, {:.3}, {:.3} m, yaw {:.2} deg; residual {:.3} m RMS over {:.0}% of the earlier map",
             t[0], t[1], t[2], r.yaw_deg, r.rms_m, r.overlap_pct
         );
-        let counts: Vec<String> = summary
-            .counts
+        let counts: Vec<String> = postflight_core::outputs::changes::ChangeKind::ALL
             .iter()
-            .filter(|(_, n)| **n > 0)
-            .map(|(k, n)| format!("{n} {}", k.replace('_', " ")))
+            .map(|k| (summary.count(*k), k.words()))
+            .filter(|(n, _)| *n > 0)
+            .map(|(n, k)| format!("{n} {k}"))
             .collect();
         println!(
             "changes since {}: {}; written to {}",
-            &summary.before_flight_start[..10.min(summary.before_flight_start.len())],
+            summary.before_date(),
             counts.join(", "),
             args.after
                 .join(postflight_core::outputs::changes::files::SUMMARY)

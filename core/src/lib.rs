@@ -16,7 +16,8 @@
 //!   per table.
 //! - The structure as inspectors name it: elements and places on them
 //!   ([`structure`]).
-//! - Settings named by their key in `postflight.toml` ([`setting`]).
+//! - Settings named by their key in `postflight.toml` ([`setting`]), and
+//!   lists of numbers as flags and tools write them ([`runs`]).
 //!
 //! Nothing heavy: no ONNX Runtime, Rerun, web server or recording format;
 //! those belong to the stages that need them.
@@ -34,6 +35,7 @@ pub mod plan;
 pub mod pose;
 pub mod run_dir;
 pub mod run_log;
+pub mod runs;
 pub mod serde_pose;
 pub mod setting;
 pub mod structure;

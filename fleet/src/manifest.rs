@@ -42,8 +42,6 @@ pub struct FlightEntry {
     /// Its index in the manifest, from 0 (the Slurm array and Kubernetes
     /// completion index).
     pub index: usize,
-    /// Where the manifest gives it, for messages: `line 4` or `flight 3`.
-    pub source: String,
     /// The structure's id: a directory name and Hive partition value.
     pub structure: String,
     pub date: Option<Date>,
@@ -87,7 +85,6 @@ impl FlightEntry {
     pub(crate) fn example(index: usize) -> Self {
         Self {
             index,
-            source: format!("row {}", index + 1),
             structure: "b".into(),
             date: None,
             name: Some("n".into()),
@@ -140,25 +137,13 @@ impl Manifest {
 }
 
 /// A row as written, before paths are resolved and names checked.
-#[derive(Debug, Default, Deserialize)]
+#[derive(Debug, Default, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Row {
     structure: Option<String>,
     flight: Option<PathBuf>,
     date: Option<DateCell>,
     name: Option<String>,
-    map: Option<PathBuf>,
-    plan: Option<PathBuf>,
-    yaw: Option<YawName>,
-    targets: Option<PathBuf>,
-    model: Option<PathBuf>,
-    config: Option<PathBuf>,
-}
-
-/// The columns a TOML manifest's `[defaults]` may give for every flight.
-#[derive(Debug, Default, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Files {
     map: Option<PathBuf>,
     plan: Option<PathBuf>,
     yaw: Option<YawName>,
@@ -176,8 +161,7 @@ enum YawName {
 
 impl Row {
     /// The row, each file it leaves out taken from `defaults`.
-    fn or(self, defaults: &Files) -> Row {
-        let d = defaults.clone();
+    fn or(self, d: Row) -> Row {
         Row {
             map: self.map.or(d.map),
             plan: self.plan.or(d.plan),
@@ -193,8 +177,9 @@ impl Row {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct TomlManifest {
+    /// Files every flight shares (a flight's own row wins).
     #[serde(default)]
-    defaults: Files,
+    defaults: Row,
     #[serde(default)]
     flight: Vec<Row>,
 }
@@ -207,11 +192,15 @@ fn toml_rows(text: &str) -> Result<Vec<(String, Row)>, String> {
             e.message()
         )
     })?;
+    let d = &manifest.defaults;
+    if d.structure.is_some() || d.flight.is_some() || d.date.is_some() || d.name.is_some() {
+        return Err("[defaults] gives a flight's own column; it may give map, plan, yaw, targets, model and config".into());
+    }
     Ok(manifest
         .flight
         .into_iter()
         .enumerate()
-        .map(|(i, row)| (format!("flight {}", i + 1), row.or(&manifest.defaults)))
+        .map(|(i, row)| (format!("flight {}", i + 1), row.or(d.clone())))
         .collect())
 }
 
@@ -247,7 +236,7 @@ fn entries(rows: Vec<(String, Row)>, base: &Path) -> Result<Vec<FlightEntry>, St
     let mut by_run: HashMap<String, String> = HashMap::new();
     let mut flights = Vec::with_capacity(rows.len());
     for (index, (source, row)) in rows.into_iter().enumerate() {
-        let entry = entry(index, &source, row, base).map_err(|why| format!("{source}: {why}"))?;
+        let entry = entry(index, row, base).map_err(|why| format!("{source}: {why}"))?;
         if let Some(other) = by_run.insert(entry.label(), source.clone()) {
             return Err(format!(
                 "{other} and {source} both go to {}; give one of them a `name`",
@@ -259,7 +248,7 @@ fn entries(rows: Vec<(String, Row)>, base: &Path) -> Result<Vec<FlightEntry>, St
     Ok(flights)
 }
 
-fn entry(index: usize, source: &str, row: Row, base: &Path) -> Result<FlightEntry, String> {
+fn entry(index: usize, row: Row, base: &Path) -> Result<FlightEntry, String> {
     let structure = row
         .structure
         .ok_or("no `structure`; give the structure's id")?;
@@ -275,7 +264,6 @@ fn entry(index: usize, source: &str, row: Row, base: &Path) -> Result<FlightEntr
     let resolve = |p: Option<PathBuf>| p.map(|p| base.join(p));
     Ok(FlightEntry {
         index,
-        source: source.to_string(),
         structure,
         date,
         name: row.name,
@@ -302,7 +290,7 @@ fn check_id(column: &str, id: &str) -> Result<(), String> {
 }
 
 /// A date cell: `YYYY-MM-DD` as text, or a TOML date.
-#[derive(Debug)]
+#[derive(Debug, Clone, Copy)]
 struct DateCell(Date);
 
 impl<'de> Deserialize<'de> for DateCell {
@@ -428,6 +416,11 @@ yaw = "degrees"
                 "flight 1: no `flight`",
             ),
             ("m.toml", "[[flights]]\n", "not a valid manifest"),
+            (
+                "m.toml",
+                "[defaults]\nstructure = \"b\"\n",
+                "[defaults] gives a flight's own column",
+            ),
         ];
         for (name, text, expected) in cases {
             let e = load(name, text).unwrap_err().to_string();

@@ -98,8 +98,7 @@ impl ArrayJob {
         }
         // Options go before the script: what follows it is the script's.
         sbatch.arg(dir.file(SCRIPT));
-        let job = self.start(sbatch, wait, &dir)?;
-        Ok(job)
+        self.start(sbatch, wait, &dir)
     }
 
     /// Run `sbatch`, recording the job as soon as it is known.
@@ -161,31 +160,15 @@ pub fn submissions(fleet: &Path) -> Result<Vec<Submission>, Error> {
 /// Slurm's `--array` value for `indices`: ranges joined by commas, and a
 /// `%N` limit on tasks running at once.
 pub fn array_spec(indices: &[usize], max_running: Option<usize>) -> String {
+    use postflight_core::runs;
     let mut sorted = indices.to_vec();
     sorted.sort_unstable();
     sorted.dedup();
-    let mut ranges: Vec<(usize, usize)> = Vec::new();
-    for i in sorted {
-        match ranges.last_mut() {
-            Some((_, end)) if *end + 1 == i => *end = i,
-            _ => ranges.push((i, i)),
-        }
+    let spec = runs::write(&runs::consecutive(&sorted), "-", ",");
+    match max_running {
+        Some(n) => format!("{spec}%{n}"),
+        None => spec,
     }
-    let mut spec = ranges
-        .iter()
-        .map(|&(a, b)| {
-            if a == b {
-                a.to_string()
-            } else {
-                format!("{a}-{b}")
-            }
-        })
-        .collect::<Vec<_>>()
-        .join(",");
-    if let Some(n) = max_running {
-        spec.push_str(&format!("%{n}"));
-    }
-    spec
 }
 
 /// The array tasks Slurm still holds (pending or running), by

@@ -334,13 +334,7 @@ fn coverage_table(runs: &[FleetRun]) -> PolarsResult<DataFrame> {
         .iter()
         .filter_map(|r| r.coverage.as_ref().map(|c| (r, c)))
         .collect();
-    let count = |name: &str, f: fn(&CoverageSummary) -> usize| {
-        Column::new(
-            name.into(),
-            covered.iter().map(|(_, c)| f(c) as u64).collect::<Vec<_>>(),
-        )
-    };
-    let maybe = |name: &str, f: fn(&CoverageSummary) -> Option<usize>| {
+    let count = |name: &str, f: fn(&CoverageSummary) -> Option<usize>| {
         Column::new(
             name.into(),
             covered
@@ -349,46 +343,28 @@ fn coverage_table(runs: &[FleetRun]) -> PolarsResult<DataFrame> {
                 .collect::<Vec<_>>(),
         )
     };
+    let real = |name: &str, f: fn(&CoverageSummary) -> Option<f64>| {
+        Column::new(
+            name.into(),
+            covered.iter().map(|(_, c)| f(c)).collect::<Vec<_>>(),
+        )
+    };
     let mut columns = flight_columns(covered.iter().map(|(r, _)| *r));
     columns.extend([
-        Column::new(
-            "resolution_m".into(),
-            covered
-                .iter()
-                .map(|(_, c)| c.resolution_m)
-                .collect::<Vec<_>>(),
-        ),
-        count("target_voxels", |c| c.target_voxels),
-        maybe("planned_voxels", |c| c.planned_voxels),
-        count("inspected_voxels", |c| c.inspected_voxels),
-        Column::new(
-            "inspected_pct".into(),
-            covered
-                .iter()
-                .map(|(_, c)| c.inspected_pct)
-                .collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "planned_inspected_pct".into(),
-            covered
-                .iter()
-                .map(|(_, c)| c.planned_inspected_pct)
-                .collect::<Vec<_>>(),
-        ),
-        maybe("planned_missed_voxels", |c| c.planned_missed_voxels),
-        count("gap_voxels", |c| c.gap_voxels),
-        count("uninspectable_voxels", |c| c.uninspectable_voxels),
-        count("exposed_faces", |c| c.exposed_faces),
-        count("inspected_faces", |c| c.inspected_faces),
-        Column::new(
-            "face_area_coverage_pct".into(),
-            covered
-                .iter()
-                .map(|(_, c)| c.face_area_coverage_pct)
-                .collect::<Vec<_>>(),
-        ),
-        count("shots_total", |c| c.shots_total),
-        count("shots_usable", |c| c.shots_usable),
+        real("resolution_m", |c| Some(c.resolution_m)),
+        count("target_voxels", |c| Some(c.target_voxels)),
+        count("planned_voxels", |c| c.planned_voxels),
+        count("inspected_voxels", |c| Some(c.inspected_voxels)),
+        real("inspected_pct", |c| Some(c.inspected_pct)),
+        real("planned_inspected_pct", |c| c.planned_inspected_pct),
+        count("planned_missed_voxels", |c| c.planned_missed_voxels),
+        count("gap_voxels", |c| Some(c.gap_voxels)),
+        count("uninspectable_voxels", |c| Some(c.uninspectable_voxels)),
+        count("exposed_faces", |c| Some(c.exposed_faces)),
+        count("inspected_faces", |c| Some(c.inspected_faces)),
+        real("face_area_coverage_pct", |c| Some(c.face_area_coverage_pct)),
+        count("shots_total", |c| Some(c.shots_total)),
+        count("shots_usable", |c| Some(c.shots_usable)),
     ]);
     DataFrame::new(covered.len(), columns)
 }
@@ -398,12 +374,12 @@ fn coverage_table(runs: &[FleetRun]) -> PolarsResult<DataFrame> {
 fn defects_table(runs: &[FleetRun]) -> Result<DataFrame, Error> {
     let mut all = DataFrame::new(0, flight_columns(std::iter::empty()))
         .map_err(table_error(Path::new(files::DEFECTS)))?;
-    for (i, run) in runs
+    // A run's candidates count once its localise stage has completed.
+    let localised = runs
         .iter()
-        .filter(|r| r.dir.join(localise_files::DEFECTS).is_file())
-        .enumerate()
-    {
-        let named = RunDir::create(&run.dir)?.read_table(localise_files::DEFECTS, |defects| {
+        .filter_map(|r| RunDir::open(&r.dir, Stage::Localise).ok().map(|d| (r, d)));
+    for (i, (run, dir)) in localised.enumerate() {
+        let named = dir.read_table(localise_files::DEFECTS, |defects| {
             let flight = flight_columns(std::iter::repeat_n(run, defects.height()));
             let columns = flight.into_iter().chain(defects.columns().iter().cloned());
             DataFrame::new(defects.height(), columns.collect())

@@ -375,13 +375,9 @@ fn changes_section(r: &RunResults) -> Markup {
     let Some(c) = &r.changes else {
         return html! {};
     };
-    let since = c
-        .before_flight_start
-        .get(..10)
-        .unwrap_or(&c.before_flight_start);
+    let since = c.before_date();
     let g = &c.registration;
     let t = g.transform.translation;
-    let count = |k: ChangeKind| c.counts.get(k.as_str()).copied().unwrap_or(0);
     let listed: Vec<&ChangeRecord> = c
         .changes
         .iter()
@@ -399,7 +395,7 @@ fn changes_section(r: &RunResults) -> Markup {
         }
         div.cards {
             @for k in ChangeKind::ALL {
-                div.card { b { (count(k)) } span { (k.words()) } }
+                div.card { b { (c.count(k)) } span { (k.words()) } }
             }
         }
         @if listed.is_empty() {
@@ -408,7 +404,7 @@ fn changes_section(r: &RunResults) -> Markup {
             p.sub {
                 "New and grown cracks first. A crack is grown when it is longer by more than both flights' measurement spread; "
                 "one not re-inspected was not inspected by this flight, so nothing is known of it now. "
-                (count(ChangeKind::Unchanged)) " unchanged cracks are listed in changes.parquet."
+                (c.count(ChangeKind::Unchanged)) " unchanged cracks are listed in changes.parquet."
             }
             table {
                 tr {
@@ -675,21 +671,8 @@ fn gaps_by_element(r: &RunResults, p: &ReplanSummary) -> Markup {
 
 /// Increasing numbers as ranges: `1–4, 7, 9–10`.
 fn number_ranges(numbers: &[usize]) -> String {
-    let mut out: Vec<String> = Vec::new();
-    let mut i = 0;
-    while i < numbers.len() {
-        let start = numbers[i];
-        while i + 1 < numbers.len() && numbers[i + 1] == numbers[i] + 1 {
-            i += 1;
-        }
-        out.push(if numbers[i] == start {
-            start.to_string()
-        } else {
-            format!("{start}\u{2013}{}", numbers[i])
-        });
-        i += 1;
-    }
-    out.join(", ")
+    use postflight_core::runs;
+    runs::write(&runs::consecutive(numbers), "\u{2013}", ", ")
 }
 
 /// Where to go from here: the review queue and the run's files.

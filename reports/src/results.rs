@@ -182,14 +182,17 @@ impl RunResults {
     pub fn review_order(&self) -> Vec<usize> {
         let d = &self.defects;
         // `false` (new or grown) sorts first.
-        let older = |i: usize| {
-            let change = self.change_of(&d[i].id).map(|c| c.change);
-            !matches!(change, Some(ChangeKind::New | ChangeKind::Grown))
-        };
+        let older: Vec<bool> = d
+            .iter()
+            .map(|d| {
+                let change = self.change_of(&d.id).map(|c| c.change);
+                !matches!(change, Some(ChangeKind::New | ChangeKind::Grown))
+            })
+            .collect();
         let mut order: Vec<usize> = (0..d.len()).collect();
         order.sort_by(|&a, &b| {
-            older(a)
-                .cmp(&older(b))
+            older[a]
+                .cmp(&older[b])
                 .then_with(|| review_priority(&d[b]).total_cmp(&review_priority(&d[a])))
                 .then_with(|| d[a].id.cmp(&d[b].id))
         });

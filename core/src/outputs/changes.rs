@@ -34,6 +34,19 @@ pub struct ChangesSummary {
     pub seconds: f64,
 }
 
+impl ChangesSummary {
+    /// The earlier flight's date, `YYYY-MM-DD`: what "changes since" names.
+    pub fn before_date(&self) -> &str {
+        let start = &self.before_flight_start;
+        start.get(..10).unwrap_or(start)
+    }
+
+    /// How many changes are of `kind`.
+    pub fn count(&self, kind: ChangeKind) -> usize {
+        self.counts.get(kind.as_str()).copied().unwrap_or(0)
+    }
+}
+
 /// How the earlier flight's map was put onto this one's.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct RegistrationRecord {

@@ -168,6 +168,7 @@ pub fn changes(
         .map(|d| Placed::new(d, &identity, inspected_after))
         .collect();
     let pairs = match_pairs(&earlier, &later, options);
+    let back = to_after.inverse();
     let mut records = Vec::new();
     let mut matched_before = vec![false; earlier.len()];
     for (b, now) in later.iter().enumerate() {
@@ -177,7 +178,6 @@ pub fn changes(
                 seen_again(&earlier[a], now, options)
             }
             None => {
-                let back = to_after.inverse();
                 let earlier_inspected = inspected_before
                     .and_then(|i| i.at(&(back * now.position), &(back * now.normal)));
                 ChangeRecord {

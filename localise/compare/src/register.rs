@@ -89,37 +89,11 @@ pub fn register(
     if source.len() < 10 {
         return Err(RegisterError::TooFewPoints(source.len()));
     }
-    let mut normals = Normals::new(after, options.normal_radius_m);
-    // A structure that looks alike from many sides (a silo) fits many
-    // coarse yaws about as well: refine each roughly on a quarter of the
-    // points, then the best two fully; keep the one that ends with the most
-    // of the earlier map on the later one.
-    let probe: Vec<Point3<f64>> = source.iter().step_by(4).copied().collect();
-    let rough = &options.max_distance_m[..2];
-    let mut starts: Vec<(Fit, Isometry3<f64>, f64)> = coarse_alignments(&source, after, options)
-        .into_iter()
-        .map(|(start, yaw)| {
-            let (t, _) = icp(&probe, after, &mut normals, start, rough);
-            (fit(&probe, after, &mut normals, &t, options), t, yaw)
-        })
-        .collect();
-    starts.sort_by(|a, b| b.0.better(&a.0));
-    let (transform, iterations, yaw, fit) = starts
-        .into_iter()
-        .take(2)
-        .map(|(_, start, yaw)| {
-            let (t, iterations) = icp(&source, after, &mut normals, start, &options.max_distance_m);
-            (
-                t,
-                iterations,
-                yaw,
-                fit(&source, after, &mut normals, &t, options),
-            )
-        })
-        .max_by(|a, b| a.3.better(&b.3))
-        .expect("at least one coarse alignment");
-    let structure = above_ground(&source, options);
-    let overlap = fit.inliers as f64 / structure.max(1) as f64;
+    // The fit is judged on the points above the ground: any two maps share
+    // a flat ground.
+    let structure = above_ground(&source, options.above_ground_m);
+    let best = best_alignment(&source, &structure, after, options);
+    let overlap = best.fit.inliers as f64 / structure.len().max(1) as f64;
     if overlap < options.min_overlap {
         return Err(RegisterError::TooLittleOverlap {
             overlap,
@@ -127,14 +101,79 @@ pub fn register(
         });
     }
     Ok(Registration {
-        transform,
-        rms_m: fit.rms_m,
+        transform: best.transform,
+        rms_m: best.fit.rms_m,
         overlap,
-        points: structure,
-        inliers: fit.inliers,
-        iterations,
-        coarse_yaw_deg: yaw.to_degrees(),
+        points: structure.len(),
+        inliers: best.fit.inliers,
+        iterations: best.iterations,
+        coarse_yaw_deg: best.yaw.to_degrees(),
     })
+}
+
+/// The best registration of `source`, judged by how many of `structure`'s
+/// points it puts on `after`. A structure that looks alike from many sides
+/// (a silo) fits many coarse yaws about as well: each is refined roughly on
+/// a quarter of the points, then the best two fully.
+fn best_alignment(
+    source: &[Point3<f64>],
+    structure: &[Point3<f64>],
+    after: &SlamMap,
+    options: &RegisterOptions,
+) -> Alignment {
+    let mut normals = Normals::new(after, options.normal_radius_m);
+    let quarter = |points: &[Point3<f64>]| points.iter().step_by(4).copied().collect::<Vec<_>>();
+    let (probe, structure_probe) = (quarter(source), quarter(structure));
+    let rough = &options.max_distance_m[..2];
+    let mut starts: Vec<Alignment> = coarse_alignments(source, after, options)
+        .into_iter()
+        .map(|(start, yaw)| {
+            let (transform, iterations) = icp(&probe, after, &mut normals, start, rough);
+            let fit = fit(
+                &structure_probe,
+                after,
+                &mut normals,
+                &transform,
+                options.inlier_m,
+            );
+            Alignment {
+                transform,
+                iterations,
+                yaw,
+                fit,
+            }
+        })
+        .collect();
+    starts.sort_by(|a, b| b.fit.better(&a.fit));
+    starts
+        .into_iter()
+        .take(2)
+        .map(|rough| {
+            let (transform, iterations) = icp(
+                source,
+                after,
+                &mut normals,
+                rough.transform,
+                &options.max_distance_m,
+            );
+            let fit = fit(structure, after, &mut normals, &transform, options.inlier_m);
+            Alignment {
+                transform,
+                iterations,
+                yaw: rough.yaw,
+                fit,
+            }
+        })
+        .max_by(|a, b| a.fit.better(&b.fit))
+        .expect("at least one coarse alignment")
+}
+
+/// A registration tried: from the coarse `yaw`, ICP's transform and fit.
+struct Alignment {
+    transform: Isometry3<f64>,
+    iterations: usize,
+    yaw: f64,
+    fit: Fit,
 }
 
 /// One point per occupied voxel of edge `edge`: the centroid of its points.
@@ -318,25 +357,20 @@ fn icp_step(
     ))
 }
 
-/// The level of a map's ground: the 5th percentile of its heights (SLAM
-/// maps of a gravity-aligned system are z up).
-fn ground_level(points: &[Point3<f64>]) -> f64 {
+/// The points more than `height` above the ground: the 5th percentile of
+/// the heights (SLAM maps of a gravity-aligned system are z up).
+fn above_ground(points: &[Point3<f64>], height: f64) -> Vec<Point3<f64>> {
     let mut z: Vec<f64> = points.iter().map(|p| p.z).collect();
     z.sort_by(f64::total_cmp);
-    z.get(z.len() / 20).copied().unwrap_or(0.0)
-}
-
-/// The points of `source` above its ground.
-fn above_ground(source: &[Point3<f64>], options: &RegisterOptions) -> usize {
-    let ground = ground_level(source);
-    source
+    let ground = z.get(z.len() / 20).copied().unwrap_or(0.0);
+    points
         .iter()
-        .filter(|p| p.z > ground + options.above_ground_m)
-        .count()
+        .filter(|p| p.z > ground + height)
+        .copied()
+        .collect()
 }
 
-/// How well `source`'s points above its ground (any two maps share a
-/// flat ground) lie on `after` under `transform`.
+/// How well points lie on `after` under a transform.
 struct Fit {
     inliers: usize,
     rms_m: f64,
@@ -352,21 +386,17 @@ impl Fit {
 }
 
 fn fit(
-    source: &[Point3<f64>],
+    points: &[Point3<f64>],
     after: &SlamMap,
     normals: &mut Normals,
     transform: &Isometry3<f64>,
-    options: &RegisterOptions,
+    inlier_m: f64,
 ) -> Fit {
-    let ground = ground_level(source);
     let (mut inliers, mut squares) = (0, 0.0);
-    for p in source
-        .iter()
-        .filter(|p| p.z > ground + options.above_ground_m)
-    {
+    for p in points {
         let p = transform * p;
         let q = after.nearest(&p);
-        if q.distance > options.inlier_m {
+        if q.distance > inlier_m {
             continue;
         }
         inliers += 1;

@@ -42,18 +42,24 @@ impl CompareOptions {
 /// Compare the runs; the summary written.
 pub fn compare(options: &CompareOptions) -> Result<ChangesSummary, CompareError> {
     let started = Instant::now();
-    let before = RunDir::open(&options.before, Stage::Localise)?;
-    let after = RunDir::open(&options.after, Stage::Coverage)?;
-    after.require(Stage::Localise)?;
-    let registration = register_maps(&before, &after, options)?;
-    let inspected_after = inspected(&after)?.expect("coverage completed");
-    let inspected_before = inspected(&before)?;
+    let before = Side::read(&options.before, Stage::Localise)?;
+    let after = Side::read(&options.after, Stage::Coverage)?;
+    after.flight.run.require(Stage::Localise)?;
+    let registration =
+        register(&before.map()?, &after.map()?, &options.register).map_err(|cause| {
+            CompareError::Register {
+                before: options.before.clone(),
+                after: options.after.clone(),
+                cause,
+            }
+        })?;
+    let inspected_after = after.inspected.as_ref().expect("coverage completed");
     let changes = changes(
-        &read_defects(&before)?,
-        &read_defects(&after)?,
+        &read_defects(&before.flight.run)?,
+        &read_defects(&after.flight.run)?,
         &registration.transform,
-        &inspected_after,
-        inspected_before.as_ref(),
+        inspected_after,
+        before.inspected.as_ref(),
         &options.matching,
     );
     let counts = ChangeKind::ALL
@@ -67,15 +73,16 @@ pub fn compare(options: &CompareOptions) -> Result<ChangesSummary, CompareError>
         .collect();
     let summary = ChangesSummary {
         before: absolute(&options.before),
-        before_flight_start: Flight::load(before.path())?.summary.start_time,
+        before_flight_start: before.flight.summary.start_time.clone(),
         after: absolute(&options.after),
         registration: registration_record(&registration),
         counts,
         changes,
         seconds: started.elapsed().as_secs_f64(),
     };
-    after.remove(postflight_core::outputs::changes::files::SUMMARY)?;
-    write_changes(&after, &summary)?;
+    let run = &after.flight.run;
+    run.remove(postflight_core::outputs::changes::files::SUMMARY)?;
+    write_changes(run, &summary)?;
     Ok(summary)
 }
 
@@ -83,40 +90,37 @@ fn absolute(p: &Path) -> PathBuf {
     std::path::absolute(p).unwrap_or_else(|_| p.to_owned())
 }
 
-/// The earlier run's map registered onto the later one's.
-fn register_maps(
-    before: &RunDir,
-    after: &RunDir,
-    options: &CompareOptions,
-) -> Result<Registration, CompareError> {
-    let map = |run: &RunDir| -> Result<SlamMap, CompareError> {
-        let given = coverage_map(run)?;
-        let flight = Flight::load(run.path())?;
-        Ok(ingest::reopen::load_map(&flight, given.as_deref(), None)?.0)
-    };
-    register(&map(before)?, &map(after)?, &options.register).map_err(|cause| {
-        CompareError::Register {
-            before: options.before.clone(),
-            after: options.after.clone(),
-            cause,
-        }
-    })
+/// One of the two runs, read once: its flight, and its coverage with the
+/// map file it judged against.
+struct Side {
+    flight: Flight,
+    /// The map file coverage used (`None`: the flight's recorded map).
+    map: Option<PathBuf>,
+    inspected: Option<Inspected>,
 }
 
-/// The map file the run's coverage judged against (`None`: the recorded one).
-fn coverage_map(run: &RunDir) -> Result<Option<PathBuf>, CompareError> {
-    Ok(run
-        .summary::<CoverageSummary>(Stage::Coverage)?
-        .and_then(|s| s.map))
-}
+impl Side {
+    /// The run at `path`, which must have completed `stage`.
+    fn read(path: &Path, stage: Stage) -> Result<Self, CompareError> {
+        let run = RunDir::open(path, stage)?;
+        let coverage = run.summary::<CoverageSummary>(Stage::Coverage)?;
+        let inspected = match &coverage {
+            Some(summary) => {
+                let records = read_coverage(&run, coverage_files::TABLE)?;
+                Some(Inspected::new(summary, &records))
+            }
+            None => None,
+        };
+        Ok(Self {
+            flight: Flight::load(path)?,
+            map: coverage.and_then(|c| c.map),
+            inspected,
+        })
+    }
 
-/// A run's coverage, when it has one.
-fn inspected(run: &RunDir) -> Result<Option<Inspected>, CompareError> {
-    let Some(summary) = run.summary::<CoverageSummary>(Stage::Coverage)? else {
-        return Ok(None);
-    };
-    let records = read_coverage(run, coverage_files::TABLE)?;
-    Ok(Some(Inspected::new(&summary, &records)))
+    fn map(&self) -> Result<SlamMap, CompareError> {
+        Ok(ingest::reopen::load_map(&self.flight, self.map.as_deref(), None)?.0)
+    }
 }
 
 fn registration_record(r: &Registration) -> RegistrationRecord {

@@ -109,7 +109,7 @@ fn verdict(d: Option<&Decision>) -> Markup {
                                 " (" (word) ")"
                             }
                         },
-                        (v, _) => (v.as_str()),
+                        (v, _) => (v.words()),
                     }
                 }
                 " "
@@ -387,7 +387,7 @@ fn views_section(d: &DefectRecord, shown: usize, filter: Filter) -> Markup {
 fn since_line(since: &Since) -> Markup {
     use postflight_core::outputs::changes::ChangeKind;
     html! {
-        @if matches!(since.change, ChangeKind::New | ChangeKind::Grown) {
+        @if matches!(since.change.change, ChangeKind::New | ChangeKind::Grown) {
             span.flag.since { (since.text()) }
         } @else {
             span.sub.since { (since.text()) }
@@ -406,7 +406,7 @@ fn facts(ctx: &Context, d: &DefectRecord) -> Markup {
                     th { "since " (since.date) }
                     td {
                         (since_line(since))
-                        @if let Some(before) = since.length_before_m {
+                        @if let Some(before) = since.change.length_before_m {
                             br; span.sub { (format!("{before:.2} m long then")) }
                         }
                     }

@@ -4,7 +4,7 @@
 
 use std::collections::HashMap;
 
-use postflight_core::outputs::changes::{ChangeKind, ChangesSummary};
+use postflight_core::outputs::changes::{ChangeKind, ChangeRecord, ChangesSummary};
 
 use crate::store::{DEFAULT_DB, Decision, ReviewError, ReviewStore};
 
@@ -13,9 +13,7 @@ use crate::store::{DEFAULT_DB, Decision, ReviewError, ReviewStore};
 pub struct Since {
     /// The earlier flight's date, `YYYY-MM-DD`.
     pub date: String,
-    pub change: ChangeKind,
-    pub length_before_m: Option<f64>,
-    pub growth_m: Option<f64>,
+    pub change: ChangeRecord,
     /// The earlier review's current decision on the same crack.
     pub decision: Option<Decision>,
 }
@@ -36,19 +34,13 @@ pub fn pasts(changes: Option<&ChangesSummary>) -> Result<HashMap<String, Since>,
     } else {
         HashMap::new()
     };
-    let date = c
-        .before_flight_start
-        .get(..10)
-        .unwrap_or(&c.before_flight_start)
-        .to_string();
+    let date = c.before_date().to_string();
     Ok(c.changes
         .iter()
         .filter_map(|ch| {
             let since = Since {
                 date: date.clone(),
-                change: ch.change,
-                length_before_m: ch.length_before_m,
-                growth_m: ch.growth_m,
+                change: ch.clone(),
                 decision: ch.before.as_ref().and_then(|b| earlier.get(b).cloned()),
             };
             Some((ch.after.clone()?, since))
@@ -60,9 +52,8 @@ impl Since {
     /// One line: "grown by 0.21 m since 2025-06-15; then needs repair,
     /// severity 3".
     pub fn text(&self) -> String {
-        let what = match (self.change, self.growth_m) {
+        let what = match (self.change.change, self.change.growth_m) {
             (ChangeKind::Grown, Some(g)) => format!("grown by {g:.2} m since {}", self.date),
-            (ChangeKind::New, _) => format!("new since {}", self.date),
             (kind, _) => format!("{} since {}", kind.words(), self.date),
         };
         match &self.decision {
@@ -71,10 +62,7 @@ impl Since {
                     .severity
                     .map(|s| format!(", severity {s}"))
                     .unwrap_or_default();
-                format!(
-                    "{what}; then {}{severity}",
-                    d.verdict.as_str().replace('_', " ")
-                )
+                format!("{what}; then {}{severity}", d.verdict.words())
             }
             None => what,
         }

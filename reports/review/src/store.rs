@@ -34,6 +34,14 @@ impl Verdict {
         }
     }
 
+    /// As people read it: "needs repair".
+    pub fn words(self) -> &'static str {
+        match self {
+            Self::NeedsRepair => "needs repair",
+            other => other.as_str(),
+        }
+    }
+
     pub fn parse(s: &str) -> Option<Self> {
         [Self::Accepted, Self::Rejected, Self::NeedsRepair]
             .into_iter()
