@@ -648,6 +648,12 @@ fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
 }
 
 fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
+    if let Some(path) = args.plan.as_ref().filter(|p| PlanFile::new(*p).is_path()) {
+        anyhow::bail!(
+            "--plan {}: a waypoint path names no structure voxels, which is all localise takes from a plan; give the plan.json, or leave --plan out",
+            path.display()
+        );
+    }
     let config = config::RunConfig::load_or_default(args.config.as_deref())?;
     let options = localise::LocaliseOptions {
         view: config.view,

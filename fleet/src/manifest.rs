@@ -253,6 +253,7 @@ fn entry(index: usize, row: Row, base: &Path) -> Result<FlightEntry, String> {
         .structure
         .ok_or("no `structure`; give the structure's id")?;
     check_id("structure", &structure)?;
+    check_not_reserved(&structure)?;
     if let Some(name) = &row.name {
         check_id("name", name)?;
     }
@@ -284,6 +285,20 @@ fn check_id(column: &str, id: &str) -> Result<(), String> {
     if id.is_empty() || id.starts_with('.') || !id.chars().all(allowed) {
         return Err(format!(
             "{column} '{id}' is not a valid id; use letters, digits, '.', '_' and '-' (not starting with '.')"
+        ));
+    }
+    Ok(())
+}
+
+/// The fleet directory's own directories (the tables, the Slurm job), which
+/// no structure's runs may share.
+pub const RESERVED: [&str; 2] = [crate::tables::files::DIR, crate::slurm::SLURM_DIR];
+
+fn check_not_reserved(structure: &str) -> Result<(), String> {
+    if RESERVED.contains(&structure) {
+        return Err(format!(
+            "structure '{structure}' is reserved (FLEET_DIR/{} holds the fleet's tables, FLEET_DIR/{} the Slurm job); give the structure another id",
+            RESERVED[0], RESERVED[1]
         ));
     }
     Ok(())
@@ -410,6 +425,16 @@ yaw = "degrees"
                 "row 1 and row 2 both go to b/2026-01-01; give one of them a `name`",
             ),
             ("m.csv", "structure,flight,date\n", "lists no flights"),
+            (
+                "m.csv",
+                "structure,flight,date\nbridge,a.mcap,2026-01-01\nfleet,b.mcap,2026-01-01\n",
+                "row 2: structure 'fleet' is reserved",
+            ),
+            (
+                "m.toml",
+                "[[flight]]\nstructure = \"slurm\"\ndate = 2026-01-01\nflight = \"a.mcap\"\n",
+                "flight 1: structure 'slurm' is reserved",
+            ),
             (
                 "m.toml",
                 "[[flight]]\nstructure = \"b\"\ndate = 2026-01-01\n",

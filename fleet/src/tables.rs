@@ -142,12 +142,19 @@ pub struct Written {
 }
 
 /// Write the fleet's tables for `runs` into `out` (`FLEET_DIR/fleet`),
-/// replacing what was there once all are written.
+/// replacing what was there once all are written. An `out` holding anything
+/// this function does not write is refused, never deleted.
 pub fn write(runs: &[FleetRun], out: &Path, index_html: &str) -> Result<Written, Error> {
+    check_replaceable(out)?;
     let parent = out.parent().unwrap_or(Path::new("."));
-    let staging = parent.join(format!(".{}.tmp", file_name(out)));
-    remove_dir(&staging)?;
-    let dir = RunDir::create(&staging)?;
+    let staging = tempfile::Builder::new()
+        .prefix(&format!(".{}.", file_name(out)))
+        .tempdir_in(parent)
+        .map_err(|cause| postflight_core::Error::Write {
+            path: parent.to_owned(),
+            cause,
+        })?;
+    let dir = RunDir::create(staging.path())?;
     let built =
         |name: &str, table: PolarsResult<DataFrame>| table.map_err(table_error(&dir.file(name)));
     let tables = [
@@ -165,7 +172,7 @@ pub fn write(runs: &[FleetRun], out: &Path, index_html: &str) -> Result<Written,
     }
     dir.write_text(files::INDEX, index_html)?;
     remove_dir(out)?;
-    std::fs::rename(&staging, out).map_err(|cause| postflight_core::Error::Write {
+    std::fs::rename(staging.keep(), out).map_err(|cause| postflight_core::Error::Write {
         path: out.to_owned(),
         cause,
     })?;
@@ -174,6 +181,36 @@ pub fn write(runs: &[FleetRun], out: &Path, index_html: &str) -> Result<Written,
         coverage: rows[1],
         defects: rows[2],
     })
+}
+
+/// What `write` puts in its directory, and all it may replace there.
+const WRITTEN: [&str; 4] = [
+    files::DEFECTS,
+    files::COVERAGE,
+    files::FLIGHTS,
+    files::INDEX,
+];
+
+/// `out` is missing or holds only what `write` writes.
+fn check_replaceable(out: &Path) -> Result<(), Error> {
+    let entries = match std::fs::read_dir(out) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        entries => entries.map_err(|cause| postflight_core::Error::Open {
+            path: out.to_owned(),
+            cause,
+        })?,
+    };
+    let foreign = entries
+        .filter_map(Result::ok)
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .find(|name| !WRITTEN.contains(&name.as_str()));
+    match foreign {
+        Some(name) => Err(Error::NotOurs {
+            dir: out.to_owned(),
+            entry: name,
+        }),
+        None => Ok(()),
+    }
 }
 
 fn remove_dir(dir: &Path) -> Result<(), Error> {
@@ -396,4 +433,31 @@ fn defects_table(runs: &[FleetRun]) -> Result<DataFrame, Error> {
         }
     }
     Ok(all)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_tables_replace_only_what_they_wrote() {
+        let fleet = tempfile::tempdir().unwrap();
+        let out = fleet.path().join(files::DIR);
+        write(&[], &out, "<p>one</p>").unwrap();
+        write(&[], &out, "<p>two</p>").unwrap();
+        let index = std::fs::read_to_string(out.join(files::INDEX)).unwrap();
+        assert_eq!(index, "<p>two</p>");
+        // A structure named `fleet`, run by hand: its runs are never deleted.
+        let run = out.join("2026-01-01");
+        std::fs::create_dir_all(&run).unwrap();
+        std::fs::write(run.join(RUN_LOG), "{}").unwrap();
+        let e = write(&[], &out, "<p>three</p>").unwrap_err().to_string();
+        assert!(
+            e.contains("holds 2026-01-01, which `postflight fleet` did not write"),
+            "{e}"
+        );
+        assert!(run.join(RUN_LOG).is_file());
+        let left: Vec<_> = std::fs::read_dir(fleet.path()).unwrap().collect();
+        assert_eq!(left.len(), 1, "no staging directory left behind");
+    }
 }

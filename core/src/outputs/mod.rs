@@ -4,8 +4,8 @@
 //! exists ([`RunDir::open`](crate::RunDir::open) checks it).
 
 use polars::prelude::{
-    ChunkedArray, CsvWriter, DataFrame, PolarsDataType, PolarsResult, SerWriter, StringChunked,
-    polars_err,
+    ChunkedArray, CsvWriter, DataFrame, DataType, IntoSeries, PlSmallStr, PolarsDataType,
+    PolarsResult, SerWriter, StringChunked, polars_err,
 };
 
 pub mod changes;
@@ -64,11 +64,44 @@ impl Stage {
 }
 
 /// A table as CSV text: a header line, RFC 4180 quoting, missing values
-/// empty.
+/// empty, and text a spreadsheet would run as a formula made inert
+/// ([`inert`]).
 pub fn csv_text(mut table: DataFrame) -> PolarsResult<String> {
+    let text_columns: Vec<PlSmallStr> = table
+        .columns()
+        .iter()
+        .filter(|c| c.dtype() == &DataType::String)
+        .map(|c| c.name().clone())
+        .collect();
+    for name in text_columns {
+        let safe = table
+            .column(name.as_str())?
+            .str()?
+            .apply_into_string_amortized(|text, out| out.push_str(&inert(text)));
+        table.replace(name.as_str(), safe.into_series().into())?;
+    }
     let mut out = Vec::new();
     CsvWriter::new(&mut out).finish(&mut table)?;
     Ok(String::from_utf8(out).expect("polars writes UTF-8 CSV"))
+}
+
+/// A text cell as a spreadsheet shows it, never runs it: text starting with
+/// `=`, `@`, a tab or a carriage return, or with `+` or `-` and holding more
+/// than letters, digits, `_`, `.`, `+`, `-` and spaces (which could call a
+/// function), gets a leading `'` (OWASP's advice on CSV injection). Ids and
+/// signed numbers stay as they are.
+pub fn inert(text: &str) -> std::borrow::Cow<'_, str> {
+    let plain = |c: char| c.is_ascii_alphanumeric() || matches!(c, '_' | '.' | '+' | '-' | ' ');
+    let runs = match text.chars().next() {
+        Some('=' | '@' | '\t' | '\r') => true,
+        Some('+' | '-') => !text.chars().all(plain),
+        _ => false,
+    };
+    if runs {
+        format!("'{text}").into()
+    } else {
+        text.into()
+    }
 }
 
 /// Row `i` of a column that has a value in every row of its table.
@@ -128,5 +161,29 @@ mod tests {
         assert_eq!(parsed(&face, 0, FaceSide::parse).unwrap(), FaceSide::PosX);
         let e = parsed(&face, 1, FaceSide::parse).unwrap_err().to_string();
         assert!(e.contains("column face holds \"up\" in row 1"), "{e}");
+    }
+
+    #[test]
+    fn formulas_are_made_inert_and_ids_and_numbers_kept() {
+        let cases = [
+            (
+                "=HYPERLINK(\"http://x\",\"y\")",
+                "'=HYPERLINK(\"http://x\",\"y\")",
+            ),
+            ("@SUM(A1)", "'@SUM(A1)"),
+            ("+cmd|' /C calc'!A0", "'+cmd|' /C calc'!A0"),
+            ("-2+3*cmd|x", "'-2+3*cmd|x"),
+            ("\t=1", "'\t=1"),
+            ("\r=1", "'\r=1"),
+            ("-12_3_4+x", "-12_3_4+x"),
+            ("-1.5", "-1.5"),
+            ("a = b", "a = b"),
+            ("", ""),
+        ];
+        for (text, shown) in cases {
+            assert_eq!(inert(text), shown, "{text:?}");
+        }
+        let table = df!("note" => ["=1+1", "fine"], "x" => [-1.0, 2.0]).unwrap();
+        assert_eq!(csv_text(table).unwrap(), "note,x\n'=1+1,-1.0\nfine,2.0\n");
     }
 }

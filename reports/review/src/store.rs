@@ -103,6 +103,14 @@ pub enum InvalidDecision {
     #[error("a reviewer name has at most {MAX_REVIEWER_CHARS} characters")]
     ReviewerTooLong,
     #[error(
+        "a reviewer name cannot hold control or invisible formatting characters ({0}); type the name as plain text"
+    )]
+    ReviewerInvisible(String),
+    #[error(
+        "a note cannot hold control characters ({0}) other than tabs and line breaks; type it as plain text"
+    )]
+    NoteControl(String),
+    #[error(
         "a note has at most {MAX_NOTE_CHARS} characters; put longer text in the inspection report"
     )]
     NoteTooLong,
@@ -374,10 +382,38 @@ fn check_decision(
     if reviewer.chars().count() > MAX_REVIEWER_CHARS {
         return Err(InvalidDecision::ReviewerTooLong);
     }
+    if let Some(c) = reviewer.chars().find(|&c| is_control_or_format(c)) {
+        return Err(InvalidDecision::ReviewerInvisible(code_point(c)));
+    }
+    if !reviewer.chars().any(char::is_alphanumeric) {
+        return Err(InvalidDecision::NoReviewer);
+    }
     if note.chars().count() > MAX_NOTE_CHARS {
         return Err(InvalidDecision::NoteTooLong);
     }
+    if let Some(c) = note
+        .chars()
+        .find(|&c| c.is_control() && !matches!(c, '\t' | '\n' | '\r'))
+    {
+        return Err(InvalidDecision::NoteControl(code_point(c)));
+    }
     Ok(())
+}
+
+/// A control character (NUL, escape) or an invisible format character (a
+/// bidirectional override, a zero-width space): they hide or reorder what
+/// a name shows.
+fn is_control_or_format(c: char) -> bool {
+    use unicode_properties::{GeneralCategory, UnicodeGeneralCategory};
+    matches!(
+        c.general_category(),
+        GeneralCategory::Control | GeneralCategory::Format
+    )
+}
+
+/// `U+202E`.
+fn code_point(c: char) -> String {
+    format!("U+{:04X}", u32::from(c))
 }
 
 #[cfg(test)]

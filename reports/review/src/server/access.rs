@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use axum::Router;
 use axum::extract::{Request, State};
-use axum::http::{HeaderMap, HeaderValue, Method, StatusCode, header};
+use axum::http::{HeaderMap, HeaderName, HeaderValue, Method, StatusCode, header};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Redirect, Response};
 use axum_extra::extract::cookie::{Cookie, CookieJar, SameSite};
@@ -59,20 +59,61 @@ fn header_str(headers: &HeaderMap, name: header::HeaderName) -> Option<&str> {
     headers.get(name).and_then(|v| v.to_str().ok())
 }
 
-/// The tokens a request presents: as a bearer, in the cookie, in the address.
-fn presented_tokens(headers: &HeaderMap, query: Option<&str>) -> Vec<String> {
-    let bearer = header_str(headers, header::AUTHORIZATION)
-        .and_then(|a| a.strip_prefix("Bearer "))
-        .map(|b| b.trim().to_string());
+/// The tokens a request presents: as a bearer, in the cookie, and for a page
+/// (a GET or HEAD) in the address; a write never takes it from the address.
+fn presented_tokens(headers: &HeaderMap, method: &Method, query: Option<&str>) -> Vec<String> {
     let cookie = CookieJar::from_headers(headers)
         .get(TOKEN_COOKIE)
         .map(|c| c.value().to_string());
     let in_address = query
+        .filter(|_| is_read(method))
         .unwrap_or("")
         .split('&')
         .filter_map(|pair| pair.strip_prefix("token="))
         .map(str::to_string);
-    bearer.into_iter().chain(cookie).chain(in_address).collect()
+    bearer(headers)
+        .into_iter()
+        .chain(cookie)
+        .chain(in_address)
+        .collect()
+}
+
+fn bearer(headers: &HeaderMap) -> Option<String> {
+    header_str(headers, header::AUTHORIZATION)
+        .and_then(|a| a.strip_prefix("Bearer "))
+        .map(|b| b.trim().to_string())
+}
+
+fn is_read(method: &Method) -> bool {
+    matches!(*method, Method::GET | Method::HEAD)
+}
+
+/// Where a write comes from, as the browser says it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum WriteSource {
+    /// Sent by this server's own pages.
+    SameOrigin,
+    /// From another site's page, or an opaque origin (a sandboxed frame).
+    Foreign,
+    /// Neither `Origin` nor `Sec-Fetch-Site` says.
+    Unsaid,
+}
+
+/// `Sec-Fetch-Site`, and `Origin` against the `Host` asked for (`null` from
+/// an opaque origin, such as a sandboxed frame, is foreign unless the
+/// browser also says same-origin).
+fn write_source(headers: &HeaderMap, host: &str) -> WriteSource {
+    let site = header_str(headers, HeaderName::from_static("sec-fetch-site"));
+    let same_site = site == Some("same-origin");
+    let origin = header_str(headers, header::ORIGIN).map(|origin| match origin.split_once("://") {
+        Some((_, authority)) => authority == host,
+        None => same_site,
+    });
+    match (site, origin) {
+        (Some("cross-site" | "same-site"), _) | (_, Some(false)) => WriteSource::Foreign,
+        (Some("same-origin"), _) | (_, Some(true)) => WriteSource::SameOrigin,
+        _ => WriteSource::Unsaid,
+    }
 }
 
 /// Who may ask what: loopback names only while there is no token (a page
@@ -88,29 +129,35 @@ pub(super) async fn guard(State(app): State<Arc<App>>, req: Request, next: Next)
         )
         .into_response();
     }
-    if !matches!(*req.method(), Method::GET | Method::HEAD) {
-        // Browsers say where a request comes from: Sec-Fetch-Site, and Origin
-        // ("null" from opaque origins such as sandboxed frames).
-        let site = headers.get("sec-fetch-site").and_then(|v| v.to_str().ok());
-        let same_origin = site == Some("same-origin");
-        let foreign_site = matches!(site, Some("cross-site" | "same-site"));
-        let foreign_origin = header_str(headers, header::ORIGIN).is_some_and(|origin| match origin
-            .split_once("://")
-        {
-            Some((_, authority)) => authority != host,
-            None => !same_origin,
-        });
-        if foreign_site || foreign_origin {
-            return HttpError::text(
-                StatusCode::FORBIDDEN,
-                "a decision from another site's page is refused; decide on the review pages themselves",
-            )
-            .into_response();
+    if !is_read(req.method()) {
+        // A browser says where a write comes from; a script authenticates
+        // with the bearer token, which no other site's page can send.
+        let bearer_ok = app
+            .token
+            .as_ref()
+            .is_some_and(|t| bearer(headers).is_some_and(|b| same_secret(&b, t)));
+        match write_source(headers, host) {
+            WriteSource::SameOrigin => {}
+            WriteSource::Unsaid if bearer_ok => {}
+            WriteSource::Foreign => {
+                return HttpError::text(
+                    StatusCode::FORBIDDEN,
+                    "a decision from another site's page is refused; decide on the review pages themselves",
+                )
+                .into_response();
+            }
+            WriteSource::Unsaid => {
+                return HttpError::text(
+                    StatusCode::FORBIDDEN,
+                    "a decision must say where it comes from: send an Origin header naming this server (browsers do), or the access token as 'Authorization: Bearer TOKEN'",
+                )
+                .into_response();
+            }
         }
     }
     if let Some(token) = &app.token {
         let query = req.uri().query();
-        let presented = presented_tokens(headers, query);
+        let presented = presented_tokens(headers, req.method(), query);
         if !presented.iter().any(|t| same_secret(t, token)) {
             return HttpError::text(
                 StatusCode::UNAUTHORIZED,
@@ -128,10 +175,12 @@ pub(super) async fn guard(State(app): State<Arc<App>>, req: Request, next: Next)
                 .split('&')
                 .filter(|p| !p.starts_with("token=") && !p.is_empty())
                 .collect();
+            // One leading slash: `//host/` would send the browser to another site.
+            let path = format!("/{}", req.uri().path().trim_start_matches('/'));
             let target = if rest.is_empty() {
-                req.uri().path().to_string()
+                path
             } else {
-                format!("{}?{}", req.uri().path(), rest.join("&"))
+                format!("{path}?{}", rest.join("&"))
             };
             let cookie = Cookie::build((TOKEN_COOKIE, token.clone()))
                 .http_only(true)
@@ -183,6 +232,63 @@ mod tests {
         ] {
             assert!(!is_loopback_host(host), "{host}");
         }
+    }
+
+    #[test]
+    fn a_write_says_where_it_comes_from() {
+        let headers = |pairs: &[(&'static str, &'static str)]| {
+            let mut h = HeaderMap::new();
+            for (k, v) in pairs {
+                h.insert(HeaderName::from_static(k), HeaderValue::from_static(v));
+            }
+            h
+        };
+        let host = "127.0.0.1:8765";
+        let cases = [
+            (
+                &[("origin", "http://127.0.0.1:8765")][..],
+                WriteSource::SameOrigin,
+            ),
+            (
+                &[("sec-fetch-site", "same-origin")][..],
+                WriteSource::SameOrigin,
+            ),
+            (
+                &[("origin", "http://evil.example")][..],
+                WriteSource::Foreign,
+            ),
+            (&[("origin", "null")][..], WriteSource::Foreign),
+            (
+                &[("origin", "null"), ("sec-fetch-site", "same-origin")][..],
+                WriteSource::SameOrigin,
+            ),
+            (
+                &[
+                    ("sec-fetch-site", "same-origin"),
+                    ("origin", "http://evil.example"),
+                ][..],
+                WriteSource::Foreign,
+            ),
+            (
+                &[("sec-fetch-site", "cross-site")][..],
+                WriteSource::Foreign,
+            ),
+            (&[][..], WriteSource::Unsaid),
+            (&[("sec-fetch-site", "bogus")][..], WriteSource::Unsaid),
+        ];
+        for (pairs, expected) in cases {
+            assert_eq!(write_source(&headers(pairs), host), expected, "{pairs:?}");
+        }
+    }
+
+    #[test]
+    fn a_token_in_the_address_counts_for_pages_only() {
+        let q = Some("token=abc");
+        assert_eq!(
+            presented_tokens(&HeaderMap::new(), &Method::GET, q),
+            ["abc"]
+        );
+        assert!(presented_tokens(&HeaderMap::new(), &Method::POST, q).is_empty());
     }
 
     #[test]

@@ -203,10 +203,20 @@ pub(super) async fn crop(
     {
         return Err(missing());
     }
-    let bytes = tokio::fs::read(app.results.file(name))
+    let bytes = read_inside(&app.run_root, &app.results.file(name))
         .await
-        .map_err(|_| missing())?;
+        .ok_or_else(missing)?;
     Ok(jpeg(bytes))
+}
+
+/// The file at `path` if it lies in `root` (canonical) once links are
+/// followed: a crop linked to a file elsewhere is not served.
+async fn read_inside(root: &FsPath, path: &FsPath) -> Option<Vec<u8>> {
+    let real = tokio::fs::canonicalize(path).await.ok()?;
+    if !real.starts_with(root) {
+        return None;
+    }
+    tokio::fs::read(real).await.ok()
 }
 
 /// `?box=0`: the frame without its detection box (it can hide the crack).

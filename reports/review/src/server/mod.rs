@@ -42,6 +42,17 @@ use errors::HttpError;
 /// Largest request body accepted (a decision with the longest note fits).
 const MAX_BODY_BYTES: usize = 64 * 1024;
 
+/// Connections answered at once: a review team's browsers (six each) with
+/// room to spare; more wait to be accepted.
+pub const MAX_CONNECTIONS: usize = 128;
+
+/// How long a request's headers may take to arrive, and a connection may
+/// idle between requests, before it is closed.
+pub const HEADER_READ_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(10);
+
+/// How long requests under way may take to finish at shutdown.
+const SHUTDOWN_GRACE: std::time::Duration = std::time::Duration::from_secs(5);
+
 /// How to serve.
 #[derive(Debug, Clone)]
 pub struct ServeOptions {
@@ -68,6 +79,9 @@ pub struct Listening {
 
 struct App {
     results: RunResults,
+    /// The run directory, links resolved: what the server reads from it
+    /// stays inside.
+    run_root: PathBuf,
     /// The flight's recording, for the supporting views' frames.
     recording: Recording,
     /// Indices into `results.defects`, in review order.
@@ -179,7 +193,9 @@ pub fn serve(options: ServeOptions, on_ready: impl FnOnce(&Listening)) -> Result
         .path
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let run_root = std::fs::canonicalize(&options.run).map_err(ReviewError::Server)?;
     let app = Arc::new(App {
+        run_root,
         recording: Recording::reopen(&results.flight)?,
         backdrop: backdrop(&results.voxels, resolution),
         resolution,
@@ -215,11 +231,54 @@ pub fn serve(options: ServeOptions, on_ready: impl FnOnce(&Listening)) -> Result
             new,
             decided,
         });
-        axum::serve(listener, router(app))
-            .with_graceful_shutdown(shutdown())
-            .await
-            .map_err(ReviewError::Server)
+        serve_connections(listener, router(app)).await;
+        Ok(())
     })
+}
+
+/// Answer connections until shut down: at most [`MAX_CONNECTIONS`] at once
+/// (more wait to be accepted), each closed when a request's headers take
+/// longer than [`HEADER_READ_TIMEOUT`] to arrive or it idles that long
+/// between requests. On shutdown, requests under way get
+/// [`SHUTDOWN_GRACE`] to finish.
+async fn serve_connections(listener: tokio::net::TcpListener, router: Router) {
+    use hyper_util::rt::{TokioIo, TokioTimer};
+    use hyper_util::service::TowerToHyperService;
+
+    let slots = Arc::new(tokio::sync::Semaphore::new(MAX_CONNECTIONS));
+    let graceful = hyper_util::server::graceful::GracefulShutdown::new();
+    let mut http = hyper::server::conn::http1::Builder::new();
+    http.timer(TokioTimer::new())
+        .header_read_timeout(HEADER_READ_TIMEOUT);
+    let stop = shutdown();
+    tokio::pin!(stop);
+    loop {
+        let slot = tokio::select! {
+            slot = slots.clone().acquire_owned() => slot.expect("the semaphore is never closed"),
+            () = &mut stop => break,
+        };
+        let stream = tokio::select! {
+            accepted = listener.accept() => match accepted {
+                Ok((stream, _)) => stream,
+                // Out of file descriptors, or a connection reset before it
+                // was accepted: try again shortly.
+                Err(_) => {
+                    tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+                    continue;
+                }
+            },
+            () = &mut stop => break,
+        };
+        let service = TowerToHyperService::new(router.clone());
+        let connection = graceful.watch(http.serve_connection(TokioIo::new(stream), service));
+        tokio::spawn(async move {
+            // A connection ends in an error when the client goes away or
+            // times out; there is no one to tell.
+            let _ = connection.await;
+            drop(slot);
+        });
+    }
+    let _ = tokio::time::timeout(SHUTDOWN_GRACE, graceful.shutdown()).await;
 }
 
 fn router(app: Arc<App>) -> Router {
