@@ -2,8 +2,8 @@
 //! how its run went and its main figures, each linking to its report.
 
 use maud::{Markup, PreEscaped, html};
+use page::{STYLE, document};
 use postflight_core::outputs::report::files::REPORT;
-use reports::html::{STYLE, document};
 
 use crate::tables::{FleetRun, files};
 

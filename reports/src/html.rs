@@ -8,31 +8,18 @@
 use std::collections::BTreeMap;
 
 use base64::Engine;
-use maud::{DOCTYPE, Markup, PreEscaped, html};
+use maud::{Markup, PreEscaped, html};
 use postflight_core::outputs::changes::{ChangeKind, ChangeRecord, files as changes_files};
 use postflight_core::outputs::coverage::CoverageSummary;
-use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
+use postflight_core::outputs::localise::DefectRecord;
 use postflight_core::outputs::replan::{GapChoice, ReplanSummary, Unplannable};
 use postflight_core::outputs::report::{DEFAULT_REVIEW_ADDR, RunSummary};
+
+use page::{STYLE, document, evidence_text, length_text, place_text, readable_time};
 
 use crate::results::{RunResults, VoxelStatus, review_priority};
 use crate::svg::bar_chart;
 use crate::views::{HEIGHT_COLOURS, Marker, Overlay, Side, colour, view, width_m};
-
-/// The report's styles (the fleet's index page uses them too).
-pub const STYLE: &str = r#"
-body{font:14px/1.45 system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;color:#1f2937;margin:0 auto;max-width:1060px;padding:24px}
-h1{font-size:24px;margin:0 0 4px}h2{font-size:19px;margin:32px 0 10px;border-bottom:2px solid #e5e7eb;padding-bottom:4px}
-.sub{color:#6b7280}.flag{color:#b45309;font-weight:600}.warn{background:#fef3c7;border-left:4px solid #f59e0b;padding:8px 12px;margin:10px 0}
-.cards{display:flex;flex-wrap:wrap;gap:10px;margin:16px 0}.card{border:1px solid #e5e7eb;border-radius:6px;padding:8px 14px;min-width:120px}
-.card b{display:block;font-size:22px}.card span{color:#6b7280;font-size:12px}
-table{border-collapse:collapse;width:100%;margin:8px 0}th,td{text-align:left;padding:4px 8px;border-bottom:1px solid #e5e7eb;vertical-align:top}
-th{background:#f9fafb;font-weight:600}td.n,th.n{text-align:right;font-variant-numeric:tabular-nums}
-.views{display:grid;grid-template-columns:1fr 1fr;gap:12px}.views figure{margin:0}figcaption{color:#6b7280;font-size:12px}
-svg{max-width:100%;height:auto}.legend span{display:inline-block;margin-right:14px}.legend i{display:inline-block;width:12px;height:12px;margin-right:4px;vertical-align:-1px}
-img.thumb{width:160px;border:1px solid #d1d5db}.frames{font-size:12px;color:#4b5563}
-@media print{body{max-width:none;padding:0}h2{break-after:avoid}tr,figure,.card{break-inside:avoid}.views{grid-template-columns:1fr 1fr}}
-"#;
 
 /// The page for `results`, with `summary` already computed from them.
 pub fn page(results: &RunResults, summary: &RunSummary) -> String {
@@ -65,75 +52,6 @@ pub fn page(results: &RunResults, summary: &RunSummary) -> String {
         (detections_appendix(results))
     };
     document(&title, html! { style { (PreEscaped(STYLE)) } }, body)
-}
-
-/// An HTML page: its title, what the head adds (styles, scripts) and its body.
-pub fn document(title: &str, head: Markup, body: Markup) -> String {
-    let page = html! {
-        (DOCTYPE)
-        html lang="en" {
-            head {
-                meta charset="utf-8";
-                meta name="viewport" content="width=device-width,initial-scale=1";
-                title { (title) }
-                (head)
-            }
-            body { (body) }
-        }
-    };
-    page.into_string() + "\n"
-}
-
-/// An RFC 3339 UTC time (`2025-06-15T12:00:00.000000000Z`) as
-/// `2025-06-15 12:00:00 UTC`.
-pub fn readable_time(rfc3339: &str) -> String {
-    match (rfc3339.get(..10), rfc3339.get(11..19)) {
-        (Some(date), Some(time)) if rfc3339.ends_with('Z') => format!("{date} {time} UTC"),
-        _ => rfc3339.to_string(),
-    }
-}
-
-/// A candidate's estimated length: "≥" marks a lower bound (its views were
-/// cut by the image border), a dash an unknown length ([`evidence_text`]
-/// says why).
-pub fn length_text(d: &DefectRecord) -> String {
-    match (d.length_m, d.evidence.length) {
-        (Some(l), LengthStatus::Partial) => format!("\u{2265} {l:.2} m"),
-        (Some(l), _) => format!("{l:.2} m"),
-        (None, _) => "\u{2013}".into(),
-    }
-}
-
-/// Where a candidate is, for people: its place on the structure, else
-/// (before coverage has found the elements, or off them) its position.
-pub fn place_text(place: Option<&str>, d: &DefectRecord) -> String {
-    match place {
-        Some(p) => p.to_string(),
-        None => {
-            let p = d.position;
-            format!("at ({:.1}, {:.1}, {:.1}) m", p[0], p[1], p[2])
-        }
-    }
-}
-
-/// Why a candidate must be shot again, for people: the View model's rules
-/// its best view breaks and why its length is missing; `None` when its
-/// evidence is sound.
-pub fn evidence_text(d: &DefectRecord) -> Option<String> {
-    let e = &d.evidence;
-    let mut weak = Vec::new();
-    if !e.view_faults.is_empty() {
-        let faults: Vec<String> = e
-            .view_faults
-            .iter()
-            .map(|f| f.as_str().replace('_', " "))
-            .collect();
-        weak.push(format!("best view {}", faults.join(", ")));
-    }
-    if let Some(why) = e.length.missing_reason() {
-        weak.push(format!("no length: {why}"));
-    }
-    e.reshoot.then(|| format!("re-shoot: {}", weak.join("; ")))
 }
 
 fn cards(s: &RunSummary) -> Markup {

@@ -187,7 +187,7 @@ fn simulator_sources() -> u64 {
     static HASH: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
     *HASH.get_or_init(|| {
         let mut files = Vec::new();
-        for dir in ["core", "ingest", "src"] {
+        for dir in ["core", "ingest", "sim", "src"] {
             files_under(&root().join(dir), &mut files);
         }
         files.extend(["Cargo.toml", "Cargo.lock"].map(|f| root().join(f)));

@@ -5,7 +5,6 @@
 
 use std::path::PathBuf;
 
-use gtsp::SolveStats;
 use serde::{Deserialize, Serialize};
 
 use crate::geo::GeoOrigin;
@@ -196,6 +195,26 @@ pub struct ReplanPhases {
     pub rounds: usize,
 }
 
+/// What the GTSP search of the first solve did (the solver's own
+/// statistics, as `replan.json` records them).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct FirstSolve {
+    /// Worker threads.
+    pub threads: usize,
+    /// Searches from a starting tour.
+    pub trials: usize,
+    pub rounds: usize,
+    pub iterations: u64,
+    /// Cost of the best tour of the first cold trial's starting tour
+    /// (centimetres of straight-line flight).
+    pub initial_cost: i64,
+    /// Seconds until the returned tour was first found.
+    pub best_found_s: f64,
+    pub time_s: f64,
+    /// The search was cut by the time limit.
+    pub timed_out: bool,
+}
+
 /// What the solver and the collision checks did.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ReplanSolverStats {
@@ -216,7 +235,7 @@ pub struct ReplanSolverStats {
     /// round limit was reached and that tour is flown as it is).
     pub converged: bool,
     /// The first solve's statistics.
-    pub first_solve: SolveStats,
+    pub first_solve: FirstSolve,
     /// Solving and collision checks, seconds.
     pub solve_seconds: f64,
     /// Of `solve_seconds`, finding the legs' collision-free paths.

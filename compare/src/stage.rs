@@ -10,7 +10,7 @@ use postflight_core::outputs::changes::{
     ChangeKind, ChangesSummary, RegistrationRecord, write_changes,
 };
 use postflight_core::outputs::coverage::{CoverageSummary, files as coverage_files, read_coverage};
-use postflight_core::outputs::localise::read_defects;
+use postflight_core::outputs::localise::{LocaliseSummary, read_defects};
 use postflight_core::serde_pose::PoseJson;
 use postflight_core::{Flight, RunDir, Stage};
 
@@ -25,7 +25,10 @@ pub struct CompareOptions {
     pub before: PathBuf,
     pub after: PathBuf,
     pub register: RegisterOptions,
-    pub matching: MatchOptions,
+    /// Largest gap between two candidates' extents that still matches,
+    /// metres; `None`: the wider of the two runs' own fusion link distance
+    /// (each `localise.json`'s `link_distance_m`).
+    pub link_distance_m: Option<f64>,
 }
 
 impl CompareOptions {
@@ -34,7 +37,7 @@ impl CompareOptions {
             before,
             after,
             register: RegisterOptions::default(),
-            matching: MatchOptions::default(),
+            link_distance_m: None,
         }
     }
 }
@@ -44,7 +47,6 @@ pub fn compare(options: &CompareOptions) -> Result<ChangesSummary, CompareError>
     let started = Instant::now();
     let before = Side::read(&options.before, Stage::Localise)?;
     let after = Side::read(&options.after, Stage::Coverage)?;
-    after.flight.run.require(Stage::Localise)?;
     let registration =
         register(&before.map()?, &after.map()?, &options.register).map_err(|cause| {
             CompareError::Register {
@@ -54,13 +56,18 @@ pub fn compare(options: &CompareOptions) -> Result<ChangesSummary, CompareError>
             }
         })?;
     let inspected_after = after.inspected.as_ref().expect("coverage completed");
+    let matching = MatchOptions::with_link_distance(
+        options
+            .link_distance_m
+            .unwrap_or(before.link_distance_m.max(after.link_distance_m)),
+    );
     let changes = changes(
         &read_defects(&before.flight.run)?,
         &read_defects(&after.flight.run)?,
         &registration.transform,
         inspected_after,
         before.inspected.as_ref(),
-        &options.matching,
+        &matching,
     );
     let counts = ChangeKind::ALL
         .iter()
@@ -97,10 +104,12 @@ struct Side {
     /// The map file coverage used (`None`: the flight's recorded map).
     map: Option<PathBuf>,
     inspected: Option<Inspected>,
+    /// How far apart its localise fused views of one crack, metres.
+    link_distance_m: f64,
 }
 
 impl Side {
-    /// The run at `path`, which must have completed `stage`.
+    /// The run at `path`, which must have completed `stage` and localise.
     fn read(path: &Path, stage: Stage) -> Result<Self, CompareError> {
         let run = RunDir::open(path, stage)?;
         let coverage = run.summary::<CoverageSummary>(Stage::Coverage)?;
@@ -111,10 +120,13 @@ impl Side {
             }
             None => None,
         };
+        run.require(Stage::Localise)?;
+        let localise: LocaliseSummary = run.read_json(Stage::Localise.summary_file())?;
         Ok(Self {
             flight: Flight::load(path)?,
             map: coverage.and_then(|c| c.map),
             inspected,
+            link_distance_m: localise.link_distance_m,
         })
     }
 

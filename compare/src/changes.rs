@@ -24,10 +24,12 @@ pub struct MatchOptions {
     pub length_spread: f64,
 }
 
-impl Default for MatchOptions {
-    fn default() -> Self {
+impl MatchOptions {
+    /// Candidates as far apart as `link_distance_m` may match (each run's
+    /// localise fused its own views that far apart).
+    pub fn with_link_distance(link_distance_m: f64) -> Self {
         Self {
-            link_distance_m: localise::FusionOptions::default().link_distance,
+            link_distance_m,
             // Wider than one flight's fusion allows: a normal fitted in each
             // flight, at a surface's edge, can differ by more.
             max_normal_angle_deg: 45.0,

@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use gtsp::{Instance, SolveOptions, SolveStats, repair, solve};
 use nalgebra::Point3;
-use postflight_core::outputs::replan::ReplanSolverStats;
+use postflight_core::outputs::replan::{FirstSolve, ReplanSolverStats};
 
 use crate::free_space::{FreeSpace, length};
 
@@ -30,6 +30,20 @@ const SOLVE_BASE: Duration = Duration::from_secs(1);
 const SOLVE_PER_CLUSTER: Duration = Duration::from_millis(2);
 /// GTSP costs are integers: centimetres.
 const UNITS_PER_M: f64 = 100.0;
+
+/// The solver's statistics as `replan.json` records them.
+fn first_solve(stats: &SolveStats) -> FirstSolve {
+    FirstSolve {
+        threads: stats.threads,
+        trials: stats.trials,
+        rounds: stats.rounds,
+        iterations: stats.iterations,
+        initial_cost: stats.initial_cost,
+        best_found_s: stats.best_found_s,
+        time_s: stats.time_s,
+        timed_out: stats.timed_out,
+    }
+}
 /// Cost of a leg with no collision-free path, metres.
 const NO_PATH_M: f64 = 1.0e5;
 
@@ -92,7 +106,7 @@ pub fn plan_tour(
         legs_checked: 0,
         legs_recosted: 0,
         converged: false,
-        first_solve: SolveStats::default(),
+        first_solve: FirstSolve::default(),
         solve_seconds: 0.0,
         paths_seconds: 0.0,
     };
@@ -115,7 +129,7 @@ pub fn plan_tour(
             _ => solve(&inst, &scaled_limit(options, essential.len())),
         };
         if stats.rounds == 0 {
-            stats.first_solve = solution.stats;
+            stats.first_solve = first_solve(&solution.stats);
         }
         stats.rounds += 1;
         let order = visits(&solution.tour, &vertex_stop);

@@ -8,8 +8,8 @@ use std::collections::HashMap;
 use std::fmt::Write;
 
 use maud::{Markup, PreEscaped, html};
+use page::{evidence_text, length_text, place_text, readable_time};
 use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
-use reports::html::{evidence_text, length_text, place_text, readable_time};
 
 use crate::queue::{Entry, Filter, Progress, Queue};
 use crate::since::Since;
@@ -39,7 +39,7 @@ impl Context<'_> {
 /// A review page: the pages' own style and script, and the status line
 /// the script flashes messages in.
 fn document(title: &str, body: Markup) -> String {
-    reports::html::document(
+    page::document(
         title,
         html! {
             link rel="stylesheet" href="/assets/review.css";
