@@ -1147,39 +1147,30 @@ fn writes_say_where_they_come_from_and_tokens_stay_out_of_write_addresses() {
     let url = decisions_url(&server.base, &ids[0]);
     let decision = json!({"version": 0, "verdict": "accepted", "reviewer": "kim"}).to_string();
     let agent = agent();
-    let answer = |r: Result<ureq::http::Response<ureq::Body>, ureq::Error>| {
-        let mut r = r.unwrap();
+    // (status, body) of the decision posted to `to` with one more header.
+    let post = |to: &str, (name, value): (&str, String)| {
+        let mut r = agent
+            .post(to)
+            .header(name, value)
+            .header("content-type", "application/json")
+            .send(&decision)
+            .unwrap();
         (r.status().as_u16(), r.body_mut().read_to_string().unwrap())
     };
     // The token in a write's address is not taken, even from the server's origin.
-    let (status, body) = answer(
-        agent
-            .post(format!("{url}?token={token}"))
-            .header("origin", origin_of(&url))
-            .header("content-type", "application/json")
-            .send(&decision),
+    let (status, body) = post(
+        &format!("{url}?token={token}"),
+        ("origin", origin_of(&url).to_string()),
     );
     assert_eq!(status, 401, "{body}");
     // A write that says neither Origin nor Sec-Fetch-Site, with the token in
     // a cookie (as a browser would send it to a form from anywhere).
-    let (status, body) = answer(
-        agent
-            .post(&url)
-            .header("cookie", format!("postflight_token={token}"))
-            .header("content-type", "application/json")
-            .send(&decision),
-    );
+    let (status, body) = post(&url, ("cookie", format!("postflight_token={token}")));
     assert_eq!(status, 403, "{body}");
     assert!(body.contains("say where it comes from"), "{body}");
     assert!(stored_decisions(&db).is_empty());
     // A script with the bearer token needs no Origin: no other site can send it.
-    let (status, body) = answer(
-        agent
-            .post(&url)
-            .header("authorization", format!("Bearer {token}"))
-            .header("content-type", "application/json")
-            .send(&decision),
-    );
+    let (status, body) = post(&url, ("authorization", format!("Bearer {token}")));
     assert_eq!(status, 201, "{body}");
     // The printed address with a second slash stays on this server.
     let r = agent
