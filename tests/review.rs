@@ -1046,11 +1046,7 @@ fn beyond_loopback_every_request_needs_the_token() {
     let tmp = tempfile::tempdir().unwrap();
     let db = tmp.path().join("review.sqlite");
     let server = Server::start(run, &db, &["--addr", "0.0.0.0:0"]);
-    let token = server
-        .url
-        .split_once("?token=")
-        .map(|(_, t)| t.to_string())
-        .expect("a generated token in the printed address");
+    let token = printed_token(&server);
     assert_eq!(token.len(), 40);
     let agent = agent();
     let api = format!("{}/api/candidates", server.base);
