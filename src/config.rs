@@ -1,145 +1,79 @@
-//! `postflight.toml`: settings for every stage of `postflight run`, one
-//! table per stage (`[ingest]`, `[detect]`, `[localise]`, `[view]`,
-//! `[coverage]`, `[replan]`), every key optional; unknown tables and keys
-//! are refused. `postflight coverage --config` reads the same file and uses
-//! its `[view]` and `[coverage]` tables.
+//! `postflight.toml`: settings for every stage, one table per stage, every
+//! key optional; unknown tables and keys are refused. Each table is a stage
+//! crate's settings struct (declared once with `postflight_core::settings!`),
+//! which also gives the stage command its flags. Every stage command and
+//! `postflight run` layer them the same way: defaults < `--config` file <
+//! flags.
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-use postflight_core::PlanFile;
+use clap::Args;
+use postflight_core::{PlanFile, ViewSettings};
 use serde::{Deserialize, Serialize};
 
+/// The settings of every stage: `postflight.toml`, or the flags of one
+/// command (where only that stage's tables are set).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RunConfig {
-    pub ingest: IngestConfig,
-    pub detect: DetectConfig,
-    pub localise: LocaliseConfig,
-    pub view: coverage::ViewSettings,
+    pub ingest: ingest::IngestSettings,
+    pub detect: detect::DetectSettings,
+    pub localise: localise::LocaliseSettings,
+    pub view: ViewSettings,
     pub coverage: coverage::CoverageSettings,
-    pub replan: ReplanConfig,
+    pub replan: replan::ReplanSettings,
 }
 
-/// How far apart detection boxes may be and still merge, as `--merge-gap`
-/// and `merge_gap` take it: pixels, or `off`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
-pub enum MergeGap {
-    Pixels(f32),
-    Off(Off),
+/// `--config`: the file a stage command reads its tables from.
+#[derive(Debug, Clone, Default, Args)]
+pub struct ConfigArg {
+    /// Settings file (postflight.toml; tables [ingest], [detect],
+    /// [localise], [view], [coverage], [replan]); flags given win over it.
+    #[arg(long, value_name = "postflight.toml")]
+    pub config: Option<PathBuf>,
 }
 
-/// The word `off` (a unit variant serialises as its name).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Off {
-    Off,
-}
-
-impl MergeGap {
-    pub fn pixels(self) -> Option<f32> {
-        match self {
-            MergeGap::Pixels(gap) => Some(gap),
-            MergeGap::Off(_) => None,
-        }
+impl ConfigArg {
+    /// The file's settings with `flags` over them.
+    pub fn under(&self, flags: RunConfig) -> anyhow::Result<RunConfig> {
+        Ok(flags.over(&RunConfig::load_or_default(self.config.as_deref())?))
     }
 }
 
-impl std::fmt::Display for MergeGap {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            MergeGap::Pixels(gap) => write!(f, "{gap}"),
-            MergeGap::Off(_) => f.write_str("off"),
-        }
+/// One table of `postflight.toml`, as the command line sees it.
+pub struct Table {
+    /// Its name in `postflight.toml`.
+    pub name: &'static str,
+    /// Its flags (each argument's id is its key).
+    pub args: clap::Command,
+    /// Each key's default, where it has one (JSON null where it has none).
+    pub defaults: serde_json::Value,
+    /// Where an unset key's value comes from before its default.
+    pub default_from: Option<&'static str>,
+}
+
+/// Every table, in the order of `postflight.toml`'s documentation.
+pub fn tables() -> [Table; 6] {
+    macro_rules! table {
+        ($settings:ty, $from:expr) => {
+            Table {
+                name: <$settings>::TABLE,
+                args: <$settings>::augment_args(clap::Command::new(<$settings>::TABLE)),
+                defaults: serde_json::to_value(<$settings>::default().resolve())
+                    .expect("defaults serialise to JSON"),
+                default_from: $from,
+            }
+        };
     }
-}
-
-impl std::str::FromStr for MergeGap {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, String> {
-        if s.eq_ignore_ascii_case("off") {
-            return Ok(MergeGap::Off(Off::Off));
-        }
-        s.parse()
-            .map(MergeGap::Pixels)
-            .map_err(|_| format!("'{s}' is neither a number of pixels nor 'off'"))
-    }
-}
-
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct IngestConfig {
-    pub image_topics: Vec<String>,
-    pub pose_topic: Option<String>,
-    pub camera_info_topic: Option<String>,
-    /// ROS camera-calibration YAML, for recordings without CameraInfo.
-    pub camera_info_file: Option<PathBuf>,
-    pub map_topic: Option<String>,
-    pub body_frame: Option<String>,
-    pub world_frame: Option<String>,
-    pub max_pose_gap_s: Option<f64>,
-    /// Fail on a truncated recording instead of salvaging it.
-    pub strict: Option<bool>,
-}
-
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct DetectConfig {
-    pub prompts: Vec<String>,
-    pub embeddings: Option<PathBuf>,
-    pub confidence: Option<f32>,
-    pub iou: Option<f32>,
-    pub merge_gap: Option<MergeGap>,
-    pub image_size: Option<u32>,
-    pub tile: Option<u32>,
-    pub tile_overlap: Option<f32>,
-    pub batch: Option<usize>,
-    pub device: Option<DeviceName>,
-}
-
-/// Where inference runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum DeviceName {
-    Cpu,
-    Cuda,
-    Tensorrt,
-}
-
-impl DeviceName {
-    pub fn device(self) -> detect::Device {
-        match self {
-            Self::Cpu => detect::Device::Cpu,
-            Self::Cuda => detect::Device::Cuda,
-            Self::Tensorrt => detect::Device::TensorRt,
-        }
-    }
-}
-
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct LocaliseConfig {
-    pub max_range_m: Option<f64>,
-    pub link_distance_m: Option<f64>,
-    pub max_normal_angle_deg: Option<f64>,
-}
-
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ReplanConfig {
-    pub home: Option<[f64; 3]>,
-    pub clearance_m: Option<f64>,
-    pub max_sortie_length_m: Option<f64>,
-    pub battery_minutes: Option<f64>,
-    pub gaps: Option<replan::GapChoice>,
-    pub speed_m_s: Option<f64>,
-    pub hover_s: Option<f64>,
-    pub solver_time_limit_s: Option<f64>,
-    pub seed: Option<u64>,
-    /// `[LAT, LON, ALT]` or `[LAT, LON, ALT, YAW_DEG]`.
-    pub geo_origin: Option<Vec<f64>>,
+    [
+        table!(ingest::IngestSettings, None),
+        table!(detect::DetectSettings, None),
+        table!(localise::LocaliseSettings, None),
+        table!(ViewSettings, Some("the plan's, else")),
+        table!(coverage::CoverageSettings, None),
+        table!(replan::ReplanSettings, None),
+    ]
 }
 
 impl RunConfig {
@@ -151,7 +85,7 @@ impl RunConfig {
 
     /// The `(table, key)`s this file sets.
     pub fn keys_set(&self) -> BTreeSet<(String, String)> {
-        self.keys_where(|v| !v.is_null() && v.as_array().is_none_or(|a| !a.is_empty()))
+        self.keys_where(|v| !v.is_null())
     }
 
     fn keys_where(&self, keep: impl Fn(&serde_json::Value) -> bool) -> BTreeSet<(String, String)> {
@@ -166,6 +100,18 @@ impl RunConfig {
                     .map(move |(key, _)| (table.clone(), key.clone()))
             })
             .collect()
+    }
+
+    /// Each setting from `self` where set, else from `under`.
+    pub fn over(&self, under: &Self) -> Self {
+        Self {
+            ingest: self.ingest.over(&under.ingest),
+            detect: self.detect.over(&under.detect),
+            localise: self.localise.over(&under.localise),
+            view: self.view.over(&under.view),
+            coverage: self.coverage.over(&under.coverage),
+            replan: self.replan.over(&under.replan),
+        }
     }
 
     /// The file at `path`, or every setting unset without one.
@@ -191,19 +137,9 @@ impl RunConfig {
     }
 
     pub fn ingest_options(&self, flight: &Path, out: &Path) -> ingest::IngestOptions {
-        let c = &self.ingest;
-        let defaults = ingest::IngestOptions::new(flight.to_owned(), out.to_owned());
         ingest::IngestOptions {
-            image_topics: c.image_topics.clone(),
-            pose_topic: c.pose_topic.clone(),
-            camera_info_topic: c.camera_info_topic.clone(),
-            camera_info_file: c.camera_info_file.clone(),
-            map_topic: c.map_topic.clone(),
-            body_frame: c.body_frame.clone(),
-            world_frame: c.world_frame.clone(),
-            max_pose_gap_s: c.max_pose_gap_s.unwrap_or(defaults.max_pose_gap_s),
-            strict: c.strict.unwrap_or(defaults.strict),
-            ..defaults
+            settings: self.ingest.resolve(),
+            ..ingest::IngestOptions::new(flight.to_owned(), out.to_owned())
         }
     }
 
@@ -213,25 +149,10 @@ impl RunConfig {
         model: &Path,
         onnxruntime: Option<&Path>,
     ) -> detect::DetectOptions {
-        let c = &self.detect;
-        let d = detect::DetectOptions::new(run.to_owned(), model.to_owned());
         detect::DetectOptions {
-            prompts: if c.prompts.is_empty() {
-                d.prompts.clone()
-            } else {
-                c.prompts.clone()
-            },
-            embeddings: c.embeddings.clone(),
-            confidence: c.confidence.unwrap_or(d.confidence),
-            iou: c.iou.unwrap_or(d.iou),
-            merge_gap: c.merge_gap.map_or(d.merge_gap, MergeGap::pixels),
-            image_size: c.image_size.unwrap_or(d.image_size),
-            tile: c.tile.or(d.tile),
-            tile_overlap: c.tile_overlap.unwrap_or(d.tile_overlap),
-            batch: c.batch.unwrap_or(d.batch),
-            device: c.device.map_or(d.device, DeviceName::device),
             onnxruntime: onnxruntime.map(Path::to_path_buf),
-            ..d
+            settings: self.detect.resolve(),
+            ..detect::DetectOptions::new(run.to_owned(), model.to_owned())
         }
     }
 
@@ -241,20 +162,12 @@ impl RunConfig {
         map: Option<&Path>,
         plan: Option<&PlanFile>,
     ) -> localise::LocaliseOptions {
-        let c = &self.localise;
-        let d = localise::LocaliseOptions::new(run.to_owned());
         localise::LocaliseOptions {
             map: map.map(Path::to_path_buf),
             plan: plan.cloned(),
-            max_range_m: c.max_range_m.unwrap_or(d.max_range_m),
-            fusion: localise::FusionOptions {
-                link_distance: c.link_distance_m.unwrap_or(d.fusion.link_distance),
-                max_normal_angle_deg: c
-                    .max_normal_angle_deg
-                    .unwrap_or(d.fusion.max_normal_angle_deg),
-            },
+            settings: self.localise.resolve(),
             view: self.view,
-            ..d
+            ..localise::LocaliseOptions::new(run.to_owned())
         }
     }
 
@@ -270,46 +183,17 @@ impl RunConfig {
             map: map.map(Path::to_path_buf),
             targets,
             view: self.view,
-            settings: self.coverage,
+            settings: self.coverage.resolve(),
             ..coverage::CoverageOptions::new(run.to_owned())
         }
     }
 
-    pub fn replan_options(
-        &self,
-        run: &Path,
-        map: Option<&Path>,
-    ) -> anyhow::Result<replan::ReplanOptions> {
-        let c = &self.replan;
-        let d = replan::ReplanOptions::new(run.to_owned());
-        let mut options = replan::ReplanOptions {
+    pub fn replan_options(&self, run: &Path, map: Option<&Path>) -> replan::ReplanOptions {
+        replan::ReplanOptions {
             map: map.map(Path::to_path_buf),
-            home: c.home.or(d.home),
-            clearance_m: c.clearance_m.unwrap_or(d.clearance_m),
-            max_sortie_length_m: c.max_sortie_length_m.or(d.max_sortie_length_m),
-            battery_minutes: c.battery_minutes.unwrap_or(d.battery_minutes),
-            gaps: c.gaps.unwrap_or(d.gaps),
-            speed_m_s: c.speed_m_s.unwrap_or(d.speed_m_s),
-            hover_s: c.hover_s.unwrap_or(d.hover_s),
-            ..d
-        };
-        if let Some(s) = c.solver_time_limit_s {
-            options.solver.time_limit = Some(replan::stage::solver_time_limit(s)?);
+            settings: self.replan.resolve(),
+            ..replan::ReplanOptions::new(run.to_owned())
         }
-        if let Some(seed) = c.seed {
-            options.solver.seed = seed;
-        }
-        if let Some(values) = &c.geo_origin {
-            let origin = postflight_core::geo::GeoOrigin::from_values(values).map_err(|why| {
-                postflight_core::InvalidSetting::new(
-                    replan::stage::keys::GEO_ORIGIN,
-                    format!("{values:?}"),
-                    format!("[LAT, LON, ALT] or [LAT, LON, ALT, YAW_DEG] ({why})"),
-                )
-            })?;
-            options.geo_origin = Some(origin);
-        }
-        Ok(options)
     }
 }
 
@@ -324,16 +208,16 @@ mod tests {
         )
         .unwrap();
         assert_eq!(c.detect.confidence, Some(0.4));
-        assert_eq!(c.detect.device, Some(DeviceName::Cuda));
+        assert_eq!(c.detect.device, Some(detect::Device::Cuda));
         assert_eq!(c.view.max_distance_m, Some(6.0));
-        let r = c.replan_options(Path::new("run"), None).unwrap();
+        let r = c.replan_options(Path::new("run"), None).settings;
         assert_eq!((r.clearance_m, r.home), (1.5, Some([0.0, 1.0, 2.0])));
         let d = c.detect_options(Path::new("run"), Path::new("m.onnx"), None);
-        assert_eq!(d.confidence, 0.4);
+        assert_eq!(d.settings.confidence, 0.4);
         assert!(toml::from_str::<RunConfig>("[detect]\nconfidense = 0.4\n").is_err());
         let off = RunConfig::parse("[detect]\nmerge_gap = \"off\"\n").unwrap();
         let d = off.detect_options(Path::new("run"), Path::new("m.onnx"), None);
-        assert_eq!(d.merge_gap, None);
+        assert_eq!(d.settings.merge_gap.pixels(), None);
         assert!(RunConfig::parse("[detect]\nmerge_gap = \"of\"\n").is_err());
         assert!(toml::from_str::<RunConfig>("[detector]\n").is_err());
     }
@@ -442,12 +326,12 @@ geo_origin = [47.397742, 8.545594, 488.0, 23.5]
         }
         let err = RunConfig::parse("[view]\nmax_distance_m = 5.0\ncone_apex = 20\n").unwrap_err();
         assert!(err.contains("line 3, column 1"), "{err}");
-        let geo = RunConfig::parse("[replan]\ngeo_origin = [91.0, 0.0, 0.0]\n").unwrap();
-        let err = geo
-            .replan_options(Path::new("run"), None)
-            .unwrap_err()
-            .to_string();
-        assert!(err.contains("[replan] geo_origin"), "{err}");
+        // A geo origin off the Earth is refused as the file is read, by key.
+        let err = RunConfig::parse("[replan]\ngeo_origin = [91.0, 0.0, 0.0]\n").unwrap_err();
+        assert!(
+            err.contains("line 2") && err.contains("geo_origin must be"),
+            "{err}"
+        );
     }
 
     #[test]
@@ -458,5 +342,123 @@ geo_origin = [47.397742, 8.545594, 488.0, 23.5]
         .unwrap();
         assert_eq!(c.view.max_distance_m, Some(4.0));
         assert!(toml::from_str::<RunConfig>("[veiw]\nmax_distance_m = 4.0\n").is_err());
+    }
+
+    #[test]
+    fn each_table_is_named_as_its_settings_declare_it() {
+        let names: BTreeSet<String> = RunConfig::default()
+            .keys()
+            .into_iter()
+            .map(|(t, _)| t)
+            .collect();
+        let declared: BTreeSet<String> = tables().iter().map(|t| t.name.to_string()).collect();
+        assert_eq!(names, declared);
+        // Every key is a flag of the same id, and every flag a key.
+        for table in tables() {
+            let keys: BTreeSet<String> = RunConfig::default()
+                .keys()
+                .into_iter()
+                .filter(|(t, _)| t == table.name)
+                .map(|(_, k)| k)
+                .collect();
+            let flags: BTreeSet<String> = table
+                .args
+                .get_arguments()
+                .inspect(|a| assert!(a.get_long().is_some(), "{:?} has no flag", a.get_id()))
+                .map(|a| a.get_id().to_string())
+                .collect();
+            assert_eq!(keys, flags, "[{}]", table.name);
+        }
+    }
+
+    #[test]
+    fn flags_go_over_the_file_and_the_file_over_the_defaults() {
+        let file =
+            RunConfig::parse("[view]\nmax_distance_m = 4.0\nmin_distance_m = 1.0\n").unwrap();
+        let flags = RunConfig {
+            view: ViewSettings {
+                max_distance_m: Some(3.0),
+                ..ViewSettings::default()
+            },
+            ..RunConfig::default()
+        };
+        let view = flags.over(&file).view.resolve();
+        assert_eq!((view.max_distance_m, view.min_distance_m), (3.0, 1.0));
+        assert_eq!(
+            view.cone_apex_deg,
+            postflight_core::ViewModel::default().cone_apex_deg
+        );
+    }
+
+    /// `docs/cli.md`'s list of `postflight.toml` keys, table by table.
+    fn documented_keys() -> BTreeSet<(String, String)> {
+        let docs = include_str!("../docs/cli.md");
+        docs.lines()
+            .filter_map(|line| {
+                let (table, keys) = line.strip_prefix('[')?.split_once("]")?;
+                let keys = keys.trim_start().strip_prefix('#')?;
+                Some((table.to_string(), keys.to_string()))
+            })
+            .flat_map(|(table, keys)| {
+                // Values in parentheses are examples, not keys.
+                let mut depth = 0;
+                let keys: String = keys
+                    .chars()
+                    .filter(|c| {
+                        depth += i32::from(*c == '(') - i32::from(*c == ')');
+                        depth == 0 && *c != ')'
+                    })
+                    .collect();
+                keys.split(',')
+                    .map(|k| (table.clone(), k.trim().to_string()))
+                    .collect::<Vec<_>>()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_reference_documents_every_key_and_flag_and_no_other() {
+        let keys = RunConfig::default().keys();
+        assert_eq!(
+            documented_keys(),
+            keys,
+            "docs/cli.md's postflight.toml keys"
+        );
+        let docs = include_str!("../docs/cli.md");
+        for table in tables() {
+            for arg in table.args.get_arguments() {
+                let flag = format!("--{}", arg.get_long().unwrap());
+                assert!(docs.contains(&flag), "docs/cli.md does not mention {flag}");
+            }
+        }
+        // Every flag the reference mentions is one some command has.
+        let mut flags = BTreeSet::new();
+        let mut cli = <crate::Cli as clap::CommandFactory>::command();
+        cli.build();
+        let mut commands = vec![cli];
+        while let Some(command) = commands.pop() {
+            flags.extend(
+                command
+                    .get_arguments()
+                    .filter_map(|a| a.get_long())
+                    .map(|l| format!("--{l}")),
+            );
+            commands.extend(command.get_subcommands().cloned());
+        }
+        for word in docs.split(|c: char| !(c.is_ascii_alphanumeric() || c == '-')) {
+            // `--target-*` names the three target flags at once; the others
+            // are sbatch's and scripts/setup's.
+            let slurms = ["--array", "--cpus-per-task", "--slurm"];
+            if word.starts_with("--")
+                && word.len() > 2
+                && !word.ends_with('-')
+                && !slurms.contains(&word)
+            {
+                assert!(
+                    flags.contains(word),
+                    "docs/cli.md mentions {word}, which no command has"
+                );
+            }
+        }
     }
 }

@@ -7,6 +7,7 @@
 mod batch;
 mod config;
 mod demo;
+mod help;
 mod pipeline;
 mod progress;
 mod review;
@@ -18,9 +19,9 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
-use postflight_core::geo::GeoOrigin;
 use postflight_core::{PlanFile, Stage, YawUnit};
-use replan::ReplanOptions;
+
+use crate::config::RunConfig;
 
 #[derive(Parser)]
 #[command(
@@ -117,10 +118,8 @@ struct RunArgs {
     /// detector for simulated flights].
     #[arg(long, value_name = "M.onnx")]
     model: Option<PathBuf>,
-    /// Settings for every stage (TOML; tables [ingest], [detect], [localise],
-    /// [view], [coverage], [replan]).
-    #[arg(long, value_name = "postflight.toml")]
-    config: Option<PathBuf>,
+    #[command(flatten)]
+    config: config::ConfigArg,
     /// ONNX Runtime library (default: ORT_DYLIB_PATH, the project .venv, python3's onnxruntime).
     #[arg(long, value_name = "PATH")]
     onnxruntime: Option<PathBuf>,
@@ -173,52 +172,10 @@ struct ReplanArgs {
     /// SLAM map (PLY, PCD, or OctoMap .bt/.ot) instead of the one coverage used.
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
-    /// Take-off and landing point (default: the flight's first pose).
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point)]
-    home: Option<[f64; 3]>,
-    /// Closest approach to any occupied voxel, metres.
-    #[arg(long, default_value_t = ReplanOptions::DEFAULT_CLEARANCE_M, value_name = "M")]
-    clearance: f64,
-    /// Which gaps to fly for: the planned voxels the flight missed, every gap, or only the
-    /// candidates to re-shoot; the re-shoots always come too.
-    #[arg(long, default_value = "missed", value_parser = parse_gaps, value_name = "missed|all|reshoot")]
-    gaps: replan::GapChoice,
-    /// One battery's flight time, minutes: each sortie (flying and hovering) fits in it.
-    #[arg(long, default_value_t = ReplanOptions::DEFAULT_BATTERY_MINUTES, value_name = "MIN")]
-    battery_minutes: f64,
-    /// Also keep each sortie from home no longer than this, metres.
-    #[arg(long, value_name = "M")]
-    max_sortie_length: Option<f64>,
-    /// Cruise speed for the time estimate, m/s.
-    #[arg(long, default_value_t = ReplanOptions::DEFAULT_SPEED_M_S)]
-    speed: f64,
-    /// Hover per waypoint for the time estimate, seconds.
-    #[arg(long, default_value_t = ReplanOptions::DEFAULT_HOVER_S)]
-    hover: f64,
-    /// Longest the tour's GTSP solve may take, seconds; it stops sooner when it converges, and
-    /// gets 1 s plus 2 ms per cluster at most.
-    #[arg(long, default_value_t = ReplanOptions::DEFAULT_SOLVER_TIME_LIMIT_S, value_name = "S")]
-    solver_time_limit: f64,
-    /// Solver seed.
-    #[arg(long, default_value_t = gtsp::SolveOptions::default().seed)]
-    seed: u64,
-    /// The map frame on the Earth: its origin's latitude and longitude
-    /// (degrees), altitude (metres) and the heading of its x axis from east,
-    /// counter-clockwise (degrees, default 0); also writes the flight as
-    /// QGroundControl missions, KML and GeoJSON [default: from the flight's GPS fixes].
-    #[arg(long, value_name = "LAT,LON,ALT[,YAW_DEG]", value_parser = GeoOrigin::parse, allow_hyphen_values = true)]
-    geo_origin: Option<GeoOrigin>,
-}
-
-fn parse_gaps(s: &str) -> Result<replan::GapChoice, String> {
-    replan::GapChoice::parse(s).ok_or_else(|| format!("'{s}' is not one of missed, all, reshoot"))
-}
-
-fn parse_point(s: &str) -> Result<[f64; 3], String> {
-    match postflight_core::setting::comma_numbers(s).as_deref() {
-        Some(&[x, y, z]) => Ok([x, y, z]),
-        _ => Err(format!("expected three numbers X,Y,Z in metres, not '{s}'")),
-    }
+    #[command(flatten)]
+    settings: replan::ReplanSettings,
+    #[command(flatten)]
+    config: config::ConfigArg,
 }
 
 /// The plan that was flown.
@@ -291,39 +248,12 @@ struct CoverageArgs {
     map: Option<PathBuf>,
     #[command(flatten)]
     targets: TargetArgs,
-    /// Settings file (postflight.toml; its [view] and [coverage] tables); command-line flags win.
-    #[arg(long, value_name = "postflight.toml")]
-    config: Option<PathBuf>,
-    /// Apex angle of the viewing cone, degrees [default: plan's, else 20].
-    #[arg(long, value_name = "DEGREES")]
-    cone_apex: Option<f64>,
-    /// Near edge of the distance band, metres [default: plan's, else 2].
-    #[arg(long, value_name = "METRES")]
-    min_distance: Option<f64>,
-    /// Far edge of the distance band, metres [default: plan's, else 5].
-    #[arg(long, value_name = "METRES")]
-    max_distance: Option<f64>,
-    /// Largest angle between a face's normal and the camera, degrees [default: plan's, else 60].
-    #[arg(long, value_name = "DEGREES")]
-    max_incidence: Option<f64>,
-    /// Largest motion blur of a usable frame, pixels [default: plan's, else 3].
-    #[arg(long, value_name = "PIXELS")]
-    max_blur: Option<f64>,
-    /// Coarsest ground sampling distance of a usable view, mm per pixel [default: plan's, else 6].
-    #[arg(long, value_name = "MM")]
-    max_gsd: Option<f64>,
-    /// Views a face needs [default: plan's, else 1].
-    #[arg(long, value_name = "N")]
-    views: Option<u32>,
-    /// Views a face needs near a defect candidate (defects.json from localise).
-    #[arg(long, value_name = "N")]
-    views_near_defects: Option<u32>,
-    /// What counts as near a defect candidate, metres [default: 1].
-    #[arg(long, value_name = "METRES")]
-    defect_radius: Option<f64>,
-    /// Exposure assumed for frames that recorded none, seconds.
-    #[arg(long, value_name = "SECONDS")]
-    exposure: Option<f64>,
+    #[command(flatten)]
+    view: postflight_core::ViewSettings,
+    #[command(flatten)]
+    settings: coverage::CoverageSettings,
+    #[command(flatten)]
+    config: config::ConfigArg,
 }
 
 #[derive(Args)]
@@ -337,18 +267,13 @@ struct LocaliseArgs {
     /// Inspection plan: its target voxels are the structure (hits elsewhere are obstacles).
     #[arg(long, value_name = "plan.json")]
     plan: Option<PathBuf>,
-    /// Rays end this far from the camera, metres.
-    #[arg(long, default_value_t = localise::LocaliseOptions::DEFAULT_MAX_RANGE_M, value_name = "METRES")]
-    max_range: f64,
-    /// Views of one crack may be this far apart on the surface (covers pose error), metres.
-    #[arg(long, default_value_t = localise::FusionOptions::default().link_distance, value_name = "METRES")]
-    link_distance: f64,
-    /// Largest angle between the surfaces of two views of one crack, degrees.
-    #[arg(long, default_value_t = localise::FusionOptions::default().max_normal_angle_deg, value_name = "DEGREES")]
-    max_normal_angle: f64,
-    /// Settings file (postflight.toml): its [view] table is the View model each view is judged by.
-    #[arg(long, value_name = "postflight.toml")]
-    config: Option<PathBuf>,
+    #[command(flatten)]
+    settings: localise::LocaliseSettings,
+    /// Each view is judged by the View model, as coverage judges it.
+    #[command(flatten)]
+    view: postflight_core::ViewSettings,
+    #[command(flatten)]
+    config: config::ConfigArg,
 }
 
 #[derive(Args)]
@@ -359,41 +284,13 @@ struct DetectArgs {
     /// Detector exported to ONNX (YOLO-World, either interface).
     #[arg(long)]
     model: PathBuf,
-    /// Class prompt for open-vocabulary models (repeatable).
-    #[arg(long = "prompt", default_value = detect::DetectOptions::DEFAULT_PROMPT)]
-    prompts: Vec<String>,
-    /// Prompt embeddings (JSON: prompt to vector) for open-vocabulary models.
-    #[arg(long, value_name = "FILE")]
-    embeddings: Option<PathBuf>,
-    /// Lowest score kept.
-    #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_CONFIDENCE)]
-    confidence: f32,
-    /// Overlap above which NMS drops the weaker box.
-    #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_IOU)]
-    iou: f32,
-    /// Same-class boxes of comparable score this many pixels apart or closer merge into one
-    /// (a crack found in pieces); 'off' keeps every box.
-    #[arg(long, default_value_t = config::MergeGap::Pixels(detect::DetectOptions::DEFAULT_MERGE_GAP), value_name = "PIXELS|off")]
-    merge_gap: config::MergeGap,
-    /// Models with dynamic input: the frame is scaled to fit this square, then padded only to the
-    /// model's stride (a 640x480 frame runs as 640x480).
-    #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_IMAGE_SIZE)]
-    imgsz: u32,
     /// ONNX Runtime library (default: ORT_DYLIB_PATH, the project .venv, python3's onnxruntime).
     #[arg(long, value_name = "PATH")]
     onnxruntime: Option<PathBuf>,
-    /// Also run square tiles of this many pixels at full resolution (thin cracks vanish when large frames shrink).
-    #[arg(long, value_name = "PIXELS")]
-    tile: Option<u32>,
-    /// Overlap of neighbouring tiles, as a share of the tile size.
-    #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_TILE_OVERLAP)]
-    tile_overlap: f32,
-    /// Where inference runs; without the provider in the ONNX Runtime library, a warning and the CPU.
-    #[arg(long, value_enum, default_value_t = config::DeviceName::Cpu)]
-    device: config::DeviceName,
-    /// Images per inference call, for models with a dynamic batch size.
-    #[arg(long, default_value_t = detect::DetectOptions::DEFAULT_BATCH)]
-    batch: usize,
+    #[command(flatten)]
+    settings: detect::DetectSettings,
+    #[command(flatten)]
+    config: config::ConfigArg,
 }
 
 #[derive(Args)]
@@ -475,37 +372,14 @@ struct IngestArgs {
     /// Run directory to write (created if missing).
     #[arg(long)]
     out: PathBuf,
-    /// ROS camera-calibration YAML, for recordings without CameraInfo.
-    #[arg(long, value_name = "FILE")]
-    camera_info: Option<PathBuf>,
-    /// Image topic to use (repeatable; default: every image topic).
-    #[arg(long = "image-topic", value_name = "TOPIC")]
-    image_topics: Vec<String>,
-    /// Pose topic (PoseStamped, PoseWithCovarianceStamped or Odometry).
-    #[arg(long, value_name = "TOPIC")]
-    pose_topic: Option<String>,
-    /// CameraInfo topic.
-    #[arg(long, value_name = "TOPIC")]
-    camera_info_topic: Option<String>,
-    /// PointCloud2 topic with the SLAM map.
-    #[arg(long, value_name = "TOPIC")]
-    map_topic: Option<String>,
-    /// Body frame the poses describe (default: inferred).
-    #[arg(long, value_name = "FRAME")]
-    body_frame: Option<String>,
-    /// World frame when poses come from /tf (default: the tree's root).
-    #[arg(long, value_name = "FRAME")]
-    world_frame: Option<String>,
-    /// Largest pose gap frames are interpolated across, seconds.
-    #[arg(long, default_value_t = ingest::IngestOptions::DEFAULT_MAX_POSE_GAP_S, value_name = "SECONDS")]
-    max_pose_gap: f64,
-    /// Fail on a truncated recording instead of salvaging it.
-    #[arg(long)]
-    strict: bool,
+    #[command(flatten)]
+    settings: ingest::IngestSettings,
+    #[command(flatten)]
+    config: config::ConfigArg,
 }
 
 fn main() -> ExitCode {
-    let matches = Cli::command().get_matches();
+    let matches = help::with_defaults(Cli::command()).get_matches();
     let cli = match Cli::from_arg_matches(&matches) {
         Ok(cli) => cli,
         Err(e) => e.exit(),
@@ -527,21 +401,28 @@ fn word_settings(cli: &Cli, matches: &clap::ArgMatches) {
     if let Command::Batch(_) = &cli.command {
         sources = sources.with_config_source("a config file (the manifest's `config` column)");
     }
-    let config = match &cli.command {
-        Command::Run(args) => args.config.clone(),
-        Command::Coverage(args) => args.config.clone(),
-        Command::Batch(command) => batch::task_config(command),
-        _ => None,
-    };
     // An unreadable config file is reported when the command reads it.
-    let sources = match config.map(|path| {
-        let config = config::RunConfig::load(&path);
-        (path, config)
-    }) {
-        Some((path, Ok(config))) => sources.with_config(&path, &config),
-        _ => sources,
-    };
+    let config = config_file(&cli.command)
+        .and_then(|path| config::RunConfig::load(&path).ok().map(|c| (path, c)));
+    if let Some((path, config)) = config {
+        sources = sources.with_config(&path, &config);
+    }
     sources.install();
+}
+
+/// The config file the command reads, if any.
+fn config_file(command: &Command) -> Option<PathBuf> {
+    let arg = match command {
+        Command::Run(args) => &args.config,
+        Command::Ingest(args) => &args.config,
+        Command::Detect(args) => &args.config,
+        Command::Localise(args) => &args.config,
+        Command::Coverage(args) => &args.config,
+        Command::Replan(args) => &args.config,
+        Command::Batch(command) => return batch::task_config(command),
+        _ => return None,
+    };
+    arg.config.clone()
 }
 
 fn init_logging(verbose: u8) {
@@ -581,19 +462,12 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
 }
 
 fn ingest(args: &IngestArgs, quiet: bool) -> anyhow::Result<()> {
-    let options = ingest::IngestOptions {
-        image_topics: args.image_topics.clone(),
-        pose_topic: args.pose_topic.clone(),
-        camera_info_topic: args.camera_info_topic.clone(),
-        camera_info_file: args.camera_info.clone(),
-        map_topic: args.map_topic.clone(),
-        body_frame: args.body_frame.clone(),
-        world_frame: args.world_frame.clone(),
-        max_pose_gap_s: args.max_pose_gap,
-        strict: args.strict,
-        ..ingest::IngestOptions::new(args.flight.clone(), args.out.clone())
+    let flags = RunConfig {
+        ingest: args.settings.clone(),
+        ..RunConfig::default()
     };
-    stages::ingest(&options, quiet)
+    let config = args.config.under(flags)?;
+    stages::ingest(&config.ingest_options(&args.flight, &args.out), quiet)
 }
 
 fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
@@ -630,20 +504,12 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
 }
 
 fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
-    let options = detect::DetectOptions {
-        prompts: args.prompts.clone(),
-        embeddings: args.embeddings.clone(),
-        confidence: args.confidence,
-        iou: args.iou,
-        merge_gap: args.merge_gap.pixels(),
-        image_size: args.imgsz,
-        onnxruntime: args.onnxruntime.clone(),
-        tile: args.tile,
-        tile_overlap: args.tile_overlap,
-        device: args.device.device(),
-        batch: args.batch,
-        ..detect::DetectOptions::new(args.run.clone(), args.model.clone())
+    let flags = RunConfig {
+        detect: args.settings.clone(),
+        ..RunConfig::default()
     };
+    let config = args.config.under(flags)?;
+    let options = config.detect_options(&args.run, &args.model, args.onnxruntime.as_deref());
     stages::detect(&options, quiet)
 }
 
@@ -654,67 +520,46 @@ fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
             path.display()
         );
     }
-    let config = config::RunConfig::load_or_default(args.config.as_deref())?;
-    let options = localise::LocaliseOptions {
-        view: config.view,
-        map: args.map.clone(),
-        plan: args.plan.clone().map(PlanFile::new),
-        max_range_m: args.max_range,
-        fusion: localise::FusionOptions {
-            link_distance: args.link_distance,
-            max_normal_angle_deg: args.max_normal_angle,
-        },
-        ..localise::LocaliseOptions::new(args.run.clone())
+    let flags = RunConfig {
+        localise: args.settings.clone(),
+        view: args.view,
+        ..RunConfig::default()
     };
+    let config = args.config.under(flags)?;
+    let plan = args.plan.clone().map(PlanFile::new);
+    let options = config.localise_options(&args.run, args.map.as_deref(), plan.as_ref());
     stages::localise(&options, quiet)
 }
 
 fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
-    let targets = args.targets.targets();
-    let config = config::RunConfig::load_or_default(args.config.as_deref())?;
+    let flags = RunConfig {
+        view: args.view,
+        coverage: args.settings,
+        ..RunConfig::default()
+    };
+    let config = args.config.under(flags)?;
     let options = coverage::CoverageOptions {
-        plan: args.plan.plan(),
         viewpoints: args.plan.file(args.viewpoints.as_ref()),
-        map: args.map.clone(),
-        targets,
-        // Command line over the config file's tables.
-        view: coverage::ViewSettings {
-            cone_apex_deg: args.cone_apex,
-            min_distance_m: args.min_distance,
-            max_distance_m: args.max_distance,
-            max_incidence_deg: args.max_incidence,
-            max_blur_px: args.max_blur,
-            max_gsd_mm: args.max_gsd,
-            views_required: args.views,
-        }
-        .or(&config.view),
-        settings: coverage::CoverageSettings {
-            views_near_defects: args.views_near_defects,
-            defect_radius_m: args.defect_radius,
-            exposure_s: args.exposure,
-        }
-        .or(&config.coverage),
-        ..coverage::CoverageOptions::new(args.run.clone())
+        ..config.coverage_options(
+            &args.run,
+            args.map.as_deref(),
+            args.plan.plan().as_ref(),
+            args.targets.targets(),
+        )
     };
     stages::coverage(&options, quiet)
 }
 
 fn replan(args: &ReplanArgs, quiet: bool) -> anyhow::Result<()> {
-    let mut options = ReplanOptions {
-        map: args.map.clone(),
-        home: args.home,
-        clearance_m: args.clearance,
-        max_sortie_length_m: args.max_sortie_length,
-        battery_minutes: args.battery_minutes,
-        gaps: args.gaps,
-        speed_m_s: args.speed,
-        hover_s: args.hover,
-        geo_origin: args.geo_origin,
-        ..ReplanOptions::new(args.run.clone())
+    let flags = RunConfig {
+        replan: args.settings.clone(),
+        ..RunConfig::default()
     };
-    options.solver.time_limit = Some(replan::stage::solver_time_limit(args.solver_time_limit)?);
-    options.solver.seed = args.seed;
-    stages::replan(&options, quiet)
+    let config = args.config.under(flags)?;
+    stages::replan(
+        &config.replan_options(&args.run, args.map.as_deref()),
+        quiet,
+    )
 }
 
 fn report(args: &ReportArgs, quiet: bool) -> anyhow::Result<()> {
@@ -725,7 +570,7 @@ fn report(args: &ReportArgs, quiet: bool) -> anyhow::Result<()> {
 }
 
 fn run_pipeline(args: &RunArgs, quiet: bool) -> anyhow::Result<()> {
-    let config = config::RunConfig::load_or_default(args.config.as_deref())?;
+    let config = args.config.under(RunConfig::default())?;
     let inputs = pipeline::RunInputs {
         flight: args.flight.clone(),
         map: args.map.clone(),

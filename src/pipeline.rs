@@ -251,70 +251,107 @@ fn run_logged(
 
 /// What a stage's fingerprint covers besides the previous stage.
 struct StageInputs {
-    /// Its settings.
+    /// The options it runs with, without their paths.
     settings: serde_json::Value,
     /// Its input files from outside the run directory, by role.
     files: Vec<(&'static str, PathBuf)>,
 }
 
+/// The options a stage runs with.
+enum StageOptions {
+    Ingest(ingest::IngestOptions),
+    Detect(detect::DetectOptions),
+    Localise(localise::LocaliseOptions),
+    Coverage(coverage::CoverageOptions),
+    Replan(replan::ReplanOptions),
+    Report(reports::ReportOptions),
+}
+
+impl StageOptions {
+    /// The options `postflight run` gives the stage.
+    fn new(stage: Stage, i: &RunInputs) -> Self {
+        let c = &i.config;
+        let (run, map) = (i.out.as_path(), i.map.as_deref());
+        match stage {
+            Stage::Ingest => Self::Ingest(c.ingest_options(&i.flight, run)),
+            Stage::Detect => {
+                Self::Detect(c.detect_options(run, &i.model_path(), i.onnxruntime.as_deref()))
+            }
+            Stage::Localise => Self::Localise(c.localise_options(run, map, i.structure_plan())),
+            Stage::Coverage => {
+                Self::Coverage(c.coverage_options(run, map, i.plan.as_ref(), i.targets.clone()))
+            }
+            Stage::Replan => Self::Replan(c.replan_options(run, map)),
+            Stage::Report => Self::Report(reports::ReportOptions {
+                run: run.to_owned(),
+            }),
+        }
+    }
+
+    /// The options as the fingerprint hashes them: every setting, no path.
+    fn settings(&self) -> serde_json::Value {
+        let value = match self {
+            Self::Ingest(o) => serde_json::to_value(o),
+            Self::Detect(o) => serde_json::to_value(o),
+            Self::Localise(o) => serde_json::to_value(o),
+            Self::Coverage(o) => serde_json::to_value(o),
+            Self::Replan(o) => serde_json::to_value(o),
+            Self::Report(_) => Ok(serde_json::Value::Null),
+        };
+        value.expect("options serialise to JSON")
+    }
+
+    fn run(&self, quiet: bool) -> anyhow::Result<()> {
+        match self {
+            Self::Ingest(o) => stages::ingest(o, quiet),
+            Self::Detect(o) => stages::detect(o, quiet),
+            Self::Localise(o) => stages::localise(o, quiet),
+            Self::Coverage(o) => stages::coverage(o, quiet),
+            Self::Replan(o) => stages::replan(o, quiet),
+            Self::Report(o) => stages::report(o, quiet),
+        }
+    }
+}
+
 /// A stage's inputs; `None` when it cannot run with what the run was given.
 fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
+    if matches!(stage, Stage::Coverage | Stage::Replan) && !has_targets(i) {
+        return None;
+    }
+    let settings = StageOptions::new(stage, i).settings();
     let c = &i.config;
     let map = i.map.iter().map(|m| ("map", m.clone()));
-    let (settings, files): (_, Vec<_>) = match stage {
-        Stage::Ingest => (
-            serde_json::to_value(&c.ingest),
-            std::iter::once(("flight", i.flight.clone()))
-                .chain(
-                    c.ingest
-                        .camera_info_file
-                        .iter()
-                        .map(|f| ("camera_info", f.clone())),
-                )
-                .collect(),
-        ),
-        Stage::Detect => (
-            serde_json::to_value(&c.detect),
-            std::iter::once(("model", i.model_path()))
-                .chain(
-                    c.detect
-                        .embeddings
-                        .iter()
-                        .map(|e| ("embeddings", e.clone())),
-                )
-                .collect(),
-        ),
-        // Localise judges each view by the View model, so `[view]` is its
-        // setting too.
-        Stage::Localise => (
-            serde_json::to_value((&c.localise, &c.view)),
-            map.chain(i.structure_plan().map(|p| ("plan", p.path.clone())))
-                .collect(),
-        ),
-        Stage::Coverage => {
-            if !has_targets(i) {
-                return None;
-            }
-            let target = i.targets.file().map(|p| ("targets", p.to_path_buf()));
-            let plan_yaw = i.plan.as_ref().map(|p| p.yaw);
-            (
-                serde_json::to_value((&c.view, &c.coverage, plan_yaw)),
-                i.plan
+    let files: Vec<_> = match stage {
+        Stage::Ingest => std::iter::once(("flight", i.flight.clone()))
+            .chain(
+                c.ingest
+                    .camera_info_file
                     .iter()
-                    .map(|p| ("plan", p.path.clone()))
-                    .chain(target)
-                    .chain(map)
-                    .collect(),
+                    .map(|f| ("camera_info", f.clone())),
             )
-        }
-        Stage::Replan if !has_targets(i) => return None,
-        Stage::Replan => (serde_json::to_value(&c.replan), map.collect()),
-        Stage::Report => (Ok(serde_json::Value::Null), Vec::new()),
+            .collect(),
+        Stage::Detect => std::iter::once(("model", i.model_path()))
+            .chain(
+                c.detect
+                    .embeddings
+                    .iter()
+                    .map(|e| ("embeddings", e.clone())),
+            )
+            .collect(),
+        Stage::Localise => map
+            .chain(i.structure_plan().map(|p| ("plan", p.path.clone())))
+            .collect(),
+        Stage::Coverage => i
+            .plan
+            .iter()
+            .map(|p| ("plan", p.path.clone()))
+            .chain(i.targets.file().map(|p| ("targets", p.to_path_buf())))
+            .chain(map)
+            .collect(),
+        Stage::Replan => map.collect(),
+        Stage::Report => Vec::new(),
     };
-    Some(StageInputs {
-        settings: settings.expect("settings serialise to JSON"),
-        files,
-    })
+    Some(StageInputs { settings, files })
 }
 
 /// Coverage and replanning need a structure to inspect: a plan's target
@@ -324,27 +361,5 @@ fn has_targets(i: &RunInputs) -> bool {
 }
 
 fn run_stage(stage: Stage, i: &RunInputs, quiet: bool) -> anyhow::Result<()> {
-    let c = &i.config;
-    let (run, map, plan) = (i.out.as_path(), i.map.as_deref(), i.plan.as_ref());
-    match stage {
-        Stage::Ingest => stages::ingest(&c.ingest_options(&i.flight, run), quiet),
-        Stage::Detect => stages::detect(
-            &c.detect_options(run, &i.model_path(), i.onnxruntime.as_deref()),
-            quiet,
-        ),
-        Stage::Localise => {
-            stages::localise(&c.localise_options(run, map, i.structure_plan()), quiet)
-        }
-        Stage::Coverage => stages::coverage(
-            &c.coverage_options(run, map, plan, i.targets.clone()),
-            quiet,
-        ),
-        Stage::Replan => stages::replan(&c.replan_options(run, map)?, quiet),
-        Stage::Report => stages::report(
-            &reports::ReportOptions {
-                run: run.to_owned(),
-            },
-            quiet,
-        ),
-    }
+    StageOptions::new(stage, i).run(quiet)
 }

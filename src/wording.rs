@@ -13,58 +13,17 @@ use postflight_core::Key;
 
 use crate::config::RunConfig;
 
-/// Each stage setting's flag in the stage's own command.
-const FLAGS: &[(Key, &str)] = {
-    use coverage::stage::keys as coverage;
-    use detect::stage::keys as detect;
-    use ingest::stage::keys as ingest;
-    use localise::stage::keys as localise;
-    use replan::stage::keys as replan;
-    &[
-        (ingest::IMAGE_TOPICS, "--image-topic"),
-        (ingest::POSE_TOPIC, "--pose-topic"),
-        (ingest::CAMERA_INFO_TOPIC, "--camera-info-topic"),
-        (ingest::CAMERA_INFO_FILE, "--camera-info"),
-        (ingest::MAP_TOPIC, "--map-topic"),
-        (ingest::BODY_FRAME, "--body-frame"),
-        (ingest::WORLD_FRAME, "--world-frame"),
-        (ingest::MAX_POSE_GAP, "--max-pose-gap"),
-        (ingest::STRICT, "--strict"),
-        (detect::PROMPTS, "--prompt"),
-        (detect::EMBEDDINGS, "--embeddings"),
-        (detect::CONFIDENCE, "--confidence"),
-        (detect::IOU, "--iou"),
-        (detect::MERGE_GAP, "--merge-gap"),
-        (detect::IMAGE_SIZE, "--imgsz"),
-        (detect::TILE, "--tile"),
-        (detect::TILE_OVERLAP, "--tile-overlap"),
-        (detect::BATCH, "--batch"),
-        (detect::DEVICE, "--device"),
-        (localise::MAX_RANGE, "--max-range"),
-        (localise::LINK_DISTANCE, "--link-distance"),
-        (localise::MAX_NORMAL_ANGLE, "--max-normal-angle"),
-        (coverage::CONE_APEX, "--cone-apex"),
-        (coverage::MIN_DISTANCE, "--min-distance"),
-        (coverage::MAX_DISTANCE, "--max-distance"),
-        (coverage::MAX_INCIDENCE, "--max-incidence"),
-        (coverage::MAX_BLUR, "--max-blur"),
-        (coverage::MAX_GSD, "--max-gsd"),
-        (coverage::VIEWS_REQUIRED, "--views"),
-        (coverage::VIEWS_NEAR_DEFECTS, "--views-near-defects"),
-        (coverage::DEFECT_RADIUS, "--defect-radius"),
-        (coverage::EXPOSURE, "--exposure"),
-        (replan::HOME, "--home"),
-        (replan::CLEARANCE, "--clearance"),
-        (replan::MAX_SORTIE_LENGTH, "--max-sortie-length"),
-        (replan::BATTERY_MINUTES, "--battery-minutes"),
-        (replan::GAPS, "--gaps"),
-        (replan::SPEED, "--speed"),
-        (replan::HOVER, "--hover"),
-        (replan::GEO_ORIGIN, "--geo-origin"),
-        (replan::SOLVER_TIME_LIMIT, "--solver-time-limit"),
-        (replan::SEED, "--seed"),
-    ]
-};
+/// A setting's flag, as its settings struct declares it.
+fn flag_of(table: &str, name: &str) -> Option<String> {
+    let tables = crate::config::tables();
+    let table = tables.iter().find(|t| t.name == table)?;
+    table
+        .args
+        .get_arguments()
+        .find(|arg| arg.get_id() == name)
+        .and_then(|arg| arg.get_long())
+        .map(|long| format!("--{long}"))
+}
 
 /// What one invocation can tell about where each setting came from.
 #[derive(Debug, Default)]
@@ -126,19 +85,15 @@ impl Sources {
         let Key::Setting { table, name } = *key else {
             return None;
         };
-        let flag = FLAGS
-            .iter()
-            .find(|(k, _)| k == key)
-            .map(|(_, f)| *f)
-            .filter(|f| self.flags.contains(*f));
+        let flag = flag_of(table, name).filter(|f| self.flags.contains(f));
         let in_config = self
             .config
             .as_ref()
             .filter(|(_, set)| set.contains(&(table.to_string(), name.to_string())));
         match (flag, in_config) {
-            (Some(flag), Some(_)) if self.given.contains(flag) => Some(flag.to_string()),
+            (Some(flag), Some(_)) if self.given.contains(&flag) => Some(flag),
             (_, Some((path, _))) => Some(format!("[{table}] {name} in {}", path.display())),
-            (Some(flag), None) => Some(flag.to_string()),
+            (Some(flag), None) => Some(flag),
             (None, None) => match &self.config {
                 Some((path, _)) => Some(format!("[{table}] {name} in {}", path.display())),
                 None => Some(format!(
@@ -175,29 +130,24 @@ mod tests {
     }
 
     #[test]
-    fn every_flag_in_the_table_is_a_stage_command_flag_and_every_key_a_config_key() {
-        let keys = RunConfig::default().keys();
-        for (key, flag) in FLAGS {
-            let Key::Setting { table, name } = *key else {
-                panic!("{key:?} is not a setting")
+    fn every_setting_is_a_flag_of_its_stage_command() {
+        let cli = crate::Cli::command();
+        for (table, name) in RunConfig::default().keys() {
+            let flag = flag_of(&table, &name).unwrap_or_else(|| panic!("[{table}] {name}"));
+            let commands: &[&str] = match table.as_str() {
+                "view" => &["localise", "coverage"],
+                t => &[t],
             };
-            assert!(
-                keys.contains(&(table.to_string(), name.to_string())),
-                "[{table}] {name} is not a key of postflight.toml"
-            );
-            let command = match table {
-                "view" => "coverage",
-                t => t,
-            };
-            let cli = crate::Cli::command();
-            let flags = flags_of(cli.find_subcommand(command).unwrap());
-            assert!(flags.contains(*flag), "postflight {command} has no {flag}");
+            for command in commands {
+                let flags = flags_of(cli.find_subcommand(command).unwrap());
+                assert!(flags.contains(&flag), "postflight {command} has no {flag}");
+            }
         }
     }
 
     #[test]
     fn a_setting_is_worded_as_the_user_gave_it() {
-        let key = detect::stage::keys::IMAGE_SIZE;
+        let key = detect::settings::keys::image_size;
         let detect = sources(&["postflight", "detect", "--run", "r", "--model", "m"]);
         assert_eq!(detect.word(&key).unwrap(), "--imgsz");
         let run = sources(&["postflight", "run", "--flight", "f", "--out", "o"]);
@@ -220,9 +170,9 @@ mod tests {
             "3",
         ])
         .with_config(Path::new("c.toml"), &config);
-        let max = coverage::stage::keys::MAX_DISTANCE;
+        let max = postflight_core::view::keys::max_distance_m;
         assert_eq!(coverage.word(&max).unwrap(), "--max-distance");
-        let min = coverage::stage::keys::MIN_DISTANCE;
+        let min = postflight_core::view::keys::min_distance_m;
         assert_eq!(coverage.word(&min).unwrap(), "--min-distance");
         assert_eq!(coverage.word(&postflight_core::setting::inputs::MAP), None);
     }

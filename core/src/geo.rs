@@ -32,6 +32,45 @@ pub struct GeoOrigin {
     pub yaw_deg: f64,
 }
 
+impl std::str::FromStr for GeoOrigin {
+    type Err = String;
+
+    /// As [`GeoOrigin::parse`] reads it.
+    fn from_str(text: &str) -> Result<Self, String> {
+        Self::parse(text)
+    }
+}
+
+/// A geo origin as `postflight.toml` gives it: `[LAT, LON, ALT]` or `[LAT,
+/// LON, ALT, YAW_DEG]`, checked as it is read (`#[serde(with)]` for an
+/// `Option<GeoOrigin>`).
+pub mod geo_origin_values {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    use super::GeoOrigin;
+
+    pub fn serialize<S: Serializer>(origin: &Option<GeoOrigin>, s: S) -> Result<S::Ok, S::Error> {
+        origin
+            .map(|o| {
+                let p = o.position;
+                [p.latitude_deg, p.longitude_deg, p.altitude_m, o.yaw_deg]
+            })
+            .serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<GeoOrigin>, D::Error> {
+        Option::<Vec<f64>>::deserialize(d)?
+            .map(|values| {
+                GeoOrigin::from_values(&values).map_err(|why| {
+                    serde::de::Error::custom(format!(
+                        "geo_origin must be [LAT, LON, ALT] or [LAT, LON, ALT, YAW_DEG] ({why})"
+                    ))
+                })
+            })
+            .transpose()
+    }
+}
+
 impl GeoOrigin {
     /// `LAT,LON,ALT[,YAW_DEG]`: degrees, metres, and the yaw of the map's
     /// x axis from east (default 0).

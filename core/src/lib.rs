@@ -41,6 +41,7 @@ pub mod setting;
 pub mod structure;
 pub mod time;
 pub mod trajectory;
+pub mod view;
 
 pub use camera::{Camera, Distortion, Intrinsics};
 pub use error::Error;
@@ -48,10 +49,9 @@ pub use flight::Flight;
 pub use frame::{Frame, ImageStatus, MessageLocation, PoseStatus};
 pub use map::FaceSide;
 pub use outputs::Stage;
-pub use plan::{
-    FlownPlan, InspectionPlan, PathPoint, PlanFile, ViewModel, ViewSettings, Viewpoint, YawUnit,
-};
+pub use plan::{FlownPlan, InspectionPlan, PathPoint, PlanFile, Viewpoint, YawUnit};
 pub use run_dir::RunDir;
 pub use run_log::{InputFile, RunLog, StageRecord};
 pub use setting::{InvalidSetting, Key};
 pub use trajectory::{PoseAt, Trajectory};
+pub use view::{ViewModel, ViewSettings};

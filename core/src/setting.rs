@@ -45,6 +45,10 @@ pub mod inputs {
     pub const MODEL: Key = Key::input("--model");
     pub const ONNXRUNTIME: Key = Key::input("--onnxruntime");
     pub const RUN: Key = Key::input("--run");
+    /// The structure to inspect, instead of a plan's target voxels.
+    pub const TARGET_BOXES: Key = Key::input("--target-boxes");
+    pub const TARGET_CLOUD: Key = Key::input("--target-cloud");
+    pub const TARGET_MAP: Key = Key::input("--target-map");
 }
 
 type Wording = Box<dyn Fn(&Key) -> Option<String> + Send + Sync>;
@@ -105,6 +109,123 @@ pub fn comma_numbers(text: &str) -> Option<Vec<f64>> {
     text.split(',')
         .map(|v| v.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
         .collect()
+}
+
+/// Declares a stage's settings once: each field with its doc comment, its
+/// command-line flag (`#[arg(long ...)]`) and, where it has one, its
+/// default. From that one declaration come:
+///
+/// - `$Settings`, every field optional: the `postflight.toml` table
+///   (serde, unknown keys refused) and the stage command's flags (clap);
+/// - `$Resolved`, what the stage runs with: a field with a default is its
+///   value, one without stays an `Option`;
+/// - `$Settings::resolve`, `$Settings::over` (layering: `flags.over(&file)`)
+///   and `From<$Resolved>` (a resolved value as settings, to layer over);
+/// - the module `$keys`, one [`Key`] per field, named as the field, which
+///   errors use to name the setting.
+///
+/// ```ignore
+/// postflight_core::settings! {
+///     table = "detect", keys = keys;
+///     /// `[detect]`: how the detector runs.
+///     pub struct DetectSettings => pub struct DetectConfig {
+///         /// Lowest score kept.
+///         #[arg(long, value_name = "SCORE")]
+///         confidence: f32 = 0.25,
+///     }
+/// }
+/// ```
+#[macro_export]
+macro_rules! settings {
+    (
+        table = $table:literal, keys = $keys:ident;
+        $(#[$smeta:meta])*
+        $vis:vis struct $Settings:ident => $(#[$rmeta:meta])* struct $Resolved:ident {
+            $(
+                $(#[$fmeta:meta])*
+                $field:ident : $ty:ty $(= $default:expr)?
+            ),* $(,)?
+        }
+    ) => {
+        $(#[$smeta])*
+        #[derive(Debug, Clone, Default, PartialEq, ::serde::Serialize, ::serde::Deserialize, ::clap::Args)]
+        #[serde(default, deny_unknown_fields)]
+        $vis struct $Settings {
+            $(
+                $(#[$fmeta])*
+                pub $field: Option<$ty>,
+            )*
+        }
+
+        $(#[$rmeta])*
+        #[doc = concat!("\n\nEach field is the setting of the same name in [`", stringify!($Settings), "`], resolved: as given, else its default.")]
+        #[derive(Debug, Clone, PartialEq, ::serde::Serialize, ::serde::Deserialize)]
+        #[serde(default)]
+        $vis struct $Resolved {
+            $(
+                #[allow(missing_docs)]
+                pub $field: $crate::settings!(@resolved $ty $(, $default)?),
+            )*
+        }
+
+        impl Default for $Resolved {
+            fn default() -> Self {
+                $Settings::default().resolve()
+            }
+        }
+
+        impl $Settings {
+            /// The table's name in `postflight.toml`.
+            pub const TABLE: &'static str = $table;
+
+            /// Each setting as given, else its default.
+            pub fn resolve(&self) -> $Resolved {
+                $Resolved {
+                    $( $field: $crate::settings!(@value self.$field.clone() $(, $default)?), )*
+                }
+            }
+
+            /// Each setting from `self` where given, else from `under`
+            /// (`flags.over(&file)`).
+            pub fn over(&self, under: &Self) -> Self {
+                Self {
+                    $( $field: self.$field.clone().or_else(|| under.$field.clone()), )*
+                }
+            }
+        }
+
+        impl From<$Resolved> for $Settings {
+            fn from(resolved: $Resolved) -> Self {
+                Self {
+                    $( $field: $crate::settings!(@given resolved.$field $(, $default)?), )*
+                }
+            }
+        }
+
+        /// Each setting's key, named as its field.
+        #[allow(non_upper_case_globals)]
+        $vis mod $keys {
+            $(
+                pub const $field: $crate::Key = $crate::Key::setting($table, stringify!($field));
+            )*
+        }
+    };
+    (@resolved $ty:ty) => { Option<$ty> };
+    (@resolved $ty:ty, $default:expr) => { $ty };
+    (@value $value:expr) => { $value };
+    (@value $value:expr, $default:expr) => { $value.unwrap_or_else(|| $default) };
+    (@given $value:expr) => { $value };
+    (@given $value:expr, $default:expr) => { Some($value) };
+}
+
+/// A point given as `X,Y,Z` in metres (`--home`).
+pub fn point3(text: &str) -> Result<[f64; 3], String> {
+    match comma_numbers(text).as_deref() {
+        Some(&[x, y, z]) => Ok([x, y, z]),
+        _ => Err(format!(
+            "expected three numbers X,Y,Z in metres, not '{text}'"
+        )),
+    }
 }
 
 #[cfg(test)]

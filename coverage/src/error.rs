@@ -4,8 +4,6 @@ use std::path::PathBuf;
 
 use postflight_core::setting::inputs;
 
-use crate::stage::keys;
-
 #[derive(Debug, thiserror::Error)]
 pub enum CoverageError {
     #[error(transparent)]
@@ -19,16 +17,16 @@ pub enum CoverageError {
     #[error(
         "no target voxels: pass the plan with {}, or the structure with {}, {} or {}",
         inputs::PLAN,
-        keys::TARGET_BOXES,
-        keys::TARGET_CLOUD,
-        keys::TARGET_MAP
+        inputs::TARGET_BOXES,
+        inputs::TARGET_CLOUD,
+        inputs::TARGET_MAP
     )]
     NoTargets,
     #[error(
         "the plan is a waypoint path, which names no targets; pass the structure with {}, {} or {}",
-        keys::TARGET_BOXES,
-        keys::TARGET_CLOUD,
-        keys::TARGET_MAP
+        inputs::TARGET_BOXES,
+        inputs::TARGET_CLOUD,
+        inputs::TARGET_MAP
     )]
     PathWithoutTargets,
     #[error(
@@ -51,7 +49,7 @@ pub enum CoverageError {
     NoCamera,
     #[error(
         "a camera of the flight has no intrinsics; rerun `postflight ingest` with {}",
-        ingest::stage::keys::CAMERA_INFO_FILE
+        ingest::settings::keys::camera_info_file
     )]
     NoIntrinsics,
     #[error(

@@ -32,6 +32,7 @@ pub mod view;
 pub use cover::{FaceCover, Shot, cover, cover_naive};
 pub use error::CoverageError;
 pub use face::{Face, exposed_faces};
-pub use settings::{CoverageSettings, ViewSettings};
+pub use postflight_core::ViewSettings;
+pub use settings::{CoverageConfig, CoverageSettings};
 pub use stage::{CoverageOptions, Targets, coverage};
 pub use view::{Miss, Sight};

@@ -16,8 +16,7 @@ use postflight_core::outputs::coverage::{
 use postflight_core::outputs::localise::read_defects;
 use postflight_core::structure::{self, Place, Segmentation};
 use postflight_core::{
-    Flight, FlownPlan, Intrinsics, InvalidSetting, Key, PlanFile, RunDir, Stage, ViewModel,
-    Viewpoint,
+    Flight, FlownPlan, Intrinsics, PlanFile, RunDir, Stage, ViewModel, Viewpoint,
 };
 use rayon::prelude::*;
 
@@ -26,40 +25,22 @@ use crate::error::CoverageError;
 use crate::face::{Face, exposed_faces};
 use crate::reach::inspectable;
 use crate::records::voxel_records;
-use crate::settings::{CoverageSettings, ViewSettings};
+use crate::settings::{CoverageConfig, keys};
 use crate::targets;
 use crate::view::Miss;
+use postflight_core::ViewSettings;
 
-/// The stage's settings, by their key in `postflight.toml`: the View
-/// model's in `[view]`, the others in `[coverage]`.
-pub mod keys {
-    use postflight_core::Key;
-
-    pub const CONE_APEX: Key = Key::setting("view", "cone_apex_deg");
-    pub const MIN_DISTANCE: Key = Key::setting("view", "min_distance_m");
-    pub const MAX_DISTANCE: Key = Key::setting("view", "max_distance_m");
-    pub const MAX_INCIDENCE: Key = Key::setting("view", "max_incidence_deg");
-    pub const MAX_BLUR: Key = Key::setting("view", "max_blur_px");
-    pub const MAX_GSD: Key = Key::setting("view", "max_gsd_mm");
-    pub const VIEWS_REQUIRED: Key = Key::setting("view", "views_required");
-    pub const VIEWS_NEAR_DEFECTS: Key = Key::setting("coverage", "views_near_defects");
-    pub const DEFECT_RADIUS: Key = Key::setting("coverage", "defect_radius_m");
-    pub const EXPOSURE: Key = Key::setting("coverage", "exposure_s");
-    /// Inputs for the structure to inspect (`postflight coverage` and `run`).
-    pub const TARGET_BOXES: Key = Key::input("--target-boxes");
-    pub const TARGET_CLOUD: Key = Key::input("--target-cloud");
-    pub const TARGET_MAP: Key = Key::input("--target-map");
-}
-
-/// Where the target voxels come from.
-#[derive(Debug, Clone, PartialEq)]
+/// Where the target voxels come from (serialised as which, not the file's
+/// path: its contents are the fingerprint's).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Targets {
     /// The plan's target voxels (needs a plan).
     Plan,
     /// Occupied map voxels inside axis-aligned boxes (JSON file).
-    Boxes(PathBuf),
+    Boxes(#[serde(skip)] PathBuf),
     /// Voxels of a segmented infrastructure cloud or octomap (PLY, PCD, `.bt`, `.ot`).
-    Cloud(PathBuf),
+    Cloud(#[serde(skip)] PathBuf),
 }
 
 impl Targets {
@@ -72,24 +53,28 @@ impl Targets {
     }
 }
 
-#[derive(Debug, Clone)]
+/// What coverage judges and how. Serialised, it is what the stage's
+/// result depends on besides its input files (`postflight run`'s
+/// fingerprint): the settings and how the plan's yaws read, not the paths.
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct CoverageOptions {
+    #[serde(skip)]
     pub run: PathBuf,
     /// The plan that was flown: its viewpoints (what was planned), and for
     /// a `plan.json` its targets, grid and View model.
     pub plan: Option<PlanFile>,
     /// Judge this plan's viewpoints instead of the flight's frames.
     pub viewpoints: Option<PlanFile>,
+    #[serde(skip)]
     pub map: Option<PathBuf>,
     pub targets: Targets,
     /// View model settings over the plan's (unset: the plan's, else defaults).
     pub view: ViewSettings,
-    pub settings: CoverageSettings,
+    pub settings: CoverageConfig,
 }
 
 impl CoverageOptions {
-    pub const DEFAULT_DEFECT_RADIUS_M: f64 = 1.0;
-
+    /// Coverage of `run` against the plan's targets, with the default settings.
     pub fn new(run: PathBuf) -> Self {
         Self {
             run,
@@ -98,7 +83,7 @@ impl CoverageOptions {
             map: None,
             targets: Targets::Plan,
             view: ViewSettings::default(),
-            settings: CoverageSettings::default(),
+            settings: CoverageConfig::default(),
         }
     }
 }
@@ -181,7 +166,7 @@ pub fn coverage(
     let view = options
         .view
         .apply(plan.as_ref().and_then(FlownPlan::view).unwrap_or_default());
-    check_view(&view)?;
+    view.check()?;
     let scene = Scene::load(options, &flight, plan.as_ref())?;
     let extrinsic = camera_mount(&flight);
     let shots = shots(options, &flight, &scene, &extrinsic)?;
@@ -393,7 +378,7 @@ fn lenses(flight: &Flight) -> Result<Vec<Intrinsics>, CoverageError> {
 fn views_needed(
     faces: &[Face],
     view: &ViewModel,
-    settings: &CoverageSettings,
+    settings: &CoverageConfig,
     run: &RunDir,
 ) -> Result<Vec<u32>, CoverageError> {
     let defects: Vec<Point3<f64>> = match settings.views_near_defects {
@@ -407,9 +392,7 @@ fn views_needed(
         }
         None => Vec::new(),
     };
-    let radius = settings
-        .defect_radius_m
-        .unwrap_or(CoverageOptions::DEFAULT_DEFECT_RADIUS_M);
+    let radius = settings.defect_radius_m;
     Ok(faces
         .iter()
         .map(|f| {
@@ -525,7 +508,7 @@ fn shot_warnings(shots: &FlightShots) -> Vec<String> {
         warnings.push(format!(
             "{} frames recorded no exposure time, so their blur was not judged; pass {} SECONDS",
             shots.without_exposure,
-            keys::EXPOSURE
+            keys::exposure_s
         ));
     }
     warnings
@@ -684,38 +667,4 @@ fn flight_shots(
         });
     }
     out
-}
-
-/// Refuse a View model that cannot work.
-pub fn check_view(view: &ViewModel) -> Result<(), InvalidSetting> {
-    let positive = |key: Key, v: f64| InvalidSetting::check(v > 0.0, key, v, "positive");
-    InvalidSetting::check(
-        view.min_distance_m >= 0.0 && view.min_distance_m < view.max_distance_m,
-        keys::MIN_DISTANCE,
-        view.min_distance_m,
-        &format!(
-            "at least 0 and below the distance band's far edge ({} {})",
-            keys::MAX_DISTANCE,
-            view.max_distance_m
-        ),
-    )?;
-    InvalidSetting::check(
-        view.cone_apex_deg > 0.0 && view.cone_apex_deg <= 180.0,
-        keys::CONE_APEX,
-        view.cone_apex_deg,
-        "in (0, 180] degrees",
-    )?;
-    InvalidSetting::check(
-        view.max_incidence_deg > 0.0 && view.max_incidence_deg <= 90.0,
-        keys::MAX_INCIDENCE,
-        view.max_incidence_deg,
-        "in (0, 90] degrees",
-    )?;
-    InvalidSetting::check(
-        view.max_blur_px >= 0.0,
-        keys::MAX_BLUR,
-        view.max_blur_px,
-        "0 or more pixels",
-    )?;
-    positive(keys::MAX_GSD, view.max_gsd_mm)
 }

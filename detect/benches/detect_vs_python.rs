@@ -17,7 +17,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use detect::DetectOptions;
+use detect::{DetectConfig, DetectOptions};
 
 /// A simulated, ingested flight to detect on.
 struct Flight {
@@ -127,12 +127,10 @@ fn main() {
                 .map(|_| python_pipeline(&python, root, &model, flight, &out))
                 .collect(),
         );
-        for batch in [DetectOptions::DEFAULT_BATCH, 1] {
-            let options = DetectOptions {
-                tile: flight.tile,
-                batch,
-                ..DetectOptions::new(flight.run.clone(), model.clone())
-            };
+        for batch in [DetectConfig::default().batch, 1] {
+            let mut options = DetectOptions::new(flight.run.clone(), model.clone());
+            options.settings.tile = flight.tile;
+            options.settings.batch = batch;
             let speed = median(
                 (0..reps)
                     .map(|_| {

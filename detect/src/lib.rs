@@ -10,10 +10,12 @@ pub mod error;
 pub mod letterbox;
 pub mod prompts;
 pub mod runtime;
+pub mod settings;
 pub mod signature;
 pub mod stage;
 pub mod tiles;
 
 pub use error::DetectError;
 pub use runtime::{Device, Library, Runtime, locate};
+pub use settings::{DetectConfig, DetectSettings, MergeGap};
 pub use stage::{DetectOptions, detect};

@@ -23,7 +23,7 @@ impl Embeddings {
         let bytes = std::fs::read(path).map_err(|e| {
             bad(format!(
                 "{e}; check the path given to {}",
-                crate::stage::keys::EMBEDDINGS
+                crate::settings::keys::embeddings
             ))
         })?;
         let map = if path.extension().is_some_and(|e| e == "npy") {

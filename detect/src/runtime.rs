@@ -15,7 +15,7 @@ use ort::ep::{self, ExecutionProvider};
 use ort::session::builder::SessionBuilder;
 
 use crate::error::DetectError;
-use crate::stage::keys;
+use crate::settings::keys;
 
 /// Where the ONNX Runtime library was found.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -255,7 +255,7 @@ impl Runtime {
         let fallback = |why: String| {
             Some(format!(
                 "{} {}: {why}; running on the CPU (install the onnxruntime-gpu wheel with CUDA and cuDNN for GPU inference)",
-                keys::DEVICE,
+                keys::device,
                 device.as_str()
             ))
         };
@@ -290,11 +290,23 @@ impl Runtime {
 }
 
 /// Where inference runs (`--device`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
+#[serde(rename_all = "lowercase")]
 pub enum Device {
     #[default]
     Cpu,
     Cuda,
+    #[value(name = "tensorrt")]
     TensorRt,
 }
 

@@ -22,85 +22,38 @@ use crate::decode::decode;
 use crate::error::DetectError;
 use crate::letterbox::{InputSize, PAD, Placement, letterbox};
 use crate::prompts::Embeddings;
-use crate::runtime::{Device, Runtime, locate};
+use crate::runtime::{Runtime, locate};
+use crate::settings::{DetectConfig, keys};
 use crate::signature::{Signature, Vocabulary};
 use crate::tiles::{Window, windows};
 
-/// The stage's settings, by their key in `postflight.toml`'s `[detect]`.
-pub mod keys {
-    use postflight_core::Key;
-
-    pub const PROMPTS: Key = Key::setting("detect", "prompts");
-    pub const EMBEDDINGS: Key = Key::setting("detect", "embeddings");
-    pub const CONFIDENCE: Key = Key::setting("detect", "confidence");
-    pub const IOU: Key = Key::setting("detect", "iou");
-    pub const MERGE_GAP: Key = Key::setting("detect", "merge_gap");
-    pub const IMAGE_SIZE: Key = Key::setting("detect", "image_size");
-    pub const TILE: Key = Key::setting("detect", "tile");
-    pub const TILE_OVERLAP: Key = Key::setting("detect", "tile_overlap");
-    pub const BATCH: Key = Key::setting("detect", "batch");
-    pub const DEVICE: Key = Key::setting("detect", "device");
-}
-
-#[derive(Debug, Clone)]
+/// What detect runs and how. Serialised, it is what the stage's result
+/// depends on besides its input files (`postflight run`'s fingerprint): the
+/// settings, not the paths.
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct DetectOptions {
+    #[serde(skip)]
     pub run: PathBuf,
+    #[serde(skip)]
     pub model: PathBuf,
-    /// Class prompts for open-vocabulary models (default: `crack`).
-    pub prompts: Vec<String>,
-    /// Prompt embeddings for open-vocabulary models (JSON: name to vector).
-    pub embeddings: Option<PathBuf>,
-    /// Lowest score kept.
-    pub confidence: f32,
-    /// Overlap above which NMS drops the weaker box of a class.
-    pub iou: f32,
-    /// Same-class boxes this close, frame pixels, merge into one finding: a
-    /// faint stretch of a crack splits the detector's response into pieces.
-    /// `None` keeps every box NMS kept.
-    pub merge_gap: Option<f32>,
-    /// Input size for models with dynamic input, pixels: an image is scaled
-    /// to fit this square, then padded only to the model's stride.
-    pub image_size: u32,
     /// ONNX Runtime library (default: found by [`locate`]).
+    #[serde(skip)]
     pub onnxruntime: Option<PathBuf>,
-    /// Also run square tiles of this size at full resolution.
-    pub tile: Option<u32>,
-    /// Overlap of neighbouring tiles, as a share of the tile size.
-    pub tile_overlap: f32,
-    /// Where inference runs; falls back to the CPU with a warning.
-    pub device: Device,
-    /// Views per inference call, for models whose batch size is dynamic
-    /// (a fixed batch size is the model's).
-    pub batch: usize,
+    pub settings: DetectConfig,
 }
 
 impl DetectOptions {
-    pub const DEFAULT_PROMPT: &str = "crack";
-    pub const DEFAULT_CONFIDENCE: f32 = 0.25;
-    pub const DEFAULT_IOU: f32 = 0.5;
-    pub const DEFAULT_MERGE_GAP: f32 = 20.0;
-    pub const DEFAULT_IMAGE_SIZE: u32 = 640;
     /// The stride a dynamic input is padded to when the model's metadata
     /// does not give one (YOLO's largest).
     pub const DEFAULT_STRIDE: u32 = 32;
-    pub const DEFAULT_TILE_OVERLAP: f32 = 0.2;
-    pub const DEFAULT_BATCH: usize = 4;
 
+    /// `model` over the frames of `run` with the default settings.
     pub fn new(run: PathBuf, model: PathBuf) -> Self {
         Self {
             run,
             model,
-            prompts: vec![Self::DEFAULT_PROMPT.into()],
-            embeddings: None,
-            confidence: Self::DEFAULT_CONFIDENCE,
-            iou: Self::DEFAULT_IOU,
-            merge_gap: Some(Self::DEFAULT_MERGE_GAP),
-            image_size: Self::DEFAULT_IMAGE_SIZE,
             onnxruntime: None,
-            tile: None,
-            tile_overlap: Self::DEFAULT_TILE_OVERLAP,
-            device: Device::Cpu,
-            batch: Self::DEFAULT_BATCH,
+            settings: DetectConfig::default(),
         }
     }
 
@@ -110,34 +63,34 @@ impl DetectOptions {
             InvalidSetting::check((0.0..=1.0).contains(&v), key, v, "between 0 and 1")
         };
         InvalidSetting::check(
-            (0.0..0.9).contains(&self.tile_overlap),
-            keys::TILE_OVERLAP,
-            self.tile_overlap,
+            (0.0..0.9).contains(&self.settings.tile_overlap),
+            keys::tile_overlap,
+            self.settings.tile_overlap,
             "at least 0 and below 0.9",
         )?;
-        if let Some(tile) = self.tile {
-            InvalidSetting::check(tile >= 32, keys::TILE, tile, "at least 32 pixels")?;
+        if let Some(tile) = self.settings.tile {
+            InvalidSetting::check(tile >= 32, keys::tile, tile, "at least 32 pixels")?;
         }
-        share(keys::CONFIDENCE, self.confidence)?;
-        share(keys::IOU, self.iou)?;
+        share(keys::confidence, self.settings.confidence)?;
+        share(keys::iou, self.settings.iou)?;
         InvalidSetting::check(
-            self.image_size >= 32 && self.image_size.is_multiple_of(32),
-            keys::IMAGE_SIZE,
-            self.image_size,
+            self.settings.image_size >= 32 && self.settings.image_size.is_multiple_of(32),
+            keys::image_size,
+            self.settings.image_size,
             "a multiple of 32",
         )?;
-        if let Some(gap) = self.merge_gap {
+        if let Some(gap) = self.settings.merge_gap.pixels() {
             InvalidSetting::check(
                 (0.0..=10_000.0).contains(&gap),
-                keys::MERGE_GAP,
+                keys::merge_gap,
                 gap,
                 "0 or more pixels, or off",
             )?;
         }
         InvalidSetting::check(
-            (1..=256).contains(&self.batch),
-            keys::BATCH,
-            self.batch,
+            (1..=256).contains(&self.settings.batch),
+            keys::batch,
+            self.settings.batch,
             "between 1 and 256",
         )
     }
@@ -179,8 +132,8 @@ fn prepare(
     let views = windows(
         img.width(),
         img.height(),
-        options.tile,
-        options.tile_overlap,
+        options.settings.tile,
+        options.settings.tile_overlap,
     )
     .into_iter()
     .map(|window| {
@@ -248,7 +201,7 @@ pub fn detect(
     let recording = Recording::reopen(&flight)?;
     let library = locate(options.onnxruntime.as_deref())?;
     let runtime = Runtime::start(library)?;
-    let session = runtime.session(&options.model, options.device)?;
+    let session = runtime.session(&options.model, options.settings.device)?;
     let warnings: Vec<String> = session.warning.iter().cloned().collect();
     let device = session.device;
     let (mut detector, classes) = Detector::new(session.session, options)?;
@@ -279,7 +232,7 @@ pub fn detect(
     let (w, h) = runnable
         .iter()
         .find_map(|f| Some(detector.size.place(f.width?, f.height?).0))
-        .unwrap_or((options.image_size, options.image_size));
+        .unwrap_or((options.settings.image_size, options.settings.image_size));
     if ran == 0
         && let Some(first) = failed.first()
     {
@@ -304,10 +257,10 @@ pub fn detect(
         },
         classes: classes.clone(),
         input_size: [w, h],
-        tile: options.tile,
-        confidence: options.confidence,
-        iou: options.iou,
-        merge_gap: options.merge_gap,
+        tile: options.settings.tile,
+        confidence: options.settings.confidence,
+        iou: options.settings.iou,
+        merge_gap: options.settings.merge_gap.pixels(),
         frames: total,
         frames_run: ran,
         detections: found.len() as u64,
@@ -422,31 +375,34 @@ impl Detector {
         let size = match signature.input_size {
             Some((h, w)) => InputSize::Fixed(w, h),
             None => InputSize::Rect {
-                size: options.image_size,
+                size: options.settings.image_size,
                 stride: model_stride(&session).unwrap_or(DetectOptions::DEFAULT_STRIDE),
             },
         };
         let (text, names) = match &signature.vocabulary {
             Vocabulary::Baked => (
                 None,
-                baked_names(&session).unwrap_or_else(|| options.prompts.clone()),
+                baked_names(&session).unwrap_or_else(|| options.settings.prompts.clone()),
             ),
             Vocabulary::Embeddings { input, dim } => {
-                let path = options.embeddings.as_deref().ok_or_else(|| {
+                let path = options.settings.embeddings.as_deref().ok_or_else(|| {
                     model_error(format!(
                         "takes text embeddings; give them (prompts.json) as {}",
-                        keys::EMBEDDINGS
+                        keys::embeddings
                     ))
                 })?;
                 let (rows, n) = Embeddings::load(path)?
-                    .input(&options.prompts, signature.classes, *dim)
+                    .input(&options.settings.prompts, signature.classes, *dim)
                     .map_err(|why| DetectError::Embeddings {
                         path: path.to_owned(),
                         why,
                     })?;
                 let tensor = Tensor::from_array((vec![1i64, n as i64, *dim as i64], rows))
                     .map_err(|e| model_error(e.to_string()))?;
-                (Some((input.clone(), n, tensor)), options.prompts.clone())
+                (
+                    Some((input.clone(), n, tensor)),
+                    options.settings.prompts.clone(),
+                )
             }
         };
         let classes = signature
@@ -457,7 +413,7 @@ impl Detector {
             session,
             size,
             classes,
-            batch: signature.batch.unwrap_or(options.batch),
+            batch: signature.batch.unwrap_or(options.settings.batch),
             text: text.map(|(name, _, tensor)| (name, tensor)),
             run_seconds: 0.0,
             signature,
@@ -554,7 +510,7 @@ impl Detector {
                 let Window { x, y, tile, .. } = view.window;
                 let (width, height) = (frames[i].width as f32, frames[i].height as f32);
                 per_frame[i].extend(
-                    decode(data, self.classes, dim(2), b, options.confidence)
+                    decode(data, self.classes, dim(2), b, options.settings.confidence)
                         .into_iter()
                         .map(|d| {
                             let b = view.placement.to_image(&d.bbox);
@@ -578,8 +534,8 @@ impl Detector {
             .map(|mut detections| {
                 detections.retain(|d| d.bbox.area() > 0.0);
                 // Grid cells and tiles report a long crack piecewise: join the pieces.
-                let kept = nms(detections, options.iou);
-                match options.merge_gap {
+                let kept = nms(detections, options.settings.iou);
+                match options.settings.merge_gap.pixels() {
                     Some(gap) => merge_touching(kept, gap),
                     None => kept,
                 }

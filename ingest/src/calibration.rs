@@ -9,7 +9,7 @@ use serde::Deserialize;
 
 use crate::error::IngestError;
 use crate::ros::msg::CameraInfo;
-use crate::stage::keys;
+use crate::settings::keys;
 
 /// Intrinsics from a `CameraInfo` message.
 pub fn from_camera_info(info: &CameraInfo) -> Result<Intrinsics, String> {
@@ -31,7 +31,7 @@ pub fn from_calibration_file(path: &Path) -> Result<Intrinsics, IngestError> {
     let text = std::fs::read_to_string(path).map_err(|e| {
         error(format!(
             "{e}; check the path given as {}",
-            keys::CAMERA_INFO_FILE
+            keys::camera_info_file
         ))
     })?;
     let file: CalibrationFile = serde_yaml_ng::from_str(&text).map_err(|e| {

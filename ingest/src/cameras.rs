@@ -14,7 +14,8 @@ use crate::calibration;
 use crate::error::IngestError;
 use crate::ros::msg;
 use crate::scan::Scan;
-use crate::stage::{IngestOptions, keys};
+use crate::settings::keys;
+use crate::stage::IngestOptions;
 use crate::tf::TransformTree;
 
 pub(crate) fn cameras(
@@ -24,6 +25,7 @@ pub(crate) fn cameras(
     warnings: &mut Vec<String>,
 ) -> Result<Vec<Camera>, IngestError> {
     let file_intrinsics = options
+        .settings
         .camera_info_file
         .as_deref()
         .map(calibration::from_calibration_file)
@@ -44,7 +46,7 @@ pub(crate) fn cameras(
             warnings.push(format!(
                 "image topics {} share the camera frame {frame:?} (raw and compressed copies?); select one with {}",
                 topics.join(", "),
-                keys::IMAGE_TOPICS
+                keys::image_topics
             ));
         }
     }
@@ -60,6 +62,7 @@ pub(crate) fn cameras(
                     warnings.push(format!(
                         "{topic}: using intrinsics from {} instead of the recorded {t}",
                         options
+                            .settings
                             .camera_info_file
                             .as_deref()
                             .unwrap_or(Path::new(""))
@@ -69,6 +72,7 @@ pub(crate) fn cameras(
                 let source = format!(
                     "file {}",
                     options
+                        .settings
                         .camera_info_file
                         .as_deref()
                         .unwrap_or(Path::new(""))
@@ -82,7 +86,7 @@ pub(crate) fn cameras(
                         path: options.flight.clone(),
                         why: format!(
                             "CameraInfo on {t}: {why}; pass a calibration file as {}",
-                            keys::CAMERA_INFO_FILE
+                            keys::camera_info_file
                         ),
                     }
                 })?;

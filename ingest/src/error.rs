@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use postflight_core::{Key, MessageLocation};
 
-use crate::stage::keys;
+use crate::settings::keys;
 
 #[derive(Debug, thiserror::Error)]
 pub enum IngestError {
@@ -24,7 +24,7 @@ pub enum IngestError {
     #[error(
         "{} is truncated at byte {offset} ({strict}): {salvaged} complete messages are readable; drop {strict} to ingest them",
         path.display(),
-        strict = keys::STRICT
+        strict = keys::strict
     )]
     Truncated {
         path: PathBuf,
@@ -35,14 +35,14 @@ pub enum IngestError {
     #[error(
         "no usable pose topic in {}: found no geometry_msgs/msg/PoseStamped, nav_msgs/msg/Odometry or /tf messages{hint}; record the SLAM pose or name its topic with {}",
         path.display(),
-        keys::POSE_TOPIC
+        keys::pose_topic
     )]
     NoPoses { path: PathBuf, hint: String },
 
     #[error(
         "no camera images in {}: found no sensor_msgs/msg/Image or sensor_msgs/msg/CompressedImage messages; record the camera or name its topic with {}",
         path.display(),
-        keys::IMAGE_TOPICS
+        keys::image_topics
     )]
     NoImages { path: PathBuf },
 
@@ -64,7 +64,7 @@ pub enum IngestError {
     #[error(
         "{} has no camera intrinsics for {topic} (no sensor_msgs/msg/CameraInfo for frame {frame_id:?}); pass a ROS calibration file (YAML) as {}",
         path.display(),
-        keys::CAMERA_INFO_FILE
+        keys::camera_info_file
     )]
     NoIntrinsics {
         path: PathBuf,

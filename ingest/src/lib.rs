@@ -21,10 +21,12 @@ pub mod recording;
 pub mod reopen;
 pub mod ros;
 mod scan;
+pub mod settings;
 pub mod stage;
 pub mod tf;
 
 pub use error::IngestError;
 pub use recording::Recording;
 pub use reopen::{load_map, map_cloud};
+pub use settings::{IngestConfig, IngestSettings};
 pub use stage::{IngestOptions, Progress, ingest};

@@ -10,7 +10,8 @@ use postflight_core::{Frame, PoseAt, PoseStatus, Trajectory};
 
 use crate::error::IngestError;
 use crate::scan::{PoseTopic, Scan};
-use crate::stage::{IngestOptions, keys};
+use crate::settings::keys;
+use crate::stage::IngestOptions;
 use crate::tf::TransformTree;
 
 /// The body trajectory: from the chosen pose topic, else the `/tf` chain.
@@ -36,7 +37,7 @@ pub(crate) fn choose_trajectory(
                     .map(|s| s.as_str())
                     .collect::<Vec<_>>()
                     .join(", "),
-                keys::POSE_TOPIC
+                keys::pose_topic
             ));
         }
         let PoseTopic {
@@ -48,6 +49,7 @@ pub(crate) fn choose_trajectory(
             .filter(|f| !f.is_empty())
             .unwrap_or_else(|| "map".into());
         let body = options
+            .settings
             .body_frame
             .clone()
             .or(Some(child_frame_id).filter(|f| !f.is_empty()))
@@ -57,11 +59,13 @@ pub(crate) fn choose_trajectory(
     }
     // No pose topic: the transform tree may carry the pose (map -> odom -> base_link).
     let body = options
+        .settings
         .body_frame
         .clone()
         .or_else(|| infer_body_frame(&scan.tf, camera_frames));
     let roots = scan.tf.roots();
     let world = options
+        .settings
         .world_frame
         .clone()
         .or_else(|| {
@@ -83,8 +87,8 @@ pub(crate) fn choose_trajectory(
         format!(
             " (/tf has frames {} but no time-varying chain from the world frame to the body; set {} and {})",
             scan.tf.frames().into_iter().collect::<Vec<_>>().join(", "),
-            keys::WORLD_FRAME,
-            keys::BODY_FRAME
+            keys::world_frame,
+            keys::body_frame
         )
     };
     Err(IngestError::NoPoses {

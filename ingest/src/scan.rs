@@ -94,23 +94,23 @@ impl Scan {
         let chosen = |flag: &Option<String>| flag.as_ref().is_none_or(|t| *t == channel.topic);
         match schema::ros2_name(&channel.schema).as_ref() {
             schema::IMAGE | schema::COMPRESSED_IMAGE
-                if !options.image_topics.is_empty()
-                    && !options.image_topics.contains(&channel.topic) =>
+                if !options.settings.image_topics.is_empty()
+                    && !options.settings.image_topics.contains(&channel.topic) =>
             {
                 Kind::Ignored
             }
             schema::IMAGE => Kind::Image,
             schema::COMPRESSED_IMAGE => Kind::CompressedImage,
-            schema::CAMERA_INFO if chosen(&options.camera_info_topic) => Kind::CameraInfo,
-            schema::POSE_STAMPED if chosen(&options.pose_topic) => Kind::PoseStamped,
-            schema::POSE_WITH_COVARIANCE_STAMPED if chosen(&options.pose_topic) => {
+            schema::CAMERA_INFO if chosen(&options.settings.camera_info_topic) => Kind::CameraInfo,
+            schema::POSE_STAMPED if chosen(&options.settings.pose_topic) => Kind::PoseStamped,
+            schema::POSE_WITH_COVARIANCE_STAMPED if chosen(&options.settings.pose_topic) => {
                 Kind::PoseWithCovariance
             }
-            schema::ODOMETRY if chosen(&options.pose_topic) => Kind::Odometry,
+            schema::ODOMETRY if chosen(&options.settings.pose_topic) => Kind::Odometry,
             schema::TF_MESSAGE => Kind::Tf {
                 is_static: channel.topic == "/tf_static",
             },
-            schema::POINT_CLOUD2 if chosen(&options.map_topic) => Kind::PointCloud,
+            schema::POINT_CLOUD2 if chosen(&options.settings.map_topic) => Kind::PointCloud,
             schema::FLOAT64 if channel.topic.rsplit('/').next() == Some(EXPOSURE_TOPIC) => {
                 Kind::Exposure
             }

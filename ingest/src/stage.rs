@@ -22,64 +22,27 @@ use crate::placement::{choose_trajectory, place_frames};
 use crate::recording::{Recording, ScanEvent, ScanReport};
 use crate::ros::{msg, pointcloud2, schema};
 use crate::scan::Scan;
+use crate::settings::{IngestConfig, keys};
 
-/// The stage's settings, by their key in `postflight.toml`'s `[ingest]`.
-pub mod keys {
-    use postflight_core::Key;
-
-    pub const IMAGE_TOPICS: Key = Key::setting("ingest", "image_topics");
-    pub const POSE_TOPIC: Key = Key::setting("ingest", "pose_topic");
-    pub const CAMERA_INFO_TOPIC: Key = Key::setting("ingest", "camera_info_topic");
-    pub const CAMERA_INFO_FILE: Key = Key::setting("ingest", "camera_info_file");
-    pub const MAP_TOPIC: Key = Key::setting("ingest", "map_topic");
-    pub const BODY_FRAME: Key = Key::setting("ingest", "body_frame");
-    pub const WORLD_FRAME: Key = Key::setting("ingest", "world_frame");
-    pub const MAX_POSE_GAP: Key = Key::setting("ingest", "max_pose_gap_s");
-    pub const STRICT: Key = Key::setting("ingest", "strict");
-}
-
-/// What to ingest and how.
-#[derive(Debug, Clone)]
+/// What to ingest and how. Serialised, it is what the stage's result
+/// depends on besides its input files (`postflight run`'s fingerprint): the
+/// settings, not the paths.
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct IngestOptions {
+    #[serde(skip)]
     pub flight: PathBuf,
+    #[serde(skip)]
     pub out: PathBuf,
-    /// Use only these image topics (default: every image topic).
-    pub image_topics: Vec<String>,
-    /// Pose topic (default: the pose topic with most messages, else `/tf`).
-    pub pose_topic: Option<String>,
-    /// CameraInfo topic (default: matched to each image topic by frame or namespace).
-    pub camera_info_topic: Option<String>,
-    /// ROS calibration YAML, used instead of recorded CameraInfo.
-    pub camera_info_file: Option<PathBuf>,
-    /// PointCloud2 topic holding the SLAM map (default: found by schema).
-    pub map_topic: Option<String>,
-    /// Body frame the pose describes (default: the odometry child frame,
-    /// else `base_link`, else the root of the camera's transform chain).
-    pub body_frame: Option<String>,
-    /// World frame, when poses come from `/tf` (default: the root of the tree).
-    pub world_frame: Option<String>,
-    /// Largest gap between poses that frames may be interpolated across, seconds.
-    pub max_pose_gap_s: f64,
-    /// Treat a truncated recording as an error.
-    pub strict: bool,
+    pub settings: IngestConfig,
 }
 
 impl IngestOptions {
-    pub const DEFAULT_MAX_POSE_GAP_S: f64 = 0.25;
-
+    /// `flight` into `out` with the default settings.
     pub fn new(flight: PathBuf, out: PathBuf) -> Self {
         Self {
             flight,
             out,
-            image_topics: Vec::new(),
-            pose_topic: None,
-            camera_info_topic: None,
-            camera_info_file: None,
-            map_topic: None,
-            body_frame: None,
-            world_frame: None,
-            max_pose_gap_s: Self::DEFAULT_MAX_POSE_GAP_S,
-            strict: false,
+            settings: IngestConfig::default(),
         }
     }
 }
@@ -102,9 +65,9 @@ pub fn ingest(
     progress: &mut dyn Progress,
 ) -> Result<IngestSummary, IngestError> {
     InvalidSetting::check(
-        options.max_pose_gap_s.is_finite() && options.max_pose_gap_s > 0.0,
-        keys::MAX_POSE_GAP,
-        options.max_pose_gap_s,
+        options.settings.max_pose_gap_s.is_finite() && options.settings.max_pose_gap_s > 0.0,
+        keys::max_pose_gap_s,
+        options.settings.max_pose_gap_s,
         "a positive number of seconds",
     )?;
     let recording = Recording::open(&options.flight)?;
@@ -119,7 +82,7 @@ pub fn ingest(
     let path = options.flight.clone();
     let messages = scan.topics();
     let salvaged: u64 = messages.values().map(|t| t.count).sum();
-    if report.truncated && options.strict {
+    if report.truncated && options.settings.strict {
         return Err(IngestError::Truncated {
             path,
             offset: report.truncated_at.unwrap_or(total),
@@ -132,7 +95,7 @@ pub fn ingest(
     if scan.frames.is_empty() {
         return Err(IngestError::NoImages { path });
     }
-    let max_gap_ns = (options.max_pose_gap_s * 1e9) as i64;
+    let max_gap_ns = (options.settings.max_pose_gap_s * 1e9) as i64;
     let camera_frames: BTreeSet<String> = scan.frames.iter().map(|f| f.frame_id.clone()).collect();
     let trajectory = choose_trajectory(
         options,
@@ -197,7 +160,7 @@ pub fn ingest(
         truncated_at_byte: report.truncated_at,
         corrupt_chunks: report.corrupt_chunks,
         map,
-        max_pose_gap_s: options.max_pose_gap_s,
+        max_pose_gap_s: options.settings.max_pose_gap_s,
         geo_origin,
         warnings,
     };
@@ -302,16 +265,16 @@ fn check_topic_flags(
         }
         Ok(())
     };
-    for t in &options.image_topics {
+    for t in &options.settings.image_topics {
         check(
-            keys::IMAGE_TOPICS,
+            keys::image_topics,
             t,
             &[schema::IMAGE, schema::COMPRESSED_IMAGE],
         )?;
     }
-    if let Some(t) = &options.pose_topic {
+    if let Some(t) = &options.settings.pose_topic {
         check(
-            keys::POSE_TOPIC,
+            keys::pose_topic,
             t,
             &[
                 schema::POSE_STAMPED,
@@ -320,11 +283,11 @@ fn check_topic_flags(
             ],
         )?;
     }
-    if let Some(t) = &options.camera_info_topic {
-        check(keys::CAMERA_INFO_TOPIC, t, &[schema::CAMERA_INFO])?;
+    if let Some(t) = &options.settings.camera_info_topic {
+        check(keys::camera_info_topic, t, &[schema::CAMERA_INFO])?;
     }
-    if let Some(t) = &options.map_topic {
-        check(keys::MAP_TOPIC, t, &[schema::POINT_CLOUD2])?;
+    if let Some(t) = &options.settings.map_topic {
+        check(keys::map_topic, t, &[schema::POINT_CLOUD2])?;
     }
     Ok(())
 }

@@ -6,7 +6,8 @@
 
 use std::time::Instant;
 
-use localise::fusion::{FusionOptions, fuse};
+use localise::LocaliseConfig;
+use localise::fusion::fuse;
 use localise::observation::{Observation, Scene};
 use localise::trace::CrackTrace;
 use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector3};
@@ -246,7 +247,7 @@ fn main() {
         .collect();
     let placing = start.elapsed().as_secs_f64();
     let start = Instant::now();
-    let candidates = fuse(&observations, &FusionOptions::default());
+    let candidates = fuse(&observations, &LocaliseConfig::default());
     let fusing = start.elapsed().as_secs_f64();
     let placed = observations
         .iter()

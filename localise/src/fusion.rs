@@ -12,28 +12,9 @@ use postflight_core::map::{FaceSide, VoxelIndex};
 
 use crate::evidence::evidence;
 use crate::observation::{Observation, Placement, measures_length};
+use crate::settings::LocaliseConfig;
 use crate::union_find::UnionFind;
 use postflight_core::outputs::localise::{Evidence, LengthStatus, Outcome};
-
-/// How far apart observations of one crack may be.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FusionOptions {
-    /// Gap allowed between two observations' extents, metres: covers the
-    /// pose error (the simulator's 2 cm and 0.003 rad put a crack seen from
-    /// 5 m about 3 cm off; the default allows three times that).
-    pub link_distance: f64,
-    /// Largest angle between two observations' surface normals, degrees.
-    pub max_normal_angle_deg: f64,
-}
-
-impl Default for FusionOptions {
-    fn default() -> Self {
-        Self {
-            link_distance: 0.1,
-            max_normal_angle_deg: 30.0,
-        }
-    }
-}
 
 /// One physical crack, as the views of it agree.
 #[derive(Debug, Clone)]
@@ -84,7 +65,7 @@ const MAX_RADIUS: f64 = 3.0;
 
 /// Fuse the placed observations into candidates, in order of priority
 /// (confidence, then length).
-pub fn fuse(observations: &[Observation], options: &FusionOptions) -> Vec<DefectCandidate> {
+pub fn fuse(observations: &[Observation], options: &LocaliseConfig) -> Vec<DefectCandidate> {
     let placed: Vec<usize> = (0..observations.len())
         .filter(|i| observations[*i].outcome == Outcome::Placed)
         .collect();
@@ -103,7 +84,7 @@ pub fn fuse(observations: &[Observation], options: &FusionOptions) -> Vec<Defect
             let pa = placement(i);
             // Linked pairs are at most r_a + r_b + link apart: the one with
             // the larger radius finds the other within twice its own.
-            let reach = 2.0 * radius(i) + options.link_distance;
+            let reach = 2.0 * radius(i) + options.link_distance_m;
             for near in tree
                 .query(&centres[a])
                 .within::<SquaredEuclidean<f64>>(reach * reach)
@@ -119,8 +100,8 @@ pub fn fuse(observations: &[Observation], options: &FusionOptions) -> Vec<Defect
                 let touch = radius(i) + radius(placed[b]);
                 let joined = if cos >= min_cos {
                     // One surface: the planes coincide, the extents nearly touch.
-                    (pb.centre - pa.centre).dot(&pa.hit.normal).abs() < options.link_distance
-                        && apart <= touch + options.link_distance
+                    (pb.centre - pa.centre).dot(&pa.hit.normal).abs() < options.link_distance_m
+                        && apart <= touch + options.link_distance_m
                 } else {
                     // Faces at an angle (never opposite sides of a web): rays
                     // grazing an edge place a crack on either face, so the
@@ -409,7 +390,7 @@ mod tests {
             // Same place, the other side of a 0.3 m thick web: another surface.
             observation(2, [3.3, 1.0, 2.0], [1.0, 0.0, 0.0], 0.3),
         ];
-        let c = fuse(&obs, &FusionOptions::default());
+        let c = fuse(&obs, &LocaliseConfig::default());
         assert_eq!(c.len(), 3);
         let big = c.iter().find(|c| c.frames == 3).unwrap();
         assert_eq!(big.observations, vec![0, 1, 2]);
@@ -443,7 +424,7 @@ mod tests {
         ];
         // Frame 0 is finer but too close; frame 1 meets the rules.
         obs[0].placement.as_mut().unwrap().view_faults = vec![ViewFault::TooClose];
-        let c = fuse(&obs, &FusionOptions::default());
+        let c = fuse(&obs, &LocaliseConfig::default());
         assert_eq!(c[0].best, 1);
         assert!(!c[0].evidence.reshoot);
         // Seen only at 75 degrees: no length, because too oblique; re-shoot.
@@ -452,7 +433,7 @@ mod tests {
             p.hit.incidence = 75f64.to_radians();
             p.length_m = None;
         }
-        let c = fuse(&obs, &FusionOptions::default());
+        let c = fuse(&obs, &LocaliseConfig::default());
         assert_eq!(c[0].length_m, None);
         assert_eq!(c[0].evidence.length, LengthStatus::TooOblique);
         assert!(c[0].evidence.reshoot);
@@ -467,7 +448,7 @@ mod tests {
             // A crack round the edge but clear of the first one's extent.
             observation(2, [3.05, 2.0, 1.2], [1.0, 0.0, 0.0], 0.2),
         ];
-        let c = fuse(&obs, &FusionOptions::default());
+        let c = fuse(&obs, &LocaliseConfig::default());
         assert_eq!(c.len(), 2);
         assert!(c.iter().any(|c| c.observations == [0, 1]));
         // Parallel faces a step apart are not an edge, however close.
@@ -475,7 +456,7 @@ mod tests {
             observation(0, [3.0, 1.0, 2.0], [-1.0, 0.0, 0.0], 0.3),
             observation(1, [3.3, 1.1, 2.0], [-1.0, 0.0, 0.0], 0.3),
         ];
-        assert_eq!(fuse(&step, &FusionOptions::default()).len(), 2);
+        assert_eq!(fuse(&step, &LocaliseConfig::default()).len(), 2);
     }
 
     #[test]
@@ -487,7 +468,7 @@ mod tests {
             observation(2, [3.0, 1.4, 2.0], [-1.0, 0.0, 0.0], 0.4),
             observation(3, [3.0, 2.7, 2.0], [-1.0, 0.0, 0.0], 0.4),
         ];
-        let c = fuse(&obs, &FusionOptions::default());
+        let c = fuse(&obs, &LocaliseConfig::default());
         assert_eq!(c.len(), 2);
         assert!(c.iter().any(|c| c.observations == [0, 1, 2]));
         assert!(
@@ -505,7 +486,7 @@ mod tests {
         for o in &mut obs {
             o.clipped = true;
         }
-        let c = fuse(&obs, &FusionOptions::default());
+        let c = fuse(&obs, &LocaliseConfig::default());
         assert_eq!(c.len(), 1);
         assert_eq!(c[0].evidence.length, LengthStatus::Partial);
         assert_eq!(c[0].length_m, Some(0.6));
@@ -513,7 +494,7 @@ mod tests {
         // longer than the complete one proves that one short (a faint end
         // it lost), so the longest still counts.
         obs[0].clipped = false;
-        let c = fuse(&obs, &FusionOptions::default());
+        let c = fuse(&obs, &LocaliseConfig::default());
         assert_eq!(c[0].evidence.length, LengthStatus::Measured);
         assert_eq!(c[0].length_m, Some(0.6));
         assert_eq!(c[0].length_views, 2);

@@ -14,12 +14,14 @@ pub mod evidence;
 pub mod fusion;
 pub mod observation;
 pub mod records;
+pub mod settings;
 pub mod stage;
 pub mod surface;
 pub mod trace;
 pub mod union_find;
 
 pub use error::LocaliseError;
-pub use fusion::{DefectCandidate, FusionOptions};
+pub use fusion::DefectCandidate;
 pub use observation::Observation;
+pub use settings::{LocaliseConfig, LocaliseSettings};
 pub use stage::{LocaliseOptions, localise};

@@ -23,46 +23,40 @@ use rayon::prelude::*;
 
 use crate::crop::write_crop;
 use crate::error::LocaliseError;
-use crate::fusion::{DefectCandidate, FusionOptions, fuse};
+use crate::fusion::{DefectCandidate, fuse};
 use crate::observation::{Observation, Scene};
 use crate::records::{defect_record, observation_record};
+use crate::settings::{LocaliseConfig, keys};
 use crate::trace::trace;
 
-/// The stage's settings, by their key in `postflight.toml`'s `[localise]`.
-pub mod keys {
-    use postflight_core::Key;
-
-    pub const MAX_RANGE: Key = Key::setting("localise", "max_range_m");
-    pub const LINK_DISTANCE: Key = Key::setting("localise", "link_distance_m");
-    pub const MAX_NORMAL_ANGLE: Key = Key::setting("localise", "max_normal_angle_deg");
-}
-
-#[derive(Debug, Clone)]
+/// What localise runs on and how. Serialised, it is what the stage's
+/// result depends on besides its input files (`postflight run`'s
+/// fingerprint): the settings, not the paths.
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct LocaliseOptions {
+    #[serde(skip)]
     pub run: PathBuf,
     /// Map (PLY, PCD, `.bt`, `.ot`) to use instead of the one recorded in the flight.
+    #[serde(skip)]
     pub map: Option<PathBuf>,
     /// Plan whose target voxels are the structure (and whose voxel grid is
     /// used); without it every mapped surface counts as structure.
+    #[serde(skip)]
     pub plan: Option<PlanFile>,
-    /// Rays end here, metres.
-    pub max_range_m: f64,
-    pub fusion: FusionOptions,
+    pub settings: LocaliseConfig,
     /// The View model each view is judged by, over the plan's (or the
     /// defaults): the same settings coverage takes.
     pub view: ViewSettings,
 }
 
 impl LocaliseOptions {
-    pub const DEFAULT_MAX_RANGE_M: f64 = 30.0;
-
+    /// Localise `run` with the default settings.
     pub fn new(run: PathBuf) -> Self {
         Self {
             run,
             map: None,
             plan: None,
-            max_range_m: Self::DEFAULT_MAX_RANGE_M,
-            fusion: FusionOptions::default(),
+            settings: LocaliseConfig::default(),
             view: ViewSettings::default(),
         }
     }
@@ -70,21 +64,21 @@ impl LocaliseOptions {
     /// Refuse settings that cannot work.
     fn check(&self) -> Result<(), InvalidSetting> {
         InvalidSetting::check(
-            self.max_range_m > 0.0 && self.max_range_m <= 1000.0,
-            keys::MAX_RANGE,
-            self.max_range_m,
+            self.settings.max_range_m > 0.0 && self.settings.max_range_m <= 1000.0,
+            keys::max_range_m,
+            self.settings.max_range_m,
             "between 0 and 1000 metres",
         )?;
         InvalidSetting::check(
-            (0.0..=5.0).contains(&self.fusion.link_distance),
-            keys::LINK_DISTANCE,
-            self.fusion.link_distance,
+            (0.0..=5.0).contains(&self.settings.link_distance_m),
+            keys::link_distance_m,
+            self.settings.link_distance_m,
             "between 0 and 5 metres",
         )?;
         InvalidSetting::check(
-            (0.0..=90.0).contains(&self.fusion.max_normal_angle_deg),
-            keys::MAX_NORMAL_ANGLE,
-            self.fusion.max_normal_angle_deg,
+            (0.0..=90.0).contains(&self.settings.max_normal_angle_deg),
+            keys::max_normal_angle_deg,
+            self.settings.max_normal_angle_deg,
             "between 0 and 90 degrees",
         )
     }
@@ -118,10 +112,11 @@ pub fn localise(
     let view = options
         .view
         .apply(plan.as_ref().and_then(FlownPlan::view).unwrap_or_default());
+    view.check()?;
     let scene = Scene {
         map: &map,
         structure: structure.as_ref(),
-        max_range: options.max_range_m,
+        max_range: options.settings.max_range_m,
         view: &view,
     };
     let recording = Recording::reopen(&flight)?;
@@ -135,10 +130,10 @@ pub fn localise(
     if outcomes.no_pose > 0 && outcomes.no_pose == total {
         return Err(LocaliseError::NoPoses { detections: total });
     }
-    check_overlap(&flight, &map, options.max_range_m, hit, cast)?;
+    check_overlap(&flight, &map, options.settings.max_range_m, hit, cast)?;
     warnings.extend(unplaced_warnings(&outcomes));
 
-    let candidates = fuse(&observations, &options.fusion);
+    let candidates = fuse(&observations, &options.settings);
     let traced = observations.iter().filter(|o| o.traced_px > 0).count() as u64;
     let summary = LocaliseSummary {
         map: map_name,
@@ -146,8 +141,8 @@ pub fn localise(
         map_voxels: map.voxels.len(),
         voxel_size_m: map.voxels.grid.resolution,
         plan: options.plan.as_ref().map(|p| p.path.clone()),
-        max_range_m: options.max_range_m,
-        link_distance_m: options.fusion.link_distance,
+        max_range_m: options.settings.max_range_m,
+        link_distance_m: options.settings.link_distance_m,
         detections: total,
         outcomes,
         traced,
@@ -238,7 +233,7 @@ fn unplaced_warnings(outcomes: &Outcomes) -> Vec<String> {
         warnings.push(format!(
             "{} detections are from a camera without intrinsics; give them to `postflight ingest` as {}",
             outcomes.no_intrinsics,
-            ingest::stage::keys::CAMERA_INFO_FILE
+            ingest::settings::keys::camera_info_file
         ));
     }
     warnings

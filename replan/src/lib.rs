@@ -18,10 +18,12 @@
 pub mod error;
 pub mod free_space;
 pub mod ground_station;
+pub mod settings;
 pub mod stage;
 pub mod tour;
 pub mod viewpoints;
 
 pub use error::ReplanError;
 pub use postflight_core::outputs::replan::GapChoice;
+pub use settings::{ReplanConfig, ReplanSettings};
 pub use stage::{ReplanOptions, replan};

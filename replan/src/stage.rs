@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use coverage::face::exposed_faces;
-use coverage::stage::{camera_mount, check_view};
+use coverage::stage::camera_mount;
 use gtsp::SolveOptions;
 use nalgebra::{Point3, Vector3};
 use postflight_core::geo::GeoOrigin;
@@ -23,142 +23,97 @@ use postflight_core::{Flight, InvalidSetting, Key, RunDir, Stage, Viewpoint};
 use crate::error::ReplanError;
 use crate::free_space::{FreeSpace, length};
 use crate::ground_station::{self, Placement};
+use crate::settings::{ReplanConfig, keys};
 use crate::tour::{Budget, Stops, Tour, TourError, plan_tour};
 use crate::viewpoints::{Camera, Candidate, candidates, clusters, set_cover};
 
-/// The stage's settings, by their key in `postflight.toml`'s `[replan]`.
-pub mod keys {
-    use postflight_core::Key;
-
-    pub const HOME: Key = Key::setting("replan", "home");
-    pub const CLEARANCE: Key = Key::setting("replan", "clearance_m");
-    pub const MAX_SORTIE_LENGTH: Key = Key::setting("replan", "max_sortie_length_m");
-    pub const SPEED: Key = Key::setting("replan", "speed_m_s");
-    pub const HOVER: Key = Key::setting("replan", "hover_s");
-    pub const SOLVER_TIME_LIMIT: Key = Key::setting("replan", "solver_time_limit_s");
-    pub const SEED: Key = Key::setting("replan", "seed");
-    pub const GEO_ORIGIN: Key = Key::setting("replan", "geo_origin");
-    pub const BATTERY_MINUTES: Key = Key::setting("replan", "battery_minutes");
-    pub const GAPS: Key = Key::setting("replan", "gaps");
-}
-
-#[derive(Debug, Clone)]
+/// What replan plans for and how. Serialised, it is what the stage's
+/// result depends on besides its input files (`postflight run`'s
+/// fingerprint): the settings, not the paths.
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct ReplanOptions {
+    #[serde(skip)]
     pub run: PathBuf,
     /// Map instead of the one coverage used.
+    #[serde(skip)]
     pub map: Option<PathBuf>,
-    /// Take-off and landing point (default: the flight's first pose).
-    pub home: Option<[f64; 3]>,
-    /// Closest the vehicle may come to any occupied voxel, metres.
-    pub clearance_m: f64,
-    /// Longest sortie, metres; `None`: as long as the battery lasts.
-    pub max_sortie_length_m: Option<f64>,
-    /// Flight time of one battery, minutes: the sorties' limit (with the
-    /// hovers), each taking off from and landing at home.
-    pub battery_minutes: f64,
-    /// Which gaps the follow-up flight goes back for.
-    pub gaps: GapChoice,
-    /// Cruise speed for the time estimate, metres per second.
-    pub speed_m_s: f64,
-    /// Hover at each waypoint for the time estimate, seconds.
-    pub hover_s: f64,
-    /// GTSP solver settings (time limit per solve, seed, threads).
-    pub solver: SolveOptions,
-    /// The map frame on the Earth, for the ground-station files (default:
-    /// from the flight's GPS fixes, if it has them).
-    pub geo_origin: Option<GeoOrigin>,
+    pub settings: ReplanConfig,
 }
 
 impl ReplanOptions {
-    pub const DEFAULT_CLEARANCE_M: f64 = 1.0;
-    pub const DEFAULT_SPEED_M_S: f64 = 2.0;
-    pub const DEFAULT_HOVER_S: f64 = 2.0;
-    pub const DEFAULT_SOLVER_TIME_LIMIT_S: f64 = 10.0;
-    /// A DJI Matrice 30T's rated 41 minutes, less the reserve pilots keep
-    /// for wind, the return and landing: about 60% of the rating.
-    pub const DEFAULT_BATTERY_MINUTES: f64 = 25.0;
-
+    /// Replan `run` with the default settings.
     pub fn new(run: PathBuf) -> Self {
         Self {
             run,
             map: None,
-            home: None,
-            clearance_m: Self::DEFAULT_CLEARANCE_M,
-            max_sortie_length_m: None,
-            battery_minutes: Self::DEFAULT_BATTERY_MINUTES,
-            gaps: GapChoice::default(),
-            speed_m_s: Self::DEFAULT_SPEED_M_S,
-            hover_s: Self::DEFAULT_HOVER_S,
-            solver: SolveOptions {
-                time_limit: Some(Duration::from_secs_f64(Self::DEFAULT_SOLVER_TIME_LIMIT_S)),
-                ..SolveOptions::default()
-            },
-            geo_origin: None,
+            settings: ReplanConfig::default(),
         }
     }
 
     /// What one battery allows a sortie.
     fn budget(&self) -> Budget {
+        let s = &self.settings;
         Budget {
-            max_length_m: self.max_sortie_length_m.unwrap_or(f64::INFINITY),
-            max_time_s: self.battery_minutes * 60.0,
-            speed_m_s: self.speed_m_s,
-            hover_s: self.hover_s,
+            max_length_m: s.max_sortie_length_m.unwrap_or(f64::INFINITY),
+            max_time_s: s.battery_minutes * 60.0,
+            speed_m_s: s.speed_m_s,
+            hover_s: s.hover_s,
         }
+    }
+
+    /// The GTSP solver's settings; refused unless the time limit is a
+    /// positive number of seconds.
+    fn solver(&self) -> Result<SolveOptions, InvalidSetting> {
+        let seconds = self.settings.solver_time_limit_s;
+        InvalidSetting::check(
+            seconds.is_finite() && seconds > 0.0,
+            keys::solver_time_limit_s,
+            seconds,
+            "a positive number of seconds",
+        )?;
+        Ok(SolveOptions {
+            time_limit: Some(Duration::from_secs_f64(seconds)),
+            seed: self.settings.seed,
+            ..SolveOptions::default()
+        })
     }
 
     /// Refuse settings that cannot work.
     fn check(&self) -> Result<(), InvalidSetting> {
+        let s = &self.settings;
         let at_least_0 = |key: Key, v: f64| InvalidSetting::check(v >= 0.0, key, v, "0 or more");
-        at_least_0(keys::CLEARANCE, self.clearance_m)?;
-        at_least_0(keys::HOVER, self.hover_s)?;
+        at_least_0(keys::clearance_m, s.clearance_m)?;
+        at_least_0(keys::hover_s, s.hover_s)?;
         InvalidSetting::check(
-            self.battery_minutes.is_finite() && self.battery_minutes > 0.0,
-            keys::BATTERY_MINUTES,
-            self.battery_minutes,
+            s.battery_minutes.is_finite() && s.battery_minutes > 0.0,
+            keys::battery_minutes,
+            s.battery_minutes,
             "a positive number of minutes",
         )?;
         InvalidSetting::check(
-            self.speed_m_s > 0.0,
-            keys::SPEED,
-            self.speed_m_s,
+            s.speed_m_s > 0.0,
+            keys::speed_m_s,
+            s.speed_m_s,
             "a positive number of metres per second",
         )?;
-        if let Some(m) = self.max_sortie_length_m {
+        if let Some(m) = s.max_sortie_length_m {
             InvalidSetting::check(
                 m > 0.0,
-                keys::MAX_SORTIE_LENGTH,
+                keys::max_sortie_length_m,
                 m,
                 "a positive number of metres",
             )?;
         }
-        if let Some(o) = &self.geo_origin {
+        if let Some(o) = &s.geo_origin {
             InvalidSetting::check(
                 o.check().is_ok(),
-                keys::GEO_ORIGIN,
+                keys::geo_origin,
                 format!("{}, {}", o.position.latitude_deg, o.position.longitude_deg),
                 "a latitude within ±90 and a longitude within ±180 degrees, all finite",
             )?;
         }
-        let limit = self.solver.time_limit.map_or(1.0, |t| t.as_secs_f64());
-        InvalidSetting::check(
-            limit > 0.0,
-            keys::SOLVER_TIME_LIMIT,
-            limit,
-            "a positive number of seconds",
-        )
+        self.solver().map(|_| ())
     }
-}
-
-/// A solver time limit from seconds, which must be positive.
-pub fn solver_time_limit(seconds: f64) -> Result<Duration, InvalidSetting> {
-    InvalidSetting::check(
-        seconds.is_finite() && seconds > 0.0,
-        keys::SOLVER_TIME_LIMIT,
-        seconds,
-        "a positive number of seconds",
-    )?;
-    Ok(Duration::from_secs_f64(seconds))
 }
 
 /// Plan the follow-up flight for the run's coverage gaps.
@@ -172,9 +127,9 @@ pub fn replan(
     let run = RunDir::open(&options.run, Stage::Coverage)?;
     run.remove(files::SUMMARY)?;
     let coverage: CoverageSummary = run.read_json(Stage::Coverage.summary_file())?;
-    check_view(&coverage.view)?;
+    coverage.view.check()?;
     let grid = VoxelGrid::new(coverage.resolution_m, Point3::from(coverage.grid_origin));
-    let chosen = choose_gaps(&run, options.gaps)?;
+    let chosen = choose_gaps(&run, options.settings.gaps)?;
     let (targets, gaps) = (&chosen.targets, &chosen.voxels);
     let launch = take_off(options, &flight)?;
     let mut summary = empty_plan(options, &coverage, launch, &chosen);
@@ -182,9 +137,9 @@ pub fn replan(
     let placement = summary.geo_origin.map(|origin| Placement {
         origin,
         launch,
-        hover_s: options.hover_s,
-        speed_m_s: options.speed_m_s,
-        min_takeoff_m: options.clearance_m,
+        hover_s: options.settings.hover_s,
+        speed_m_s: options.settings.speed_m_s,
+        min_takeoff_m: options.settings.clearance_m,
     });
     if gaps.is_empty() {
         return write(&run, summary, placement.as_ref(), started);
@@ -194,7 +149,7 @@ pub fn replan(
     let (map, _) = ingest::load_map(&flight, given.map(PathBuf::as_path), Some(grid))?;
     summary.frame_id = map.cloud.frame_id.clone();
     let phase = Instant::now();
-    let space = FreeSpace::new(&map.voxels, options.clearance_m, &[launch]);
+    let space = FreeSpace::new(&map.voxels, options.settings.clearance_m, &[launch]);
     let home = clear_home(&space, &map, launch, &mut summary)?;
     summary.phases.clearance_s = phase.elapsed().as_secs_f64();
 
@@ -211,7 +166,7 @@ pub fn replan(
     let points: Vec<Point3<f64>> = std::iter::once(home)
         .chain(found.iter().map(|c| Point3::from(c.viewpoint.position)))
         .collect();
-    let Solved { tour, left_out } = solve(&points, &mut by_gap, &space, &options.solver);
+    let Solved { tour, left_out } = solve(&points, &mut by_gap, &space, &options.solver()?);
     summary.uninspectable_gaps = left_out
         .iter()
         .map(|(&g, &reason)| Uninspectable {
@@ -256,7 +211,7 @@ pub fn replan(
 /// The map frame on the Earth: as set, else from the flight's GPS fixes;
 /// and which it is.
 fn geo_origin(options: &ReplanOptions, flight: &Flight) -> (Option<GeoOrigin>, Option<String>) {
-    if let Some(origin) = options.geo_origin {
+    if let Some(origin) = options.settings.geo_origin {
         return (Some(origin), Some("settings".into()));
     }
     match &flight.summary.geo_origin {
@@ -323,7 +278,7 @@ fn choose_gaps(run: &RunDir, choice: GapChoice) -> Result<ChosenGaps, ReplanErro
 
 /// Home: as given, else where the flight took off.
 fn take_off(options: &ReplanOptions, flight: &Flight) -> Result<Point3<f64>, ReplanError> {
-    match options.home {
+    match options.settings.home {
         Some(h) => Ok(Point3::from(h)),
         None => flight
             .trajectory
@@ -350,12 +305,12 @@ fn empty_plan(
         view: coverage.view,
         run: options.run.clone(),
         home: home.coords.into(),
-        clearance_m: options.clearance_m,
-        speed_m_s: options.speed_m_s,
-        hover_s: options.hover_s,
-        max_sortie_length_m: options.max_sortie_length_m,
-        battery_minutes: options.battery_minutes,
-        gaps: options.gaps,
+        clearance_m: options.settings.clearance_m,
+        speed_m_s: options.settings.speed_m_s,
+        hover_s: options.settings.hover_s,
+        max_sortie_length_m: options.settings.max_sortie_length_m,
+        battery_minutes: options.settings.battery_minutes,
+        gaps: options.settings.gaps,
         coverage_gap_voxels: chosen.coverage_gaps,
         gap_voxels: chosen.voxels.len(),
         reshoot_spots: chosen.reshoot.clone(),
@@ -541,7 +496,7 @@ fn split_sorties(
             round_trip_m,
             round_trip_s: budget.time_s(round_trip_m, 1),
             max_m: budget.max_length_m,
-            battery_minutes: options.battery_minutes,
+            battery_minutes: options.settings.battery_minutes,
         }
     })
 }

@@ -12,9 +12,9 @@ use serde::{Deserialize, Serialize};
 use super::{required, required3};
 use crate::error::Error;
 use crate::map::{VoxelGrid, VoxelIndex};
-use crate::plan::ViewModel;
 use crate::run_dir::RunDir;
 use crate::structure::{ElementMap, Structure};
+use crate::view::ViewModel;
 
 /// Files of the coverage stage.
 pub mod files {

@@ -9,7 +9,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::geo::GeoOrigin;
 use crate::map::VoxelIndex;
-use crate::plan::{ViewModel, Viewpoint};
+use crate::plan::Viewpoint;
+use crate::view::ViewModel;
 
 /// Files of the replan stage.
 pub mod files {
@@ -79,7 +80,9 @@ pub enum Unplannable {
 }
 
 /// Which gaps a follow-up flight goes back for.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum GapChoice {
     /// The planned voxels the flight missed (every gap when no plan says

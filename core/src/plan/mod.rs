@@ -10,9 +10,9 @@ use std::path::{Path, PathBuf};
 use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 
-use crate::Intrinsics;
 use crate::error::Error;
 use crate::map::{VoxelGrid, VoxelIndex};
+use crate::view::ViewModel;
 
 /// A planned camera viewpoint.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -23,89 +23,6 @@ pub struct Viewpoint {
     pub yaw: f64,
     /// Gimbal pitch, radians, positive looking down.
     pub gimbal_pitch: f64,
-}
-
-/// When a voxel face counts as inspected by a frame (the GATSBI View model,
-/// with the Zhao et al. view count). Defaults are GATSBI's.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct ViewModel {
-    /// Apex angle of the viewing cone around the optical axis, degrees.
-    pub cone_apex_deg: f64,
-    /// Distance band from the camera to the face centre, metres.
-    pub min_distance_m: f64,
-    pub max_distance_m: f64,
-    /// Largest angle between the face normal and the direction to the camera, degrees.
-    pub max_incidence_deg: f64,
-    /// Largest motion blur streak of a usable frame, pixels.
-    pub max_blur_px: f64,
-    /// Coarsest ground sampling distance of a usable view, millimetres per pixel.
-    pub max_gsd_mm: f64,
-    /// Views a face needs to count as inspected.
-    pub views_required: u32,
-}
-
-impl Default for ViewModel {
-    fn default() -> Self {
-        Self {
-            cone_apex_deg: 20.0,
-            min_distance_m: 2.0,
-            max_distance_m: 5.0,
-            max_incidence_deg: 60.0,
-            max_blur_px: 3.0,
-            max_gsd_mm: 6.0,
-            views_required: 1,
-        }
-    }
-}
-
-impl ViewModel {
-    /// The View model's GSD: a pixel's fronto-parallel footprint at
-    /// `distance_m` through lens `k` (its finer axis), millimetres.
-    pub fn gsd_mm(distance_m: f64, k: &Intrinsics) -> f64 {
-        distance_m * 1000.0 / k.fx.min(k.fy)
-    }
-}
-
-/// View model settings; unset ones keep the plan's (or the defaults).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ViewSettings {
-    pub cone_apex_deg: Option<f64>,
-    pub min_distance_m: Option<f64>,
-    pub max_distance_m: Option<f64>,
-    pub max_incidence_deg: Option<f64>,
-    pub max_blur_px: Option<f64>,
-    pub max_gsd_mm: Option<f64>,
-    pub views_required: Option<u32>,
-}
-
-impl ViewSettings {
-    /// `self` over `base`.
-    pub fn apply(&self, base: ViewModel) -> ViewModel {
-        ViewModel {
-            cone_apex_deg: self.cone_apex_deg.unwrap_or(base.cone_apex_deg),
-            min_distance_m: self.min_distance_m.unwrap_or(base.min_distance_m),
-            max_distance_m: self.max_distance_m.unwrap_or(base.max_distance_m),
-            max_incidence_deg: self.max_incidence_deg.unwrap_or(base.max_incidence_deg),
-            max_blur_px: self.max_blur_px.unwrap_or(base.max_blur_px),
-            max_gsd_mm: self.max_gsd_mm.unwrap_or(base.max_gsd_mm),
-            views_required: self.views_required.unwrap_or(base.views_required),
-        }
-    }
-
-    /// `self` where set, else `other`.
-    pub fn or(&self, other: &Self) -> Self {
-        Self {
-            cone_apex_deg: self.cone_apex_deg.or(other.cone_apex_deg),
-            min_distance_m: self.min_distance_m.or(other.min_distance_m),
-            max_distance_m: self.max_distance_m.or(other.max_distance_m),
-            max_incidence_deg: self.max_incidence_deg.or(other.max_incidence_deg),
-            max_blur_px: self.max_blur_px.or(other.max_blur_px),
-            max_gsd_mm: self.max_gsd_mm.or(other.max_gsd_mm),
-            views_required: self.views_required.or(other.views_required),
-        }
-    }
 }
 
 /// An inspection plan: which voxels must be seen, and from where.
@@ -166,8 +83,10 @@ pub enum YawUnit {
 
 /// A plan file as given on the command line (`--plan`, `--viewpoints`), and
 /// how to read a waypoint path's yaw.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PlanFile {
+    /// Not serialised: settings fingerprints hash the file's contents.
+    #[serde(skip)]
     pub path: PathBuf,
     pub yaw: YawUnit,
 }

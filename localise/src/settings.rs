@@ -1,0 +1,25 @@
+//! The stage's settings, declared once: the `[localise]` table of
+//! `postflight.toml` and the flags of `postflight localise`. Localise also
+//! judges each view by the View model (`[view]`, core's
+//! [`postflight_core::ViewSettings`]).
+
+postflight_core::settings! {
+    table = "localise", keys = keys;
+    /// `[localise]`: how detections are placed and fused.
+    pub struct LocaliseSettings =>
+    /// How a localise places and fuses detections.
+    struct LocaliseConfig {
+        /// Rays end this far from the camera, metres.
+        #[arg(long = "max-range", value_name = "METRES")]
+        max_range_m: f64 = 30.0,
+        /// Views of one crack may be this far apart on the surface, metres:
+        /// covers the pose error (the simulator's 2 cm and 0.003 rad put a
+        /// crack seen from 5 m about 3 cm off; the default allows three
+        /// times that).
+        #[arg(long = "link-distance", value_name = "METRES")]
+        link_distance_m: f64 = 0.1,
+        /// Largest angle between the surfaces of two views of one crack, degrees.
+        #[arg(long = "max-normal-angle", value_name = "DEGREES")]
+        max_normal_angle_deg: f64 = 30.0,
+    }
+}

@@ -1,0 +1,57 @@
+//! The stage's settings, declared once: the `[replan]` table of
+//! `postflight.toml` and the flags of `postflight replan`.
+
+use postflight_core::geo::{GeoOrigin, geo_origin_values};
+use postflight_core::outputs::replan::GapChoice;
+use postflight_core::setting::point3;
+
+postflight_core::settings! {
+    table = "replan", keys = keys;
+    /// `[replan]`: the follow-up flight's vehicle, battery and solver.
+    pub struct ReplanSettings =>
+    /// How a replan plans the follow-up flight.
+    struct ReplanConfig {
+        /// Take-off and landing point, metres in the map frame [default:
+        /// the flight's first pose].
+        #[arg(long, value_name = "X,Y,Z", value_parser = point3, allow_hyphen_values = true)]
+        home: [f64; 3],
+        /// Closest approach to any occupied voxel, metres.
+        #[arg(long = "clearance", value_name = "M")]
+        clearance_m: f64 = 1.0,
+        /// Which gaps to fly for: the planned voxels the flight missed,
+        /// every gap, or only the candidates to re-shoot; the re-shoots
+        /// always come too.
+        #[arg(long, value_enum, value_name = "missed|all|reshoot")]
+        gaps: GapChoice = GapChoice::Missed,
+        /// One battery's flight time, minutes: each sortie (flying and
+        /// hovering) fits in it. The default is a DJI Matrice 30T's rated
+        /// 41 minutes less the reserve pilots keep for wind, the return and
+        /// landing: about 60% of the rating.
+        #[arg(long, value_name = "MIN")]
+        battery_minutes: f64 = 25.0,
+        /// Also keep each sortie from home no longer than this, metres.
+        #[arg(long = "max-sortie-length", value_name = "M")]
+        max_sortie_length_m: f64,
+        /// Cruise speed for the time estimate, m/s.
+        #[arg(long = "speed", value_name = "M/S")]
+        speed_m_s: f64 = 2.0,
+        /// Hover per waypoint for the time estimate, seconds.
+        #[arg(long = "hover", value_name = "S")]
+        hover_s: f64 = 2.0,
+        /// Longest the tour's GTSP solve may take, seconds; it stops sooner
+        /// when it converges, and gets 1 s plus 2 ms per cluster at most.
+        #[arg(long = "solver-time-limit", value_name = "S")]
+        solver_time_limit_s: f64 = 10.0,
+        /// Solver seed.
+        #[arg(long, value_name = "N")]
+        seed: u64 = gtsp::SolveOptions::default().seed,
+        /// The map frame on the Earth: its origin's latitude and longitude
+        /// (degrees), altitude (metres) and the heading of its x axis from
+        /// east, counter-clockwise (degrees, default 0); also writes the
+        /// flight as QGroundControl missions, KML and GeoJSON [default:
+        /// from the flight's GPS fixes].
+        #[arg(long, value_name = "LAT,LON,ALT[,YAW_DEG]", allow_hyphen_values = true)]
+        #[serde(with = "geo_origin_values")]
+        geo_origin: GeoOrigin,
+    }
+}
