@@ -161,10 +161,12 @@ impl RunConfig {
         run: &Path,
         map: Option<&Path>,
         plan: Option<&PlanFile>,
+        targets: coverage::Targets,
     ) -> localise::LocaliseOptions {
         localise::LocaliseOptions {
             map: map.map(Path::to_path_buf),
             plan: plan.cloned(),
+            targets,
             settings: self.localise.resolve(),
             view: self.view,
             ..localise::LocaliseOptions::new(run.to_owned())
@@ -197,6 +199,61 @@ impl RunConfig {
     }
 }
 
+/// A `postflight.toml` setting every key of every table, each to a value
+/// other than its default.
+#[cfg(test)]
+pub const FULL: &str = r#"
+[ingest]
+image_topics = ["/camera/image_raw"]
+pose_topic = "/lio_sam/mapping/odometry"
+camera_info_topic = "/camera/camera_info"
+camera_info_file = "camera.yaml"
+map_topic = "/lio_sam/mapping/map_global"
+body_frame = "base_link"
+world_frame = "map"
+max_pose_gap_s = 0.5
+strict = true
+[detect]
+prompts = ["crack", "spalling"]
+embeddings = "embeddings.json"
+confidence = 0.3
+iou = 0.6
+merge_gap = 8.0
+image_size = 960
+tile = 640
+tile_overlap = 0.25
+batch = 2
+device = "cuda"
+[localise]
+max_range_m = 25.0
+link_distance_m = 0.3
+max_normal_angle_deg = 25.0
+length_range_m = 6.0
+[view]
+cone_apex_deg = 25.0
+min_distance_m = 1.5
+max_distance_m = 4.0
+max_incidence_deg = 55.0
+max_blur_px = 2.0
+max_gsd_mm = 5.0
+views_required = 2
+[coverage]
+views_near_defects = 3
+defect_radius_m = 1.5
+exposure_s = 0.002
+[replan]
+home = [0.0, 0.0, 0.0]
+clearance_m = 1.2
+max_sortie_length_m = 800.0
+battery_minutes = 20.0
+gaps = "all"
+speed_m_s = 3.0
+hover_s = 1.0
+solver_time_limit_s = 5.0
+seed = 7
+geo_origin = [47.397742, 8.545594, 488.0, 23.5]
+"#;
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -222,58 +279,6 @@ mod tests {
         assert!(toml::from_str::<RunConfig>("[detector]\n").is_err());
     }
 
-    /// Every table and key set.
-    const FULL: &str = r#"
-[ingest]
-image_topics = ["/camera/image_raw"]
-pose_topic = "/lio_sam/mapping/odometry"
-camera_info_topic = "/camera/camera_info"
-camera_info_file = "camera.yaml"
-map_topic = "/lio_sam/mapping/map_global"
-body_frame = "base_link"
-world_frame = "map"
-max_pose_gap_s = 0.5
-strict = false
-[detect]
-prompts = ["crack"]
-embeddings = "embeddings.json"
-confidence = 0.25
-iou = 0.5
-merge_gap = 8.0
-image_size = 640
-tile = 640
-tile_overlap = 0.2
-batch = 4
-device = "cpu"
-[localise]
-max_range_m = 30.0
-link_distance_m = 0.3
-max_normal_angle_deg = 30.0
-[view]
-cone_apex_deg = 20.0
-min_distance_m = 2.0
-max_distance_m = 5.0
-max_incidence_deg = 60.0
-max_blur_px = 3.0
-max_gsd_mm = 6.0
-views_required = 1
-[coverage]
-views_near_defects = 2
-defect_radius_m = 1.0
-exposure_s = 0.002
-[replan]
-home = [0.0, 0.0, 0.0]
-clearance_m = 1.0
-max_sortie_length_m = 800.0
-battery_minutes = 20.0
-gaps = "all"
-speed_m_s = 2.0
-hover_s = 2.0
-solver_time_limit_s = 10.0
-seed = 7
-geo_origin = [47.397742, 8.545594, 488.0, 23.5]
-"#;
-
     /// Read `text` as postflight.toml and build every stage's options.
     fn use_config(text: &[u8]) {
         let Ok(c) = RunConfig::parse(&String::from_utf8_lossy(text)) else {
@@ -282,16 +287,16 @@ geo_origin = [47.397742, 8.545594, 488.0, 23.5]
         let (run, file) = (Path::new("run"), Path::new("f"));
         let _ = c.ingest_options(file, run);
         let _ = c.detect_options(run, file, None);
-        let _ = c.localise_options(run, None, None);
+        let _ = c.localise_options(run, None, None, coverage::Targets::Plan);
         let _ = c.coverage_options(run, None, None, coverage::Targets::Plan);
         let _ = c.replan_options(run, None);
     }
 
     #[test]
     fn a_config_cut_anywhere_flipped_or_absurd_reads_or_fails_in_one_line() {
-        let full = RunConfig::parse(FULL).unwrap();
+        let full = RunConfig::parse(super::FULL).unwrap();
         assert_eq!(full.keys_set(), full.keys(), "the example sets every key");
-        let bytes = FULL.as_bytes();
+        let bytes = super::FULL.as_bytes();
         for cut in 0..bytes.len() {
             use_config(&bytes[..cut]);
         }

@@ -267,6 +267,10 @@ struct LocaliseArgs {
     /// Inspection plan: its target voxels are the structure (hits elsewhere are obstacles).
     #[arg(long, value_name = "plan.json")]
     plan: Option<PathBuf>,
+    /// The structure whose elements name each candidate's place, instead
+    /// of the plan's target voxels.
+    #[command(flatten)]
+    targets: TargetArgs,
     #[command(flatten)]
     settings: localise::LocaliseSettings,
     /// Each view is judged by the View model, as coverage judges it.
@@ -527,7 +531,12 @@ fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
     };
     let config = args.config.under(flags)?;
     let plan = args.plan.clone().map(PlanFile::new);
-    let options = config.localise_options(&args.run, args.map.as_deref(), plan.as_ref());
+    let options = config.localise_options(
+        &args.run,
+        args.map.as_deref(),
+        plan.as_ref(),
+        args.targets.targets(),
+    );
     stages::localise(&options, quiet)
 }
 

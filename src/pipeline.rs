@@ -119,7 +119,7 @@ fn check_inputs(inputs: &RunInputs) -> anyhow::Result<()> {
     if let Some(plan) = &inputs.plan {
         let plan = plan.load()?;
         if inputs.targets == coverage::Targets::Plan {
-            coverage::stage::plan_targets(Some(&plan))?;
+            structure::plan_targets(Some(&plan))?;
         }
     }
     Ok(())
@@ -277,7 +277,9 @@ impl StageOptions {
             Stage::Detect => {
                 Self::Detect(c.detect_options(run, &i.model_path(), i.onnxruntime.as_deref()))
             }
-            Stage::Localise => Self::Localise(c.localise_options(run, map, i.structure_plan())),
+            Stage::Localise => {
+                Self::Localise(c.localise_options(run, map, i.structure_plan(), i.targets.clone()))
+            }
             Stage::Coverage => {
                 Self::Coverage(c.coverage_options(run, map, i.plan.as_ref(), i.targets.clone()))
             }
@@ -340,6 +342,7 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
             .collect(),
         Stage::Localise => map
             .chain(i.structure_plan().map(|p| ("plan", p.path.clone())))
+            .chain(i.targets.file().map(|p| ("targets", p.to_path_buf())))
             .collect(),
         Stage::Coverage => i
             .plan
@@ -362,4 +365,57 @@ fn has_targets(i: &RunInputs) -> bool {
 
 fn run_stage(stage: Stage, i: &RunInputs, quiet: bool) -> anyhow::Result<()> {
     StageOptions::new(stage, i).run(quiet)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::FULL;
+
+    /// What each stage's fingerprint hashes of the options `config` gives it.
+    fn fingerprinted(config: RunConfig) -> Vec<(Stage, serde_json::Value)> {
+        let inputs = RunInputs {
+            flight: "flight.mcap".into(),
+            map: None,
+            plan: Some(PlanFile::new("plan.json")),
+            targets: coverage::Targets::Plan,
+            model: None,
+            onnxruntime: None,
+            config,
+            out: "run".into(),
+            force: None,
+        };
+        Stage::ALL
+            .iter()
+            .map(|s| (*s, StageOptions::new(*s, &inputs).settings()))
+            .collect()
+    }
+
+    #[test]
+    fn every_setting_reruns_the_stages_that_use_it_and_no_other() {
+        let full = RunConfig::parse(FULL).unwrap();
+        let values = serde_json::to_value(&full).unwrap();
+        let defaults = fingerprinted(RunConfig::default());
+        for (table, key) in full.keys_set() {
+            let one = serde_json::json!({ &table: { &key: values[&table][&key] } });
+            let config: RunConfig = serde_json::from_value(one).unwrap();
+            let changed: Vec<Stage> = fingerprinted(config)
+                .into_iter()
+                .zip(&defaults)
+                .filter(|((_, set), (_, default))| set != default)
+                .map(|((stage, _), _)| stage)
+                .collect();
+            let users = match table.as_str() {
+                "ingest" => vec![Stage::Ingest],
+                "detect" => vec![Stage::Detect],
+                "localise" => vec![Stage::Localise],
+                // Localise judges each view by the View model too.
+                "view" => vec![Stage::Localise, Stage::Coverage],
+                "coverage" => vec![Stage::Coverage],
+                "replan" => vec![Stage::Replan],
+                other => panic!("[{other}] is no stage's"),
+            };
+            assert_eq!(changed, users, "[{table}] {key}");
+        }
+    }
 }

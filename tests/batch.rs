@@ -230,7 +230,12 @@ flights = con.sql("""
     SELECT structure, state FROM read_parquet('fleet/flights.parquet/**/*.parquet', hive_partitioning=true)
     ORDER BY structure
 """).fetchall()
-print(json.dumps({"defects": rows, "flights": flights}))
+by_element = con.sql("""
+    SELECT structure, coalesce(element, ''), count(*)
+    FROM read_parquet('fleet/defects.parquet/**/*.parquet', hive_partitioning=true)
+    GROUP BY ALL ORDER BY ALL
+""").fetchall()
+print(json.dumps({"defects": rows, "flights": flights, "by_element": by_element}))
 "#;
     let text = std::process::Command::new(python())
         .args(["-c", query])
@@ -254,6 +259,26 @@ print(json.dumps({"defects": rows, "flights": flights}))
     }
     assert!(!expected.is_empty(), "the simulated flights have cracks");
     assert_eq!(tables["defects"], Value::Array(expected));
+    // Cracks per element across the fleet, as each run's defects.json names them.
+    let mut by_element = std::collections::BTreeMap::new();
+    for (structure, date, _) in GOOD {
+        let defects = read_json(&fleet.join(structure).join(date).join("defects.json"));
+        for d in defects["defects"].as_array().unwrap() {
+            let element = d["element"].as_str().unwrap_or_default().to_string();
+            *by_element
+                .entry((structure.to_string(), element))
+                .or_insert(0) += 1;
+        }
+    }
+    let by_element: Vec<Value> = by_element
+        .into_iter()
+        .map(|((s, e), n)| serde_json::json!([s, e, n]))
+        .collect();
+    assert!(
+        by_element.iter().any(|row| row[1] != ""),
+        "the candidates are on named elements: {by_element:?}"
+    );
+    assert_eq!(tables["by_element"], Value::Array(by_element));
     assert_eq!(
         tables["flights"],
         serde_json::json!([

@@ -538,6 +538,31 @@ fn check_places(sim: &Path, run: &Path) -> (usize, usize) {
         }
         named += 1;
     }
+    // Localise named each candidate's element and place in the defect
+    // tables, before coverage, as the report names them from coverage.
+    let listed: HashMap<&str, (Option<&str>, Option<&str>)> = (0..table.height())
+        .map(|i| {
+            let row = (elements[i].as_deref(), places[i].as_deref());
+            (ids[i].as_deref().unwrap(), row)
+        })
+        .collect();
+    let defects = read_parquet(&run.join("defects.parquet"));
+    let json = read_json(&run.join("defects.json"));
+    assert_eq!(defects.height(), listed.len());
+    for i in 0..defects.height() {
+        let column = |name: &str| defects.column(name).unwrap().str().unwrap().get(i);
+        let id = column("id").unwrap();
+        let named = (column("element"), column("place"));
+        assert_eq!(named, listed[id], "{id} in defects.parquet");
+        let record = json["defects"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|d| d["id"] == id)
+            .unwrap();
+        let in_json = (record["element"].as_str(), record["place"].as_str());
+        assert_eq!(in_json, listed[id], "{id} in defects.json");
+    }
     let voxels = read_parquet(&run.join("coverage.parquet"));
     let int = |name: &str| -> Vec<i64> {
         voxels

@@ -13,7 +13,8 @@
 //! is not stopped by the voxel. `postflight_core::motion` judges blur
 //! from the fitted camera velocity; [`reach`] tries standpoints across the band and the
 //! incidence limit for faces nobody inspected, to tell gaps from the
-//! uninspectable; [`targets`] says which voxels are the structure. The
+//! uninspectable; the `structure` crate says which voxels are the structure
+//! and its elements. The
 //! stage ([`stage`]) writes `coverage.parquet` and `coverage.json` (laid
 //! out in `postflight_core::outputs::coverage`). The follow-up flight for
 //! the gaps is the `replan` crate's; it asks these same rules which gaps a
@@ -26,7 +27,6 @@ pub mod reach;
 pub mod records;
 pub mod settings;
 pub mod stage;
-pub mod targets;
 pub mod view;
 
 pub use cover::{FaceCover, Shot, cover, cover_naive};
@@ -34,5 +34,6 @@ pub use error::CoverageError;
 pub use face::{Face, exposed_faces};
 pub use postflight_core::ViewSettings;
 pub use settings::{CoverageConfig, CoverageSettings};
-pub use stage::{CoverageOptions, Targets, coverage};
+pub use stage::{CoverageOptions, coverage};
+pub use structure::Targets;
 pub use view::{Miss, Sight};

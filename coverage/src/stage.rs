@@ -3,22 +3,25 @@
 //! flight (and against the plan's viewpoints, for what was planned), and
 //! writes `coverage.parquet` (one row per target voxel) and `coverage.json`.
 
-use std::collections::{BTreeSet, HashMap, HashSet};
-use std::path::{Path, PathBuf};
+use std::collections::{HashMap, HashSet};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
-use postflight_core::map::{PointCloud, SlamMap, VoxelGrid, VoxelIndex};
+use postflight_core::map::{SlamMap, VoxelGrid, VoxelIndex};
 use postflight_core::motion::frame_blur_px;
 use postflight_core::outputs::coverage::{
     self as outputs, CoverageSummary, ReasonCounts, VoxelRecord, files,
 };
 use postflight_core::outputs::localise::read_defects;
-use postflight_core::structure::{self, Place, Segmentation};
+use postflight_core::structure::Place;
 use postflight_core::{
     Flight, FlownPlan, Intrinsics, PlanFile, RunDir, Stage, ViewModel, Viewpoint,
 };
 use rayon::prelude::*;
+pub use structure::plan_targets;
+use structure::targets::span;
+use structure::{Found, Segmentation, TargetVoxels, Targets};
 
 use crate::cover::{FaceCover, Shot, cover};
 use crate::error::CoverageError;
@@ -26,32 +29,8 @@ use crate::face::{Face, exposed_faces};
 use crate::reach::inspectable;
 use crate::records::voxel_records;
 use crate::settings::{CoverageConfig, keys};
-use crate::targets;
 use crate::view::Miss;
 use postflight_core::ViewSettings;
-
-/// Where the target voxels come from (serialised as which, not the file's
-/// path: its contents are the fingerprint's).
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Targets {
-    /// The plan's target voxels (needs a plan).
-    Plan,
-    /// Occupied map voxels inside axis-aligned boxes (JSON file).
-    Boxes(#[serde(skip)] PathBuf),
-    /// Voxels of a segmented infrastructure cloud or octomap (PLY, PCD, `.bt`, `.ot`).
-    Cloud(#[serde(skip)] PathBuf),
-}
-
-impl Targets {
-    /// The file the targets come from, unless they are the plan's.
-    pub fn file(&self) -> Option<&Path> {
-        match self {
-            Self::Plan => None,
-            Self::Boxes(path) | Self::Cloud(path) => Some(path),
-        }
-    }
-}
 
 /// What coverage judges and how. Serialised, it is what the stage's
 /// result depends on besides its input files (`postflight run`'s
@@ -128,26 +107,6 @@ pub fn camera_mount(flight: &Flight) -> Isometry3<f64> {
 
 /// Faces per progress step.
 const CHUNK: usize = 4096;
-/// Below this share of target voxels holding map points, the map is not
-/// the targets' (another frame or unit).
-const MIN_MAPPED_SHARE: f64 = 0.25;
-
-/// `[x, y, z]..[x, y, z]`, the bounding box of some points, for messages.
-fn span(points: impl Iterator<Item = Point3<f64>>) -> String {
-    let (mut lo, mut hi) = (
-        Vector3::repeat(f64::INFINITY),
-        Vector3::repeat(f64::NEG_INFINITY),
-    );
-    for p in points {
-        lo = lo.inf(&p.coords);
-        hi = hi.sup(&p.coords);
-    }
-    format!(
-        "[{:.1}, {:.1}, {:.1}]..[{:.1}, {:.1}, {:.1}]",
-        lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
-    )
-}
-
 /// Judge the flight (or a plan's viewpoints) against the targets.
 pub fn coverage(
     options: &CoverageOptions,
@@ -226,14 +185,17 @@ impl Scene {
         let grid = plan.and_then(FlownPlan::grid);
         let (map, _) = ingest::load_map(flight, options.map.as_deref(), grid)?;
         let grid = map.voxels.grid;
-        let LoadedTargets {
-            voxels: targets,
-            name: targets_name,
-            labels,
-        } = load_targets(&options.targets, plan, &map)?;
+        let Found {
+            targets:
+                TargetVoxels {
+                    voxels: targets,
+                    name: targets_name,
+                    ..
+                },
+            elements,
+        } = Found::find(&options.targets, plan, &map)?;
         let target_set: HashSet<VoxelIndex> = targets.iter().copied().collect();
         let faces = exposed_faces(&grid, &targets, &target_set);
-        let elements = structure::segment(&grid, &targets, &labels);
         let places = places(&grid, &targets, &faces, &elements);
         Ok(Self {
             grid,
@@ -512,74 +474,6 @@ fn shot_warnings(shots: &FlightShots) -> Vec<String> {
         ));
     }
     warnings
-}
-
-/// The plan's target voxels, for targets given by the plan; an error
-/// without a plan, or for a waypoint path (it names none).
-pub fn plan_targets(plan: Option<&FlownPlan>) -> Result<&[VoxelIndex], CoverageError> {
-    plan.ok_or(CoverageError::NoTargets)?
-        .target_voxels()
-        .ok_or(CoverageError::PathWithoutTargets)
-}
-
-/// The target voxels (deduplicated, in index order), where they came
-/// from, and the element names named boxes give them; an error when they
-/// miss the map.
-fn load_targets(
-    source: &Targets,
-    plan: Option<&FlownPlan>,
-    map: &SlamMap,
-) -> Result<LoadedTargets, CoverageError> {
-    let mut labels = HashMap::new();
-    let (targets, targets_name): (Vec<VoxelIndex>, String) = match source {
-        Targets::Plan => (plan_targets(plan)?.to_vec(), "plan".into()),
-        Targets::Boxes(path) => {
-            let boxes = targets::load_boxes(path)?;
-            let inside = targets::in_boxes(&map.voxels, &boxes);
-            labels = targets::labels(&map.voxels.grid, &inside, &boxes);
-            (inside, format!("boxes {}", path.display()))
-        }
-        Targets::Cloud(path) => (
-            targets::of_cloud(&map.voxels.grid, &PointCloud::load(path)?),
-            format!("cloud {}", path.display()),
-        ),
-    };
-    let targets: Vec<VoxelIndex> = targets
-        .into_iter()
-        .collect::<BTreeSet<_>>()
-        .into_iter()
-        .collect();
-    if targets.is_empty() {
-        return Err(CoverageError::TargetsOffMap {
-            targets: targets_name,
-        });
-    }
-    let mapped = targets
-        .iter()
-        .filter(|v| map.voxels.is_occupied(**v))
-        .count();
-    if (mapped as f64) < MIN_MAPPED_SHARE * targets.len() as f64 {
-        return Err(CoverageError::TargetsMissMap {
-            mapped,
-            total: targets.len(),
-            targets_span: span(targets.iter().map(|v| map.voxels.grid.center(*v))),
-            map_span: span(map.cloud.points.iter().copied()),
-            targets: targets_name,
-        });
-    }
-    Ok(LoadedTargets {
-        voxels: targets,
-        name: targets_name,
-        labels,
-    })
-}
-
-/// The target voxels, where they came from, and the element names named
-/// boxes give them.
-struct LoadedTargets {
-    voxels: Vec<VoxelIndex>,
-    name: String,
-    labels: HashMap<VoxelIndex, String>,
 }
 
 /// Each target's place on its element, facing the way its exposed faces

@@ -8,6 +8,8 @@ pub enum LocaliseError {
     Setting(#[from] postflight_core::InvalidSetting),
     #[error(transparent)]
     Flight(#[from] ingest::IngestError),
+    #[error(transparent)]
+    Structure(#[from] structure::StructureError),
     #[error(
         "detections.parquet names frame {frame} which the ingest has no record of; rerun `postflight detect` after `postflight ingest`"
     )]

@@ -30,7 +30,7 @@ pub struct DefectCandidate {
     pub voxel: VoxelIndex,
     pub face: FaceSide,
     /// Estimated length, metres: the longest measurement of its views from
-    /// [`LENGTH_RANGE_M`] or closer, complete or cut by the image border
+    /// `[localise] length_range_m` or closer, complete or cut by the image border
     /// (a view shows at most the whole crack: faint or hidden stretches and
     /// the border only shorten it), or, when none of those is complete, of
     /// its complete views from farther if it has any (see `length_partial`);
@@ -55,8 +55,6 @@ pub struct DefectCandidate {
     pub observations: Vec<usize>,
 }
 
-/// Views farther than this measure length too coarsely to count, metres.
-pub const LENGTH_RANGE_M: f64 = 5.0;
 /// Faces meeting at an edge are about 90 degrees apart; opposite sides of a
 /// thin member are 180 (cosine of 100 degrees).
 const EDGE_MIN_COS: f64 = -0.17;
@@ -122,7 +120,7 @@ pub fn fuse(observations: &[Observation], options: &LocaliseConfig) -> Vec<Defec
         .into_values()
         .map(|mut group| {
             group.sort_by_key(|i| (observations[*i].detection.frame, *i));
-            candidate(observations, group)
+            candidate(observations, group, options.length_range_m)
         })
         .collect();
     name(&mut candidates);
@@ -139,7 +137,11 @@ pub fn fuse(observations: &[Observation], options: &LocaliseConfig) -> Vec<Defec
     candidates
 }
 
-fn candidate(observations: &[Observation], group: Vec<usize>) -> DefectCandidate {
+fn candidate(
+    observations: &[Observation],
+    group: Vec<usize>,
+    length_range_m: f64,
+) -> DefectCandidate {
     let placement = |i: usize| observations[i].placement.as_ref().expect("placed");
     let complete: Vec<usize> = group
         .iter()
@@ -177,7 +179,7 @@ fn candidate(observations: &[Observation], group: Vec<usize>) -> DefectCandidate
     // and the image border only shorten it), so the longest near view,
     // complete or cut, is the estimate; complete views from farther count
     // only when no near view measured it.
-    let mut measured = measuring(&group, LENGTH_RANGE_M);
+    let mut measured = measuring(&group, length_range_m);
     if !measured.iter().any(|i| complete.contains(i)) {
         let far = measuring(&complete, f64::INFINITY);
         if !far.is_empty() {

@@ -6,6 +6,8 @@ use postflight_core::outputs::localise::{
     DefectRecord, ObservationRecord, PlacedRecord, ViewRecord,
 };
 
+use postflight_core::structure::Place;
+
 use crate::fusion::DefectCandidate;
 use crate::observation::Observation;
 
@@ -20,8 +22,11 @@ pub fn defect_record(
     c: &DefectCandidate,
     observations: &[Observation],
     crop: Option<String>,
+    place: Option<Place>,
 ) -> DefectRecord {
     DefectRecord {
+        element: place.as_ref().map(|p| p.element.clone()),
+        place: place.map(|p| p.to_string()),
         id: c.id.clone(),
         position: c.position.coords.into(),
         normal: c.normal.into(),

@@ -28,6 +28,8 @@ use crate::observation::{Observation, Scene};
 use crate::records::{defect_record, observation_record};
 use crate::settings::{LocaliseConfig, keys};
 use crate::trace::trace;
+use postflight_core::structure::ElementMap;
+use structure::{Found, Targets};
 
 /// What localise runs on and how. Serialised, it is what the stage's
 /// result depends on besides its input files (`postflight run`'s
@@ -43,6 +45,9 @@ pub struct LocaliseOptions {
     /// used); without it every mapped surface counts as structure.
     #[serde(skip)]
     pub plan: Option<PlanFile>,
+    /// The structure whose elements name each candidate's place: the plan's
+    /// target voxels, or a targets file's (as coverage takes them).
+    pub targets: Targets,
     pub settings: LocaliseConfig,
     /// The View model each view is judged by, over the plan's (or the
     /// defaults): the same settings coverage takes.
@@ -56,6 +61,7 @@ impl LocaliseOptions {
             run,
             map: None,
             plan: None,
+            targets: Targets::Plan,
             settings: LocaliseConfig::default(),
             view: ViewSettings::default(),
         }
@@ -134,6 +140,7 @@ pub fn localise(
     warnings.extend(unplaced_warnings(&outcomes));
 
     let candidates = fuse(&observations, &options.settings);
+    let elements = elements(options, plan.as_ref(), &map)?;
     let traced = observations.iter().filter(|o| o.traced_px > 0).count() as u64;
     let summary = LocaliseSummary {
         map: map_name,
@@ -155,7 +162,12 @@ pub fn localise(
         seconds: start.elapsed().as_secs_f64(),
         warnings,
     };
-    write_outputs(&flight, &recording, &observations, &candidates, &summary)?;
+    let written = Written {
+        observations: &observations,
+        candidates: &candidates,
+        elements: elements.as_ref(),
+    };
+    write_outputs(&flight, &recording, &written, &summary)?;
     Ok(summary)
 }
 
@@ -351,13 +363,42 @@ fn check_overlap(
     })
 }
 
+/// The structure's elements, found from the map and the targets as
+/// coverage finds them; none without targets (no plan naming them, no
+/// targets file).
+fn elements(
+    options: &LocaliseOptions,
+    plan: Option<&FlownPlan>,
+    map: &SlamMap,
+) -> Result<Option<ElementMap>, LocaliseError> {
+    let named =
+        options.targets != Targets::Plan || plan.is_some_and(|p| p.target_voxels().is_some());
+    if !named {
+        return Ok(None);
+    }
+    let found = Found::find(&options.targets, plan, map)?;
+    Ok(Some(found.element_map(map)))
+}
+
+/// What localise found, to write.
+struct Written<'a> {
+    observations: &'a [Observation],
+    candidates: &'a [DefectCandidate],
+    /// The structure's elements, when there are targets to find them in.
+    elements: Option<&'a ElementMap>,
+}
+
 fn write_outputs(
     flight: &Flight,
     recording: &Recording,
-    observations: &[Observation],
-    candidates: &[DefectCandidate],
+    written: &Written,
     summary: &LocaliseSummary,
 ) -> Result<(), LocaliseError> {
+    let Written {
+        observations,
+        candidates,
+        elements,
+    } = *written;
     let run = &flight.run;
     let crops = run.file(files::CROPS);
     let write_error = |cause| postflight_core::Error::Write {
@@ -377,7 +418,13 @@ fn write_outputs(
                 .frame(best.detection.frame)
                 .expect("detections are of known frames");
             let written = write_crop(recording, frame, best, &run.file(&name))?;
-            Ok(defect_record(c, observations, written.then_some(name)))
+            let place = elements.and_then(|e| e.place(&c.position, &c.normal));
+            Ok(defect_record(
+                c,
+                observations,
+                written.then_some(name),
+                place,
+            ))
         })
         .collect::<Result<Vec<_>, postflight_core::Error>>()?;
     let mut defect_of: Vec<Option<String>> = vec![None; observations.len()];

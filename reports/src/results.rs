@@ -207,11 +207,19 @@ impl RunResults {
             .place(&d.position.into(), &d.normal.into())
     }
 
-    /// Every candidate's place as text, by id (none before coverage).
+    /// Every candidate's place as text, by id: as localise named it, else
+    /// (runs localised before localise named places) as coverage's elements
+    /// place it.
     pub fn places(&self) -> HashMap<String, String> {
         self.defects
             .iter()
-            .filter_map(|d| Some((d.id.clone(), self.place(d)?.to_string())))
+            .filter_map(|d| {
+                let place = d
+                    .place
+                    .clone()
+                    .or_else(|| Some(self.place(d)?.to_string()))?;
+                Some((d.id.clone(), place))
+            })
             .collect()
     }
 

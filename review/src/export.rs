@@ -28,7 +28,10 @@ pub mod files {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AcceptedDefect {
     pub id: String,
-    /// Where it is on the structure; `None` before coverage.
+    /// The structure element it is on (`pier 2`); `None` off the structure,
+    /// or without targets.
+    pub element: Option<String>,
+    /// Where it is on the structure; `None` as the element.
     pub place: Option<String>,
     pub verdict: Verdict,
     /// 1 (minor) to 5 (urgent), see [`SEVERITY_SCALE`](crate::store::SEVERITY_SCALE).
@@ -73,7 +76,9 @@ pub fn accepted_defects(queue: &Queue, places: &HashMap<String, String>) -> Vec<
             let c = e.defect;
             Some(AcceptedDefect {
                 id: c.id.clone(),
-                place: places.get(&c.id).cloned(),
+                element: c.element.clone(),
+                // Runs localised before localise named places: coverage's.
+                place: c.place.clone().or_else(|| places.get(&c.id).cloned()),
                 verdict: d.verdict,
                 severity: d.severity,
                 note: d.note.clone(),
@@ -100,6 +105,12 @@ fn accepted_table(rows: &[AcceptedDefect]) -> PolarsResult<DataFrame> {
     let float = |f: fn(&AcceptedDefect) -> f64| rows.iter().map(f).collect::<Vec<_>>();
     let columns = vec![
         Column::new("id".into(), text(|r| &r.id)),
+        Column::new(
+            "element".into(),
+            rows.iter()
+                .map(|r| r.element.as_deref())
+                .collect::<Vec<_>>(),
+        ),
         Column::new(
             "place".into(),
             rows.iter().map(|r| r.place.as_deref()).collect::<Vec<_>>(),
@@ -149,7 +160,7 @@ fn accepted_from(df: &DataFrame) -> PolarsResult<Vec<AcceptedDefect>> {
     let f64s = |name: &str| df.column(name).and_then(|c| c.f64());
     let u32s = |name: &str| df.column(name).and_then(|c| c.u32());
     let (id, verdict, note) = (text("id")?, text("verdict")?, text("note")?);
-    let place = text("place")?;
+    let (element, place) = (text("element")?, text("place")?);
     let (reviewer, decided_at, face) = (text("reviewer")?, text("decided_at")?, text("face")?);
     let severity = df.column("severity")?.i32()?;
     let (x, y, z) = (f64s("x")?, f64s("y")?, f64s("z")?);
@@ -161,6 +172,7 @@ fn accepted_from(df: &DataFrame) -> PolarsResult<Vec<AcceptedDefect>> {
         .map(|i| {
             Ok(AcceptedDefect {
                 id: required(id, i)?.to_string(),
+                element: element.get(i).map(str::to_string),
                 place: place.get(i).map(str::to_string),
                 verdict: parsed(verdict, i, Verdict::parse)?,
                 severity: severity.get(i).map(|v| v as u8),
@@ -340,6 +352,7 @@ mod tests {
         let run = RunDir::create(dir.path()).unwrap();
         let row = |id: &str, verdict, severity, length_m| AcceptedDefect {
             id: id.into(),
+            element: Some("pier 2".into()),
             place: Some("pier 2, east face, 1.4 m above its base".into()),
             verdict,
             severity,

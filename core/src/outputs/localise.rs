@@ -299,6 +299,11 @@ impl Evidence {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct DefectRecord {
     pub id: String,
+    /// The structure element it is on (`pier 2`), as coverage names the
+    /// voxels there; none without targets, or off them.
+    pub element: Option<String>,
+    /// Where it is: `pier 2, east face, 1.4 m above its base`.
+    pub place: Option<String>,
     /// World frame, metres.
     pub position: [f64; 3],
     pub normal: [f64; 3],
@@ -551,10 +556,17 @@ fn observations_from(df: &DataFrame) -> PolarsResult<Vec<ObservationRecord>> {
 fn defects_table(defects: &[DefectRecord]) -> PolarsResult<DataFrame> {
     let d = defects;
     let f = |get: &dyn Fn(&DefectRecord) -> f64| d.iter().map(get).collect::<Vec<f64>>();
-    let mut columns = vec![Column::new(
-        "id".into(),
-        d.iter().map(|d| d.id.as_str()).collect::<Vec<&str>>(),
-    )];
+    let text = |get: &dyn Fn(&DefectRecord) -> Option<&str>| {
+        d.iter().map(get).collect::<Vec<Option<&str>>>()
+    };
+    let mut columns = vec![
+        Column::new(
+            "id".into(),
+            d.iter().map(|d| d.id.as_str()).collect::<Vec<&str>>(),
+        ),
+        Column::new("element".into(), text(&|d| d.element.as_deref())),
+        Column::new("place".into(), text(&|d| d.place.as_deref())),
+    ];
     columns.extend(xyz("", d.iter().map(|d| Some(d.position))));
     columns.extend(xyz("n", d.iter().map(|d| Some(d.normal))));
     columns.extend(xyz("min_", d.iter().map(|d| Some(d.extent_min))));
@@ -657,6 +669,9 @@ fn defects_from(
         df.column("face")?.str()?,
         df.column("crop")?.str()?,
     );
+    // Runs localised before elements were named have neither column.
+    let optional = |name: &str| df.column(name).ok().map(|c| c.str()).transpose();
+    let (element, place) = (optional("element")?, optional("place")?);
     let (position, normal) = (triple("")?, triple("n")?);
     let (extent_min, extent_max) = (triple("min_")?, triple("max_")?);
     let voxel = [i32s("voxel_x")?, i32s("voxel_y")?, i32s("voxel_z")?];
@@ -693,7 +708,10 @@ fn defects_from(
                 .ok_or_else(|| {
                     polars_err!(ComputeError: "candidate {id}'s best view is not among its observations")
                 })?;
+            let text = |c: Option<&StringChunked>| c.and_then(|c| c.get(i)).map(str::to_string);
             Ok(DefectRecord {
+                element: text(element),
+                place: text(place),
                 position: required3(position, i)?,
                 normal: required3(normal, i)?,
                 extent_min: required3(extent_min, i)?,
@@ -777,8 +795,12 @@ mod tests {
                 .filter(|o| frames.contains(&o.frame))
                 .filter_map(ViewRecord::of)
                 .collect();
+            // One candidate on an element, one off the structure.
+            let on = frames.len() > 1;
             DefectRecord {
                 id: id.into(),
+                element: on.then(|| "pier 1".into()),
+                place: on.then(|| "pier 1, east face, 1.4 m above its base".into()),
                 position: [1.0, 2.0, 2.5],
                 normal: [-1.0, 0.0, 0.0],
                 extent_min: [0.9, 1.8, 2.0],
