@@ -466,4 +466,14 @@ mod tests {
             }
         }
     }
+
+    #[test]
+    fn the_readme_example_reads() {
+        let readme = include_str!("../README.md");
+        let settings = &readme[readme.find("## Settings").unwrap()..];
+        let start = settings.find("```toml\n").unwrap() + "```toml\n".len();
+        let end = start + settings[start..].find("```").unwrap();
+        let example = RunConfig::parse(&settings[start..end]).unwrap();
+        assert!(!example.keys_set().is_empty());
+    }
 }
