@@ -1042,11 +1042,7 @@ fn malformed_and_foreign_requests_get_a_4xx_with_a_reason() {
 
 #[test]
 fn beyond_loopback_every_request_needs_the_token() {
-    let run = reviewed_run();
-    let tmp = tempfile::tempdir().unwrap();
-    let db = tmp.path().join("review.sqlite");
-    let server = Server::start(run, &db, &["--addr", "0.0.0.0:0"]);
-    let token = printed_token(&server);
+    let (_tmp, _db, server, token) = beyond_loopback();
     assert_eq!(token.len(), 40);
     let agent = agent();
     let api = format!("{}/api/candidates", server.base);
@@ -1088,6 +1084,15 @@ fn beyond_loopback_every_request_needs_the_token() {
 // ---- what an outsider could try ------------------------------------------
 
 /// The generated token a server beyond loopback printed.
+/// A fresh review served on every interface, and the token it printed.
+fn beyond_loopback() -> (tempfile::TempDir, PathBuf, Server, String) {
+    let tmp = tempfile::tempdir().unwrap();
+    let db = tmp.path().join("review.sqlite");
+    let server = Server::start(reviewed_run(), &db, &["--addr", "0.0.0.0:0"]);
+    let token = printed_token(&server);
+    (tmp, db, server, token)
+}
+
 fn printed_token(server: &Server) -> String {
     server
         .url
@@ -1130,11 +1135,7 @@ fn exports_show_formulas_as_text() {
 
 #[test]
 fn writes_say_where_they_come_from_and_tokens_stay_out_of_write_addresses() {
-    let run = reviewed_run();
-    let tmp = tempfile::tempdir().unwrap();
-    let db = tmp.path().join("review.sqlite");
-    let server = Server::start(run, &db, &["--addr", "0.0.0.0:0"]);
-    let token = printed_token(&server);
+    let (_tmp, db, server, token) = beyond_loopback();
     let ids = candidate_ids_with(&server, &token);
     let url = decisions_url(&server.base, &ids[0]);
     let decision = json!({"version": 0, "verdict": "accepted", "reviewer": "kim"}).to_string();

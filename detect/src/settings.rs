@@ -80,15 +80,6 @@ impl MergeGap {
     }
 }
 
-impl std::fmt::Display for MergeGap {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            MergeGap::Pixels(gap) => write!(f, "{gap}"),
-            MergeGap::Off(_) => f.write_str("off"),
-        }
-    }
-}
-
 impl std::str::FromStr for MergeGap {
     type Err = String;
 

@@ -96,18 +96,12 @@ pub enum GapChoice {
 }
 
 impl GapChoice {
-    pub const ALL: [Self; 3] = [Self::Missed, Self::All, Self::Reshoot];
-
     pub fn as_str(self) -> &'static str {
         match self {
             Self::Missed => "missed",
             Self::All => "all",
             Self::Reshoot => "reshoot",
         }
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|g| g.as_str() == s)
     }
 }
 
