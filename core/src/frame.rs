@@ -55,6 +55,13 @@ impl PoseStatus {
     }
 }
 
+impl crate::table::Named for PoseStatus {
+    const ALL: &'static [Self] = &Self::ALL;
+    fn name(self) -> &'static str {
+        self.as_str()
+    }
+}
+
 /// Whether the frame's image header could be read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ImageStatus {
@@ -78,6 +85,13 @@ impl ImageStatus {
 
     pub fn parse(s: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|v| v.as_str() == s)
+    }
+}
+
+impl crate::table::Named for ImageStatus {
+    const ALL: &'static [Self] = &Self::ALL;
+    fn name(self) -> &'static str {
+        self.as_str()
     }
 }
 

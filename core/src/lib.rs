@@ -39,6 +39,7 @@ pub mod runs;
 pub mod serde_pose;
 pub mod setting;
 pub mod structure;
+pub mod table;
 pub mod time;
 pub mod trajectory;
 pub mod view;

@@ -13,6 +13,7 @@ use polars::prelude::*;
 
 use crate::error::Error;
 use crate::outputs::Stage;
+use crate::table::Row;
 
 /// A run directory: the outputs of the stages run on one flight.
 #[derive(Debug, Clone)]
@@ -166,6 +167,16 @@ impl RunDir {
                 cause,
             })?;
         self.write_text(name, &text)
+    }
+
+    /// Write the Parquet table `name` of `rows`.
+    pub fn write_rows<R: Row>(&self, name: &str, rows: &[R]) -> Result<(), Error> {
+        self.write_table(name, R::frame(rows))
+    }
+
+    /// Read the Parquet table `name` as rows of `R`.
+    pub fn read_rows<R: Row>(&self, name: &str) -> Result<Vec<R>, Error> {
+        self.read_table(name, R::rows)
     }
 
     /// Read the Parquet table `name` into what `parse` makes of it.

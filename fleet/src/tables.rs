@@ -19,9 +19,10 @@ use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
 use postflight_core::outputs::coverage::CoverageSummary;
-use postflight_core::outputs::localise::files as localise_files;
+use postflight_core::outputs::localise::{DefectRow, files as localise_files};
 use postflight_core::outputs::report::RunSummary;
 use postflight_core::run_log::RUN_LOG;
+use postflight_core::table::Row;
 use postflight_core::{RunDir, Stage};
 
 use crate::error::Error;
@@ -258,181 +259,183 @@ fn write_partitioned(dir: &Path, table: &DataFrame) -> Result<(), Error> {
     Ok(())
 }
 
-/// The columns naming each row's flight.
-fn flight_columns<'a>(runs: impl Iterator<Item = &'a FleetRun> + Clone) -> Vec<Column> {
-    vec![
-        Column::new(
-            "structure".into(),
-            runs.clone()
-                .map(|r| r.structure.as_str())
-                .collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "date".into(),
-            runs.clone().map(FleetRun::date).collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "flight".into(),
-            runs.clone().map(FleetRun::flight).collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "run".into(),
-            runs.map(|r| r.run.as_str()).collect::<Vec<_>>(),
-        ),
-    ]
+postflight_core::table! {
+    /// The columns naming each row's flight.
+    pub struct FlightId {
+        structure: String,
+        /// `YYYY-MM-DD`; none for a run not made by `postflight batch`.
+        date: Option<String>,
+        /// The recording.
+        flight: Option<String>,
+        /// Its run directory within the fleet directory.
+        run: String,
+    }
 }
 
-/// `flights.parquet`: one row per run, how it went and its figures.
+impl FlightId {
+    fn of(run: &FleetRun) -> Self {
+        Self {
+            structure: run.structure.clone(),
+            date: run.date().map(str::to_string),
+            flight: run.flight(),
+            run: run.run.clone(),
+        }
+    }
+}
+
+postflight_core::table! {
+    /// One row of `flights.parquet`: a run, how it went and its figures
+    /// (none before its report).
+    pub struct FlightRow {
+        flight: FlightId,
+        state: String,
+        error: Option<String>,
+        last_attempt: Option<String>,
+        /// Seconds the stages of its current results took.
+        processing_s: Option<f64>,
+        flight_start: Option<String>,
+        duration_s: Option<f64>,
+        truncated: Option<bool>,
+        frames: Option<u64>,
+        frames_with_pose: Option<u64>,
+        detections: Option<u64>,
+        defects: Option<u64>,
+        inspected_pct: Option<f64>,
+        planned_inspected_pct: Option<f64>,
+        replan_length_m: Option<f64>,
+        replan_sorties: Option<u64>,
+        /// Its report, relative to the fleet directory.
+        report: Option<String>,
+        postflight_version: Option<String>,
+    }
+}
+
+impl FlightRow {
+    fn of(run: &FleetRun) -> Self {
+        let record = run.record.as_ref();
+        let s = run.summary.as_ref();
+        let coverage = s.and_then(|s| s.coverage.as_ref());
+        let replan = s.and_then(|s| s.replan.as_ref());
+        Self {
+            flight: FlightId::of(run),
+            state: run.state().to_string(),
+            error: record.and_then(|r| r.error.clone()),
+            last_attempt: record.map(|r| r.started.clone()),
+            processing_s: s.map(|s| s.timings_s.values().sum()),
+            flight_start: s.map(|s| s.flight_start.clone()),
+            duration_s: s.map(|s| s.duration_s),
+            truncated: s.map(|s| s.truncated),
+            frames: s.map(|s| s.frames),
+            frames_with_pose: s.map(|s| s.frames_with_pose),
+            detections: s.and_then(|s| s.detections),
+            defects: s.and_then(|s| s.defects),
+            inspected_pct: coverage.map(|c| c.inspected_pct),
+            planned_inspected_pct: coverage.and_then(|c| c.planned_inspected_pct),
+            replan_length_m: replan.map(|r| r.length_m),
+            replan_sorties: replan.map(|r| r.sorties as u64),
+            report: s.map(|_| {
+                format!(
+                    "{}/{}",
+                    run.run,
+                    postflight_core::outputs::report::files::REPORT
+                )
+            }),
+            postflight_version: s.map(|s| s.versions.postflight.clone()),
+        }
+    }
+}
+
+postflight_core::table! {
+    /// One row of the fleet's `coverage.parquet`: a run whose coverage
+    /// stage completed, its `coverage.json` in figures.
+    pub struct CoverageRow {
+        flight: FlightId,
+        resolution_m: f64,
+        target_voxels: u64,
+        planned_voxels: Option<u64>,
+        inspected_voxels: u64,
+        inspected_pct: f64,
+        planned_inspected_pct: Option<f64>,
+        planned_missed_voxels: Option<u64>,
+        gap_voxels: u64,
+        uninspectable_voxels: u64,
+        exposed_faces: u64,
+        inspected_faces: u64,
+        face_area_coverage_pct: f64,
+        shots_total: u64,
+        shots_usable: u64,
+    }
+}
+
+impl CoverageRow {
+    fn of(run: &FleetRun, c: &CoverageSummary) -> Self {
+        let count = |n: usize| n as u64;
+        Self {
+            flight: FlightId::of(run),
+            resolution_m: c.resolution_m,
+            target_voxels: count(c.target_voxels),
+            planned_voxels: c.planned_voxels.map(count),
+            inspected_voxels: count(c.inspected_voxels),
+            inspected_pct: c.inspected_pct,
+            planned_inspected_pct: c.planned_inspected_pct,
+            planned_missed_voxels: c.planned_missed_voxels.map(count),
+            gap_voxels: count(c.gap_voxels),
+            uninspectable_voxels: count(c.uninspectable_voxels),
+            exposed_faces: count(c.exposed_faces),
+            inspected_faces: count(c.inspected_faces),
+            face_area_coverage_pct: c.face_area_coverage_pct,
+            shots_total: count(c.shots_total),
+            shots_usable: count(c.shots_usable),
+        }
+    }
+}
+
+postflight_core::table! {
+    /// One row of the fleet's `defects.parquet`: a run's candidate, as its
+    /// own `defects.parquet` holds it.
+    pub struct FleetDefectRow {
+        flight: FlightId,
+        defect: DefectRow,
+    }
+}
+
+/// `flights.parquet`: one row per run.
 fn flights_table(runs: &[FleetRun]) -> PolarsResult<DataFrame> {
-    let height = runs.len();
-    let record = |f: fn(&TaskRecord) -> Option<String>| {
-        runs.iter()
-            .map(|r| r.record.as_ref().and_then(f))
-            .collect::<Vec<_>>()
-    };
-    let summary_f64 = |f: fn(&RunSummary) -> Option<f64>| from_summary(runs, f);
-    let summary_u64 = |f: fn(&RunSummary) -> Option<u64>| from_summary(runs, f);
-    let mut columns = flight_columns(runs.iter());
-    columns.extend([
-        Column::new(
-            "state".into(),
-            runs.iter().map(FleetRun::state).collect::<Vec<_>>(),
-        ),
-        Column::new("error".into(), record(|r| r.error.clone())),
-        Column::new("last_attempt".into(), record(|r| Some(r.started.clone()))),
-        Column::new(
-            "processing_s".into(),
-            summary_f64(|s| Some(s.timings_s.values().sum())),
-        ),
-        Column::new(
-            "flight_start".into(),
-            from_summary(runs, |s| Some(s.flight_start.clone())),
-        ),
-        Column::new("duration_s".into(), summary_f64(|s| Some(s.duration_s))),
-        Column::new(
-            "truncated".into(),
-            from_summary(runs, |s| Some(s.truncated)),
-        ),
-        Column::new("frames".into(), summary_u64(|s| Some(s.frames))),
-        Column::new(
-            "frames_with_pose".into(),
-            summary_u64(|s| Some(s.frames_with_pose)),
-        ),
-        Column::new("detections".into(), summary_u64(|s| s.detections)),
-        Column::new("defects".into(), summary_u64(|s| s.defects)),
-        Column::new(
-            "inspected_pct".into(),
-            summary_f64(|s| s.coverage.as_ref().map(|c| c.inspected_pct)),
-        ),
-        Column::new(
-            "planned_inspected_pct".into(),
-            summary_f64(|s| s.coverage.as_ref().and_then(|c| c.planned_inspected_pct)),
-        ),
-        Column::new(
-            "replan_length_m".into(),
-            summary_f64(|s| s.replan.as_ref().map(|r| r.length_m)),
-        ),
-        Column::new(
-            "replan_sorties".into(),
-            summary_u64(|s| s.replan.as_ref().map(|r| r.sorties as u64)),
-        ),
-        Column::new(
-            "report".into(),
-            runs.iter()
-                .map(|r| {
-                    r.summary.as_ref().map(|_| {
-                        format!(
-                            "{}/{}",
-                            r.run,
-                            postflight_core::outputs::report::files::REPORT
-                        )
-                    })
-                })
-                .collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "postflight_version".into(),
-            from_summary(runs, |s| Some(s.versions.postflight.clone())),
-        ),
-    ]);
-    DataFrame::new(height, columns)
-}
-
-/// One value per run from its report's summary (none before the report).
-fn from_summary<T>(runs: &[FleetRun], f: impl Fn(&RunSummary) -> Option<T>) -> Vec<Option<T>> {
-    runs.iter()
-        .map(|r| r.summary.as_ref().and_then(&f))
-        .collect()
+    let rows: Vec<FlightRow> = runs.iter().map(FlightRow::of).collect();
+    FlightRow::frame(&rows)
 }
 
 /// `coverage.parquet`: one row per run whose coverage stage completed.
 fn coverage_table(runs: &[FleetRun]) -> PolarsResult<DataFrame> {
-    let covered: Vec<(&FleetRun, &CoverageSummary)> = runs
+    let rows: Vec<CoverageRow> = runs
         .iter()
-        .filter_map(|r| r.coverage.as_ref().map(|c| (r, c)))
+        .filter_map(|r| r.coverage.as_ref().map(|c| CoverageRow::of(r, c)))
         .collect();
-    let count = |name: &str, f: fn(&CoverageSummary) -> Option<usize>| {
-        Column::new(
-            name.into(),
-            covered
-                .iter()
-                .map(|(_, c)| f(c).map(|n| n as u64))
-                .collect::<Vec<_>>(),
-        )
-    };
-    let real = |name: &str, f: fn(&CoverageSummary) -> Option<f64>| {
-        Column::new(
-            name.into(),
-            covered.iter().map(|(_, c)| f(c)).collect::<Vec<_>>(),
-        )
-    };
-    let mut columns = flight_columns(covered.iter().map(|(r, _)| *r));
-    columns.extend([
-        real("resolution_m", |c| Some(c.resolution_m)),
-        count("target_voxels", |c| Some(c.target_voxels)),
-        count("planned_voxels", |c| c.planned_voxels),
-        count("inspected_voxels", |c| Some(c.inspected_voxels)),
-        real("inspected_pct", |c| Some(c.inspected_pct)),
-        real("planned_inspected_pct", |c| c.planned_inspected_pct),
-        count("planned_missed_voxels", |c| c.planned_missed_voxels),
-        count("gap_voxels", |c| Some(c.gap_voxels)),
-        count("uninspectable_voxels", |c| Some(c.uninspectable_voxels)),
-        count("exposed_faces", |c| Some(c.exposed_faces)),
-        count("inspected_faces", |c| Some(c.inspected_faces)),
-        real("face_area_coverage_pct", |c| Some(c.face_area_coverage_pct)),
-        count("shots_total", |c| Some(c.shots_total)),
-        count("shots_usable", |c| Some(c.shots_usable)),
-    ]);
-    DataFrame::new(covered.len(), columns)
+    CoverageRow::frame(&rows)
 }
 
-/// `defects.parquet`: every run's own `defects.parquet`, its flight's
-/// columns first.
+/// `defects.parquet`: every run's own candidates, its flight's columns first.
 fn defects_table(runs: &[FleetRun]) -> Result<DataFrame, Error> {
-    let mut all = DataFrame::new(0, flight_columns(std::iter::empty()))
-        .map_err(table_error(Path::new(files::DEFECTS)))?;
+    let mut rows = Vec::new();
     // A run's candidates count once its localise stage has completed.
     let localised = runs
         .iter()
         .filter_map(|r| RunDir::open(&r.dir, Stage::Localise).ok().map(|d| (r, d)));
-    for (i, (run, dir)) in localised.enumerate() {
-        let named = dir.read_table(localise_files::DEFECTS, |defects| {
-            let flight = flight_columns(std::iter::repeat_n(run, defects.height()));
-            let columns = flight.into_iter().chain(defects.columns().iter().cloned());
-            DataFrame::new(defects.height(), columns.collect())
-        })?;
-        if i == 0 {
-            all = named;
-        } else if let Err(e) = all.vstack_mut(&named) {
-            return Err(Error::Fleet {
-                path: run.dir.join(localise_files::DEFECTS),
-                why: format!(
-                    "{e}: its columns differ from the runs' before it (written by another postflight version?); rerun `postflight run` on it"
-                ),
-            });
-        }
+    for (run, dir) in localised {
+        let defects: Vec<DefectRow> =
+            dir.read_rows(localise_files::DEFECTS)
+                .map_err(|e| Error::Fleet {
+                    path: run.dir.join(localise_files::DEFECTS),
+                    why: format!(
+                        "{e} (written by another postflight version?); rerun `postflight run` on it"
+                    ),
+                })?;
+        rows.extend(defects.into_iter().map(|defect| FleetDefectRow {
+            flight: FlightId::of(run),
+            defect,
+        }));
     }
-    Ok(all)
+    FleetDefectRow::frame(&rows).map_err(table_error(Path::new(files::DEFECTS)))
 }
 
 #[cfg(test)]

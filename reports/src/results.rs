@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use postflight_core::outputs::changes::{ChangeKind, ChangeRecord, ChangesSummary, read_changes};
 use postflight_core::outputs::coverage::{self, CoverageSummary, VoxelRecord};
 use postflight_core::outputs::detect::DetectSummary;
+use postflight_core::outputs::localise::DefectRow;
 use postflight_core::outputs::localise::{DefectRecord, LocaliseSummary, read_defects};
 use postflight_core::outputs::replan::ReplanSummary;
 use postflight_core::outputs::report::CandidateRow;
@@ -224,15 +225,22 @@ impl RunResults {
     }
 
     /// The candidates as `candidates.csv` lists them, in review order.
-    pub fn candidate_rows(&self) -> Vec<CandidateRow<'_>> {
+    pub fn candidate_rows(&self) -> Vec<CandidateRow> {
         self.defects_for_review()
             .into_iter()
             .enumerate()
-            .map(|(i, d)| CandidateRow {
-                rank: i as u32 + 1,
-                defect: d,
-                place: self.place(d),
-                review_priority: review_priority(d),
+            .map(|(i, d)| {
+                let mut defect = DefectRow::of(d);
+                // Runs localised before localise named places: coverage's.
+                if let (None, Some(place)) = (&defect.place, self.place(d)) {
+                    defect.element = Some(place.element.clone());
+                    defect.place = Some(place.to_string());
+                }
+                CandidateRow {
+                    rank: i as u32 + 1,
+                    review_priority: review_priority(d),
+                    defect,
+                }
             })
             .collect()
     }

@@ -12,6 +12,7 @@ use rusqlite::{Connection, OptionalExtension, TransactionBehavior, params};
 use serde::{Deserialize, Serialize};
 
 use postflight_core::outputs::localise::DefectRecord;
+use postflight_core::table::Named;
 
 /// What a reviewer decided about a candidate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -43,9 +44,14 @@ impl Verdict {
     }
 
     pub fn parse(s: &str) -> Option<Self> {
-        [Self::Accepted, Self::Rejected, Self::NeedsRepair]
-            .into_iter()
-            .find(|v| v.as_str() == s)
+        <Self as Named>::named(s)
+    }
+}
+
+impl Named for Verdict {
+    const ALL: &'static [Self] = &[Self::Accepted, Self::Rejected, Self::NeedsRepair];
+    fn name(self) -> &'static str {
+        self.as_str()
     }
 }
 

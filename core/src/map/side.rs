@@ -78,6 +78,13 @@ impl FaceSide {
     }
 }
 
+impl crate::table::Named for FaceSide {
+    const ALL: &'static [Self] = &Self::ALL;
+    fn name(self) -> &'static str {
+        self.name()
+    }
+}
+
 impl fmt::Display for FaceSide {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())

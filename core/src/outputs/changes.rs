@@ -6,7 +6,6 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::error::Error;
@@ -109,6 +108,13 @@ impl ChangeKind {
     }
 }
 
+impl crate::table::Named for ChangeKind {
+    const ALL: &'static [Self] = &Self::ALL;
+    fn name(self) -> &'static str {
+        self.as_str()
+    }
+}
+
 /// One candidate's change.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct ChangeRecord {
@@ -133,7 +139,8 @@ pub struct ChangeRecord {
 
 /// Write `changes.parquet` and, last, `changes.json`.
 pub fn write_changes(run: &RunDir, summary: &ChangesSummary) -> Result<(), Error> {
-    run.write_table(files::TABLE, changes_table(&summary.changes))?;
+    let rows: Vec<ChangeRow> = summary.changes.iter().map(ChangeRow::of).collect();
+    run.write_rows(files::TABLE, &rows)?;
     run.write_json(files::SUMMARY, summary)
 }
 
@@ -145,28 +152,41 @@ pub fn read_changes(run: &RunDir) -> Result<Option<ChangesSummary>, Error> {
     run.read_json(files::SUMMARY).map(Some)
 }
 
-fn changes_table(c: &[ChangeRecord]) -> PolarsResult<DataFrame> {
-    let text = |get: fn(&ChangeRecord) -> Option<&str>| c.iter().map(get).collect::<Vec<_>>();
-    let f = |get: fn(&ChangeRecord) -> Option<f64>| c.iter().map(get).collect::<Vec<_>>();
-    let columns = vec![
-        Column::new(
-            "change".into(),
-            c.iter().map(|c| c.change.as_str()).collect::<Vec<_>>(),
-        ),
-        Column::new("after".into(), text(|c| c.after.as_deref())),
-        Column::new("before".into(), text(|c| c.before.as_deref())),
-        Column::new("x".into(), f(|c| Some(c.position[0]))),
-        Column::new("y".into(), f(|c| Some(c.position[1]))),
-        Column::new("z".into(), f(|c| Some(c.position[2]))),
-        Column::new("element".into(), text(|c| c.element.as_deref())),
-        Column::new("length_before_m".into(), f(|c| c.length_before_m)),
-        Column::new("length_after_m".into(), f(|c| c.length_after_m)),
-        Column::new("growth_m".into(), f(|c| c.growth_m)),
-        Column::new("spread_m".into(), f(|c| c.spread_m)),
-        Column::new(
-            "earlier_inspected".into(),
-            c.iter().map(|c| c.earlier_inspected).collect::<Vec<_>>(),
-        ),
-    ];
-    DataFrame::new(c.len(), columns)
+crate::table! {
+    /// One row of `changes.parquet`: a candidate's change.
+    pub struct ChangeRow {
+        change: ChangeKind,
+        after: Option<String>,
+        before: Option<String>,
+        /// This run's frame, metres.
+        x: f64,
+        y: f64,
+        z: f64,
+        element: Option<String>,
+        length_before_m: Option<f64>,
+        length_after_m: Option<f64>,
+        growth_m: Option<f64>,
+        spread_m: Option<f64>,
+        earlier_inspected: Option<bool>,
+    }
+}
+
+impl ChangeRow {
+    fn of(c: &ChangeRecord) -> Self {
+        let [x, y, z] = c.position;
+        Self {
+            change: c.change,
+            after: c.after.clone(),
+            before: c.before.clone(),
+            x,
+            y,
+            z,
+            element: c.element.clone(),
+            length_before_m: c.length_before_m,
+            length_after_m: c.length_after_m,
+            growth_m: c.growth_m,
+            spread_m: c.spread_m,
+            earlier_inspected: c.earlier_inspected,
+        }
+    }
 }

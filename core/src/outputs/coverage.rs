@@ -6,10 +6,8 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{required, required3};
 use crate::error::Error;
 use crate::map::{VoxelGrid, VoxelIndex};
 use crate::run_dir::RunDir;
@@ -118,12 +116,17 @@ pub fn write_coverage(
     records: &[VoxelRecord],
     resolution: f64,
 ) -> Result<(), Error> {
-    run.write_table(name, coverage_table(records, resolution))
+    let rows: Vec<VoxelRow> = records
+        .iter()
+        .map(|r| VoxelRow::of(r, resolution))
+        .collect();
+    run.write_rows(name, &rows)
 }
 
 /// Read a coverage table.
 pub fn read_coverage(run: &RunDir, name: &str) -> Result<Vec<VoxelRecord>, Error> {
-    run.read_table(name, coverage_from)
+    let rows: Vec<VoxelRow> = run.read_rows(name)?;
+    Ok(rows.into_iter().map(VoxelRow::record).collect())
 }
 
 /// The structure's elements as the coverage stage found them (its summary
@@ -145,153 +148,123 @@ pub fn element_map(summary: &CoverageSummary, records: &[VoxelRecord]) -> Elemen
 }
 
 /// GATSBI's classes of a target voxel: inspected or not.
-fn class(r: &VoxelRecord) -> &'static str {
-    if r.inspected { "V_BI" } else { "V_BN" }
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VoxelClass {
+    /// `V_BI`: inspected.
+    Inspected,
+    /// `V_BN`: not inspected.
+    NotInspected,
 }
 
-fn coverage_table(records: &[VoxelRecord], resolution: f64) -> PolarsResult<DataFrame> {
-    let r = records;
-    let col_i = |name: &str, a: usize| {
-        Column::new(
-            name.into(),
-            r.iter().map(|r| r.voxel.0[a]).collect::<Vec<i32>>(),
-        )
-    };
-    let col_f = |name: &str, a: usize| {
-        Column::new(
-            name.into(),
-            r.iter().map(|r| r.centre[a]).collect::<Vec<f64>>(),
-        )
-    };
-    let best = |f: &dyn Fn(&BestView) -> f64| {
-        r.iter()
-            .map(|r| r.best.as_ref().map(f))
-            .collect::<Vec<Option<f64>>>()
-    };
-    let area = resolution * resolution;
-    let columns = vec![
-        col_i("voxel_x", 0),
-        col_i("voxel_y", 1),
-        col_i("voxel_z", 2),
-        col_f("x", 0),
-        col_f("y", 1),
-        col_f("z", 2),
-        Column::new(
-            "element".into(),
-            r.iter().map(|r| r.element.as_str()).collect::<Vec<&str>>(),
-        ),
-        Column::new(
-            "place".into(),
-            r.iter().map(|r| r.place.as_str()).collect::<Vec<&str>>(),
-        ),
-        Column::new("class".into(), r.iter().map(class).collect::<Vec<&str>>()),
-        Column::new(
-            "planned".into(),
-            r.iter().map(|r| r.planned).collect::<Vec<Option<bool>>>(),
-        ),
-        Column::new(
-            "inspected".into(),
-            r.iter().map(|r| r.inspected).collect::<Vec<bool>>(),
-        ),
-        Column::new(
-            "uninspectable".into(),
-            r.iter().map(|r| r.uninspectable).collect::<Vec<bool>>(),
-        ),
-        Column::new(
-            "faces_exposed".into(),
-            r.iter().map(|r| r.faces_exposed).collect::<Vec<u32>>(),
-        ),
-        Column::new(
-            "faces_inspected".into(),
-            r.iter().map(|r| r.faces_inspected).collect::<Vec<u32>>(),
-        ),
-        Column::new(
-            "face_area_m2".into(),
-            r.iter()
-                .map(|r| f64::from(r.faces_exposed) * area)
-                .collect::<Vec<f64>>(),
-        ),
-        Column::new(
-            "inspected_area_m2".into(),
-            r.iter()
-                .map(|r| f64::from(r.faces_inspected) * area)
-                .collect::<Vec<f64>>(),
-        ),
-        Column::new(
-            "views".into(),
-            r.iter().map(|r| r.views).collect::<Vec<u32>>(),
-        ),
-        Column::new(
-            "views_required".into(),
-            r.iter().map(|r| r.views_required).collect::<Vec<u32>>(),
-        ),
-        Column::new("best_distance_m".into(), best(&|s| s.distance_m)),
-        Column::new("best_incidence_deg".into(), best(&|s| s.incidence_deg)),
-        Column::new("best_gsd_mm".into(), best(&|s| s.gsd_mm)),
-        Column::new(
-            "best_frame".into(),
-            r.iter()
-                .map(|r| r.best.map(|b| b.shot))
-                .collect::<Vec<Option<u32>>>(),
-        ),
-        Column::new(
-            "reason".into(),
-            r.iter()
-                .map(|r| r.reason.as_deref())
-                .collect::<Vec<Option<&str>>>(),
-        ),
-    ];
-    DataFrame::new(r.len(), columns)
+impl crate::table::Named for VoxelClass {
+    const ALL: &'static [Self] = &[Self::Inspected, Self::NotInspected];
+    fn name(self) -> &'static str {
+        match self {
+            Self::Inspected => "V_BI",
+            Self::NotInspected => "V_BN",
+        }
+    }
 }
 
-fn coverage_from(df: &DataFrame) -> PolarsResult<Vec<VoxelRecord>> {
-    let i32s = |name: &str| df.column(name).and_then(|c| c.i32());
-    let f64s = |name: &str| df.column(name).and_then(|c| c.f64());
-    let u32s = |name: &str| df.column(name).and_then(|c| c.u32());
-    let bools = |name: &str| df.column(name).and_then(|c| c.bool());
-    let voxel = [i32s("voxel_x")?, i32s("voxel_y")?, i32s("voxel_z")?];
-    let centre = [f64s("x")?, f64s("y")?, f64s("z")?];
-    let (planned, inspected, uninspectable) = (
-        bools("planned")?,
-        bools("inspected")?,
-        bools("uninspectable")?,
-    );
-    let (faces_exposed, faces_inspected) = (u32s("faces_exposed")?, u32s("faces_inspected")?);
-    let (views, views_required) = (u32s("views")?, u32s("views_required")?);
-    let (distance, incidence, gsd) = (
-        f64s("best_distance_m")?,
-        f64s("best_incidence_deg")?,
-        f64s("best_gsd_mm")?,
-    );
-    let (shot, reason) = (u32s("best_frame")?, df.column("reason")?.str()?);
-    let (element, place) = (df.column("element")?.str()?, df.column("place")?.str()?);
-    (0..df.height())
-        .map(|i| {
-            Ok(VoxelRecord {
-                voxel: VoxelIndex(required3(voxel, i)?),
-                centre: required3(centre, i)?,
-                planned: planned.get(i),
-                inspected: required(inspected, i)?,
-                uninspectable: required(uninspectable, i)?,
-                faces_exposed: required(faces_exposed, i)?,
-                faces_inspected: required(faces_inspected, i)?,
-                views: required(views, i)?,
-                views_required: required(views_required, i)?,
-                best: match (distance.get(i), incidence.get(i), gsd.get(i), shot.get(i)) {
-                    (Some(distance_m), Some(incidence_deg), Some(gsd_mm), Some(shot)) => {
-                        Some(BestView {
-                            distance_m,
-                            incidence_deg,
-                            gsd_mm,
-                            shot,
-                        })
-                    }
-                    _ => None,
-                },
-                element: required(element, i)?.to_string(),
-                place: required(place, i)?.to_string(),
-                reason: reason.get(i).map(str::to_string),
-            })
-        })
-        .collect()
+crate::table! {
+    /// One row of a coverage table: a target voxel.
+    pub struct VoxelRow {
+        voxel_x: i32,
+        voxel_y: i32,
+        voxel_z: i32,
+        /// Its centre, world frame, metres.
+        x: f64,
+        y: f64,
+        z: f64,
+        element: String,
+        place: String,
+        class: VoxelClass,
+        planned: Option<bool>,
+        inspected: bool,
+        uninspectable: bool,
+        faces_exposed: u32,
+        faces_inspected: u32,
+        /// Its exposed and inspected faces' area, square metres.
+        face_area_m2: f64,
+        inspected_area_m2: f64,
+        views: u32,
+        views_required: u32,
+        best_distance_m: Option<f64>,
+        best_incidence_deg: Option<f64>,
+        /// The View model's GSD of its finest view.
+        best_gsd_mm: Option<f64>,
+        best_frame: Option<u32>,
+        reason: Option<String>,
+    }
+}
+
+impl VoxelRow {
+    /// A voxel's row, its voxels `resolution` metres wide.
+    fn of(r: &VoxelRecord, resolution: f64) -> Self {
+        let [voxel_x, voxel_y, voxel_z] = r.voxel.0;
+        let [x, y, z] = r.centre;
+        let area = resolution * resolution;
+        let best = r.best.as_ref();
+        Self {
+            voxel_x,
+            voxel_y,
+            voxel_z,
+            x,
+            y,
+            z,
+            element: r.element.clone(),
+            place: r.place.clone(),
+            class: if r.inspected {
+                VoxelClass::Inspected
+            } else {
+                VoxelClass::NotInspected
+            },
+            planned: r.planned,
+            inspected: r.inspected,
+            uninspectable: r.uninspectable,
+            faces_exposed: r.faces_exposed,
+            faces_inspected: r.faces_inspected,
+            face_area_m2: f64::from(r.faces_exposed) * area,
+            inspected_area_m2: f64::from(r.faces_inspected) * area,
+            views: r.views,
+            views_required: r.views_required,
+            best_distance_m: best.map(|b| b.distance_m),
+            best_incidence_deg: best.map(|b| b.incidence_deg),
+            best_gsd_mm: best.map(|b| b.gsd_mm),
+            best_frame: best.map(|b| b.shot),
+            reason: r.reason.clone(),
+        }
+    }
+
+    fn record(self) -> VoxelRecord {
+        let best = match (
+            self.best_distance_m,
+            self.best_incidence_deg,
+            self.best_gsd_mm,
+            self.best_frame,
+        ) {
+            (Some(distance_m), Some(incidence_deg), Some(gsd_mm), Some(shot)) => Some(BestView {
+                distance_m,
+                incidence_deg,
+                gsd_mm,
+                shot,
+            }),
+            _ => None,
+        };
+        VoxelRecord {
+            voxel: VoxelIndex([self.voxel_x, self.voxel_y, self.voxel_z]),
+            centre: [self.x, self.y, self.z],
+            planned: self.planned,
+            inspected: self.inspected,
+            uninspectable: self.uninspectable,
+            faces_exposed: self.faces_exposed,
+            faces_inspected: self.faces_inspected,
+            views: self.views,
+            views_required: self.views_required,
+            best,
+            element: self.element,
+            place: self.place,
+            reason: self.reason,
+        }
+    }
 }

@@ -5,10 +5,8 @@
 
 use std::path::PathBuf;
 
-use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::required;
 use crate::detection::{BoxXyxy, Detection, FrameDetection};
 use crate::error::Error;
 use crate::run_dir::RunDir;
@@ -64,100 +62,85 @@ pub struct DetectSummary {
     pub warnings: Vec<String>,
 }
 
+crate::table! {
+    /// One row of `detections.parquet`: a detection, in its frame's pixels.
+    pub struct DetectionRow {
+        frame: u32,
+        time_ns: i64,
+        x0: f32,
+        y0: f32,
+        x1: f32,
+        y1: f32,
+        score: f32,
+        /// The class id, and its name (`prompt`).
+        class: u32,
+        /// The tile it was found in; -1 for the whole frame.
+        tile: i32,
+        prompt: String,
+    }
+}
+
+impl DetectionRow {
+    /// A detection as its row; `classes` names the class ids.
+    pub fn of(d: &FrameDetection, classes: &[String]) -> Self {
+        let (b, class) = (d.detection.bbox, d.detection.class);
+        Self {
+            frame: d.frame,
+            time_ns: d.time_ns,
+            x0: b.x0,
+            y0: b.y0,
+            x1: b.x1,
+            y1: b.y1,
+            score: d.detection.score,
+            class,
+            tile: d.detection.tile,
+            prompt: classes
+                .get(class as usize)
+                .cloned()
+                .unwrap_or_else(|| format!("class{class}")),
+        }
+    }
+
+    /// The detection the row holds.
+    pub fn detection(&self) -> FrameDetection {
+        FrameDetection {
+            frame: self.frame,
+            time_ns: self.time_ns,
+            detection: Detection {
+                bbox: BoxXyxy {
+                    x0: self.x0,
+                    y0: self.y0,
+                    x1: self.x1,
+                    y1: self.y1,
+                },
+                score: self.score,
+                class: self.class,
+                tile: self.tile,
+            },
+        }
+    }
+}
+
 /// Write `detections.parquet`; `classes` names the class ids.
 pub fn write_detections(
     run: &RunDir,
     found: &[FrameDetection],
     classes: &[String],
 ) -> Result<(), Error> {
-    run.write_table(files::DETECTIONS, detections_table(found, classes))
+    let rows: Vec<DetectionRow> = found.iter().map(|d| DetectionRow::of(d, classes)).collect();
+    run.write_rows(files::DETECTIONS, &rows)
 }
 
 /// Read `detections.parquet`.
 pub fn read_detections(run: &RunDir) -> Result<Vec<FrameDetection>, Error> {
-    run.read_table(files::DETECTIONS, detections_from)
-}
-
-fn detections_table(found: &[FrameDetection], classes: &[String]) -> PolarsResult<DataFrame> {
-    let class_name = |c: u32| {
-        classes
-            .get(c as usize)
-            .cloned()
-            .unwrap_or_else(|| format!("class{c}"))
-    };
-    let col_f32 = |f: &dyn Fn(&FrameDetection) -> f32| found.iter().map(f).collect::<Vec<f32>>();
-    DataFrame::new(
-        found.len(),
-        vec![
-            Column::new(
-                "frame".into(),
-                found.iter().map(|d| d.frame).collect::<Vec<u32>>(),
-            ),
-            Column::new(
-                "time_ns".into(),
-                found.iter().map(|d| d.time_ns).collect::<Vec<i64>>(),
-            ),
-            Column::new("x0".into(), col_f32(&|d| d.detection.bbox.x0)),
-            Column::new("y0".into(), col_f32(&|d| d.detection.bbox.y0)),
-            Column::new("x1".into(), col_f32(&|d| d.detection.bbox.x1)),
-            Column::new("y1".into(), col_f32(&|d| d.detection.bbox.y1)),
-            Column::new("score".into(), col_f32(&|d| d.detection.score)),
-            Column::new(
-                "class".into(),
-                found
-                    .iter()
-                    .map(|d| d.detection.class)
-                    .collect::<Vec<u32>>(),
-            ),
-            Column::new(
-                "tile".into(),
-                found.iter().map(|d| d.detection.tile).collect::<Vec<i32>>(),
-            ),
-            Column::new(
-                "prompt".into(),
-                found
-                    .iter()
-                    .map(|d| class_name(d.detection.class))
-                    .collect::<Vec<String>>(),
-            ),
-        ],
-    )
-}
-
-fn detections_from(df: &DataFrame) -> PolarsResult<Vec<FrameDetection>> {
-    let frame = df.column("frame")?.u32()?;
-    let time = df.column("time_ns")?.i64()?;
-    let f32s: Vec<&Float32Chunked> = ["x0", "y0", "x1", "y1", "score"]
-        .iter()
-        .map(|n| df.column(n).and_then(|c| c.f32()))
-        .collect::<PolarsResult<_>>()?;
-    let class = df.column("class")?.u32()?;
-    let tile = df.column("tile")?.i32()?;
-    (0..df.height())
-        .map(|i| {
-            let v = |k: usize| required(f32s[k], i);
-            Ok(FrameDetection {
-                frame: required(frame, i)?,
-                time_ns: required(time, i)?,
-                detection: Detection {
-                    bbox: BoxXyxy {
-                        x0: v(0)?,
-                        y0: v(1)?,
-                        x1: v(2)?,
-                        y1: v(3)?,
-                    },
-                    score: v(4)?,
-                    class: required(class, i)?,
-                    tile: required(tile, i)?,
-                },
-            })
-        })
-        .collect()
+    let rows: Vec<DetectionRow> = run.read_rows(files::DETECTIONS)?;
+    Ok(rows.iter().map(DetectionRow::detection).collect())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::table::Row;
 
     #[test]
     fn table_round_trips() {
@@ -178,11 +161,19 @@ mod tests {
                 },
             })
             .collect();
-        let df = detections_table(&found, &["crack".into()]).unwrap();
+        let rows: Vec<DetectionRow> = found
+            .iter()
+            .map(|d| DetectionRow::of(d, &["crack".into()]))
+            .collect();
+        let df = DetectionRow::frame(&rows).unwrap();
         assert_eq!(
             df.column("prompt").unwrap().str().unwrap().get(1),
             Some("class1")
         );
-        assert_eq!(detections_from(&df).unwrap(), found);
+        let back = DetectionRow::rows(&df).unwrap();
+        assert_eq!(
+            back.iter().map(DetectionRow::detection).collect::<Vec<_>>(),
+            found
+        );
     }
 }

@@ -7,10 +7,8 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use nalgebra::Isometry3;
-use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{parsed, required};
 use crate::error::Error;
 use crate::frame::{Frame, ImageStatus, MessageLocation, PoseStatus};
 use crate::geo::{GeoAlignment, Geodetic};
@@ -105,39 +103,43 @@ pub struct IngestSummary {
     pub warnings: Vec<String>,
 }
 
-const POSE_COLUMNS: [&str; 7] = ["x", "y", "z", "qx", "qy", "qz", "qw"];
-
-fn pose_columns<'a>(poses: impl Iterator<Item = Option<&'a Isometry3<f64>>>) -> Vec<Column> {
-    let mut values: [Vec<Option<f64>>; 7] = Default::default();
-    for pose in poses {
-        let row = pose.map(|p| {
-            let t = p.translation.vector;
-            let q = quaternion_xyzw(p);
-            [t.x, t.y, t.z, q[0], q[1], q[2], q[3]]
-        });
-        for (k, column) in values.iter_mut().enumerate() {
-            column.push(row.map(|r| r[k]));
-        }
+crate::table! {
+    /// A pose's columns: position, then ROS quaternion order; null for no pose.
+    pub struct PoseColumns {
+        x: Option<f64>,
+        y: Option<f64>,
+        z: Option<f64>,
+        qx: Option<f64>,
+        qy: Option<f64>,
+        qz: Option<f64>,
+        qw: Option<f64>,
     }
-    POSE_COLUMNS
-        .iter()
-        .zip(values)
-        .map(|(name, v)| Column::new((*name).into(), v))
-        .collect()
 }
 
-fn read_poses(df: &DataFrame) -> PolarsResult<Vec<Option<Isometry3<f64>>>> {
-    let cols: Vec<&Float64Chunked> = POSE_COLUMNS
-        .iter()
-        .map(|n| df.column(n).and_then(|c| c.f64()))
-        .collect::<PolarsResult<_>>()?;
-    Ok((0..df.height())
-        .map(|i| {
-            let v: Option<Vec<f64>> = cols.iter().map(|c| c.get(i)).collect();
-            let v = v?;
-            from_parts_xyzw([v[0], v[1], v[2]], [v[3], v[4], v[5], v[6]])
-        })
-        .collect())
+impl PoseColumns {
+    fn of(pose: Option<&Isometry3<f64>>) -> Self {
+        let [x, y, z, qx, qy, qz, qw] = pose.map_or([None; 7], |p| {
+            let t = p.translation.vector;
+            let q = quaternion_xyzw(p);
+            [t.x, t.y, t.z, q[0], q[1], q[2], q[3]].map(Some)
+        });
+        Self {
+            x,
+            y,
+            z,
+            qx,
+            qy,
+            qz,
+            qw,
+        }
+    }
+
+    fn pose(&self) -> Option<Isometry3<f64>> {
+        from_parts_xyzw(
+            [self.x?, self.y?, self.z?],
+            [self.qx?, self.qy?, self.qz?, self.qw?],
+        )
+    }
 }
 
 /// A satellite navigation fix as recorded (`sensor_msgs/NavSatFix`: GPS,
@@ -153,270 +155,177 @@ pub struct GnssFix {
     pub status: i8,
 }
 
+crate::table! {
+    /// One row of `gnss.parquet`: a fix.
+    pub struct GnssRow {
+        time_ns: i64,
+        topic: String,
+        latitude_deg: f64,
+        longitude_deg: f64,
+        altitude_m: f64,
+        status: i8,
+    }
+}
+
 /// Write `gnss.parquet`: every fix, in time order (no rows without GPS).
 pub fn write_gnss(run: &RunDir, fixes: &[GnssFix]) -> Result<(), Error> {
-    run.write_table(files::GNSS, gnss_table(fixes))
+    let rows: Vec<GnssRow> = fixes
+        .iter()
+        .map(|f| GnssRow {
+            time_ns: f.time_ns,
+            topic: f.topic.clone(),
+            latitude_deg: f.position.latitude_deg,
+            longitude_deg: f.position.longitude_deg,
+            altitude_m: f.position.altitude_m,
+            status: f.status,
+        })
+        .collect();
+    run.write_rows(files::GNSS, &rows)
 }
 
 /// Read `gnss.parquet`.
 pub fn read_gnss(run: &RunDir) -> Result<Vec<GnssFix>, Error> {
-    run.read_table(files::GNSS, gnss_from)
-}
-
-fn gnss_table(fixes: &[GnssFix]) -> PolarsResult<DataFrame> {
-    let f64s = |name: &str, get: fn(&GnssFix) -> f64| {
-        Column::new(name.into(), fixes.iter().map(get).collect::<Vec<f64>>())
-    };
-    let columns = vec![
-        Column::new(
-            "time_ns".into(),
-            fixes.iter().map(|f| f.time_ns).collect::<Vec<i64>>(),
-        ),
-        Column::new(
-            "topic".into(),
-            fixes
-                .iter()
-                .map(|f| f.topic.as_str())
-                .collect::<Vec<&str>>(),
-        ),
-        f64s("latitude_deg", |f| f.position.latitude_deg),
-        f64s("longitude_deg", |f| f.position.longitude_deg),
-        f64s("altitude_m", |f| f.position.altitude_m),
-        Column::new(
-            "status".into(),
-            // Int32: the fewest polars features (the status is an int8).
-            fixes
-                .iter()
-                .map(|f| i32::from(f.status))
-                .collect::<Vec<i32>>(),
-        ),
-    ];
-    DataFrame::new(fixes.len(), columns)
-}
-
-fn gnss_from(df: &DataFrame) -> PolarsResult<Vec<GnssFix>> {
-    let time = df.column("time_ns")?.i64()?;
-    let topic = df.column("topic")?.str()?;
-    let f64s = |name: &str| df.column(name).and_then(|c| c.f64().cloned());
-    let (lat, lon, alt) = (
-        f64s("latitude_deg")?,
-        f64s("longitude_deg")?,
-        f64s("altitude_m")?,
-    );
-    let status = df.column("status")?.i32()?;
-    (0..df.height())
-        .map(|i| {
-            Ok(GnssFix {
-                time_ns: required(time, i)?,
-                topic: required(topic, i)?.to_string(),
-                position: Geodetic {
-                    latitude_deg: required(&lat, i)?,
-                    longitude_deg: required(&lon, i)?,
-                    altitude_m: required(&alt, i)?,
-                },
-                status: i8::try_from(required(status, i)?)
-                    .map_err(|_| polars_err!(ComputeError: "status in row {i} is not an int8"))?,
-            })
+    let rows: Vec<GnssRow> = run.read_rows(files::GNSS)?;
+    Ok(rows
+        .into_iter()
+        .map(|r| GnssFix {
+            time_ns: r.time_ns,
+            topic: r.topic,
+            position: Geodetic {
+                latitude_deg: r.latitude_deg,
+                longitude_deg: r.longitude_deg,
+                altitude_m: r.altitude_m,
+            },
+            status: r.status,
         })
-        .collect()
+        .collect())
+}
+
+crate::table! {
+    /// One row of `frames.parquet`: an image. The pose is the camera's
+    /// optical frame in the world, null when `pose_status` is not `ok`.
+    pub struct FrameRow {
+        frame: u32,
+        time_ns: i64,
+        log_time_ns: i64,
+        topic: String,
+        frame_id: String,
+        width: Option<u32>,
+        height: Option<u32>,
+        encoding: String,
+        has_pose: bool,
+        pose_status: PoseStatus,
+        image_status: ImageStatus,
+        pose: PoseColumns,
+        exposure_s: Option<f64>,
+        /// Where its message is in the recording.
+        chunk_offset: Option<u64>,
+        record_offset: u64,
+    }
+}
+
+impl FrameRow {
+    fn of(f: &Frame) -> Self {
+        Self {
+            frame: f.index,
+            time_ns: f.time_ns,
+            log_time_ns: f.log_time_ns,
+            topic: f.topic.clone(),
+            frame_id: f.frame_id.clone(),
+            width: f.width,
+            height: f.height,
+            encoding: f.encoding.clone(),
+            has_pose: f.camera_pose.is_some(),
+            pose_status: f.pose_status,
+            image_status: f.image_status,
+            pose: PoseColumns::of(f.camera_pose.as_ref()),
+            exposure_s: f.exposure_s,
+            chunk_offset: f.location.chunk_offset,
+            record_offset: f.location.record_offset,
+        }
+    }
+
+    fn frame(self) -> Frame {
+        Frame {
+            index: self.frame,
+            time_ns: self.time_ns,
+            log_time_ns: self.log_time_ns,
+            camera_pose: self.pose.pose(),
+            topic: self.topic,
+            frame_id: self.frame_id,
+            width: self.width,
+            height: self.height,
+            encoding: self.encoding,
+            pose_status: self.pose_status,
+            image_status: self.image_status,
+            location: MessageLocation {
+                chunk_offset: self.chunk_offset,
+                record_offset: self.record_offset,
+            },
+            exposure_s: self.exposure_s,
+        }
+    }
+}
+
+crate::table! {
+    /// One row of `trajectory.parquet`: the body's pose in the world frame.
+    pub struct TrajectoryRow {
+        time_ns: i64,
+        pose: PoseColumns,
+        frame_id: String,
+        child_frame_id: String,
+        /// Where the poses came from: a topic, or `/tf`.
+        source: String,
+    }
 }
 
 /// Write `frames.parquet`.
 pub fn write_frames(run: &RunDir, frames: &[Frame]) -> Result<(), Error> {
-    run.write_table(files::FRAMES, frames_table(frames))
+    let rows: Vec<FrameRow> = frames.iter().map(FrameRow::of).collect();
+    run.write_rows(files::FRAMES, &rows)
 }
 
 /// Read `frames.parquet`.
 pub fn read_frames(run: &RunDir) -> Result<Vec<Frame>, Error> {
-    run.read_table(files::FRAMES, frames_from)
+    let rows: Vec<FrameRow> = run.read_rows(files::FRAMES)?;
+    Ok(rows.into_iter().map(FrameRow::frame).collect())
 }
 
 /// Write `trajectory.parquet`.
 pub fn write_trajectory(run: &RunDir, trajectory: &Trajectory) -> Result<(), Error> {
-    run.write_table(files::TRAJECTORY, trajectory_table(trajectory))
+    let t = trajectory;
+    let rows: Vec<TrajectoryRow> = t
+        .poses()
+        .iter()
+        .map(|p| TrajectoryRow {
+            time_ns: p.time_ns,
+            pose: PoseColumns::of(Some(&p.pose)),
+            frame_id: t.frame_id.clone(),
+            child_frame_id: t.child_frame_id.clone(),
+            source: t.source.clone(),
+        })
+        .collect();
+    run.write_rows(files::TRAJECTORY, &rows)
 }
 
 /// Read `trajectory.parquet`.
 pub fn read_trajectory(run: &RunDir) -> Result<Trajectory, Error> {
-    run.read_table(files::TRAJECTORY, trajectory_from)
-}
-
-/// `frames.parquet`: one row per image. The pose columns are the camera's
-/// optical frame in the world, null when `pose_status` is not `ok`.
-fn frames_table(frames: &[Frame]) -> PolarsResult<DataFrame> {
-    let mut columns = vec![
-        Column::new(
-            "frame".into(),
-            frames.iter().map(|f| f.index).collect::<Vec<u32>>(),
-        ),
-        Column::new(
-            "time_ns".into(),
-            frames.iter().map(|f| f.time_ns).collect::<Vec<i64>>(),
-        ),
-        Column::new(
-            "log_time_ns".into(),
-            frames.iter().map(|f| f.log_time_ns).collect::<Vec<i64>>(),
-        ),
-        Column::new(
-            "topic".into(),
-            frames
-                .iter()
-                .map(|f| f.topic.as_str())
-                .collect::<Vec<&str>>(),
-        ),
-        Column::new(
-            "frame_id".into(),
-            frames
-                .iter()
-                .map(|f| f.frame_id.as_str())
-                .collect::<Vec<&str>>(),
-        ),
-        Column::new(
-            "width".into(),
-            frames.iter().map(|f| f.width).collect::<Vec<Option<u32>>>(),
-        ),
-        Column::new(
-            "height".into(),
-            frames
-                .iter()
-                .map(|f| f.height)
-                .collect::<Vec<Option<u32>>>(),
-        ),
-        Column::new(
-            "encoding".into(),
-            frames
-                .iter()
-                .map(|f| f.encoding.as_str())
-                .collect::<Vec<&str>>(),
-        ),
-        Column::new(
-            "has_pose".into(),
-            frames
-                .iter()
-                .map(|f| f.camera_pose.is_some())
-                .collect::<Vec<bool>>(),
-        ),
-        Column::new(
-            "pose_status".into(),
-            frames
-                .iter()
-                .map(|f| f.pose_status.as_str())
-                .collect::<Vec<&str>>(),
-        ),
-        Column::new(
-            "image_status".into(),
-            frames
-                .iter()
-                .map(|f| f.image_status.as_str())
-                .collect::<Vec<&str>>(),
-        ),
-    ];
-    columns.extend(pose_columns(frames.iter().map(|f| f.camera_pose.as_ref())));
-    columns.push(Column::new(
-        "exposure_s".into(),
-        frames
-            .iter()
-            .map(|f| f.exposure_s)
-            .collect::<Vec<Option<f64>>>(),
-    ));
-    columns.push(Column::new(
-        "chunk_offset".into(),
-        frames
-            .iter()
-            .map(|f| f.location.chunk_offset)
-            .collect::<Vec<Option<u64>>>(),
-    ));
-    columns.push(Column::new(
-        "record_offset".into(),
-        frames
-            .iter()
-            .map(|f| f.location.record_offset)
-            .collect::<Vec<u64>>(),
-    ));
-    DataFrame::new(frames.len(), columns)
-}
-
-fn frames_from(df: &DataFrame) -> PolarsResult<Vec<Frame>> {
-    let index = df.column("frame")?.u32()?;
-    let time = df.column("time_ns")?.i64()?;
-    let log_time = df.column("log_time_ns")?.i64()?;
-    let topic = df.column("topic")?.str()?;
-    let frame_id = df.column("frame_id")?.str()?;
-    let width = df.column("width")?.u32()?;
-    let height = df.column("height")?.u32()?;
-    let encoding = df.column("encoding")?.str()?;
-    let pose_status = df.column("pose_status")?.str()?;
-    let image_status = df.column("image_status")?.str()?;
-    let chunk = df.column("chunk_offset")?.u64()?;
-    let record = df.column("record_offset")?.u64()?;
-    let exposure = df.column("exposure_s")?.f64()?;
-    let poses = read_poses(df)?;
-    (0..df.height())
-        .map(|i| {
-            Ok(Frame {
-                index: required(index, i)?,
-                time_ns: required(time, i)?,
-                log_time_ns: required(log_time, i)?,
-                topic: required(topic, i)?.to_string(),
-                frame_id: frame_id.get(i).unwrap_or_default().to_string(),
-                width: width.get(i),
-                height: height.get(i),
-                encoding: encoding.get(i).unwrap_or_default().to_string(),
-                camera_pose: poses[i],
-                pose_status: parsed(pose_status, i, PoseStatus::parse)?,
-                image_status: parsed(image_status, i, ImageStatus::parse)?,
-                location: MessageLocation {
-                    chunk_offset: chunk.get(i),
-                    record_offset: required(record, i)?,
-                },
-                exposure_s: exposure.get(i),
-            })
-        })
-        .collect()
-}
-
-/// `trajectory.parquet`: the body pose in the world frame over time.
-fn trajectory_table(t: &Trajectory) -> PolarsResult<DataFrame> {
-    let poses = t.poses();
-    let mut columns = vec![Column::new(
-        "time_ns".into(),
-        poses.iter().map(|p| p.time_ns).collect::<Vec<i64>>(),
-    )];
-    columns.extend(pose_columns(poses.iter().map(|p| Some(&p.pose))));
-    columns.push(Column::new(
-        "frame_id".into(),
-        vec![t.frame_id.as_str(); poses.len()],
-    ));
-    columns.push(Column::new(
-        "child_frame_id".into(),
-        vec![t.child_frame_id.as_str(); poses.len()],
-    ));
-    columns.push(Column::new(
-        "source".into(),
-        vec![t.source.as_str(); poses.len()],
-    ));
-    DataFrame::new(poses.len(), columns)
-}
-
-fn trajectory_from(df: &DataFrame) -> PolarsResult<Trajectory> {
-    let time = df.column("time_ns")?.i64()?;
-    let first = |c: &str| -> PolarsResult<String> {
-        Ok(df.column(c)?.str()?.get(0).unwrap_or_default().to_string())
-    };
-    let poses = read_poses(df)?
-        .into_iter()
-        .zip((0..df.height()).map(|i| time.get(i)))
-        .filter_map(|(pose, time_ns)| {
+    let rows: Vec<TrajectoryRow> = run.read_rows(files::TRAJECTORY)?;
+    let first =
+        |get: fn(&TrajectoryRow) -> &String| rows.first().map(get).cloned().unwrap_or_default();
+    let names = (
+        first(|r| &r.frame_id),
+        first(|r| &r.child_frame_id),
+        first(|r| &r.source),
+    );
+    let poses = rows
+        .iter()
+        .filter_map(|r| {
             Some(StampedPose {
-                time_ns: time_ns?,
-                pose: pose?,
+                time_ns: r.time_ns,
+                pose: r.pose.pose()?,
             })
         })
         .collect();
-    Ok(Trajectory::new(
-        first("frame_id")?,
-        first("child_frame_id")?,
-        first("source")?,
-        poses,
-    ))
+    Ok(Trajectory::new(names.0, names.1, names.2, poses))
 }

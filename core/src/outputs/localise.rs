@@ -12,10 +12,9 @@
 use std::collections::HashMap;
 use std::path::PathBuf;
 
-use polars::prelude::*;
+use polars::prelude::{PolarsResult, polars_err};
 use serde::{Deserialize, Serialize};
 
-use super::{parsed, required, required3};
 use crate::detection::BoxXyxy;
 use crate::error::Error;
 use crate::map::{FaceSide, VoxelIndex};
@@ -67,6 +66,13 @@ impl Outcome {
 
     pub fn parse(s: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|o| o.as_str() == s)
+    }
+}
+
+impl crate::table::Named for Outcome {
+    const ALL: &'static [Self] = &Self::ALL;
+    fn name(self) -> &'static str {
+        self.as_str()
     }
 }
 
@@ -198,22 +204,12 @@ impl ViewFault {
     pub fn parse(s: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|f| f.as_str() == s)
     }
+}
 
-    /// Faults as the tables write them: their names joined by `,` (empty
-    /// for none).
-    pub fn list(faults: &[Self]) -> String {
-        let names: Vec<&str> = faults.iter().map(|f| f.as_str()).collect();
-        names.join(",")
-    }
-
-    /// The faults of a [`list`](Self::list).
-    pub fn parse_list(s: &str) -> PolarsResult<Vec<Self>> {
-        s.split(',')
-            .filter(|f| !f.is_empty())
-            .map(|f| {
-                Self::parse(f).ok_or_else(|| polars_err!(ComputeError: "unknown view fault {f:?}"))
-            })
-            .collect()
+impl crate::table::Named for ViewFault {
+    const ALL: &'static [Self] = &Self::ALL;
+    fn name(self) -> &'static str {
+        self.as_str()
     }
 }
 
@@ -264,6 +260,13 @@ impl LengthStatus {
             Self::NotTraced => Some("no view traced the crack's line"),
             Self::FarAndCut => Some("its only traced views are far and cut by the image border"),
         }
+    }
+}
+
+impl crate::table::Named for LengthStatus {
+    const ALL: &'static [Self] = &Self::ALL;
+    fn name(self) -> &'static str {
+        self.as_str()
     }
 }
 
@@ -328,7 +331,8 @@ pub struct DefectRecord {
 /// Write `defects.parquet` and `defects.json` (the same candidates; the
 /// JSON with every supporting view).
 pub fn write_defects(run: &RunDir, defects: &[DefectRecord]) -> Result<(), Error> {
-    run.write_table(files::DEFECTS, defects_table(defects))?;
+    let rows: Vec<DefectRow> = defects.iter().map(DefectRow::of).collect();
+    run.write_rows(files::DEFECTS, &rows)?;
     // Through a JSON value, whose numbers are f64: a score (f32) is written
     // as the f64 it widens to, the value a reader of the Parquet tables sees.
     run.write_json(
@@ -347,9 +351,17 @@ pub fn read_defects_table(run: &RunDir) -> Result<Vec<DefectRecord>, Error> {
             views.entry(defect.clone()).or_default().push(view);
         }
     }
-    run.read_table(files::DEFECTS, |df| {
-        defects_from(df, &|id| views.get(id).cloned().unwrap_or_default())
-    })
+    let rows: Vec<DefectRow> = run.read_rows(files::DEFECTS)?;
+    rows.into_iter()
+        .map(|row| {
+            let views = views.remove(&row.id).unwrap_or_default();
+            row.record(views)
+        })
+        .collect::<PolarsResult<_>>()
+        .map_err(|cause| Error::Table {
+            path: run.file(files::DEFECTS),
+            cause,
+        })
 }
 
 impl ViewRecord {
@@ -384,360 +396,293 @@ struct DefectsFile {
 
 /// Write `observations.parquet`.
 pub fn write_observations(run: &RunDir, observations: &[ObservationRecord]) -> Result<(), Error> {
-    run.write_table(files::OBSERVATIONS, observations_table(observations))
+    let rows: Vec<ObservationRow> = observations.iter().map(ObservationRow::of).collect();
+    run.write_rows(files::OBSERVATIONS, &rows)
 }
 
 /// Read `observations.parquet`.
 pub fn read_observations(run: &RunDir) -> Result<Vec<ObservationRecord>, Error> {
-    run.read_table(files::OBSERVATIONS, observations_from)
+    let rows: Vec<ObservationRow> = run.read_rows(files::OBSERVATIONS)?;
+    rows.into_iter()
+        .map(ObservationRow::record)
+        .collect::<PolarsResult<_>>()
+        .map_err(|cause| Error::Table {
+            path: run.file(files::OBSERVATIONS),
+            cause,
+        })
 }
 
-fn xyz(name: &str, values: impl Iterator<Item = Option<[f64; 3]>>) -> Vec<Column> {
-    let mut columns: [Vec<Option<f64>>; 3] = Default::default();
-    for v in values {
-        for (a, c) in columns.iter_mut().enumerate() {
-            c.push(v.map(|v| v[a]));
+crate::table! {
+    /// One row of `observations.parquet`: a detection, placed or not, with
+    /// the reason. The placement's columns are null for one not placed.
+    pub struct ObservationRow {
+        frame: u32,
+        time_ns: i64,
+        /// The detection's box, frame pixels.
+        x0: f32,
+        y0: f32,
+        x1: f32,
+        y1: f32,
+        score: f32,
+        outcome: Outcome,
+        /// The crack's centroid on the surface, world frame, metres.
+        x: Option<f64>,
+        y: Option<f64>,
+        z: Option<f64>,
+        /// The surface's unit normal, facing the camera.
+        nx: Option<f64>,
+        ny: Option<f64>,
+        nz: Option<f64>,
+        voxel_x: Option<i32>,
+        voxel_y: Option<i32>,
+        voxel_z: Option<i32>,
+        face: Option<FaceSide>,
+        range_m: Option<f64>,
+        incidence_deg: Option<f64>,
+        /// See [`ViewRecord::oblique_gsd_mm`].
+        gsd_mm: Option<f64>,
+        length_m: Option<f64>,
+        radius_m: Option<f64>,
+        traced_px: u32,
+        clipped: bool,
+        /// The candidate it supports.
+        defect: Option<String>,
+    }
+}
+
+impl ObservationRow {
+    fn of(o: &ObservationRecord) -> Self {
+        let p = o.placed.as_ref();
+        let b = o.bbox;
+        let axis = |v: &dyn Fn(&PlacedRecord) -> [f64; 3], a: usize| p.map(|p| v(p)[a]);
+        let voxel = |a: usize| p.map(|p| p.voxel.0[a]);
+        Self {
+            frame: o.frame,
+            time_ns: o.time_ns,
+            x0: b.x0,
+            y0: b.y0,
+            x1: b.x1,
+            y1: b.y1,
+            score: o.score,
+            outcome: o.outcome,
+            x: axis(&|p| p.centre, 0),
+            y: axis(&|p| p.centre, 1),
+            z: axis(&|p| p.centre, 2),
+            nx: axis(&|p| p.normal, 0),
+            ny: axis(&|p| p.normal, 1),
+            nz: axis(&|p| p.normal, 2),
+            voxel_x: voxel(0),
+            voxel_y: voxel(1),
+            voxel_z: voxel(2),
+            face: p.map(|p| p.face),
+            range_m: p.map(|p| p.range_m),
+            incidence_deg: p.map(|p| p.incidence_deg),
+            gsd_mm: p.map(|p| p.oblique_gsd_mm),
+            length_m: p.and_then(|p| p.length_m),
+            radius_m: p.map(|p| p.radius_m),
+            traced_px: o.traced_px,
+            clipped: o.clipped,
+            defect: o.defect.clone(),
         }
     }
-    ["x", "y", "z"]
-        .iter()
-        .zip(columns)
-        .map(|(axis, c)| Column::new(format!("{name}{axis}").into(), c))
-        .collect()
-}
 
-/// `observations.parquet`: every detection, placed or not, with the reason.
-fn observations_table(o: &[ObservationRecord]) -> PolarsResult<DataFrame> {
-    let placed = |f: &dyn Fn(&PlacedRecord) -> f64| {
-        o.iter()
-            .map(|o| o.placed.as_ref().map(f))
-            .collect::<Vec<Option<f64>>>()
-    };
-    let bbox = |f: &dyn Fn(&BoxXyxy) -> f32| o.iter().map(|o| f(&o.bbox)).collect::<Vec<f32>>();
-    let mut columns = vec![
-        Column::new(
-            "frame".into(),
-            o.iter().map(|o| o.frame).collect::<Vec<u32>>(),
-        ),
-        Column::new(
-            "time_ns".into(),
-            o.iter().map(|o| o.time_ns).collect::<Vec<i64>>(),
-        ),
-        Column::new("x0".into(), bbox(&|b| b.x0)),
-        Column::new("y0".into(), bbox(&|b| b.y0)),
-        Column::new("x1".into(), bbox(&|b| b.x1)),
-        Column::new("y1".into(), bbox(&|b| b.y1)),
-        Column::new(
-            "score".into(),
-            o.iter().map(|o| o.score).collect::<Vec<f32>>(),
-        ),
-        Column::new(
-            "outcome".into(),
-            o.iter().map(|o| o.outcome.as_str()).collect::<Vec<&str>>(),
-        ),
-    ];
-    columns.extend(xyz("", o.iter().map(|o| o.placed.map(|p| p.centre))));
-    columns.extend(xyz("n", o.iter().map(|o| o.placed.map(|p| p.normal))));
-    for (a, axis) in ["x", "y", "z"].iter().enumerate() {
-        columns.push(Column::new(
-            format!("voxel_{axis}").into(),
-            o.iter()
-                .map(|o| o.placed.map(|p| p.voxel.0[a]))
-                .collect::<Vec<Option<i32>>>(),
-        ));
-    }
-    columns.extend([
-        Column::new(
-            "face".into(),
-            o.iter()
-                .map(|o| o.placed.map(|p| p.face.name()))
-                .collect::<Vec<Option<&str>>>(),
-        ),
-        Column::new("range_m".into(), placed(&|p| p.range_m)),
-        Column::new("incidence_deg".into(), placed(&|p| p.incidence_deg)),
-        Column::new("gsd_mm".into(), placed(&|p| p.oblique_gsd_mm)),
-        Column::new(
-            "length_m".into(),
-            o.iter()
-                .map(|o| o.placed.and_then(|p| p.length_m))
-                .collect::<Vec<Option<f64>>>(),
-        ),
-        Column::new("radius_m".into(), placed(&|p| p.radius_m)),
-        Column::new(
-            "traced_px".into(),
-            o.iter().map(|o| o.traced_px).collect::<Vec<u32>>(),
-        ),
-        Column::new(
-            "clipped".into(),
-            o.iter().map(|o| o.clipped).collect::<Vec<bool>>(),
-        ),
-        Column::new(
-            "defect".into(),
-            o.iter()
-                .map(|o| o.defect.as_deref())
-                .collect::<Vec<Option<&str>>>(),
-        ),
-    ]);
-    DataFrame::new(o.len(), columns)
-}
-
-fn observations_from(df: &DataFrame) -> PolarsResult<Vec<ObservationRecord>> {
-    let f32s = |name: &str| df.column(name).and_then(|c| c.f32());
-    let f64s = |name: &str| df.column(name).and_then(|c| c.f64());
-    let i32s = |name: &str| df.column(name).and_then(|c| c.i32());
-    let (frame, time) = (df.column("frame")?.u32()?, df.column("time_ns")?.i64()?);
-    let (x0, y0, x1, y1, score) = (
-        f32s("x0")?,
-        f32s("y0")?,
-        f32s("x1")?,
-        f32s("y1")?,
-        f32s("score")?,
-    );
-    let (outcome, face, defect) = (
-        df.column("outcome")?.str()?,
-        df.column("face")?.str()?,
-        df.column("defect")?.str()?,
-    );
-    let centre = [f64s("x")?, f64s("y")?, f64s("z")?];
-    let normal = [f64s("nx")?, f64s("ny")?, f64s("nz")?];
-    let voxel = [i32s("voxel_x")?, i32s("voxel_y")?, i32s("voxel_z")?];
-    let (range, incidence, gsd, length, radius) = (
-        f64s("range_m")?,
-        f64s("incidence_deg")?,
-        f64s("gsd_mm")?,
-        f64s("length_m")?,
-        f64s("radius_m")?,
-    );
-    let (traced, clipped) = (
-        df.column("traced_px")?.u32()?,
-        df.column("clipped")?.bool()?,
-    );
-    (0..df.height())
-        .map(|i| {
-            let xyz = |c: &[&Float64Chunked; 3]| -> Option<[f64; 3]> {
-                Some([c[0].get(i)?, c[1].get(i)?, c[2].get(i)?])
-            };
-            let face_column = face;
-            let placed = match (xyz(&[centre[0], centre[1], centre[2]]), face.get(i)) {
-                (Some(centre), Some(_)) => Some(PlacedRecord {
-                    centre,
-                    normal: required3(normal, i)?,
-                    voxel: VoxelIndex(required3(voxel, i)?),
-                    face: parsed(face_column, i, FaceSide::parse)?,
-                    range_m: required(range, i)?,
-                    incidence_deg: required(incidence, i)?,
-                    oblique_gsd_mm: required(gsd, i)?,
-                    length_m: length.get(i),
-                    radius_m: required(radius, i)?,
-                }),
-                _ => None,
-            };
-            Ok(ObservationRecord {
-                frame: required(frame, i)?,
-                time_ns: required(time, i)?,
-                bbox: BoxXyxy {
-                    x0: required(x0, i)?,
-                    y0: required(y0, i)?,
-                    x1: required(x1, i)?,
-                    y1: required(y1, i)?,
-                },
-                score: required(score, i)?,
-                outcome: parsed(outcome, i, Outcome::parse)?,
-                placed,
-                traced_px: required(traced, i)?,
-                clipped: required(clipped, i)?,
-                defect: defect.get(i).map(str::to_string),
-            })
+    fn record(self) -> PolarsResult<ObservationRecord> {
+        let placed = match (self.x, self.y, self.z, self.face) {
+            (Some(x), Some(y), Some(z), Some(face)) => {
+                let frame = self.frame;
+                let need = |v: Option<f64>, what: &str| {
+                    v.ok_or_else(|| {
+                        polars_err!(ComputeError: "a detection of frame {frame} is placed but has no {what}")
+                    })
+                };
+                let voxel = |v: Option<i32>| {
+                    v.ok_or_else(|| {
+                        polars_err!(ComputeError: "a detection of frame {frame} is placed but has no voxel")
+                    })
+                };
+                Some(PlacedRecord {
+                    centre: [x, y, z],
+                    normal: [
+                        need(self.nx, "normal")?,
+                        need(self.ny, "normal")?,
+                        need(self.nz, "normal")?,
+                    ],
+                    voxel: VoxelIndex([
+                        voxel(self.voxel_x)?,
+                        voxel(self.voxel_y)?,
+                        voxel(self.voxel_z)?,
+                    ]),
+                    face,
+                    range_m: need(self.range_m, "range_m")?,
+                    incidence_deg: need(self.incidence_deg, "incidence_deg")?,
+                    oblique_gsd_mm: need(self.gsd_mm, "gsd_mm")?,
+                    length_m: self.length_m,
+                    radius_m: need(self.radius_m, "radius_m")?,
+                })
+            }
+            _ => None,
+        };
+        Ok(ObservationRecord {
+            frame: self.frame,
+            time_ns: self.time_ns,
+            bbox: BoxXyxy {
+                x0: self.x0,
+                y0: self.y0,
+                x1: self.x1,
+                y1: self.y1,
+            },
+            score: self.score,
+            outcome: self.outcome,
+            placed,
+            traced_px: self.traced_px,
+            clipped: self.clipped,
+            defect: self.defect,
         })
-        .collect()
+    }
 }
 
-/// `defects.parquet`: one row per candidate, its best view inline.
-fn defects_table(defects: &[DefectRecord]) -> PolarsResult<DataFrame> {
-    let d = defects;
-    let f = |get: &dyn Fn(&DefectRecord) -> f64| d.iter().map(get).collect::<Vec<f64>>();
-    let text = |get: &dyn Fn(&DefectRecord) -> Option<&str>| {
-        d.iter().map(get).collect::<Vec<Option<&str>>>()
-    };
-    let mut columns = vec![
-        Column::new(
-            "id".into(),
-            d.iter().map(|d| d.id.as_str()).collect::<Vec<&str>>(),
-        ),
-        Column::new("element".into(), text(&|d| d.element.as_deref())),
-        Column::new("place".into(), text(&|d| d.place.as_deref())),
-    ];
-    columns.extend(xyz("", d.iter().map(|d| Some(d.position))));
-    columns.extend(xyz("n", d.iter().map(|d| Some(d.normal))));
-    columns.extend(xyz("min_", d.iter().map(|d| Some(d.extent_min))));
-    columns.extend(xyz("max_", d.iter().map(|d| Some(d.extent_max))));
-    for (a, axis) in ["x", "y", "z"].iter().enumerate() {
-        columns.push(Column::new(
-            format!("voxel_{axis}").into(),
-            d.iter().map(|d| d.voxel[a]).collect::<Vec<i32>>(),
-        ));
+crate::table! {
+    /// One row of `defects.parquet`: a candidate, its best view inline
+    /// (`best_*`); the same names in `candidates.csv`, the review's
+    /// `accepted-defects` and the fleet's `defects.parquet`.
+    pub struct DefectRow {
+        id: String,
+        /// See [`DefectRecord::element`].
+        element: Option<String>,
+        place: Option<String>,
+        /// World frame, metres.
+        x: f64,
+        y: f64,
+        z: f64,
+        nx: f64,
+        ny: f64,
+        nz: f64,
+        /// The extent of its views' cracks on the surface.
+        min_x: f64,
+        min_y: f64,
+        min_z: f64,
+        max_x: f64,
+        max_y: f64,
+        max_z: f64,
+        voxel_x: i32,
+        voxel_y: i32,
+        voxel_z: i32,
+        face: FaceSide,
+        length_m: Option<f64>,
+        length_views: u32,
+        frames: u32,
+        confidence: f64,
+        max_score: f64,
+        view_faults: Vec<ViewFault>,
+        view_gsd_mm: f64,
+        blur_px: Option<f64>,
+        length_status: LengthStatus,
+        min_measurable_width_mm: f64,
+        reshoot: bool,
+        best_frame: u32,
+        best_range_m: f64,
+        best_incidence_deg: f64,
+        /// The best view's oblique GSD.
+        best_gsd_mm: f64,
+        best_x0: f32,
+        best_y0: f32,
+        best_x1: f32,
+        best_y1: f32,
+        crop: Option<String>,
     }
-    columns.extend([
-        Column::new(
-            "face".into(),
-            d.iter().map(|d| d.face.name()).collect::<Vec<&str>>(),
-        ),
-        Column::new(
-            "length_m".into(),
-            d.iter().map(|d| d.length_m).collect::<Vec<Option<f64>>>(),
-        ),
-        Column::new(
-            "length_views".into(),
-            d.iter().map(|d| d.length_views).collect::<Vec<u32>>(),
-        ),
-        Column::new(
-            "frames".into(),
-            d.iter().map(|d| d.frames).collect::<Vec<u32>>(),
-        ),
-        Column::new("confidence".into(), f(&|d| d.confidence)),
-        Column::new("max_score".into(), f(&|d| d.max_score)),
-        Column::new(
-            "view_faults".into(),
-            d.iter()
-                .map(|d| ViewFault::list(&d.evidence.view_faults))
-                .collect::<Vec<String>>(),
-        ),
-        Column::new("view_gsd_mm".into(), f(&|d| d.evidence.view_gsd_mm)),
-        Column::new(
-            "blur_px".into(),
-            d.iter()
-                .map(|d| d.evidence.blur_px)
-                .collect::<Vec<Option<f64>>>(),
-        ),
-        Column::new(
-            "length_status".into(),
-            d.iter()
-                .map(|d| d.evidence.length.as_str())
-                .collect::<Vec<&str>>(),
-        ),
-        Column::new(
-            "min_measurable_width_mm".into(),
-            f(&|d| d.evidence.min_measurable_width_mm),
-        ),
-        Column::new(
-            "reshoot".into(),
-            d.iter().map(|d| d.evidence.reshoot).collect::<Vec<bool>>(),
-        ),
-        Column::new(
-            "best_frame".into(),
-            d.iter().map(|d| d.best.frame).collect::<Vec<u32>>(),
-        ),
-        Column::new("best_range_m".into(), f(&|d| d.best.range_m)),
-        Column::new("best_incidence_deg".into(), f(&|d| d.best.incidence_deg)),
-        Column::new("best_gsd_mm".into(), f(&|d| d.best.oblique_gsd_mm)),
-    ]);
-    for (k, name) in ["best_x0", "best_y0", "best_x1", "best_y1"]
-        .iter()
-        .enumerate()
-    {
-        columns.push(Column::new(
-            (*name).into(),
-            d.iter().map(|d| d.best.bbox[k]).collect::<Vec<f32>>(),
-        ));
-    }
-    columns.push(Column::new(
-        "crop".into(),
-        d.iter()
-            .map(|d| d.crop.as_deref())
-            .collect::<Vec<Option<&str>>>(),
-    ));
-    DataFrame::new(d.len(), columns)
 }
 
-fn defects_from(
-    df: &DataFrame,
-    views: &dyn Fn(&str) -> Vec<ViewRecord>,
-) -> PolarsResult<Vec<DefectRecord>> {
-    let f64s = |name: &str| df.column(name).and_then(|c| c.f64());
-    let f32s = |name: &str| df.column(name).and_then(|c| c.f32());
-    let u32s = |name: &str| df.column(name).and_then(|c| c.u32());
-    let i32s = |name: &str| df.column(name).and_then(|c| c.i32());
-    let triple = |prefix: &str| -> PolarsResult<[&Float64Chunked; 3]> {
-        Ok([
-            f64s(&format!("{prefix}x"))?,
-            f64s(&format!("{prefix}y"))?,
-            f64s(&format!("{prefix}z"))?,
-        ])
-    };
-    let (id, face, crop) = (
-        df.column("id")?.str()?,
-        df.column("face")?.str()?,
-        df.column("crop")?.str()?,
-    );
-    // Runs localised before elements were named have neither column.
-    let optional = |name: &str| df.column(name).ok().map(|c| c.str()).transpose();
-    let (element, place) = (optional("element")?, optional("place")?);
-    let (position, normal) = (triple("")?, triple("n")?);
-    let (extent_min, extent_max) = (triple("min_")?, triple("max_")?);
-    let voxel = [i32s("voxel_x")?, i32s("voxel_y")?, i32s("voxel_z")?];
-    let (length, length_views) = (f64s("length_m")?, u32s("length_views")?);
-    let (frames, confidence, max_score) =
-        (u32s("frames")?, f64s("confidence")?, f64s("max_score")?);
-    let best_frame = u32s("best_frame")?;
-    let (faults, length_status) = (
-        df.column("view_faults")?.str()?,
-        df.column("length_status")?.str()?,
-    );
-    let (view_gsd, blur, min_width) = (
-        f64s("view_gsd_mm")?,
-        f64s("blur_px")?,
-        f64s("min_measurable_width_mm")?,
-    );
-    let reshoot = df.column("reshoot")?.bool()?;
-    let best_box = [
-        f32s("best_x0")?,
-        f32s("best_y0")?,
-        f32s("best_x1")?,
-        f32s("best_y1")?,
-    ];
-    (0..df.height())
-        .map(|i| {
-            let id = required(id, i)?.to_string();
-            let views = views(&id);
-            let frame = required(best_frame, i)?;
-            let bbox = best_box.map(|c| c.get(i));
-            let best = views
-                .iter()
-                .find(|v| v.frame == frame && bbox == v.bbox.map(Some))
-                .cloned()
-                .ok_or_else(|| {
-                    polars_err!(ComputeError: "candidate {id}'s best view is not among its observations")
-                })?;
-            let text = |c: Option<&StringChunked>| c.and_then(|c| c.get(i)).map(str::to_string);
-            Ok(DefectRecord {
-                element: text(element),
-                place: text(place),
-                position: required3(position, i)?,
-                normal: required3(normal, i)?,
-                extent_min: required3(extent_min, i)?,
-                extent_max: required3(extent_max, i)?,
-                voxel: required3(voxel, i)?,
-                face: parsed(face, i, FaceSide::parse)?,
-                length_m: length.get(i),
-                length_views: required(length_views, i)?,
-                frames: required(frames, i)?,
-                confidence: required(confidence, i)?,
-                max_score: required(max_score, i)?,
-                evidence: Evidence {
-                    view_faults: ViewFault::parse_list(required(faults, i)?)?,
-                    view_gsd_mm: required(view_gsd, i)?,
-                    blur_px: blur.get(i),
-                    length: parsed(length_status, i, LengthStatus::parse)?,
-                    min_measurable_width_mm: required(min_width, i)?,
-                    reshoot: required(reshoot, i)?,
-                },
-                crop: crop.get(i).map(str::to_string),
-                best,
-                views,
-                id,
-            })
+impl DefectRow {
+    /// A candidate as its row.
+    pub fn of(d: &DefectRecord) -> Self {
+        let [x, y, z] = d.position;
+        let [nx, ny, nz] = d.normal;
+        let [min_x, min_y, min_z] = d.extent_min;
+        let [max_x, max_y, max_z] = d.extent_max;
+        let [voxel_x, voxel_y, voxel_z] = d.voxel;
+        let [best_x0, best_y0, best_x1, best_y1] = d.best.bbox;
+        let e = &d.evidence;
+        Self {
+            id: d.id.clone(),
+            element: d.element.clone(),
+            place: d.place.clone(),
+            x,
+            y,
+            z,
+            nx,
+            ny,
+            nz,
+            min_x,
+            min_y,
+            min_z,
+            max_x,
+            max_y,
+            max_z,
+            voxel_x,
+            voxel_y,
+            voxel_z,
+            face: d.face,
+            length_m: d.length_m,
+            length_views: d.length_views,
+            frames: d.frames,
+            confidence: d.confidence,
+            max_score: d.max_score,
+            view_faults: e.view_faults.clone(),
+            view_gsd_mm: e.view_gsd_mm,
+            blur_px: e.blur_px,
+            length_status: e.length,
+            min_measurable_width_mm: e.min_measurable_width_mm,
+            reshoot: e.reshoot,
+            best_frame: d.best.frame,
+            best_range_m: d.best.range_m,
+            best_incidence_deg: d.best.incidence_deg,
+            best_gsd_mm: d.best.oblique_gsd_mm,
+            best_x0,
+            best_y0,
+            best_x1,
+            best_y1,
+            crop: d.crop.clone(),
+        }
+    }
+
+    /// The candidate, with its supporting `views` (its best view among them).
+    fn record(self, views: Vec<ViewRecord>) -> PolarsResult<DefectRecord> {
+        let bbox = [self.best_x0, self.best_y0, self.best_x1, self.best_y1];
+        let best = views
+            .iter()
+            .find(|v| v.frame == self.best_frame && v.bbox == bbox)
+            .cloned()
+            .ok_or_else(|| {
+                polars_err!(ComputeError: "candidate {}'s best view is not among its observations", self.id)
+            })?;
+        Ok(DefectRecord {
+            id: self.id,
+            element: self.element,
+            place: self.place,
+            position: [self.x, self.y, self.z],
+            normal: [self.nx, self.ny, self.nz],
+            extent_min: [self.min_x, self.min_y, self.min_z],
+            extent_max: [self.max_x, self.max_y, self.max_z],
+            voxel: [self.voxel_x, self.voxel_y, self.voxel_z],
+            face: self.face,
+            length_m: self.length_m,
+            length_views: self.length_views,
+            frames: self.frames,
+            confidence: self.confidence,
+            max_score: self.max_score,
+            evidence: Evidence {
+                view_faults: self.view_faults,
+                view_gsd_mm: self.view_gsd_mm,
+                blur_px: self.blur_px,
+                length: self.length_status,
+                min_measurable_width_mm: self.min_measurable_width_mm,
+                reshoot: self.reshoot,
+            },
+            crop: self.crop,
+            best,
+            views,
         })
-        .collect()
+    }
 }
 
 #[cfg(test)]

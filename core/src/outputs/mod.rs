@@ -4,8 +4,7 @@
 //! exists ([`RunDir::open`](crate::RunDir::open) checks it).
 
 use polars::prelude::{
-    ChunkedArray, CsvWriter, DataFrame, DataType, IntoSeries, PlSmallStr, PolarsDataType,
-    PolarsResult, SerWriter, StringChunked, polars_err,
+    CsvWriter, DataFrame, DataType, IntoSeries, PlSmallStr, PolarsResult, SerWriter,
 };
 
 pub mod changes;
@@ -103,40 +102,6 @@ pub fn inert(text: &str) -> std::borrow::Cow<'_, str> {
     }
 }
 
-/// Row `i` of a column that has a value in every row of its table.
-pub fn required<T: PolarsDataType>(
-    column: &ChunkedArray<T>,
-    i: usize,
-) -> PolarsResult<T::Physical<'_>> {
-    column.get(i).ok_or_else(
-        || polars_err!(ComputeError: "column {} has no value in row {i}", column.name()),
-    )
-}
-
-/// Row `i` of three columns that hold one vector's components (x, y, z).
-pub fn required3<T: PolarsDataType>(
-    columns: [&ChunkedArray<T>; 3],
-    i: usize,
-) -> PolarsResult<[T::Physical<'_>; 3]> {
-    Ok([
-        required(columns[0], i)?,
-        required(columns[1], i)?,
-        required(columns[2], i)?,
-    ])
-}
-
-/// Row `i` of a text column of names (a side, an outcome), as `parse` reads them.
-pub fn parsed<V>(
-    column: &StringChunked,
-    i: usize,
-    parse: impl Fn(&str) -> Option<V>,
-) -> PolarsResult<V> {
-    let text = required(column, i)?;
-    parse(text).ok_or_else(|| {
-        polars_err!(ComputeError: "column {} holds {text:?} in row {i}, which is not one of its names", column.name())
-    })
-}
-
 impl std::fmt::Display for Stage {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
@@ -148,19 +113,6 @@ mod tests {
     use polars::prelude::*;
 
     use super::*;
-    use crate::map::FaceSide;
-
-    #[test]
-    fn a_missing_or_unreadable_value_names_its_column_and_row() {
-        let frame = UInt32Chunked::new("frame".into(), &[Some(3), None]);
-        assert_eq!(required(&frame, 0).unwrap(), 3);
-        let e = required(&frame, 1).unwrap_err().to_string();
-        assert!(e.contains("column frame has no value in row 1"), "{e}");
-        let face = StringChunked::new("face".into(), &["+x", "up"]);
-        assert_eq!(parsed(&face, 0, FaceSide::parse).unwrap(), FaceSide::PosX);
-        let e = parsed(&face, 1, FaceSide::parse).unwrap_err().to_string();
-        assert!(e.contains("column face holds \"up\" in row 1"), "{e}");
-    }
 
     #[test]
     fn formulas_are_made_inert_and_ids_and_numbers_kept() {

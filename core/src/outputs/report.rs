@@ -6,13 +6,12 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::localise::{DefectRecord, ViewFault};
+use super::localise::DefectRow;
 use crate::error::Error;
 use crate::run_dir::RunDir;
-use crate::structure::Place;
+use crate::table::Row;
 
 /// Files of the report stage.
 pub mod files {
@@ -81,94 +80,18 @@ pub struct Versions {
     pub onnxruntime: Option<String>,
 }
 
-/// One row of `candidates.csv`: a defect candidate as the report lists it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CandidateRow<'a> {
-    /// Place in the review order, from 1.
-    pub rank: u32,
-    pub defect: &'a DefectRecord,
-    /// Where it is on the structure; `None` before coverage has found the
-    /// structure's elements, or off them.
-    pub place: Option<Place>,
-    pub review_priority: f64,
+crate::table! {
+    /// One row of `candidates.csv`: a defect candidate as the report lists
+    /// it, in review order.
+    pub struct CandidateRow {
+        /// Place in the review order, from 1.
+        rank: u32,
+        review_priority: f64,
+        defect: DefectRow,
+    }
 }
 
 /// Write `candidates.csv`.
 pub fn write_candidates(run: &RunDir, rows: &[CandidateRow]) -> Result<(), Error> {
-    run.write_csv(files::CANDIDATES, candidates_table(rows))
-}
-
-fn candidates_table(r: &[CandidateRow]) -> PolarsResult<DataFrame> {
-    let f = |name: &str, value: &dyn Fn(&DefectRecord) -> f64| {
-        Column::new(
-            name.into(),
-            r.iter().map(|r| value(r.defect)).collect::<Vec<f64>>(),
-        )
-    };
-    let u = |name: &str, value: &dyn Fn(&DefectRecord) -> u32| {
-        Column::new(
-            name.into(),
-            r.iter().map(|r| value(r.defect)).collect::<Vec<u32>>(),
-        )
-    };
-    let columns = vec![
-        Column::new("rank".into(), r.iter().map(|r| r.rank).collect::<Vec<_>>()),
-        Column::new(
-            "id".into(),
-            r.iter().map(|r| r.defect.id.as_str()).collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "place".into(),
-            r.iter()
-                .map(|r| r.place.as_ref().map(Place::to_string))
-                .collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "element".into(),
-            r.iter()
-                .map(|r| r.place.as_ref().map(|p| p.element.as_str()))
-                .collect::<Vec<_>>(),
-        ),
-        f("x", &|d| d.position[0]),
-        f("y", &|d| d.position[1]),
-        f("z", &|d| d.position[2]),
-        f("confidence", &|d| d.confidence),
-        Column::new(
-            "review_priority".into(),
-            r.iter().map(|r| r.review_priority).collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "length_m".into(),
-            r.iter().map(|r| r.defect.length_m).collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "length_status".into(),
-            r.iter()
-                .map(|r| r.defect.evidence.length.as_str())
-                .collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "reshoot".into(),
-            r.iter()
-                .map(|r| r.defect.evidence.reshoot)
-                .collect::<Vec<_>>(),
-        ),
-        Column::new(
-            "view_faults".into(),
-            r.iter()
-                .map(|r| ViewFault::list(&r.defect.evidence.view_faults))
-                .collect::<Vec<_>>(),
-        ),
-        u("frames", &|d| d.frames),
-        u("best_frame", &|d| d.best.frame),
-        f("best_range_m", &|d| d.best.range_m),
-        f("best_gsd_mm", &|d| d.best.oblique_gsd_mm),
-        Column::new(
-            "crop".into(),
-            r.iter()
-                .map(|r| r.defect.crop.as_deref())
-                .collect::<Vec<_>>(),
-        ),
-    ];
-    DataFrame::new(r.len(), columns)
+    run.write_csv(files::CANDIDATES, CandidateRow::frame(rows))
 }
