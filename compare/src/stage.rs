@@ -71,12 +71,7 @@ pub fn compare(options: &CompareOptions) -> Result<ChangesSummary, CompareError>
     );
     let counts = ChangeKind::ALL
         .iter()
-        .map(|k| {
-            (
-                k.as_str().to_string(),
-                changes.iter().filter(|c| c.change == *k).count(),
-            )
-        })
+        .map(|&k| (k, changes.iter().filter(|c| c.change == k).count()))
         .collect();
     let summary = ChangesSummary {
         before: absolute(&options.before),

@@ -17,7 +17,7 @@ pub struct MessageLocation {
 }
 
 /// Whether and why a frame has a camera pose.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum PoseStatus {
     /// Interpolated from the trajectory and the camera extrinsic.
     Ok,
@@ -54,6 +54,8 @@ impl PoseStatus {
         Self::ALL.into_iter().find(|v| v.as_str() == s)
     }
 }
+
+crate::table::serde_by_name!(PoseStatus, "pose status");
 
 impl crate::table::Named for PoseStatus {
     const ALL: &'static [Self] = &Self::ALL;

@@ -3,12 +3,11 @@
 //! `postflight_core::outputs::coverage`).
 
 use postflight_core::map::{VoxelGrid, VoxelIndex};
-use postflight_core::outputs::coverage::{BestView, VoxelRecord};
+use postflight_core::outputs::coverage::{BestView, NotInspected, VoxelRecord};
 use postflight_core::structure::Place;
 
 use crate::cover::FaceCover;
 use crate::face::Face;
-use crate::view::Miss;
 
 /// Per-voxel records from per-face results (faces are grouped by voxel, in
 /// target order), with each target's place on the structure.
@@ -59,17 +58,12 @@ pub fn voxel_records(
             best,
             element: place.element.clone(),
             place: place.to_string(),
-            reason: if inspected {
-                None
-            } else {
-                Some(
-                    got.iter()
-                        .filter_map(|c| c.miss)
-                        .max()
-                        .map_or("no_exposed_face", Miss::as_str)
-                        .to_string(),
-                )
-            },
+            reason: (!inspected).then(|| {
+                got.iter()
+                    .filter_map(|c| c.miss)
+                    .max()
+                    .map_or(NotInspected::NoExposedFace, NotInspected::Missed)
+            }),
         });
     }
     records

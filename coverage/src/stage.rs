@@ -430,8 +430,8 @@ impl Counts {
     fn of(records: &[VoxelRecord], flown: &[FaceCover], has_plan: bool) -> Self {
         let mut reasons = ReasonCounts::new();
         for r in records {
-            if let Some(m) = &r.reason {
-                *reasons.entry(m.clone()).or_default() += 1;
+            if let Some(m) = r.reason {
+                *reasons.entry(m).or_default() += 1;
             }
         }
         Self {

@@ -289,36 +289,7 @@ impl Runtime {
     }
 }
 
-/// Where inference runs (`--device`).
-#[derive(
-    Debug,
-    Clone,
-    Copy,
-    PartialEq,
-    Eq,
-    Default,
-    serde::Serialize,
-    serde::Deserialize,
-    clap::ValueEnum,
-)]
-#[serde(rename_all = "lowercase")]
-pub enum Device {
-    #[default]
-    Cpu,
-    Cuda,
-    #[value(name = "tensorrt")]
-    TensorRt,
-}
-
-impl Device {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Device::Cpu => "cpu",
-            Device::Cuda => "cuda",
-            Device::TensorRt => "tensorrt",
-        }
-    }
-}
+pub use postflight_core::detection::Device;
 
 /// An opened model and the device it actually runs on.
 pub struct Session {

@@ -268,7 +268,7 @@ pub fn detect(
         seconds,
         frames_per_s: ran as f64 / seconds.max(1e-9),
         inference_share: detector.run_seconds / seconds.max(1e-9),
-        device: device.as_str().into(),
+        device,
         batch: detector.batch,
         warnings,
     };

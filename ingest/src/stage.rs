@@ -13,7 +13,8 @@ use postflight_core::outputs::ingest::{
 };
 use postflight_core::time::rfc3339;
 use postflight_core::{
-    Camera, Frame, ImageStatus, InvalidSetting, Key, MessageLocation, PoseAt, RunDir, Trajectory,
+    Camera, Frame, ImageStatus, InvalidSetting, Key, MessageLocation, PoseAt, PoseStatus, RunDir,
+    Trajectory,
 };
 
 use crate::cameras::cameras;
@@ -204,25 +205,23 @@ fn geo_origin(
 }
 
 /// Frames per `pose_status`.
-fn frames_by_pose_status(frames: &[Frame]) -> BTreeMap<String, u64> {
-    let mut by_status: BTreeMap<String, u64> = BTreeMap::new();
+fn frames_by_pose_status(frames: &[Frame]) -> BTreeMap<PoseStatus, u64> {
+    let mut by_status = BTreeMap::new();
     for f in frames {
-        *by_status
-            .entry(f.pose_status.as_str().to_string())
-            .or_default() += 1;
+        *by_status.entry(f.pose_status).or_default() += 1;
     }
     by_status
 }
 
 /// What the summary says of frames without a pose or a readable image.
-fn frame_warnings(frames: &[Frame], by_status: &BTreeMap<String, u64>) -> Vec<String> {
+fn frame_warnings(frames: &[Frame], by_status: &BTreeMap<PoseStatus, u64>) -> Vec<String> {
     let mut warnings = Vec::new();
-    let without_pose = frames.len() as u64 - by_status.get("ok").copied().unwrap_or(0);
+    let without_pose = frames.len() as u64 - by_status.get(&PoseStatus::Ok).copied().unwrap_or(0);
     if without_pose > 0 {
         let detail: Vec<String> = by_status
             .iter()
-            .filter(|(k, _)| *k != "ok")
-            .map(|(k, v)| format!("{v} {k}"))
+            .filter(|(k, _)| **k != PoseStatus::Ok)
+            .map(|(k, v)| format!("{v} {}", k.as_str()))
             .collect();
         warnings.push(format!(
             "{without_pose} of {} frames have no camera pose ({}); they are kept and flagged in frames.parquet",

@@ -14,6 +14,7 @@ use postflight_core::outputs::coverage::CoverageSummary;
 use postflight_core::outputs::localise::DefectRecord;
 use postflight_core::outputs::replan::{GapChoice, ReplanSummary, Unplannable};
 use postflight_core::outputs::report::{DEFAULT_REVIEW_ADDR, RunSummary};
+use postflight_core::table::Named;
 
 use page::{STYLE, document, evidence_text, length_text, place_text, readable_time};
 
@@ -236,7 +237,7 @@ fn miss_reasons(c: &CoverageSummary) -> Markup {
     let mut bars: Vec<(String, f64)> = c
         .reasons
         .iter()
-        .map(|(k, n)| (k.replace('_', " "), *n as f64))
+        .map(|(k, n)| (k.name().replace('_', " "), *n as f64))
         .collect();
     bars.sort_by(|a, b| b.1.total_cmp(&a.1));
     html! {

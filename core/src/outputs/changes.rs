@@ -28,7 +28,7 @@ pub struct ChangesSummary {
     pub after: PathBuf,
     pub registration: RegistrationRecord,
     /// Changes by kind (`new`, `grown`, ...).
-    pub counts: BTreeMap<String, usize>,
+    pub counts: BTreeMap<ChangeKind, usize>,
     pub changes: Vec<ChangeRecord>,
     pub seconds: f64,
 }
@@ -42,7 +42,7 @@ impl ChangesSummary {
 
     /// How many changes are of `kind`.
     pub fn count(&self, kind: ChangeKind) -> usize {
-        self.counts.get(kind.as_str()).copied().unwrap_or(0)
+        self.counts.get(&kind).copied().unwrap_or(0)
     }
 }
 
@@ -188,5 +188,20 @@ impl ChangeRow {
             spread_m: c.spread_m,
             earlier_inspected: c.earlier_inspected,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_are_keyed_by_the_kinds_names() {
+        let counts: BTreeMap<ChangeKind, usize> =
+            [(ChangeKind::Grown, 2), (ChangeKind::NotSeenAgain, 1)].into();
+        let json = serde_json::to_string(&counts).unwrap();
+        assert_eq!(json, r#"{"grown":2,"not_seen_again":1}"#);
+        let back: BTreeMap<ChangeKind, usize> = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, counts);
     }
 }

@@ -12,7 +12,8 @@ use crate::error::Error;
 use crate::map::{VoxelGrid, VoxelIndex};
 use crate::run_dir::RunDir;
 use crate::structure::{ElementMap, Structure};
-use crate::view::ViewModel;
+use crate::table::Named;
+use crate::view::{Miss, ViewModel};
 
 /// Files of the coverage stage.
 pub mod files {
@@ -24,7 +25,43 @@ pub mod files {
 }
 
 /// Voxel counts by reason for not being inspected.
-pub type ReasonCounts = BTreeMap<String, usize>;
+pub type ReasonCounts = BTreeMap<NotInspected, usize>;
+
+/// Why a target voxel was not inspected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum NotInspected {
+    /// The furthest rule of the View model any camera got to on its faces.
+    Missed(Miss),
+    /// None of its faces is exposed (occupied voxels on every side).
+    NoExposedFace,
+}
+
+impl NotInspected {
+    const ALL: [Self; 10] = [
+        Self::Missed(Miss::TooFar),
+        Self::Missed(Miss::TooClose),
+        Self::Missed(Miss::OutOfCone),
+        Self::Missed(Miss::OutsideImage),
+        Self::Missed(Miss::BackFacing),
+        Self::Missed(Miss::TooCoarse),
+        Self::Missed(Miss::Occluded),
+        Self::Missed(Miss::Blurred),
+        Self::Missed(Miss::TooFewViews),
+        Self::NoExposedFace,
+    ];
+}
+
+impl Named for NotInspected {
+    const ALL: &'static [Self] = &Self::ALL;
+    fn name(self) -> &'static str {
+        match self {
+            Self::Missed(miss) => miss.as_str(),
+            Self::NoExposedFace => "no_exposed_face",
+        }
+    }
+}
+
+crate::table::serde_by_name!(NotInspected, "reason");
 
 /// `coverage.json`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -92,9 +129,8 @@ pub struct VoxelRecord {
     pub element: String,
     /// Where it is: `pier 2, east face, 1.4 m above its base`.
     pub place: String,
-    /// Why not inspected: the furthest rule of the View model a camera got
-    /// to (`too_far`, `occluded`, ...), or `no_exposed_face`.
-    pub reason: Option<String>,
+    /// Why not inspected; `None` when inspected.
+    pub reason: Option<NotInspected>,
 }
 
 /// The finest view of a voxel (by GSD).
@@ -194,7 +230,7 @@ crate::table! {
         /// The View model's GSD of its finest view.
         best_gsd_mm: Option<f64>,
         best_frame: Option<u32>,
-        reason: Option<String>,
+        reason: Option<NotInspected>,
     }
 }
 
@@ -232,7 +268,7 @@ impl VoxelRow {
             best_incidence_deg: best.map(|b| b.incidence_deg),
             best_gsd_mm: best.map(|b| b.gsd_mm),
             best_frame: best.map(|b| b.shot),
-            reason: r.reason.clone(),
+            reason: r.reason,
         }
     }
 

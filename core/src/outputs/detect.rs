@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use crate::detection::{BoxXyxy, Detection, FrameDetection};
+use crate::detection::{BoxXyxy, Detection, Device, FrameDetection};
 use crate::error::Error;
 use crate::run_dir::RunDir;
 
@@ -38,7 +38,7 @@ pub struct DetectSummary {
     #[serde(default)]
     pub onnxruntime_version: String,
     /// Device inference ran on (`cpu` when a GPU was asked for but unavailable).
-    pub device: String,
+    pub device: Device,
     /// Views per inference call.
     pub batch: usize,
     /// `baked` or `embeddings`.

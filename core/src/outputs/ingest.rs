@@ -81,7 +81,7 @@ pub struct IngestSummary {
     pub frames: u64,
     pub frames_with_pose: u64,
     /// Frames per `pose_status`.
-    pub frames_by_pose_status: BTreeMap<String, u64>,
+    pub frames_by_pose_status: BTreeMap<PoseStatus, u64>,
     pub image_topics: Vec<String>,
     pub poses: u64,
     pub pose_source: PoseSource,
