@@ -194,7 +194,12 @@ fn post_json(agent: &ureq::Agent, url: &str, body: &Value) -> (u16, String) {
 fn candidate_ids(server: &Server) -> Vec<String> {
     let (status, body) = get(&agent(), &format!("{}/api/candidates", server.base));
     assert_eq!(status, 200, "{body}");
-    let v: Value = serde_json::from_str(&body).unwrap();
+    queue_ids(&body)
+}
+
+/// The candidate ids of a `/api/candidates` answer, in queue order.
+fn queue_ids(body: &str) -> Vec<String> {
+    let v: Value = serde_json::from_str(body).unwrap();
     v["candidates"]
         .as_array()
         .unwrap()
@@ -1185,13 +1190,7 @@ fn candidate_ids_with(server: &Server, token: &str) -> Vec<String> {
         .header("authorization", format!("Bearer {token}"))
         .call()
         .unwrap();
-    let v: Value = serde_json::from_str(&r.body_mut().read_to_string().unwrap()).unwrap();
-    v["candidates"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|c| c["id"].as_str().unwrap().to_string())
-        .collect()
+    queue_ids(&r.body_mut().read_to_string().unwrap())
 }
 
 #[test]

@@ -63,8 +63,9 @@ pub struct DetectSummary {
 }
 
 crate::table! {
-    /// One row of `detections.parquet`: a detection, in its frame's pixels.
-    pub struct DetectionRow {
+    /// A detection's columns in every table of detections: its frame, its
+    /// box (frame pixels) and its score.
+    pub struct DetectionCells {
         frame: u32,
         time_ns: i64,
         x0: f32,
@@ -72,6 +73,36 @@ crate::table! {
         x1: f32,
         y1: f32,
         score: f32,
+    }
+}
+
+impl DetectionCells {
+    pub fn of(frame: u32, time_ns: i64, bbox: BoxXyxy, score: f32) -> Self {
+        Self {
+            frame,
+            time_ns,
+            x0: bbox.x0,
+            y0: bbox.y0,
+            x1: bbox.x1,
+            y1: bbox.y1,
+            score,
+        }
+    }
+
+    pub fn bbox(&self) -> BoxXyxy {
+        BoxXyxy {
+            x0: self.x0,
+            y0: self.y0,
+            x1: self.x1,
+            y1: self.y1,
+        }
+    }
+}
+
+crate::table! {
+    /// One row of `detections.parquet`: a detection, in its frame's pixels.
+    pub struct DetectionRow {
+        detection: DetectionCells,
         /// The class id, and its name (`prompt`).
         class: u32,
         /// The tile it was found in; -1 for the whole frame.
@@ -83,15 +114,9 @@ crate::table! {
 impl DetectionRow {
     /// A detection as its row; `classes` names the class ids.
     pub fn of(d: &FrameDetection, classes: &[String]) -> Self {
-        let (b, class) = (d.detection.bbox, d.detection.class);
+        let class = d.detection.class;
         Self {
-            frame: d.frame,
-            time_ns: d.time_ns,
-            x0: b.x0,
-            y0: b.y0,
-            x1: b.x1,
-            y1: b.y1,
-            score: d.detection.score,
+            detection: DetectionCells::of(d.frame, d.time_ns, d.detection.bbox, d.detection.score),
             class,
             tile: d.detection.tile,
             prompt: classes
@@ -103,17 +128,13 @@ impl DetectionRow {
 
     /// The detection the row holds.
     pub fn detection(&self) -> FrameDetection {
+        let cells = &self.detection;
         FrameDetection {
-            frame: self.frame,
-            time_ns: self.time_ns,
+            frame: cells.frame,
+            time_ns: cells.time_ns,
             detection: Detection {
-                bbox: BoxXyxy {
-                    x0: self.x0,
-                    y0: self.y0,
-                    x1: self.x1,
-                    y1: self.y1,
-                },
-                score: self.score,
+                bbox: cells.bbox(),
+                score: cells.score,
                 class: self.class,
                 tile: self.tile,
             },

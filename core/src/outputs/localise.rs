@@ -15,6 +15,7 @@ use std::path::PathBuf;
 use polars::prelude::{PolarsResult, polars_err};
 use serde::{Deserialize, Serialize};
 
+use super::detect::DetectionCells;
 use crate::detection::BoxXyxy;
 use crate::error::Error;
 use crate::map::{FaceSide, VoxelIndex};
@@ -416,14 +417,7 @@ crate::table! {
     /// One row of `observations.parquet`: a detection, placed or not, with
     /// the reason. The placement's columns are null for one not placed.
     pub struct ObservationRow {
-        frame: u32,
-        time_ns: i64,
-        /// The detection's box, frame pixels.
-        x0: f32,
-        y0: f32,
-        x1: f32,
-        y1: f32,
-        score: f32,
+        detection: DetectionCells,
         outcome: Outcome,
         /// The crack's centroid on the surface, world frame, metres.
         x: Option<f64>,
@@ -453,17 +447,10 @@ crate::table! {
 impl ObservationRow {
     fn of(o: &ObservationRecord) -> Self {
         let p = o.placed.as_ref();
-        let b = o.bbox;
         let axis = |v: &dyn Fn(&PlacedRecord) -> [f64; 3], a: usize| p.map(|p| v(p)[a]);
         let voxel = |a: usize| p.map(|p| p.voxel.0[a]);
         Self {
-            frame: o.frame,
-            time_ns: o.time_ns,
-            x0: b.x0,
-            y0: b.y0,
-            x1: b.x1,
-            y1: b.y1,
-            score: o.score,
+            detection: DetectionCells::of(o.frame, o.time_ns, o.bbox, o.score),
             outcome: o.outcome,
             x: axis(&|p| p.centre, 0),
             y: axis(&|p| p.centre, 1),
@@ -489,7 +476,7 @@ impl ObservationRow {
     fn record(self) -> PolarsResult<ObservationRecord> {
         let placed = match (self.x, self.y, self.z, self.face) {
             (Some(x), Some(y), Some(z), Some(face)) => {
-                let frame = self.frame;
+                let frame = self.detection.frame;
                 let need = |v: Option<f64>, what: &str| {
                     v.ok_or_else(|| {
                         polars_err!(ComputeError: "a detection of frame {frame} is placed but has no {what}")
@@ -522,16 +509,12 @@ impl ObservationRow {
             }
             _ => None,
         };
+        let d = self.detection;
         Ok(ObservationRecord {
-            frame: self.frame,
-            time_ns: self.time_ns,
-            bbox: BoxXyxy {
-                x0: self.x0,
-                y0: self.y0,
-                x1: self.x1,
-                y1: self.y1,
-            },
-            score: self.score,
+            frame: d.frame,
+            time_ns: d.time_ns,
+            bbox: d.bbox(),
+            score: d.score,
             outcome: self.outcome,
             placed,
             traced_px: self.traced_px,
