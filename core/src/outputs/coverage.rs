@@ -37,18 +37,16 @@ pub enum NotInspected {
 }
 
 impl NotInspected {
-    const ALL: [Self; 10] = [
-        Self::Missed(Miss::TooFar),
-        Self::Missed(Miss::TooClose),
-        Self::Missed(Miss::OutOfCone),
-        Self::Missed(Miss::OutsideImage),
-        Self::Missed(Miss::BackFacing),
-        Self::Missed(Miss::TooCoarse),
-        Self::Missed(Miss::Occluded),
-        Self::Missed(Miss::Blurred),
-        Self::Missed(Miss::TooFewViews),
-        Self::NoExposedFace,
-    ];
+    /// Every View model miss, then no exposed face.
+    const ALL: [Self; Miss::ALL.len() + 1] = {
+        let mut all = [Self::NoExposedFace; Miss::ALL.len() + 1];
+        let mut i = 0;
+        while i < Miss::ALL.len() {
+            all[i] = Self::Missed(Miss::ALL[i]);
+            i += 1;
+        }
+        all
+    };
 }
 
 impl Named for NotInspected {
@@ -302,5 +300,22 @@ impl VoxelRow {
             place: self.place,
             reason: self.reason,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_reason_has_its_own_name_and_reads_back() {
+        let json = serde_json::to_string(&NotInspected::ALL).unwrap();
+        assert!(json.starts_with(r#"["too_far","too_close","#), "{json}");
+        assert!(
+            json.ends_with(r#""too_few_views","no_exposed_face"]"#),
+            "{json}"
+        );
+        let back: Vec<NotInspected> = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, NotInspected::ALL);
     }
 }
