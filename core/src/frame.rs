@@ -32,14 +32,6 @@ pub enum PoseStatus {
 }
 
 impl PoseStatus {
-    pub const ALL: [Self; 5] = [
-        Self::Ok,
-        Self::BeforeTrajectory,
-        Self::AfterTrajectory,
-        Self::PoseGap,
-        Self::NoExtrinsic,
-    ];
-
     pub fn as_str(self) -> &'static str {
         match self {
             Self::Ok => "ok",
@@ -49,16 +41,18 @@ impl PoseStatus {
             Self::NoExtrinsic => "no_extrinsic",
         }
     }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|v| v.as_str() == s)
-    }
 }
 
 crate::table::serde_by_name!(PoseStatus, "pose status");
 
 impl crate::table::Named for PoseStatus {
-    const ALL: &'static [Self] = &Self::ALL;
+    const ALL: &'static [Self] = &[
+        Self::Ok,
+        Self::BeforeTrajectory,
+        Self::AfterTrajectory,
+        Self::PoseGap,
+        Self::NoExtrinsic,
+    ];
     fn name(self) -> &'static str {
         self.as_str()
     }
@@ -75,8 +69,6 @@ pub enum ImageStatus {
 }
 
 impl ImageStatus {
-    pub const ALL: [Self; 3] = [Self::Ok, Self::Unreadable, Self::UnsupportedEncoding];
-
     pub fn as_str(self) -> &'static str {
         match self {
             Self::Ok => "ok",
@@ -84,14 +76,10 @@ impl ImageStatus {
             Self::UnsupportedEncoding => "unsupported_encoding",
         }
     }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|v| v.as_str() == s)
-    }
 }
 
 impl crate::table::Named for ImageStatus {
-    const ALL: &'static [Self] = &Self::ALL;
+    const ALL: &'static [Self] = &[Self::Ok, Self::Unreadable, Self::UnsupportedEncoding];
     fn name(self) -> &'static str {
         self.as_str()
     }

@@ -47,14 +47,6 @@ pub enum Outcome {
 }
 
 impl Outcome {
-    pub const ALL: [Self; 5] = [
-        Self::Placed,
-        Self::NoPose,
-        Self::NoIntrinsics,
-        Self::NoSurface,
-        Self::Obstacle,
-    ];
-
     pub fn as_str(self) -> &'static str {
         match self {
             Outcome::Placed => "placed",
@@ -64,14 +56,16 @@ impl Outcome {
             Outcome::Obstacle => "obstacle",
         }
     }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|o| o.as_str() == s)
-    }
 }
 
 impl crate::table::Named for Outcome {
-    const ALL: &'static [Self] = &Self::ALL;
+    const ALL: &'static [Self] = &[
+        Self::Placed,
+        Self::NoPose,
+        Self::NoIntrinsics,
+        Self::NoSurface,
+        Self::Obstacle,
+    ];
     fn name(self) -> &'static str {
         self.as_str()
     }
@@ -184,14 +178,6 @@ pub enum ViewFault {
 }
 
 impl ViewFault {
-    pub const ALL: [Self; 5] = [
-        Self::TooFar,
-        Self::TooClose,
-        Self::TooOblique,
-        Self::TooCoarse,
-        Self::Blurred,
-    ];
-
     pub fn as_str(self) -> &'static str {
         match self {
             Self::TooFar => "too_far",
@@ -201,14 +187,16 @@ impl ViewFault {
             Self::Blurred => "blurred",
         }
     }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|f| f.as_str() == s)
-    }
 }
 
 impl crate::table::Named for ViewFault {
-    const ALL: &'static [Self] = &Self::ALL;
+    const ALL: &'static [Self] = &[
+        Self::TooFar,
+        Self::TooClose,
+        Self::TooOblique,
+        Self::TooCoarse,
+        Self::Blurred,
+    ];
     fn name(self) -> &'static str {
         self.as_str()
     }
@@ -231,14 +219,6 @@ pub enum LengthStatus {
 }
 
 impl LengthStatus {
-    pub const ALL: [Self; 5] = [
-        Self::Measured,
-        Self::Partial,
-        Self::TooOblique,
-        Self::NotTraced,
-        Self::FarAndCut,
-    ];
-
     pub fn as_str(self) -> &'static str {
         match self {
             Self::Measured => "measured",
@@ -247,10 +227,6 @@ impl LengthStatus {
             Self::NotTraced => "not_traced",
             Self::FarAndCut => "far_and_cut",
         }
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|l| l.as_str() == s)
     }
 
     /// Why there is no length, for people; `None` when there is one.
@@ -265,7 +241,13 @@ impl LengthStatus {
 }
 
 impl crate::table::Named for LengthStatus {
-    const ALL: &'static [Self] = &Self::ALL;
+    const ALL: &'static [Self] = &[
+        Self::Measured,
+        Self::Partial,
+        Self::TooOblique,
+        Self::NotTraced,
+        Self::FarAndCut,
+    ];
     fn name(self) -> &'static str {
         self.as_str()
     }
