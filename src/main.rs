@@ -324,6 +324,24 @@ struct SimulateArgs {
     /// Record an ideal lens instead of plumb_bob distortion.
     #[arg(long)]
     no_distortion: bool,
+    /// The lens's focal length, pixels (default: 1.5 times --width, a 37
+    /// degree view across).
+    #[arg(long, value_name = "PIXELS")]
+    focal: Option<f64>,
+    /// How far in front of the structure the plan flies, metres.
+    #[arg(long, default_value_t = sim::planner::STANDOFF, value_name = "METRES")]
+    standoff: f64,
+    /// Cracks open and close along their length between these widths
+    /// (widest mid-way, hairline at the tips), drawn by the share of each
+    /// pixel they cover, so width can be measured; truth.json gives the
+    /// width along each crack and its condition state. Without it every
+    /// crack has one width, 1 to 5 mm.
+    #[arg(long, value_name = "MIN_MM,MAX_MM", value_parser = sim::crack::WidthRange::parse, conflicts_with = "repeat_of")]
+    crack_widths: Option<sim::crack::WidthRange>,
+    /// Draw what a real surface shows besides cracks: formwork joints,
+    /// stains, rust streaks and shadow edges (listed in truth.json).
+    #[arg(long)]
+    distractors: bool,
     /// Compression of the camera frames.
     #[arg(long, value_enum, default_value_t = ImageFormatArg::Jpeg)]
     image_format: ImageFormatArg,
@@ -347,6 +365,15 @@ struct SimulateArgs {
         requires = "repeat_of"
     )]
     grow: f64,
+    /// With --repeat-of: the share of cracks that open wider (each 1.4 to
+    /// 2.2 times; the earlier flight needs --crack-widths).
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        value_name = "SHARE",
+        requires = "repeat_of"
+    )]
+    widen: f64,
     /// With --repeat-of: new cracks.
     #[arg(long, default_value_t = 5, value_name = "N", requires = "repeat_of")]
     new: usize,
@@ -488,6 +515,10 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
         height: args.height,
         cracks: args.cracks,
         distortion: !args.no_distortion,
+        focal_px: args.focal,
+        standoff_m: args.standoff,
+        crack_widths: args.crack_widths,
+        distractors: args.distractors,
         pose_noise: sim::truth::PoseNoise {
             position_m: args.pose_noise,
             yaw_rad: args.yaw_noise.to_radians(),
@@ -499,6 +530,7 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
         repeat: args.repeat_of.as_ref().map(|of| sim::repeat::Repeat {
             of: of.clone(),
             grow: args.grow,
+            widen: args.widen,
             new: args.new,
             frame_offset: args.frame_offset,
         }),

@@ -9,6 +9,7 @@
 //!   [`FaceSide`] for a voxel's sides.
 //! - The plan that was flown and the View model it was made for ([`plan`]),
 //!   and a frame's motion blur, which the View model judges ([`motion`]).
+//! - Condition states from crack width, and their limits ([`condition`]).
 //! - Detections: boxes with their scores ([`detection`]).
 //! - The run directory ([`RunDir`]: atomic writes), the run log of
 //!   `postflight run` ([`RunLog`]), and the file contract ([`outputs`]):
@@ -23,6 +24,7 @@
 //! those belong to the stages that need them.
 
 pub mod camera;
+pub mod condition;
 pub mod detection;
 pub mod error;
 pub mod flight;

@@ -1,5 +1,7 @@
 //! Cracks: thin, dark, branching polylines drawn on the structure's surfaces
-//! at seeded random places, millimetres wide.
+//! at seeded random places, millimetres wide: of one even width (the default
+//! flights), or opening and closing along their length (flights made to
+//! measure width).
 
 use nalgebra::{Point3, Vector3};
 
@@ -12,17 +14,122 @@ pub struct Crack {
     pub id: u32,
     /// The main line, then its branches; each a polyline on the surface.
     pub lines: Vec<Vec<Point3<f64>>>,
-    /// Width of the opening, metres.
+    /// Width of the opening, metres: its widest.
     pub width: f64,
+    /// How the opening varies along the crack.
+    pub opening: Opening,
     /// Outward unit normal of the face it lies on.
     pub normal: Vector3<f64>,
     /// A triangle of the face it starts on.
     pub triangle: u32,
     center: Point3<f64>,
     radius: f64,
+    /// Arc length at each point of each line, metres.
+    arc: Vec<Vec<f64>>,
+    /// Width where each branch leaves the main line, metres (the main line's own: `width`).
+    roots: Vec<f64>,
+}
+
+/// The widths cracks open to, millimetres.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct WidthRange {
+    pub min_mm: f64,
+    pub max_mm: f64,
+}
+
+impl WidthRange {
+    /// `MIN,MAX` millimetres.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match postflight_core::setting::comma_numbers(s).as_deref() {
+            Some(&[min_mm, max_mm]) if 0.0 < min_mm && min_mm <= max_mm && max_mm < 100.0 => {
+                Ok(Self { min_mm, max_mm })
+            }
+            _ => Err(format!(
+                "expected two widths MIN,MAX in millimetres, 0 < MIN <= MAX < 100, not '{s}'"
+            )),
+        }
+    }
+}
+
+/// How a crack's opening varies along it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Opening {
+    /// One width everywhere, drawn where a pixel centre falls on the crack
+    /// (as the default flights always have been).
+    Even,
+    /// Widest mid-way along the main line, closing to `tip` metres at its
+    /// ends; a branch leaves at the main line's width there and closes to
+    /// `tip`. Drawn by the share of each pixel's footprint it covers, so its
+    /// width can be measured below a pixel.
+    Tapered { tip: f64 },
+}
+
+/// The nearest point of a crack's centre line to a query point.
+#[derive(Debug, Clone, Copy)]
+pub struct Nearest {
+    pub distance: f64,
+    /// The crack's width there, metres.
+    pub width: f64,
+    /// Unit direction of the centre line there.
+    pub along: Vector3<f64>,
 }
 
 impl Crack {
+    /// The crack's width at arc length `s` along line `line`, metres.
+    pub fn width_at(&self, line: usize, s: f64) -> f64 {
+        match self.opening {
+            Opening::Even => self.width,
+            Opening::Tapered { tip } => {
+                let length = self.arc[line].last().copied().unwrap_or(0.0).max(1e-9);
+                let t = (s / length).clamp(0.0, 1.0);
+                let (root, shape) = if line == 0 {
+                    (self.width, (std::f64::consts::PI * t).sin())
+                } else {
+                    (
+                        self.roots[line - 1],
+                        (std::f64::consts::FRAC_PI_2 * t).cos(),
+                    )
+                };
+                tip + (root - tip).max(0.0) * shape.max(0.0).sqrt()
+            }
+        }
+    }
+
+    /// The width at every point of every line, metres.
+    pub fn widths(&self) -> Vec<Vec<f64>> {
+        self.arc
+            .iter()
+            .enumerate()
+            .map(|(l, arc)| arc.iter().map(|s| self.width_at(l, *s)).collect())
+            .collect()
+    }
+
+    /// The nearest point of the centre line to `p`.
+    pub fn nearest(&self, p: &Point3<f64>) -> Nearest {
+        let mut best = Nearest {
+            distance: f64::INFINITY,
+            width: self.width,
+            along: Vector3::x(),
+        };
+        for (l, line) in self.lines.iter().enumerate() {
+            for (k, w) in line.windows(2).enumerate() {
+                let ab = w[1] - w[0];
+                let len2 = ab.norm_squared().max(1e-18);
+                let s = ((p - w[0]).dot(&ab) / len2).clamp(0.0, 1.0);
+                let d = (p - (w[0] + ab * s)).norm();
+                if d < best.distance {
+                    let arc = self.arc[l][k] + s * len2.sqrt();
+                    best = Nearest {
+                        distance: d,
+                        width: self.width_at(l, arc),
+                        along: ab / len2.sqrt(),
+                    };
+                }
+            }
+        }
+        best
+    }
+
     pub fn segments(&self) -> impl Iterator<Item = (Point3<f64>, Point3<f64>)> + '_ {
         self.lines
             .iter()
@@ -34,29 +141,26 @@ impl Crack {
         self.segments().map(|(a, b)| (b - a).norm()).sum()
     }
 
-    /// Points along the crack about `step` metres apart.
-    pub fn samples(&self, step: f64) -> Vec<Point3<f64>> {
+    /// Points along the crack about `step` metres apart, with its width
+    /// at each.
+    pub fn samples(&self, step: f64) -> Vec<(Point3<f64>, f64)> {
         let mut out = Vec::new();
-        for (a, b) in self.segments() {
-            let n = ((b - a).norm() / step).ceil().max(1.0) as usize;
-            out.extend((0..n).map(|k| a + (b - a) * (k as f64 / n as f64)));
+        for (l, line) in self.lines.iter().enumerate() {
+            for (i, w) in line.windows(2).enumerate() {
+                let (a, b) = (w[0], w[1]);
+                let len = (b - a).norm();
+                let n = (len / step).ceil().max(1.0) as usize;
+                out.extend((0..n).map(|k| {
+                    let t = k as f64 / n as f64;
+                    (a + (b - a) * t, self.width_at(l, self.arc[l][i] + t * len))
+                }));
+            }
         }
         out
     }
 
     pub fn centroid(&self) -> Point3<f64> {
         self.center
-    }
-
-    /// Distance from `p` to the crack's centre line.
-    fn distance(&self, p: &Point3<f64>) -> f64 {
-        self.segments()
-            .map(|(a, b)| {
-                let ab = b - a;
-                let s = ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
-                (p - (a + ab * s)).norm()
-            })
-            .fold(f64::INFINITY, f64::min)
     }
 }
 
@@ -106,9 +210,20 @@ impl Cracks {
         cracks.len() - before
     }
 
-    /// How much of a pixel footprint `footprint` metres wide, centred at the
-    /// surface point `p`, is covered by a crack (0 to 1).
-    pub fn coverage(&self, p: &Point3<f64>, footprint: f64) -> f64 {
+    /// Open every crack along its length within `range`: widest mid-way
+    /// (log-uniform between the range's ends), closing to its narrowest at
+    /// the tips. The lines stay as they were drawn.
+    pub fn taper(&mut self, range: WidthRange, rng: &mut Rng) {
+        for c in &mut self.0 {
+            c.taper(range, rng);
+        }
+    }
+
+    /// How much of a pixel centred at the surface point `p` is covered by a
+    /// crack (0 to 1), for a ray along `dir` whose pixel spans `footprint`
+    /// metres on the surface where it is most stretched; `pixel` is the
+    /// pixel's footprint across the ray, metres.
+    pub fn coverage(&self, p: &Point3<f64>, dir: &Vector3<f64>, footprint: f64, pixel: f64) -> f64 {
         let mut best: f64 = 0.0;
         for c in &self.0 {
             // Off the crack's plane first: it rules out most cracks, and
@@ -117,28 +232,42 @@ impl Cracks {
             if off.dot(&c.normal).abs() > 0.02 || off.norm() > c.radius + footprint {
                 continue;
             }
-            let reach = footprint.max(c.width) / 2.0;
-            let d = c.distance(p);
-            if d < reach {
-                // Area fraction of a crack of width w in a footprint of width f.
-                best = best.max((c.width / footprint).min(1.0));
-            }
+            let near = c.nearest(p);
+            let share = match c.opening {
+                Opening::Even => {
+                    // Area fraction of a crack of width w in a footprint of width f.
+                    let reach = footprint.max(c.width) / 2.0;
+                    if near.distance < reach {
+                        (c.width / footprint).min(1.0)
+                    } else {
+                        0.0
+                    }
+                }
+                Opening::Tapered { .. } => {
+                    // The pixel's extent on the surface across the crack, and
+                    // how much of it the opening covers.
+                    let across = c.normal.cross(&near.along);
+                    let f = pixel / (1.0 - across.dot(dir).powi(2)).max(1e-6).sqrt();
+                    crate::render::overlap(near.distance, f, near.width)
+                }
+            };
+            best = best.max(share);
         }
         best
     }
 }
 
 /// Random walks in the plane of one face of the structure.
-struct FaceWalk<'a> {
+pub(crate) struct FaceWalk<'a> {
     scene: &'a Scene,
-    normal: Vector3<f64>,
+    pub normal: Vector3<f64>,
     /// Axes in the face's plane.
-    u: Vector3<f64>,
-    v: Vector3<f64>,
+    pub u: Vector3<f64>,
+    pub v: Vector3<f64>,
 }
 
 impl<'a> FaceWalk<'a> {
-    fn new(scene: &'a Scene, triangle: u32) -> Self {
+    pub fn new(scene: &'a Scene, triangle: u32) -> Self {
         let [a, b, _] = scene.triangles[triangle as usize];
         let normal = scene.normal(triangle);
         let u = (b - a).normalize();
@@ -150,7 +279,7 @@ impl<'a> FaceWalk<'a> {
         }
     }
 
-    fn on_face(&self, p: &Point3<f64>) -> bool {
+    pub fn on_face(&self, p: &Point3<f64>) -> bool {
         self.scene
             .cast(&(p + self.normal * 0.05), &-self.normal, 0.1)
             .is_some_and(|h| {
@@ -230,18 +359,49 @@ fn grow(scene: &Scene, triangle: u32, id: u32, rng: &mut Rng) -> Option<Crack> {
         id,
         lines,
         width: rng.range(0.001, 0.005),
+        opening: Opening::Even,
         normal: face.normal,
         triangle,
         center: Point3::origin(),
         radius: 0.0,
+        arc: Vec::new(),
+        roots: Vec::new(),
     }
     .with_bounds();
     (crack.length() >= 0.3).then_some(crack)
 }
 
 impl Crack {
-    /// With its centre and radius recomputed from its lines.
+    /// With its centre, radius, arc lengths and branch roots recomputed
+    /// from its lines.
     fn with_bounds(mut self) -> Self {
+        self.arc = self
+            .lines
+            .iter()
+            .map(|l| {
+                let mut s = 0.0;
+                std::iter::once(0.0)
+                    .chain(l.windows(2).map(|w| {
+                        s += (w[1] - w[0]).norm();
+                        s
+                    }))
+                    .collect()
+            })
+            .collect();
+        self.roots = self.lines[1..]
+            .iter()
+            .map(|branch| {
+                let main = &self.lines[0];
+                let k = (0..main.len())
+                    .min_by(|a, b| {
+                        (main[*a] - branch[0])
+                            .norm()
+                            .total_cmp(&(main[*b] - branch[0]).norm())
+                    })
+                    .unwrap_or(0);
+                self.width_at(0, self.arc[0][k])
+            })
+            .collect();
         let points: Vec<Point3<f64>> = self.lines.iter().flatten().copied().collect();
         self.center = Point3::from(
             points.iter().map(|p| p.coords).sum::<Vector3<f64>>() / points.len() as f64,
@@ -285,6 +445,21 @@ impl Crack {
         grown
     }
 
+    /// Open the crack along its length within `range` (see [`Cracks::taper`]).
+    pub fn taper(&mut self, range: WidthRange, rng: &mut Rng) {
+        let (lo, hi) = (range.min_mm / 1000.0, range.max_mm / 1000.0);
+        self.width = lo * (hi / lo).powf(rng.uniform());
+        self.opening = Opening::Tapered { tip: lo };
+        *self = self.clone().with_bounds();
+    }
+
+    /// The crack opened `factor` times wider along its whole length (its
+    /// tips stay hairline).
+    pub fn widen(&mut self, factor: f64) {
+        self.width *= factor;
+        *self = self.clone().with_bounds();
+    }
+
     /// The crack in another frame.
     pub fn transformed(&self, iso: &nalgebra::Isometry3<f64>) -> Self {
         Self {
@@ -311,7 +486,7 @@ mod tests {
         assert_eq!(cracks.0.len(), 12);
         for c in &cracks.0 {
             assert!(c.length() >= 0.3 && c.width < 0.0051);
-            for p in c.samples(0.05) {
+            for (p, _) in c.samples(0.05) {
                 let hit = scene.cast(&(p + c.normal * 0.2), &-c.normal, 1.0).unwrap();
                 assert!(
                     (hit.distance - 0.2).abs() < 1e-3,
@@ -325,7 +500,50 @@ mod tests {
         // A point on a crack is covered; one a metre away is not.
         let c = &cracks.0[0];
         let p = c.lines[0][1];
-        assert!(cracks.coverage(&p, 0.004) > 0.1);
-        assert_eq!(cracks.coverage(&(p + c.normal * 1.5), 0.004), 0.0);
+        let dir = -c.normal;
+        assert!(cracks.coverage(&p, &dir, 0.004, 0.004) > 0.1);
+        assert_eq!(
+            cracks.coverage(&(p + c.normal * 1.5), &dir, 0.004, 0.004),
+            0.0
+        );
+    }
+
+    #[test]
+    fn tapered_cracks_are_widest_mid_way_and_cover_their_share_of_a_pixel() {
+        let scene = Scene::girder_bridge();
+        let mut cracks = Cracks::generate(&scene, 6, &mut Rng::new(7));
+        let lines: Vec<_> = cracks.0.iter().map(|c| c.lines.clone()).collect();
+        let range = WidthRange {
+            min_mm: 0.1,
+            max_mm: 5.0,
+        };
+        cracks.taper(range, &mut Rng::new(8));
+        for (c, lines) in cracks.0.iter().zip(&lines) {
+            assert_eq!(&c.lines, lines, "tapering moves no line");
+            assert!((0.0001..=0.005).contains(&c.width));
+            let widths = c.widths();
+            let main = &widths[0];
+            assert!(
+                (main[0] - 0.0001).abs() < 1e-9 && (main[main.len() - 1] - 0.0001).abs() < 1e-9
+            );
+            let widest = main.iter().copied().fold(0.0, f64::max);
+            assert!(widest <= c.width + 1e-12 && widest > 0.8 * c.width);
+            for (b, branch) in widths.iter().enumerate().skip(1) {
+                assert!(
+                    branch[0] <= c.width + 1e-12,
+                    "branch {b} starts wider than the crack"
+                );
+            }
+        }
+        // Seen face on through a pixel 4 mm across, a crack w wide covers w / 4 mm of it.
+        let c = &cracks.0[0];
+        let k = c.lines[0].len() / 2;
+        let p = c.lines[0][k];
+        let w = c.nearest(&p).width;
+        let share = cracks.coverage(&p, &-c.normal, 0.004, 0.004);
+        assert!(
+            (share - (w / 0.004).min(1.0)).abs() < 1e-6,
+            "{share} for {w}"
+        );
     }
 }

@@ -13,6 +13,7 @@
 
 pub mod coverage;
 pub mod crack;
+pub mod distractor;
 mod error;
 pub mod flight;
 mod obj;
@@ -32,6 +33,7 @@ use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use postflight_core::{Distortion, Intrinsics};
 
 use crate::crack::Cracks;
+use crate::distractor::Distractors;
 use crate::flight::Flight;
 use crate::record::{Recorder, header, ros_pose};
 use crate::render::RayTable;
@@ -66,6 +68,17 @@ pub struct SimOptions {
     pub pose_noise: truth::PoseNoise,
     /// Fly an earlier flight's structure and cracks again, changed.
     pub repeat: Option<repeat::Repeat>,
+    /// The lens's focal length, pixels (default: 1.5 times the width, a
+    /// 37 degree view across).
+    pub focal_px: Option<f64>,
+    /// How far from the structure the plan flies, metres.
+    pub standoff_m: f64,
+    /// Cracks that open and close along their length within these widths,
+    /// drawn by the share of each pixel they cover (default: each crack
+    /// one width, 1 to 5 mm, as the default flights always were).
+    pub crack_widths: Option<crack::WidthRange>,
+    /// Draw joints, stains, rust streaks and shadow edges on the structure.
+    pub distractors: bool,
 }
 
 /// Compression of recorded camera frames (`sensor_msgs/CompressedImage` format).
@@ -100,6 +113,10 @@ impl SimOptions {
                 yaw_rad: flight::YAW_NOISE,
             },
             repeat: None,
+            focal_px: None,
+            standoff_m: planner::STANDOFF,
+            crack_widths: None,
+            distractors: false,
         }
     }
 }
@@ -138,9 +155,10 @@ pub fn body_to_camera() -> (Isometry3<f64>, Isometry3<f64>) {
     (link, optical)
 }
 
-fn intrinsics(width: u32, height: u32, distortion: bool) -> Intrinsics {
+fn intrinsics(width: u32, height: u32, focal_px: Option<f64>, distortion: bool) -> Intrinsics {
     // A narrow lens (37 degrees across), as inspection cameras use for mm detail.
-    let pinhole = Intrinsics::pinhole(width, height, f64::from(width) * 1.5);
+    let focal = focal_px.unwrap_or(f64::from(width) * 1.5);
+    let pinhole = Intrinsics::pinhole(width, height, focal);
     if !distortion {
         return pinhole;
     }
@@ -182,6 +200,13 @@ pub fn simulate(
         t_body_camera: PoseJson::from(&world.body_camera()),
         pose_noise: options.pose_noise,
         skipped_viewpoints: world.flight.skipped.clone(),
+        crack_widths: world.crack_widths,
+        distractors: world
+            .marks
+            .0
+            .iter()
+            .map(|m| truth::DistractorTruth::new(m, &world.scene))
+            .collect(),
         cracks: world
             .cracks
             .0
@@ -228,6 +253,10 @@ fn check(options: &SimOptions) -> Result<(), SimError> {
 struct World {
     scene: Scene,
     cracks: Cracks,
+    /// Marks on the surface that are not cracks.
+    marks: Distractors,
+    /// The widths cracks taper between (a repeat's: its earlier flight's).
+    crack_widths: Option<crack::WidthRange>,
     /// A repeat flight's changes since the earlier one.
     changes: Option<Vec<repeat::CrackChange>>,
     plan: postflight_core::InspectionPlan,
@@ -249,15 +278,26 @@ impl World {
             })?,
         };
         let seed = options.seed;
+        let mut crack_widths = options.crack_widths;
         let (scene, cracks, changes) = match &options.repeat {
             None => {
-                let cracks =
+                let mut cracks =
                     Cracks::generate(&scene, options.cracks, &mut Rng::stream(seed, "cracks"));
+                if let Some(range) = options.crack_widths {
+                    cracks.taper(range, &mut Rng::stream(seed, "crack widths"));
+                }
                 (scene, cracks, None)
             }
             Some(r) => {
                 let earlier = repeat::Earlier::read(r, &scene.name)?;
-                let (cracks, changes) = repeat::change(&scene, earlier.cracks(&scene), r, seed);
+                crack_widths = earlier.crack_widths();
+                let (cracks, changes) = repeat::change(
+                    &scene,
+                    earlier.cracks(&scene),
+                    earlier.crack_widths(),
+                    r,
+                    seed,
+                );
                 // The world as this flight's SLAM frame records it.
                 let iso = r.frame_offset.isometry();
                 let cracks = Cracks(cracks.0.iter().map(|c| c.transformed(&iso)).collect());
@@ -268,16 +308,29 @@ impl World {
             &scene,
             postflight_core::map::DEFAULT_RESOLUTION,
             CAMERA_PITCH_DEG.to_radians(),
+            options.standoff_m,
         );
+        let marks = if options.distractors {
+            Distractors::generate(&scene, &mut Rng::stream(seed, "distractors"))
+        } else {
+            Distractors::default()
+        };
         if plan.viewpoints.len() < 3 {
             return Err(SimError::StructureTooSmall);
         }
         let flight = Flight::fly(&plan, &scene, &mut Rng::stream(seed, "flight"));
-        let k = intrinsics(options.width, options.height, options.distortion);
+        let k = intrinsics(
+            options.width,
+            options.height,
+            options.focal_px,
+            options.distortion,
+        );
         Ok(Self {
             rays: RayTable::new(&k),
             scene,
             cracks,
+            marks,
+            crack_widths,
             changes,
             plan,
             flight,
@@ -369,7 +422,14 @@ fn record_frames(
             recorded.dropped += 1;
         } else {
             let img = render::motion_blur(
-                render::render(&world.scene, &world.cracks, &world.rays, &camera, i),
+                render::render(
+                    &world.scene,
+                    &world.cracks,
+                    &world.marks,
+                    &world.rays,
+                    &camera,
+                    i,
+                ),
                 blur.0,
                 blur.1,
             );

@@ -14,7 +14,8 @@ use postflight_core::{InspectionPlan, ViewModel, Viewpoint};
 
 use crate::scene::{Scene, area};
 
-/// Distance from a face to its viewpoint, metres (mid View distance band).
+/// Distance from a face to its viewpoint by default, metres (mid View
+/// distance band).
 pub const STANDOFF: f64 = 3.5;
 /// Viewpoints merge the faces of patches this wide, metres.
 const PATCH: f64 = 1.0;
@@ -73,12 +74,13 @@ fn feasible(scene: &Scene, p: &Point3<f64>, face: &Point3<f64>) -> bool {
 /// A patch of faces: their common outward normal and their centres.
 type Patch = (Vector3<f64>, Vec<Point3<f64>>);
 
-pub fn plan(scene: &Scene, resolution: f64, camera_pitch: f64) -> InspectionPlan {
+/// The plan: viewpoints `standoff` metres in front of the structure's faces.
+pub fn plan(scene: &Scene, resolution: f64, camera_pitch: f64, standoff: f64) -> InspectionPlan {
     let grid = VoxelGrid::new(resolution, Point3::origin());
     let targets = target_voxels(scene, &grid);
     let set: BTreeSet<VoxelIndex> = targets.iter().copied().collect();
     // Raise the viewpoint so the pitched optical axis meets the face.
-    let rise = STANDOFF * camera_pitch.tan();
+    let rise = standoff * camera_pitch.tan();
     // Faces grouped by (side, plane, patch along the plane, patch in height).
     let mut patches: BTreeMap<(usize, i64, i64, i64), Patch> = BTreeMap::new();
     for v in &targets {
@@ -109,7 +111,7 @@ pub fn plan(scene: &Scene, resolution: f64, camera_pitch: f64) -> InspectionPlan
     for (n, faces) in patches.values() {
         let centre =
             Point3::from(faces.iter().map(|p| p.coords).sum::<Vector3<f64>>() / faces.len() as f64);
-        let position = centre + n * STANDOFF + Vector3::z() * rise;
+        let position = centre + n * standoff + Vector3::z() * rise;
         if feasible(scene, &position, &centre) {
             viewpoints.push(Viewpoint {
                 position: [position.x, position.y, position.z],

@@ -8,6 +8,7 @@ use postflight_core::Intrinsics;
 use rayon::prelude::*;
 
 use crate::crack::Cracks;
+use crate::distractor::Distractors;
 use crate::rng::hash3;
 use crate::scene::{Class, Scene};
 
@@ -45,6 +46,7 @@ impl RayTable {
 pub fn render(
     scene: &Scene,
     cracks: &Cracks,
+    marks: &Distractors,
     rays: &RayTable,
     camera: &Isometry3<f64>,
     frame: u32,
@@ -57,7 +59,7 @@ pub fn render(
         .for_each(|(y, row)| {
             for x in 0..rays.width as usize {
                 let dir = camera.rotation * rays.rays[y * rays.width as usize + x];
-                let rgb = shade(scene, cracks, &origin, &dir, rays.pixel_angle);
+                let rgb = shade(scene, cracks, marks, &origin, &dir, rays.pixel_angle);
                 // Sensor noise, fixed per pixel and frame so output is deterministic.
                 let n = (hash3(x as i64, y as i64, i64::from(frame), 17) - 0.5) * 6.0;
                 for c in 0..3 {
@@ -71,6 +73,7 @@ pub fn render(
 fn shade(
     scene: &Scene,
     cracks: &Cracks,
+    marks: &Distractors,
     origin: &Point3<f64>,
     dir: &Vector3<f64>,
     pixel_angle: f64,
@@ -87,10 +90,11 @@ fn shade(
         Class::Infrastructure => {
             let g = concrete(&p);
             let cos = hit.normal.dot(&-dir).abs().max(0.2);
-            let footprint = hit.distance * pixel_angle / cos;
-            let crack = cracks.coverage(&p, footprint);
+            let pixel = hit.distance * pixel_angle;
+            let crack = cracks.coverage(&p, dir, pixel / cos, pixel);
             let v = g * (1.0 - 0.85 * crack);
-            [v, v * 0.98, v * 0.94]
+            let tint = marks.tint(&p, pixel);
+            [v * tint[0], v * 0.98 * tint[1], v * 0.94 * tint[2]]
         }
         Class::Obstacle => {
             let n = 0.8 + 0.4 * value_noise(&p, 4.0, 3);
@@ -102,6 +106,13 @@ fn shade(
         }
     };
     base.map(|c| c * light)
+}
+
+/// Share of a pixel `pixel` wide, centred `d` from a line's axis, that a
+/// band `width` wide around the axis covers.
+pub(crate) fn overlap(d: f64, pixel: f64, width: f64) -> f64 {
+    let (lo, hi) = (d - pixel / 2.0, d + pixel / 2.0);
+    ((hi.min(width / 2.0) - lo.max(-width / 2.0)) / pixel).clamp(0.0, 1.0)
 }
 
 /// Grey concrete: blotches at several scales plus fine aggregate.
@@ -163,4 +174,17 @@ pub fn motion_blur(img: RgbImage, dx: f64, dy: f64) -> RgbImage {
             }
         });
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_band_covers_the_share_of_a_pixel_it_overlaps() {
+        assert_eq!(overlap(0.0, 1.0, 0.5), 0.5);
+        assert_eq!(overlap(0.0, 1.0, 3.0), 1.0);
+        assert_eq!(overlap(2.0, 1.0, 0.5), 0.0);
+        assert!((overlap(0.5, 1.0, 1.0) - 0.5).abs() < 1e-12);
+    }
 }

@@ -9,7 +9,7 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use postflight_core::serde_pose::PoseJson;
 use serde::{Deserialize, Serialize};
 
-use crate::crack::Cracks;
+use crate::crack::{Cracks, WidthRange};
 use crate::error::SimError;
 use crate::rng::Rng;
 use crate::scene::Scene;
@@ -21,6 +21,9 @@ pub struct Repeat {
     pub of: PathBuf,
     /// Share of the earlier cracks that grow (0 to 1).
     pub grow: f64,
+    /// Share of the earlier cracks that open wider (0 to 1; cracks that
+    /// taper only).
+    pub widen: f64,
     /// New cracks.
     pub new: usize,
     /// Where this flight's SLAM frame records what the earlier one recorded
@@ -64,6 +67,8 @@ impl FrameOffset {
 pub(crate) struct Earlier {
     pub scene: String,
     pub seed: u64,
+    #[serde(default)]
+    crack_widths: Option<WidthRange>,
     cracks: Vec<serde::de::IgnoredAny>,
     #[serde(default)]
     repeat: Option<serde::de::IgnoredAny>,
@@ -94,22 +99,36 @@ impl Earlier {
                 earlier.scene
             )));
         }
-        if !(0.0..=1.0).contains(&repeat.grow) {
-            return Err(bad(format!(
-                "--grow {} is not a share from 0 to 1",
-                repeat.grow
-            )));
+        for (flag, share) in [("--grow", repeat.grow), ("--widen", repeat.widen)] {
+            if !(0.0..=1.0).contains(&share) {
+                return Err(bad(format!("{flag} {share} is not a share from 0 to 1")));
+            }
+        }
+        if repeat.widen > 0.0 && earlier.crack_widths.is_none() {
+            return Err(bad(
+                "has cracks of one even width; --widen needs a flight simulated with --crack-widths"
+                    .into(),
+            ));
         }
         Ok(earlier)
     }
 
     /// Its cracks, drawn again as it drew them.
     pub fn cracks(&self, scene: &Scene) -> Cracks {
-        Cracks::generate(
+        let mut cracks = Cracks::generate(
             scene,
             self.cracks.len(),
             &mut Rng::stream(self.seed, "cracks"),
-        )
+        );
+        if let Some(range) = self.crack_widths {
+            cracks.taper(range, &mut Rng::stream(self.seed, "crack widths"));
+        }
+        cracks
+    }
+
+    /// The widths its cracks taper between, if they do.
+    pub fn crack_widths(&self) -> Option<WidthRange> {
+        self.crack_widths
     }
 }
 
@@ -121,6 +140,15 @@ pub struct CrackChange {
     /// Its length in the earlier flight, metres (none for a new crack).
     pub length_before_m: Option<f64>,
     pub length_m: f64,
+    /// Its widest in the earlier flight and now, millimetres (cracks that
+    /// taper; none before for a new crack).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub width_before_mm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub width_mm: Option<f64>,
+    /// It opened wider since the earlier flight.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub widened: bool,
 }
 
 #[derive(Debug, Clone, Copy, Serialize, PartialEq, Eq)]
@@ -148,13 +176,21 @@ pub struct RepeatTruth {
 pub(crate) fn change(
     scene: &Scene,
     mut cracks: Cracks,
+    widths: Option<WidthRange>,
     repeat: &Repeat,
     seed: u64,
 ) -> (Cracks, Vec<CrackChange>) {
     let mut rng = Rng::stream(seed, "crack growth");
+    let mut widening = Rng::stream(seed, "crack widening");
+    let tapered = widths.is_some();
     let mut changes: Vec<CrackChange> = Vec::new();
     for crack in &mut cracks.0 {
         let before = crack.length();
+        let width_before = crack.width;
+        let widened = tapered && widening.uniform() < repeat.widen;
+        if widened {
+            crack.widen(widening.range(1.4, 2.2));
+        }
         let grows = rng.uniform() < repeat.grow;
         let by = before * rng.range(0.25, 0.75);
         let grown = if grows {
@@ -172,16 +208,28 @@ pub(crate) fn change(
             },
             length_before_m: Some(before),
             length_m: crack.length(),
+            width_before_mm: tapered.then_some(width_before * 1000.0),
+            width_mm: tapered.then_some(crack.width * 1000.0),
+            widened,
         });
     }
     let old = cracks.0.len();
     cracks.add(scene, repeat.new, &mut Rng::stream(seed, "new cracks"));
+    if let Some(range) = widths {
+        let mut rng = Rng::stream(seed, "new crack widths");
+        cracks.0[old..]
+            .iter_mut()
+            .for_each(|c| c.taper(range, &mut rng));
+    }
     for crack in &cracks.0[old..] {
         changes.push(CrackChange {
             id: crack.id,
             change: Change::New,
             length_before_m: None,
             length_m: crack.length(),
+            width_before_mm: None,
+            width_mm: tapered.then_some(crack.width * 1000.0),
+            widened: false,
         });
     }
     (cracks, changes)

@@ -6,7 +6,8 @@ use postflight_core::map::{FaceSide, VoxelGrid, VoxelIndex};
 use postflight_core::serde_pose::PoseJson;
 use serde::Serialize;
 
-use crate::crack::Crack;
+use crate::crack::{Crack, Opening, WidthRange};
+use crate::distractor::{Distractor, DistractorKind};
 use crate::scene::Scene;
 
 /// Fraction of a pixel a crack must cover (after motion blur spreads it) to
@@ -18,7 +19,19 @@ pub struct CrackTruth {
     pub id: u32,
     /// Main line first, then branches; world coordinates, metres.
     pub lines: Vec<Vec<[f64; 3]>>,
+    /// Its widest, millimetres.
     pub width_mm: f64,
+    /// Width at each point of each line, millimetres (cracks that open and
+    /// close along their length).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub widths_mm: Option<Vec<Vec<f64>>>,
+    /// Median width along the crack's length, millimetres (tapered cracks).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub median_width_mm: Option<f64>,
+    /// The condition state its widest point puts it in, by the default
+    /// limits for reinforced concrete (tapered cracks).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub condition_state: Option<u8>,
     pub length_m: f64,
     pub part: String,
     /// Outward normal of the surface.
@@ -33,6 +46,7 @@ impl CrackTruth {
         let n = crack.normal;
         // Just inside the surface, so the voxel is the structure's, not the air's.
         let inside = crack.centroid() - n * (grid.resolution * 1e-3);
+        let tapered = matches!(crack.opening, Opening::Tapered { .. });
         Self {
             id: crack.id,
             lines: crack
@@ -41,6 +55,19 @@ impl CrackTruth {
                 .map(|l| l.iter().map(|p| [p.x, p.y, p.z]).collect())
                 .collect(),
             width_mm: crack.width * 1000.0,
+            widths_mm: tapered.then(|| {
+                crack
+                    .widths()
+                    .iter()
+                    .map(|l| l.iter().map(|w| w * 1000.0).collect())
+                    .collect()
+            }),
+            median_width_mm: tapered.then(|| median_width(crack) * 1000.0),
+            condition_state: tapered.then(|| {
+                postflight_core::condition::CrackLimits::default()
+                    .state(crack.width * 1000.0)
+                    .number()
+            }),
             length_m: crack.length(),
             part: scene.part_name(crack.triangle).to_string(),
             normal: [n.x, n.y, n.z],
@@ -48,6 +75,38 @@ impl CrackTruth {
             face: FaceSide::nearest(&n),
         }
     }
+}
+
+/// A mark on the surface that is not a crack.
+#[derive(Debug, Clone, Serialize)]
+pub struct DistractorTruth {
+    pub kind: DistractorKind,
+    /// See [`Distractor::line`]; world coordinates, metres.
+    pub line: [[f64; 3]; 2],
+    /// See [`Distractor::width`], millimetres.
+    pub width_mm: f64,
+    pub part: String,
+    pub normal: [f64; 3],
+}
+
+impl DistractorTruth {
+    pub fn new(mark: &Distractor, scene: &Scene) -> Self {
+        let p = |p: &Point3<f64>| [p.x, p.y, p.z];
+        Self {
+            kind: mark.kind,
+            line: [p(&mark.line[0]), p(&mark.line[1])],
+            width_mm: mark.width * 1000.0,
+            part: scene.part_name(mark.triangle).to_string(),
+            normal: [mark.normal.x, mark.normal.y, mark.normal.z],
+        }
+    }
+}
+
+/// The median of a crack's width along its length (samples 1 mm apart).
+fn median_width(crack: &Crack) -> f64 {
+    let mut widths: Vec<f64> = crack.samples(0.001).iter().map(|s| s.1).collect();
+    widths.sort_by(f64::total_cmp);
+    widths.get(widths.len() / 2).copied().unwrap_or(crack.width)
 }
 
 /// A crack as one frame saw it.
@@ -63,6 +122,10 @@ pub struct CrackInFrame {
     /// Crack width over pixel footprint at the crack's centre (1 = fills a
     /// pixel), divided by the blur streak length when that exceeds a pixel.
     pub contrast: f64,
+    /// Its widest visible point's width across the crack, pixels (cracks
+    /// that open and close along their length).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub width_px: Option<f64>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -103,8 +166,10 @@ pub fn cracks_in_view(
             continue;
         }
         let samples = crack.samples(0.005);
+        let tapered = matches!(crack.opening, Opening::Tapered { .. });
         let mut visible = Vec::new();
-        for p in &samples {
+        let mut widest_px: f64 = 0.0;
+        for (p, width) in &samples {
             let Some(px) = k.project(&(world_to_camera * p).coords) else {
                 continue;
             };
@@ -119,7 +184,7 @@ pub fn cracks_in_view(
             let dist = d.norm();
             let dir = -d / dist;
             let cos = crack.normal.dot(&(d / dist));
-            if crack.width / (dist / k.fx / cos.max(0.2)) / spread < MIN_CRACK_CONTRAST {
+            if width / (dist / k.fx / cos.max(0.2)) / spread < MIN_CRACK_CONTRAST {
                 continue;
             }
             let unblocked = scene
@@ -127,6 +192,13 @@ pub fn cracks_in_view(
                 .is_none_or(|h| h.distance > dist - 0.01);
             if unblocked {
                 visible.push([px.x, px.y]);
+                if tapered {
+                    // Across the crack, where a pixel is stretched by the
+                    // surface's slant in that direction only.
+                    let across = crack.normal.cross(&crack.nearest(p).along);
+                    let slant = (1.0 - across.dot(&dir).powi(2)).max(1e-6).sqrt();
+                    widest_px = widest_px.max(width * slant * k.fx / dist);
+                }
             }
         }
         // Any visible piece counts, however much of the crack is out of
@@ -158,6 +230,7 @@ pub fn cracks_in_view(
             bbox,
             visible_fraction: fraction,
             contrast: crack.width / (range / k.fx / cos) / spread,
+            width_px: tapered.then_some(widest_px),
         });
     }
     seen
@@ -173,7 +246,13 @@ pub struct Truth {
     pub t_body_camera: PoseJson,
     pub pose_noise: PoseNoise,
     pub skipped_viewpoints: Vec<usize>,
+    /// The widths cracks open and close between, when they taper.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub crack_widths: Option<WidthRange>,
     pub cracks: Vec<CrackTruth>,
+    /// Marks on the surface that are not cracks.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub distractors: Vec<DistractorTruth>,
     pub frames: Vec<FrameTruth>,
     /// Per-voxel coverage under the plan's View model, flown and planned.
     pub coverage: crate::coverage::CoverageTruth,
