@@ -1,5 +1,7 @@
 //! Detections: boxes in a frame's pixels, each with the detector's score
-//! and class.
+//! and class, and its crack pixels where the model segments.
+
+use crate::mask::Mask;
 
 /// A box in pixels: `x0, y0` top-left, `x1, y1` bottom-right (exclusive edges).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -58,7 +60,7 @@ impl BoxXyxy {
 }
 
 /// One detection in one image.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Detection {
     pub bbox: BoxXyxy,
     pub score: f32,
@@ -66,6 +68,8 @@ pub struct Detection {
     /// Tile of the frame that found it (numbered as the detect stage cuts
     /// them), -1 for the whole frame.
     pub tile: i32,
+    /// Its crack pixels, from a model that segments (`None`: boxes only).
+    pub mask: Option<Mask>,
 }
 
 /// One detection of one frame, in the frame's pixels.

@@ -10,7 +10,8 @@
 //! - The plan that was flown and the View model it was made for ([`plan`]),
 //!   and a frame's motion blur, which the View model judges ([`motion`]).
 //! - Condition states from crack width, and their limits ([`condition`]).
-//! - Detections: boxes with their scores ([`detection`]).
+//! - Detections: boxes with their scores ([`detection`]), and the crack
+//!   pixels of those a segmentation model gives ([`mask`]).
 //! - The run directory ([`RunDir`]: atomic writes), the run log of
 //!   `postflight run` ([`RunLog`]), and the file contract ([`outputs`]):
 //!   for every stage its files, its summary and one typed writer and reader
@@ -31,6 +32,7 @@ pub mod flight;
 pub mod frame;
 pub mod geo;
 pub mod map;
+pub mod mask;
 pub mod motion;
 pub mod outputs;
 pub mod plan;

@@ -8,11 +8,12 @@ YOLO-World's interfaces exactly, so the same pipeline runs either:
 - crack-baked.onnx: input `images` [B, 3, H, W] (RGB 0..1, letterboxed),
   output `output0` [B, 5, N] = (cx, cy, w, h, score) per 16-pixel cell, with
   the vocabulary ("crack") baked in, as Ultralytics exports after
-  `set_classes(["crack"])`;
+  `set_classes(["crack"])`, and `mask` [B, 1, H, W], the per-pixel crack
+  score (the ridge response), as a segmentation network's probability map;
 - crack-open.onnx: the same image input plus `txt_feats` [1, nc, 512] text
   embeddings; output [B, 4 + nc, N], the crack score scaled by each prompt
   embedding's similarity to this model's own "crack" direction (see
-  prompts.json; these are not CLIP features).
+  prompts.json; these are not CLIP features), and the same `mask`.
 
 The network: grey = luma of the image; for 8 orientations, how much darker a
 7-pixel stroke is than both of its sides 2-3 pixels away, less how much the
@@ -194,6 +195,7 @@ def backbone(nodes, inits):
         n("Sub", ["line", "threshold"], ["line_t"]),
         n("Mul", ["line_t", "gain"], ["line_g"]),
         n("Sigmoid", ["line_g"], ["pixel_score"]),
+        n("Identity", ["pixel_score"], ["mask"]),
         # Crack pixels: score above one half.
         n("Greater", ["pixel_score", "half"], ["active_b"]),
         n("Cast", ["active_b"], ["active"], to=TensorProto.FLOAT),
@@ -274,6 +276,11 @@ def save(nodes, inits, inputs, outputs, path, names):
     onnx.save(model, path)
 
 
+def mask_output():
+    """The per-pixel crack score as the output `mask` (see backbone's Identity)."""
+    return helper.make_tensor_value_info("mask", TensorProto.FLOAT, ["batch", 1, "height", "width"])
+
+
 def main():
     out = sys.argv[1] if len(sys.argv) > 1 else os.path.dirname(os.path.abspath(__file__))
     images = helper.make_tensor_value_info("images", TensorProto.FLOAT, ["batch", 3, "height", "width"])
@@ -282,7 +289,7 @@ def main():
     backbone(nodes, inits)
     nodes.append(helper.make_node("Concat", ["boxes", "score"], ["output0"], axis=1))
     output = helper.make_tensor_value_info("output0", TensorProto.FLOAT, ["batch", 5, "anchors"])
-    save(nodes, inits, [images], [output], os.path.join(out, "crack-baked.onnx"), ["crack"])
+    save(nodes, inits, [images], [output, mask_output()], os.path.join(out, "crack-baked.onnx"), ["crack"])
 
     nodes, inits = [], []
     backbone(nodes, inits)
@@ -298,7 +305,7 @@ def main():
     ]
     txt = helper.make_tensor_value_info("txt_feats", TensorProto.FLOAT, [1, "classes", EMBED_DIM])
     output = helper.make_tensor_value_info("output0", TensorProto.FLOAT, ["batch", "rows", "anchors"])
-    save(nodes, inits, [images, txt], [output], os.path.join(out, "crack-open.onnx"), ["crack"])
+    save(nodes, inits, [images, txt], [output, mask_output()], os.path.join(out, "crack-open.onnx"), ["crack"])
 
     with open(os.path.join(out, "prompts.json"), "w") as f:
         json.dump({name: [round(float(x), 7) for x in v] for name, v in prompt_embeddings().items()}, f)

@@ -6,21 +6,27 @@ use postflight_core::detection::{BoxXyxy, Detection};
 /// Class-aware non-maximum suppression: keep the best-scoring boxes, dropping
 /// any that overlap a kept box of the same class by more than `iou`.
 /// Returns the kept detections, best first.
-pub fn nms(mut detections: Vec<Detection>, iou: f32) -> Vec<Detection> {
+pub fn nms(detections: Vec<Detection>, iou: f32) -> Vec<Detection> {
+    let tagged = detections.into_iter().map(|d| (d, ())).collect();
+    nms_with(tagged, iou).into_iter().map(|(d, ())| d).collect()
+}
+
+/// [`nms`] of detections that each carry something along (mask coefficients).
+pub fn nms_with<T>(mut detections: Vec<(Detection, T)>, iou: f32) -> Vec<(Detection, T)> {
     // Ties broken by position so the result does not depend on input order.
-    detections.sort_by(|a, b| {
+    detections.sort_by(|(a, _), (b, _)| {
         b.score
             .total_cmp(&a.score)
             .then(a.bbox.x0.total_cmp(&b.bbox.x0))
             .then(a.bbox.y0.total_cmp(&b.bbox.y0))
     });
-    let mut kept: Vec<Detection> = Vec::new();
-    for d in detections {
+    let mut kept: Vec<(Detection, T)> = Vec::new();
+    for (d, t) in detections {
         if kept
             .iter()
-            .all(|k| k.class != d.class || k.bbox.iou(&d.bbox) <= iou)
+            .all(|(k, _)| k.class != d.class || k.bbox.iou(&d.bbox) <= iou)
         {
-            kept.push(d);
+            kept.push((d, t));
         }
     }
     kept
@@ -34,8 +40,8 @@ pub const MERGE_SCORE_RATIO: f32 = 0.5;
 
 /// Merge same-class boxes of comparable score (see [`MERGE_SCORE_RATIO`])
 /// that overlap or lie within `gap` pixels of each other into their union,
-/// keeping the best score: a long crack reported piecewise (by grid cells or
-/// by tiles) becomes one box.
+/// keeping the best score and the union of their crack pixels: a long crack
+/// reported piecewise (by grid cells or by tiles) becomes one finding.
 pub fn merge_touching(mut detections: Vec<Detection>, gap: f32) -> Vec<Detection> {
     let near = |a: &BoxXyxy, b: &BoxXyxy| {
         a.x0 <= b.x1 + gap && b.x0 <= a.x1 + gap && a.y0 <= b.y1 + gap && b.y0 <= a.y1 + gap
@@ -48,8 +54,12 @@ pub fn merge_touching(mut detections: Vec<Detection>, gap: f32) -> Vec<Detection
         merged = false;
         'search: for i in 0..detections.len() {
             for j in i + 1..detections.len() {
-                let (a, b) = (detections[i], detections[j]);
-                if a.class == b.class && near(&a.bbox, &b.bbox) && comparable(&a, &b) {
+                let (a, b) = (&detections[i], &detections[j]);
+                if a.class == b.class && near(&a.bbox, &b.bbox) && comparable(a, b) {
+                    let mask = match (&a.mask, &b.mask) {
+                        (Some(m), Some(n)) => Some(m.union(n)),
+                        (m, n) => m.clone().or_else(|| n.clone()),
+                    };
                     detections[i] = Detection {
                         bbox: BoxXyxy {
                             x0: a.bbox.x0.min(b.bbox.x0),
@@ -60,6 +70,7 @@ pub fn merge_touching(mut detections: Vec<Detection>, gap: f32) -> Vec<Detection
                         score: a.score.max(b.score),
                         class: a.class,
                         tile: if a.score >= b.score { a.tile } else { b.tile },
+                        mask,
                     };
                     detections.swap_remove(j);
                     merged = true;
@@ -87,6 +98,7 @@ mod tests {
             score,
             class,
             tile: -1,
+            mask: None,
         }
     }
 

@@ -8,6 +8,7 @@ pub mod boxes;
 pub mod decode;
 pub mod error;
 pub mod letterbox;
+pub mod masks;
 pub mod prompts;
 pub mod runtime;
 pub mod settings;

@@ -1,5 +1,8 @@
 //! What a detector model expects and returns, read from its inputs and
-//! outputs: one of the two YOLO-World export interfaces postflight runs.
+//! outputs: YOLO-World's two export interfaces (prompts baked in, or text
+//! embeddings as an input), and what its outputs hold: boxes, boxes with a
+//! crack probability map, Ultralytics instance segmentation, or a semantic
+//! segmentation map alone.
 
 use std::fmt::Write;
 
@@ -31,8 +34,44 @@ pub struct Signature {
     pub vocabulary: Vocabulary,
     /// Number of classes the output scores (`nc`), when fixed.
     pub classes: Option<usize>,
-    /// Output `[batch, 4 + nc, anchors]`.
-    pub output: String,
+    pub head: Head,
+}
+
+/// What a model's outputs hold.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Head {
+    /// `[batch, 4 + classes, anchors]`: boxes and class scores (YOLO detect).
+    Boxes { output: String },
+    /// Boxes as [`Head::Boxes`], and a crack probability map `[batch, 1,
+    /// height, width]` over the input (postflight's reference detector).
+    BoxesAndMap { output: String, map: String },
+    /// Ultralytics instance segmentation (`-seg` models): `[batch, 4 +
+    /// classes + k, anchors]`, each anchor's mask coefficients last, and
+    /// `k` prototypes `[batch, k, height / 4, width / 4]`.
+    Instances {
+        output: String,
+        prototypes: String,
+        coefficients: usize,
+    },
+    /// Semantic segmentation: one map `[batch, 1, height, width]` of crack
+    /// probability (logits where values leave 0..1), or `[batch, 2, height,
+    /// width]` logits of background and crack.
+    Semantic { output: String, channels: usize },
+}
+
+impl Head {
+    /// Whether the model gives crack pixels, not only boxes.
+    pub fn segments(&self) -> bool {
+        !matches!(self, Self::Boxes { .. })
+    }
+
+    /// Rows of the boxes output besides the box and class scores.
+    pub fn extra_rows(&self) -> usize {
+        match self {
+            Self::Instances { coefficients, .. } => *coefficients,
+            _ => 0,
+        }
+    }
 }
 
 fn fixed(d: i64) -> Option<usize> {
@@ -81,7 +120,7 @@ impl Signature {
     pub fn of(inputs: &[TensorSpec], outputs: &[TensorSpec]) -> Result<Self, String> {
         let mismatch = || {
             format!(
-                "inputs {} and outputs {} match neither detector interface: expected images [batch, 3, height, width] (optionally with text embeddings [1, classes, dim]) and one output [batch, 4 + classes, anchors]",
+                "inputs {} and outputs {} match no detector interface: expected images [batch, 3, height, width] (optionally with text embeddings [1, classes, dim]), and boxes [batch, 4 + classes, anchors] (with a probability map [batch, 1, height, width] or Ultralytics mask prototypes [batch, k, h, w]), or a segmentation map [batch, 1 or 2, height, width] alone",
                 describe(inputs),
                 describe(outputs)
             )
@@ -110,13 +149,48 @@ impl Signature {
             }
             _ => return Err(mismatch()),
         };
-        let [output] = outputs else {
-            return Err(mismatch());
+        let (rank3, rank4): (Vec<&TensorSpec>, Vec<&TensorSpec>) =
+            outputs.iter().partition(|t| t.shape.len() == 3);
+        let (head, box_rows) = match (rank3.as_slice(), rank4.as_slice()) {
+            ([boxes], []) if outputs.len() == 1 => (
+                Head::Boxes {
+                    output: boxes.name.clone(),
+                },
+                fixed(boxes.shape[1]),
+            ),
+            ([boxes], [planes]) if planes.shape.len() == 4 => match fixed(planes.shape[1]) {
+                Some(1) => (
+                    Head::BoxesAndMap {
+                        output: boxes.name.clone(),
+                        map: planes.name.clone(),
+                    },
+                    fixed(boxes.shape[1]),
+                ),
+                Some(k) if k > 2 => (
+                    Head::Instances {
+                        output: boxes.name.clone(),
+                        prototypes: planes.name.clone(),
+                        coefficients: k,
+                    },
+                    fixed(boxes.shape[1]).and_then(|rows| rows.checked_sub(k)),
+                ),
+                _ => return Err(mismatch()),
+            },
+            ([], [map]) if outputs.len() == 1 && map.shape.len() == 4 => {
+                match fixed(map.shape[1]) {
+                    Some(channels @ (1 | 2)) => (
+                        Head::Semantic {
+                            output: map.name.clone(),
+                            channels,
+                        },
+                        Some(5),
+                    ),
+                    _ => return Err(mismatch()),
+                }
+            }
+            _ => return Err(mismatch()),
         };
-        if output.shape.len() != 3 {
-            return Err(mismatch());
-        }
-        let classes = match (fixed(output.shape[1]), text_classes) {
+        let classes = match (box_rows, text_classes) {
             (Some(rows), _) if rows > 4 => Some(rows - 4),
             (Some(_), _) => return Err(mismatch()),
             (None, c) => c,
@@ -136,7 +210,7 @@ impl Signature {
             input_size,
             vocabulary,
             classes,
-            output: output.name.clone(),
+            head,
         })
     }
 }
@@ -196,6 +270,46 @@ mod tests {
             &[t("output0", &[1, 84, 8400])],
         )
         .unwrap_err();
-        assert!(err.contains("match neither"), "{err}");
+        assert!(err.contains("match no detector interface"), "{err}");
+    }
+
+    #[test]
+    fn recognises_what_the_outputs_hold() {
+        let images = [t("images", &[1, 3, 640, 640])];
+        let seg = Signature::of(
+            &images,
+            &[
+                t("output0", &[1, 37, 8400]),
+                t("output1", &[1, 32, 160, 160]),
+            ],
+        )
+        .unwrap();
+        assert_eq!(
+            seg.head,
+            Head::Instances {
+                output: "output0".into(),
+                prototypes: "output1".into(),
+                coefficients: 32
+            }
+        );
+        assert_eq!(seg.classes, Some(1));
+        let reference = Signature::of(
+            &images,
+            &[t("output0", &[1, 5, -1]), t("mask", &[1, 1, -1, -1])],
+        )
+        .unwrap();
+        assert!(matches!(reference.head, Head::BoxesAndMap { .. }));
+        let semantic = Signature::of(&images, &[t("logits", &[1, 2, 640, 640])]).unwrap();
+        assert_eq!(
+            (semantic.head, semantic.classes),
+            (
+                Head::Semantic {
+                    output: "logits".into(),
+                    channels: 2
+                },
+                Some(1)
+            )
+        );
+        assert!(Signature::of(&images, &[t("seg", &[1, 7, 640, 640])]).is_err());
     }
 }

@@ -17,14 +17,15 @@ use postflight_core::run_log::sha256_file;
 use postflight_core::{Flight, Frame, ImageStatus, InvalidSetting, Key, RunDir};
 use rayon::prelude::*;
 
-use crate::boxes::{merge_touching, nms};
+use crate::boxes::{merge_touching, nms, nms_with};
 use crate::decode::decode;
 use crate::error::DetectError;
 use crate::letterbox::{InputSize, PAD, Placement, letterbox};
+use crate::masks::{Plane, ProbabilityMap, Prototypes, ViewPlace, components, from_maps};
 use crate::prompts::Embeddings;
 use crate::runtime::{Runtime, locate};
 use crate::settings::{DetectConfig, keys};
-use crate::signature::{Signature, Vocabulary};
+use crate::signature::{Head, Signature, Vocabulary};
 use crate::tiles::{Window, windows};
 
 /// What detect runs and how. Serialised, it is what the stage's result
@@ -442,7 +443,8 @@ impl Detector {
     }
 
     /// Detections of each of `frames`: every view run (in batches), mapped
-    /// to frame pixels, then NMS'd and merged per frame.
+    /// to frame pixels, then NMS'd and merged per frame, with their crack
+    /// pixels where the model segments.
     fn frames(
         &mut self,
         frames: &[Prepared],
@@ -455,92 +457,311 @@ impl Detector {
                 by_size.entry(v.size).or_default().push((i, v));
             }
         }
-        let mut per_frame = vec![Vec::new(); frames.len()];
+        let mut found = vec![FrameFound::default(); frames.len()];
         let mut stacked = Vec::new();
+        let batch = self.batch;
         let chunks = by_size
             .iter()
-            .flat_map(|(&size, views)| views.chunks(self.batch).map(move |c| (size, c)));
+            .flat_map(|(&size, views)| views.chunks(batch).map(move |c| (size, c)));
         for ((w, h), chunk) in chunks {
-            let plane = 3 * (w * h) as usize;
             let failed = |why: String| DetectError::Inference {
                 frame: frames[chunk[0].0].frame,
                 why,
             };
-            // A fixed batch size is filled up with padding images.
-            let images = if self.signature.batch.is_some() {
-                self.batch
-            } else {
-                chunk.len()
+            let images = self.signature.batch.unwrap_or(chunk.len());
+            let inputs = Inputs {
+                images: &self.signature.images,
+                text: self.text.as_ref(),
             };
-            let input = if images == 1 {
-                chunk[0].1.input.as_slice()
-            } else {
-                stacked.clear();
-                stacked.resize(images * plane, f32::from(PAD) / 255.0);
-                for (k, (_, view)) in chunk.iter().enumerate() {
-                    stacked[k * plane..(k + 1) * plane].copy_from_slice(&view.input);
-                }
-                stacked.as_slice()
-            };
-            let shape = vec![images as i64, 3, i64::from(h), i64::from(w)];
-            let image =
-                TensorRef::from_array_view((shape, input)).map_err(|e| failed(e.to_string()))?;
-            let mut inputs: Vec<(Cow<str>, SessionInputValue)> =
-                vec![(self.signature.images.as_str().into(), image.into())];
-            if let Some((name, tensor)) = &self.text {
-                inputs.push((name.as_str().into(), tensor.into()));
-            }
             let started = Instant::now();
-            let outputs = self
-                .session
-                .run(inputs)
-                .map_err(|e| failed(e.to_string()))?;
+            let outputs = run_chunk(
+                &mut self.session,
+                inputs,
+                chunk,
+                images,
+                (w, h),
+                &mut stacked,
+            )
+            .map_err(failed)?;
             self.run_seconds += started.elapsed().as_secs_f64();
-            let (shape, data) = outputs[self.signature.output.as_str()]
-                .try_extract_tensor::<f32>()
-                .map_err(|e| failed(e.to_string()))?;
-            let dim = |i: usize| usize::try_from(shape[i]).unwrap_or(0);
-            if shape.len() != 3 || dim(0) != images || dim(1) != 4 + self.classes {
-                return Err(failed(format!(
-                    "output shape {shape:?}, expected [{images}, 4 + {} classes, anchors]",
-                    self.classes
-                )));
-            }
+            let reader = Reader {
+                head: &self.signature.head,
+                classes: self.classes,
+                images,
+            };
             for (b, &(i, view)) in chunk.iter().enumerate() {
-                let Window { x, y, tile, .. } = view.window;
-                let (width, height) = (frames[i].width as f32, frames[i].height as f32);
-                per_frame[i].extend(
-                    decode(data, self.classes, dim(2), b, options.settings.confidence)
-                        .into_iter()
-                        .map(|d| {
-                            let b = view.placement.to_image(&d.bbox);
-                            Detection {
-                                bbox: BoxXyxy {
-                                    x0: b.x0 + x as f32,
-                                    y0: b.y0 + y as f32,
-                                    x1: b.x1 + x as f32,
-                                    y1: b.y1 + y as f32,
-                                }
-                                .clip(width, height),
-                                tile,
-                                ..d
-                            }
-                        }),
-                );
+                let frame = &frames[i];
+                let size = (frame.width, frame.height);
+                reader
+                    .read_view(&outputs, b, view, size, options, &mut found[i])
+                    .map_err(failed)?;
             }
         }
-        Ok(per_frame
-            .into_iter()
-            .map(|mut detections| {
-                detections.retain(|d| d.bbox.area() > 0.0);
-                // Grid cells and tiles report a long crack piecewise: join the pieces.
-                let kept = nms(detections, options.settings.iou);
-                match options.settings.merge_gap.pixels() {
-                    Some(gap) => merge_touching(kept, gap),
-                    None => kept,
+        Ok(found.into_iter().map(|f| f.finish(options)).collect())
+    }
+}
+
+/// The model's inputs besides the images' values.
+#[derive(Clone, Copy)]
+struct Inputs<'a> {
+    images: &'a str,
+    text: Option<&'a (String, Tensor<f32>)>,
+}
+
+/// Run one batch of views of size `(w, h)` as `images` images (a fixed
+/// batch size is filled up with padding images).
+fn run_chunk<'s>(
+    session: &'s mut ort::session::Session,
+    inputs: Inputs<'_>,
+    chunk: &[(usize, &View)],
+    images: usize,
+    (w, h): (u32, u32),
+    stacked: &mut Vec<f32>,
+) -> Result<ort::session::SessionOutputs<'s>, String> {
+    let plane = 3 * (w * h) as usize;
+    let input = if images == 1 {
+        chunk[0].1.input.as_slice()
+    } else {
+        stacked.clear();
+        stacked.resize(images * plane, f32::from(PAD) / 255.0);
+        for (k, (_, view)) in chunk.iter().enumerate() {
+            stacked[k * plane..(k + 1) * plane].copy_from_slice(&view.input);
+        }
+        stacked.as_slice()
+    };
+    let shape = vec![images as i64, 3, i64::from(h), i64::from(w)];
+    let image = TensorRef::from_array_view((shape, input)).map_err(|e| e.to_string())?;
+    let mut values: Vec<(Cow<str>, SessionInputValue)> = vec![(inputs.images.into(), image.into())];
+    if let Some((name, tensor)) = inputs.text {
+        values.push((name.as_str().into(), tensor.into()));
+    }
+    session.run(values).map_err(|e| e.to_string())
+}
+
+/// Reads a run's outputs for what each view found.
+struct Reader<'a> {
+    head: &'a Head,
+    /// Classes the boxes output scores.
+    classes: usize,
+    /// Images in the run.
+    images: usize,
+}
+
+impl Reader<'_> {
+    /// What image `b` of a run's `outputs` found in `view` of a frame
+    /// `frame_size` pixels: its detections in frame pixels (with crack
+    /// pixels for instance masks), and its probability map.
+    fn read_view(
+        &self,
+        outputs: &ort::session::SessionOutputs<'_>,
+        b: usize,
+        view: &View,
+        frame_size: (u32, u32),
+        options: &DetectOptions,
+        found: &mut FrameFound,
+    ) -> Result<(), String> {
+        let images = self.images;
+        let place = ViewPlace {
+            window: view.window,
+            placement: view.placement,
+        };
+        let tensor = |name: &str| -> Result<(Vec<usize>, &[f32]), String> {
+            let (shape, data) = outputs[name]
+                .try_extract_tensor::<f32>()
+                .map_err(|e| e.to_string())?;
+            Ok((
+                shape
+                    .iter()
+                    .map(|d| usize::try_from(*d).unwrap_or(0))
+                    .collect(),
+                data,
+            ))
+        };
+        let plane = |name: &str, channel: usize| -> Result<(Plane, f32), String> {
+            let (shape, data) = tensor(name)?;
+            if shape.len() != 4 || shape[0] < images || channel >= shape[1] {
+                return Err(format!(
+                    "output {name} has shape {shape:?}, expected [batch, channels, height, width]"
+                ));
+            }
+            let (c, h, w) = (shape[1], shape[2], shape[3]);
+            let at = (b * c + channel) * h * w;
+            let stride = view.size.0 as f32 / w as f32;
+            Ok((
+                Plane {
+                    width: w,
+                    height: h,
+                    values: data[at..at + h * w].to_vec(),
+                },
+                stride,
+            ))
+        };
+        let confidence = options.settings.confidence;
+        let mut detections: Vec<(Detection, Vec<f32>)> = match &self.head {
+            Head::Boxes { output }
+            | Head::BoxesAndMap { output, .. }
+            | Head::Instances { output, .. } => {
+                let (shape, data) = tensor(output)?;
+                let extra = self.head.extra_rows();
+                if shape.len() != 3 || shape[1] != 4 + self.classes + extra {
+                    return Err(format!(
+                        "output shape {shape:?}, expected [batch, 4 + {} classes{}, anchors]",
+                        self.classes,
+                        if extra > 0 {
+                            format!(" + {extra} mask coefficients")
+                        } else {
+                            String::new()
+                        }
+                    ));
                 }
-            })
-            .collect())
+                decode(data, self.classes, extra, shape[2], b, confidence)
+            }
+            Head::Semantic { output, channels } => {
+                let (probability, stride) = crack_probability(
+                    plane(output, 0)?,
+                    (*channels == 2)
+                        .then(|| plane(output, 1))
+                        .transpose()?
+                        .map(|p| p.0),
+                );
+                let found_here = components(&probability, MASK_THRESHOLD, MIN_COMPONENT_PX)
+                    .into_iter()
+                    .filter(|(_, score)| *score >= confidence)
+                    .map(|(b, score)| {
+                        let scaled = BoxXyxy {
+                            x0: b.x0 * stride,
+                            y0: b.y0 * stride,
+                            x1: b.x1 * stride,
+                            y1: b.y1 * stride,
+                        };
+                        (
+                            Detection {
+                                bbox: scaled,
+                                score,
+                                class: 0,
+                                tile: -1,
+                                mask: None,
+                            },
+                            Vec::new(),
+                        )
+                    })
+                    .collect();
+                found.maps.push(ProbabilityMap {
+                    place,
+                    stride,
+                    probability,
+                });
+                found_here
+            }
+        };
+        if let Head::BoxesAndMap { map, .. } = &self.head {
+            let (probability, stride) = plane(map, 0)?;
+            found.maps.push(ProbabilityMap {
+                place,
+                stride,
+                probability,
+            });
+        }
+        let Window { x, y, tile, .. } = view.window;
+        let (width, height) = (frame_size.0 as f32, frame_size.1 as f32);
+        for (d, _) in &mut detections {
+            let b = view.placement.to_image(&d.bbox);
+            d.bbox = BoxXyxy {
+                x0: b.x0 + x as f32,
+                y0: b.y0 + y as f32,
+                x1: b.x1 + x as f32,
+                y1: b.y1 + y as f32,
+            }
+            .clip(width, height);
+            d.tile = tile;
+        }
+        if let Head::Instances {
+            prototypes,
+            coefficients,
+            ..
+        } = &self.head
+        {
+            // As Ultralytics does: suppress first, then decode the survivors' masks.
+            let protos = Prototypes {
+                place,
+                stride: 0.0,
+                planes: (0..*coefficients)
+                    .map(|k| plane(prototypes, k).map(|p| p.0))
+                    .collect::<Result<_, _>>()?,
+            };
+            let protos = Prototypes {
+                stride: view.size.0 as f32 / protos.planes[0].width as f32,
+                ..protos
+            };
+            let kept = nms_with(detections, options.settings.iou);
+            found
+                .detections
+                .extend(kept.into_iter().map(|(mut d, coefficients)| {
+                    d.mask = protos.instance(&coefficients, &d.bbox);
+                    d
+                }));
+        } else {
+            found
+                .detections
+                .extend(detections.into_iter().map(|(d, _)| d));
+        }
+        Ok(())
+    }
+}
+
+/// Model pixels whose crack probability is above this are crack (Ultralytics'
+/// mask threshold, a sigmoid of 0.5).
+const MASK_THRESHOLD: f32 = 0.5;
+/// Connected crack pixels of a semantic map fewer than this are noise, not
+/// a finding (model pixels).
+const MIN_COMPONENT_PX: usize = 8;
+
+/// A semantic map's crack probability: the sigmoid of one channel of logits
+/// (a channel with values outside 0..1), the channel itself (already a
+/// probability), or the softmax of background and crack logits.
+fn crack_probability(first: (Plane, f32), second: Option<Plane>) -> (Plane, f32) {
+    let (mut p, stride) = first;
+    let sigmoid = |v: f32| 1.0 / (1.0 + (-v).exp());
+    match second {
+        Some(crack) => {
+            for (b, c) in p.values.iter_mut().zip(&crack.values) {
+                *b = sigmoid(c - *b);
+            }
+        }
+        None if p.values.iter().any(|v| !(0.0..=1.0).contains(v)) => {
+            p.values.iter_mut().for_each(|v| *v = sigmoid(*v));
+        }
+        None => {}
+    }
+    (p, stride)
+}
+
+/// What a frame's views found, until the frame is finished.
+#[derive(Default, Clone)]
+struct FrameFound {
+    detections: Vec<Detection>,
+    /// Each view's crack probability map (models that give one).
+    maps: Vec<ProbabilityMap>,
+}
+
+impl FrameFound {
+    /// The frame's findings: NMS'd and merged, each with its crack pixels
+    /// from the probability maps where the model gives maps.
+    fn finish(self, options: &DetectOptions) -> Vec<Detection> {
+        let mut detections = self.detections;
+        detections.retain(|d| d.bbox.area() > 0.0);
+        // Grid cells and tiles report a long crack piecewise: join the pieces.
+        let kept = nms(detections, options.settings.iou);
+        let mut merged = match options.settings.merge_gap.pixels() {
+            Some(gap) => merge_touching(kept, gap),
+            None => kept,
+        };
+        if !self.maps.is_empty() {
+            for d in &mut merged {
+                d.mask = from_maps(&self.maps, &d.bbox, MASK_THRESHOLD);
+            }
+        }
+        merged
     }
 }
 
@@ -552,7 +773,13 @@ fn write_outputs(
     summary: &DetectSummary,
 ) -> Result<(), DetectError> {
     run.remove(files::SUMMARY)?;
-    outputs::write_detections(run, found, classes)?;
+    let size = |index: u32| {
+        frames
+            .iter()
+            .find(|f| f.index == index)
+            .map_or((0, 0), |f| (f.width.unwrap_or(0), f.height.unwrap_or(0)))
+    };
+    outputs::write_detections(run, found, classes, size)?;
     run.write_json(files::COCO, &coco(frames, found, classes))?;
     run.write_json(files::SUMMARY, summary)?;
     Ok(())
@@ -572,12 +799,13 @@ fn coco(frames: &[Frame], found: &[FrameDetection], classes: &[String]) -> serde
             })
         })
         .collect();
+    let by_index: BTreeMap<u32, &Frame> = frames.iter().map(|f| (f.index, f)).collect();
     let annotations: Vec<serde_json::Value> = found
         .iter()
         .enumerate()
         .map(|(i, d)| {
             let b = d.detection.bbox;
-            serde_json::json!({
+            let mut annotation = serde_json::json!({
                 "id": i + 1,
                 "image_id": d.frame + 1,
                 "category_id": d.detection.class + 1,
@@ -585,7 +813,18 @@ fn coco(frames: &[Frame], found: &[FrameDetection], classes: &[String]) -> serde
                 "area": b.area(),
                 "score": d.detection.score,
                 "iscrowd": 0,
-            })
+            });
+            // Crack pixels as COCO RLE over the frame; the area is theirs.
+            let frame = by_index.get(&d.frame);
+            let size = frame.and_then(|f| Some((f.width?, f.height?)));
+            if let (Some(mask), Some((w, h))) = (&d.detection.mask, size) {
+                annotation["segmentation"] = serde_json::json!({
+                    "size": [h, w],
+                    "counts": mask.to_coco(w, h),
+                });
+                annotation["area"] = mask.area().into();
+            }
+            annotation
         })
         .collect();
     let categories: Vec<serde_json::Value> = classes

@@ -96,14 +96,20 @@ fn finds_loads_and_runs_onnx_runtime() {
     let signature = Signature::of_session(&yolo).unwrap();
     assert_eq!(signature.classes, Some(1));
     assert_eq!(signature.input_size, Some((4, 5)));
-    assert_eq!(signature.output, "output0");
+    assert_eq!(
+        signature.head,
+        detect::signature::Head::Boxes {
+            output: "output0".into()
+        }
+    );
 
     let Err(err) = runtime.session(&dir.path().join("nope.onnx"), Device::Cpu) else {
         panic!("a missing model opened");
     };
     assert!(err.to_string().contains("--model"), "{err}");
 
-    // The shipped reference detectors have the two YOLO-World interfaces.
+    // The shipped reference detectors have the two YOLO-World interfaces,
+    // each with its crack probability map.
     let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
     let signature = |name: &str| {
         let opened = runtime.session(&models.join(name), Device::Cpu).unwrap();
@@ -114,6 +120,13 @@ fn finds_loads_and_runs_onnx_runtime() {
     assert_eq!(
         (baked.images.as_str(), baked.classes, baked.input_size),
         ("images", Some(1), None)
+    );
+    assert_eq!(
+        baked.head,
+        detect::signature::Head::BoxesAndMap {
+            output: "output0".into(),
+            map: "mask".into()
+        }
     );
     let open = signature("crack-open.onnx");
     assert_eq!(

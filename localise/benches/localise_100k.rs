@@ -168,6 +168,7 @@ fn detection(frame: u32, t: &CrackTrace) -> FrameDetection {
             score: 0.6,
             class: 0,
             tile: -1,
+            mask: None,
         },
     }
 }

@@ -355,6 +355,7 @@ mod tests {
                     score: 0.5,
                     class: 0,
                     tile: -1,
+                    mask: None,
                 },
             },
             outcome: Outcome::Placed,

@@ -287,6 +287,7 @@ mod tests {
                 score: 0.8,
                 class: 0,
                 tile: -1,
+                mask: None,
             },
         }
     }

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::detection::{BoxXyxy, Detection, Device, FrameDetection};
 use crate::error::Error;
+use crate::mask::Mask;
 use crate::run_dir::RunDir;
 
 /// Files of the detect stage.
@@ -108,13 +109,22 @@ crate::table! {
         /// The tile it was found in; -1 for the whole frame.
         tile: i32,
         prompt: String,
+        /// The frame's size, pixels.
+        frame_width: u32,
+        frame_height: u32,
+        /// Its crack pixels as COCO's compressed RLE `counts` over the
+        /// frame (pycocotools' `mask.decode({"size": [frame_height,
+        /// frame_width], "counts": mask})`); null for a model of boxes only.
+        mask: Option<String>,
     }
 }
 
 impl DetectionRow {
-    /// A detection as its row; `classes` names the class ids.
-    pub fn of(d: &FrameDetection, classes: &[String]) -> Self {
+    /// A detection in a frame `frame_size` (width, height) pixels as its
+    /// row; `classes` names the class ids.
+    pub fn of(d: &FrameDetection, classes: &[String], frame_size: (u32, u32)) -> Self {
         let class = d.detection.class;
+        let (frame_width, frame_height) = frame_size;
         Self {
             detection: DetectionCells::of(d.frame, d.time_ns, d.detection.bbox, d.detection.score),
             class,
@@ -123,13 +133,28 @@ impl DetectionRow {
                 .get(class as usize)
                 .cloned()
                 .unwrap_or_else(|| format!("class{class}")),
+            frame_width,
+            frame_height,
+            mask: d
+                .detection
+                .mask
+                .as_ref()
+                .map(|m| m.to_coco(frame_width, frame_height)),
         }
     }
 
     /// The detection the row holds.
-    pub fn detection(&self) -> FrameDetection {
+    pub fn detection(&self) -> Result<FrameDetection, String> {
         let cells = &self.detection;
-        FrameDetection {
+        let mask = match &self.mask {
+            Some(counts) => {
+                Mask::from_coco(counts, self.frame_width, self.frame_height).map_err(|why| {
+                    format!("the mask of the detection in frame {}: {why}", cells.frame)
+                })?
+            }
+            None => None,
+        };
+        Ok(FrameDetection {
             frame: cells.frame,
             time_ns: cells.time_ns,
             detection: Detection {
@@ -137,25 +162,38 @@ impl DetectionRow {
                 score: cells.score,
                 class: self.class,
                 tile: self.tile,
+                mask,
             },
-        }
+        })
     }
 }
 
-/// Write `detections.parquet`; `classes` names the class ids.
+/// Write `detections.parquet`; `classes` names the class ids, `frame_size`
+/// gives each frame's (width, height).
 pub fn write_detections(
     run: &RunDir,
     found: &[FrameDetection],
     classes: &[String],
+    frame_size: impl Fn(u32) -> (u32, u32),
 ) -> Result<(), Error> {
-    let rows: Vec<DetectionRow> = found.iter().map(|d| DetectionRow::of(d, classes)).collect();
+    let rows: Vec<DetectionRow> = found
+        .iter()
+        .map(|d| DetectionRow::of(d, classes, frame_size(d.frame)))
+        .collect();
     run.write_rows(files::DETECTIONS, &rows)
 }
 
 /// Read `detections.parquet`.
 pub fn read_detections(run: &RunDir) -> Result<Vec<FrameDetection>, Error> {
     let rows: Vec<DetectionRow> = run.read_rows(files::DETECTIONS)?;
-    Ok(rows.iter().map(DetectionRow::detection).collect())
+    rows.iter()
+        .map(|r| {
+            r.detection().map_err(|why| Error::Table {
+                path: run.file(files::DETECTIONS),
+                cause: polars::prelude::polars_err!(ComputeError: "{why}"),
+            })
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -179,12 +217,18 @@ mod tests {
                     score: 0.5,
                     class: i % 2,
                     tile: -1 + i as i32,
+                    mask: (i == 1).then(|| {
+                        let mut m = Mask::empty(2, 3, 4, 4);
+                        m.on[5] = true;
+                        m.on[10] = true;
+                        m
+                    }),
                 },
             })
             .collect();
         let rows: Vec<DetectionRow> = found
             .iter()
-            .map(|d| DetectionRow::of(d, &["crack".into()]))
+            .map(|d| DetectionRow::of(d, &["crack".into()], (64, 48)))
             .collect();
         let df = DetectionRow::frame(&rows).unwrap();
         assert_eq!(
@@ -192,9 +236,14 @@ mod tests {
             Some("class1")
         );
         let back = DetectionRow::rows(&df).unwrap();
-        assert_eq!(
-            back.iter().map(DetectionRow::detection).collect::<Vec<_>>(),
-            found
+        let back: Vec<FrameDetection> = back.iter().map(|r| r.detection().unwrap()).collect();
+        assert_eq!(back[0], found[0]);
+        assert_eq!(back[2], found[2]);
+        // A mask reads back trimmed to its pixels.
+        let (mask, was) = (
+            back[1].detection.mask.as_ref().unwrap(),
+            found[1].detection.mask.as_ref().unwrap(),
         );
+        assert_eq!((mask.area(), mask.iou(was)), (2, 1.0));
     }
 }
