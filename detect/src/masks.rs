@@ -118,36 +118,50 @@ impl Prototypes {
     /// to the frame (bilinear), cropped to the box, above logit 0 (a
     /// sigmoid above 0.5).
     pub fn instance(&self, coefficients: &[f32], bbox: &BoxXyxy) -> Option<Mask> {
-        let logits = Plane {
-            width: self.planes.first()?.width,
-            height: self.planes[0].height,
-            values: (0..self.planes[0].values.len())
-                .map(|i| {
-                    self.planes
-                        .iter()
-                        .zip(coefficients)
-                        .map(|(p, c)| p.values[i] * c)
-                        .sum()
-                })
-                .collect(),
-        };
+        let first = self.planes.first()?;
         let x0 = bbox.x0.max(0.0).round() as u32;
         let y0 = bbox.y0.max(0.0).round() as u32;
-        let (x1, y1) = (
-            bbox.x1.max(0.0).round() as u32,
-            bbox.y1.max(0.0).round() as u32,
-        );
+        let (x1, y1) = (bbox.x1.max(0.0).round() as u32, bbox.y1.max(0.0).round() as u32);
         if x1 <= x0 || y1 <= y0 {
             return None;
         }
+        // Prototype pixels under the box (one more each side for the
+        // bilinear taps): the logits are needed there only.
+        let s = self.stride;
+        let to_proto = |x: u32, y: u32| {
+            let (u, v) = self.place.input_at(x, y)?;
+            Some(((u + 0.5) / s - 0.5, (v + 0.5) / s - 0.5))
+        };
+        let (a, b) = (to_proto(x0, y0)?, to_proto(x1 - 1, y1 - 1)?);
+        let clamp = |v: f32, n: usize| (v.max(0.0) as usize).min(n - 1);
+        let (px0, py0) = (clamp(a.0.floor() - 1.0, first.width), clamp(a.1.floor() - 1.0, first.height));
+        let (px1, py1) = (clamp(b.0.ceil() + 1.0, first.width), clamp(b.1.ceil() + 1.0, first.height));
+        let (w, h) = (px1 - px0 + 1, py1 - py0 + 1);
+        let mut values = vec![0.0f32; w * h];
+        for (plane, c) in self.planes.iter().zip(coefficients) {
+            for y in 0..h {
+                let row = &plane.values[(py0 + y) * plane.width + px0..][..w];
+                for (out, v) in values[y * w..(y + 1) * w].iter_mut().zip(row) {
+                    *out += v * c;
+                }
+            }
+        }
+        let logits = Plane {
+            width: w,
+            height: h,
+            values,
+        };
         let mut mask = Mask::empty(x0, y0, x1 - x0, y1 - y0);
         for y in y0..y1 {
             for x in x0..x1 {
-                let Some((u, v)) = self.place.input_at(x, y) else {
+                let Some((u, v)) = to_proto(x, y) else {
                     continue;
                 };
-                let s = self.stride;
-                if logits.sample((u + 0.5) / s - 0.5, (v + 0.5) / s - 0.5) > 0.0 {
+                // Clamped at the prototypes' own border, as a whole-plane
+                // sample would be.
+                let u = u.clamp(0.0, (first.width - 1) as f32) - px0 as f32;
+                let v = v.clamp(0.0, (first.height - 1) as f32) - py0 as f32;
+                if logits.sample(u, v) > 0.0 {
                     mask.on[((y - y0) * mask.width + x - x0) as usize] = true;
                 }
             }

@@ -662,8 +662,9 @@ impl Reader<'_> {
                 probability,
             });
         }
+        // Boxes are clipped to the frame after NMS, as Ultralytics does.
         let Window { x, y, tile, .. } = view.window;
-        let (width, height) = (frame_size.0 as f32, frame_size.1 as f32);
+        found.size = (frame_size.0 as f32, frame_size.1 as f32);
         for (d, _) in &mut detections {
             let b = view.placement.to_image(&d.bbox);
             d.bbox = BoxXyxy {
@@ -671,8 +672,7 @@ impl Reader<'_> {
                 y0: b.y0 + y as f32,
                 x1: b.x1 + x as f32,
                 y1: b.y1 + y as f32,
-            }
-            .clip(width, height);
+            };
             d.tile = tile;
         }
         if let Head::Instances {
@@ -681,25 +681,22 @@ impl Reader<'_> {
             ..
         } = &self.head
         {
-            // As Ultralytics does: suppress first, then decode the survivors' masks.
+            // As Ultralytics does: suppress first, then decode the survivors'
+            // masks within their clipped boxes, and drop those left empty.
+            let planes: Vec<Plane> = (0..*coefficients)
+                .map(|k| plane(prototypes, k).map(|p| p.0))
+                .collect::<Result<_, _>>()?;
             let protos = Prototypes {
                 place,
-                stride: 0.0,
-                planes: (0..*coefficients)
-                    .map(|k| plane(prototypes, k).map(|p| p.0))
-                    .collect::<Result<_, _>>()?,
+                stride: view.size.0 as f32 / planes[0].width as f32,
+                planes,
             };
-            let protos = Prototypes {
-                stride: view.size.0 as f32 / protos.planes[0].width as f32,
-                ..protos
-            };
+            let (w, h) = found.size;
             let kept = nms_with(detections, options.settings.iou);
-            found
-                .detections
-                .extend(kept.into_iter().map(|(mut d, coefficients)| {
-                    d.mask = protos.instance(&coefficients, &d.bbox);
-                    d
-                }));
+            found.detections.extend(kept.into_iter().filter_map(|(mut d, coefficients)| {
+                d.mask = Some(protos.instance(&coefficients, &d.bbox.clip(w, h))?);
+                Some(d)
+            }));
         } else {
             found
                 .detections
@@ -742,20 +739,26 @@ struct FrameFound {
     detections: Vec<Detection>,
     /// Each view's crack probability map (models that give one).
     maps: Vec<ProbabilityMap>,
+    /// The frame's (width, height), pixels.
+    size: (f32, f32),
 }
 
 impl FrameFound {
     /// The frame's findings: NMS'd and merged, each with its crack pixels
     /// from the probability maps where the model gives maps.
     fn finish(self, options: &DetectOptions) -> Vec<Detection> {
+        let (w, h) = self.size;
         let mut detections = self.detections;
-        detections.retain(|d| d.bbox.area() > 0.0);
+        detections.retain(|d| d.bbox.clip(w, h).area() > 0.0);
         // Grid cells and tiles report a long crack piecewise: join the pieces.
         let kept = nms(detections, options.settings.iou);
         let mut merged = match options.settings.merge_gap.pixels() {
             Some(gap) => merge_touching(kept, gap),
             None => kept,
         };
+        for d in &mut merged {
+            d.bbox = d.bbox.clip(w, h);
+        }
         if !self.maps.is_empty() {
             for d in &mut merged {
                 d.mask = from_maps(&self.maps, &d.bbox, MASK_THRESHOLD);
