@@ -308,8 +308,12 @@ fn rust_matches_python_onnxruntime_on_the_same_frames() {
         "--prompt",
         "stain",
     ];
-    let cases: [(&Path, &[&str]); 4] = [
+    let semantic = models().join("crack-semantic.onnx");
+    let cases: [(&Path, &[&str]); 6] = [
         (&baked, &[]),
+        // A semantic segmentation model: its connected crack regions.
+        (&semantic, &[]),
+        (&semantic, &["--tile", "640"]),
         (&baked, &["--tile", "640"]),
         // GATSBI's confidence, with and without merging (which keeps faint boxes apart).
         (&baked, &["--confidence", "0.008", "--merge-gap", "off"]),

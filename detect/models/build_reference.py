@@ -13,7 +13,10 @@ YOLO-World's interfaces exactly, so the same pipeline runs either:
 - crack-open.onnx: the same image input plus `txt_feats` [1, nc, 512] text
   embeddings; output [B, 4 + nc, N], the crack score scaled by each prompt
   embedding's similarity to this model's own "crack" direction (see
-  prompts.json; these are not CLIP features), and the same `mask`.
+  prompts.json; these are not CLIP features), and the same `mask`;
+- crack-semantic.onnx: a semantic segmentation network's interface, one
+  output `logits` [B, 2, H, W] of background and crack (their softmax is the
+  per-pixel crack score), as DeepCrack- or U-Net-style crack segmenters give.
 
 The network: grey = luma of the image; for 8 orientations, how much darker a
 7-pixel stroke is than both of its sides 2-3 pixels away, less how much the
@@ -306,6 +309,17 @@ def main():
     txt = helper.make_tensor_value_info("txt_feats", TensorProto.FLOAT, [1, "classes", EMBED_DIM])
     output = helper.make_tensor_value_info("output0", TensorProto.FLOAT, ["batch", "rows", "anchors"])
     save(nodes, inits, [images, txt], [output, mask_output()], os.path.join(out, "crack-open.onnx"), ["crack"])
+
+    nodes, inits = [], []
+    backbone(nodes, inits)
+    nodes += [
+        # Logits whose softmax is sigmoid(line_g): (-line_g / 2, line_g / 2).
+        helper.make_node("Div", ["line_g", "two"], ["crack_logit"]),
+        helper.make_node("Neg", ["crack_logit"], ["background_logit"]),
+        helper.make_node("Concat", ["background_logit", "crack_logit"], ["logits"], axis=1),
+    ]
+    logits = helper.make_tensor_value_info("logits", TensorProto.FLOAT, ["batch", 2, "height", "width"])
+    save(nodes, inits, [images], [logits], os.path.join(out, "crack-semantic.onnx"), ["crack"])
 
     with open(os.path.join(out, "prompts.json"), "w") as f:
         json.dump({name: [round(float(x), 7) for x in v] for name, v in prompt_embeddings().items()}, f)

@@ -10,7 +10,10 @@ OpenCV INTER_LINEAR pixel-centre bilinear resizing rounded to 8 bits, gray
 114 padding (for a dynamic input, the smallest rectangle padded to the
 model's stride, as Ultralytics' LetterBox(auto=True)), optional tiles, best
 class per anchor, class-aware NMS (ties broken by position), then merging
-same-class boxes within --merge-gap px.
+same-class boxes within --merge-gap px, boxes clipped to the frame last. A
+semantic segmentation model (one output [B, 1 or 2, H, W]) gives its
+connected crack regions (8-neighbours, probability above 0.5, at least 8
+pixels) as boxes scored by their highest probability.
 
 Writes JSON: {"frames": n, "seconds": s, "run_seconds": s,
 "detections": [{"time_ns", "x0", "y0", "x1", "y1", "score", "class", "tile"}]}.
@@ -159,6 +162,51 @@ def merge_touching(dets, gap):
     return dets
 
 
+def boxes_of(out, conf, input_width):
+    """(box in model input pixels, score, class) of one image's output: YOLO
+    rows [4 + nc, anchors], or a semantic map [1 or 2, H, W]."""
+    if out.ndim == 2:
+        cls = np.argmax(out[4:], axis=0)
+        score = out[4:][cls, np.arange(out.shape[1])]
+        for a in np.nonzero(score >= conf)[0]:
+            cx, cy, bw, bh = out[:4, a]
+            yield (cx - bw / F(2), cy - bh / F(2), cx + bw / F(2), cy + bh / F(2)), score[a], int(cls[a])
+        return
+    sigmoid = lambda v: F(1) / (F(1) + np.exp(-v))
+    if out.shape[0] == 2:
+        p = sigmoid(out[1] - out[0])
+    elif out.min() < 0 or out.max() > 1:
+        p = sigmoid(out[0])
+    else:
+        p = out[0]
+    stride = F(input_width) / F(p.shape[1])
+    for (x0, y0, x1, y1), best in components(p > F(0.5), p, 8):
+        if best >= conf:
+            yield (F(x0) * stride, F(y0) * stride, F(x1) * stride, F(y1) * stride), best, 0
+
+
+def components(on, p, min_pixels):
+    """Connected regions (8-neighbours) of `on`: box (exclusive edges) and highest `p`."""
+    h, w = on.shape
+    seen = np.zeros_like(on)
+    for y0, x0 in zip(*np.nonzero(on)):
+        if seen[y0, x0]:
+            continue
+        seen[y0, x0] = True
+        stack, pixels = [(y0, x0)], []
+        while stack:
+            y, x = stack.pop()
+            pixels.append((y, x))
+            for ny in range(max(y - 1, 0), min(y + 2, h)):
+                for nx in range(max(x - 1, 0), min(x + 2, w)):
+                    if on[ny, nx] and not seen[ny, nx]:
+                        seen[ny, nx] = True
+                        stack.append((ny, nx))
+        if len(pixels) >= min_pixels:
+            ys, xs = zip(*pixels)
+            yield (min(xs), min(ys), max(xs) + 1, max(ys) + 1), max(p[y, x] for y, x in pixels)
+
+
 def text_input(path, prompts, nc, dim):
     table = json.load(open(path))
     rows = []
@@ -217,24 +265,19 @@ def main():
                 t = time.perf_counter()
                 out = session.run(None, {image_input.name: x_in[None], **feeds})[0][0]
                 run_seconds += time.perf_counter() - t
-                cls = np.argmax(out[4:], axis=0)
-                score = out[4:][cls, np.arange(out.shape[1])]
-                for a in np.nonzero(score >= conf)[0]:
-                    cx, cy, bw, bh = out[:4, a]
-                    box = (cx - bw / F(2), cy - bh / F(2), cx + bw / F(2), cy + bh / F(2))
-                    lim = (width, height, width, height)
-                    offset = (x, y, x, y)
-                    pad = (pad_x, pad_y, pad_x, pad_y)
-                    box = tuple(
-                        np.clip((v - p) / scale + F(o), F(0), F(m)) for v, p, o, m in zip(box, pad, offset, lim)
-                    )
-                    dets.append({"box": box, "score": score[a], "class": int(cls[a]), "tile": tile})
-            dets = [d for d in dets if area(d["box"]) > 0]
+                offset = (x, y, x, y)
+                pad = (pad_x, pad_y, pad_x, pad_y)
+                for box, score, cls in boxes_of(out, conf, x_in.shape[2]):
+                    box = tuple((v - p) / scale + F(o) for v, p, o in zip(box, pad, offset))
+                    dets.append({"box": box, "score": score, "class": cls, "tile": tile})
+            lim = (width, height, width, height)
+            clip = lambda b: tuple(np.clip(v, F(0), F(m)) for v, m in zip(b, lim))
+            dets = [d for d in dets if area(clip(d["box"])) > 0]
             kept = nms(dets, iou_threshold)
             if args.merge_gap != "off":
                 kept = merge_touching(kept, F(args.merge_gap))
             for d in kept:
-                x0, y0, x1, y1 = (float(v) for v in d["box"])
+                x0, y0, x1, y1 = (float(v) for v in clip(d["box"]))
                 found.append(
                     {
                         "time_ns": stamp,

@@ -121,7 +121,10 @@ impl Prototypes {
         let first = self.planes.first()?;
         let x0 = bbox.x0.max(0.0).round() as u32;
         let y0 = bbox.y0.max(0.0).round() as u32;
-        let (x1, y1) = (bbox.x1.max(0.0).round() as u32, bbox.y1.max(0.0).round() as u32);
+        let (x1, y1) = (
+            bbox.x1.max(0.0).round() as u32,
+            bbox.y1.max(0.0).round() as u32,
+        );
         if x1 <= x0 || y1 <= y0 {
             return None;
         }
@@ -134,8 +137,14 @@ impl Prototypes {
         };
         let (a, b) = (to_proto(x0, y0)?, to_proto(x1 - 1, y1 - 1)?);
         let clamp = |v: f32, n: usize| (v.max(0.0) as usize).min(n - 1);
-        let (px0, py0) = (clamp(a.0.floor() - 1.0, first.width), clamp(a.1.floor() - 1.0, first.height));
-        let (px1, py1) = (clamp(b.0.ceil() + 1.0, first.width), clamp(b.1.ceil() + 1.0, first.height));
+        let (px0, py0) = (
+            clamp(a.0.floor() - 1.0, first.width),
+            clamp(a.1.floor() - 1.0, first.height),
+        );
+        let (px1, py1) = (
+            clamp(b.0.ceil() + 1.0, first.width),
+            clamp(b.1.ceil() + 1.0, first.height),
+        );
         let (w, h) = (px1 - px0 + 1, py1 - py0 + 1);
         let mut values = vec![0.0f32; w * h];
         for (plane, c) in self.planes.iter().zip(coefficients) {

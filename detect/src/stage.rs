@@ -693,10 +693,12 @@ impl Reader<'_> {
             };
             let (w, h) = found.size;
             let kept = nms_with(detections, options.settings.iou);
-            found.detections.extend(kept.into_iter().filter_map(|(mut d, coefficients)| {
-                d.mask = Some(protos.instance(&coefficients, &d.bbox.clip(w, h))?);
-                Some(d)
-            }));
+            found
+                .detections
+                .extend(kept.into_iter().filter_map(|(mut d, coefficients)| {
+                    d.mask = Some(protos.instance(&coefficients, &d.bbox.clip(w, h))?);
+                    Some(d)
+                }));
         } else {
             found
                 .detections

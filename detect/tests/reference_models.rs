@@ -23,7 +23,12 @@ fn shipped_reference_models_are_what_the_script_builds() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    for file in ["crack-baked.onnx", "crack-open.onnx", "prompts.json"] {
+    for file in [
+        "crack-baked.onnx",
+        "crack-open.onnx",
+        "crack-semantic.onnx",
+        "prompts.json",
+    ] {
         let built = std::fs::read(dir.path().join(file)).unwrap();
         let shipped = std::fs::read(models.join(file)).unwrap();
         assert!(
