@@ -19,6 +19,7 @@ pub mod stage;
 pub mod surface;
 pub mod trace;
 pub mod union_find;
+pub mod width;
 
 pub use error::LocaliseError;
 pub use fusion::DefectCandidate;
