@@ -101,6 +101,7 @@ mod tests {
             view_gsd_mm: 3.0,
             blur_px: Some(0.5),
             view_faults: Vec::new(),
+            width: None,
         };
         let measured = evidence(&sharp, LengthStatus::Measured);
         assert!(!measured.reshoot);
@@ -109,6 +110,7 @@ mod tests {
         assert!(evidence(&sharp, LengthStatus::TooOblique).reshoot);
         let far = Placement {
             view_faults: vec![ViewFault::TooFar],
+            width: None,
             ..sharp
         };
         assert!(evidence(&far, LengthStatus::Measured).reshoot);

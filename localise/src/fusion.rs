@@ -11,10 +11,10 @@ use nalgebra::{Point3, Vector3};
 use postflight_core::map::{FaceSide, VoxelIndex};
 
 use crate::evidence::evidence;
-use crate::observation::{Observation, Placement, measures_length};
+use crate::observation::{Observation, Placement, ViewWidth, measures_length};
 use crate::settings::LocaliseConfig;
 use crate::union_find::UnionFind;
-use postflight_core::outputs::localise::{Evidence, LengthStatus, Outcome};
+use postflight_core::outputs::localise::{Evidence, LengthStatus, Outcome, WidthRecord};
 
 /// One physical crack, as the views of it agree.
 #[derive(Debug, Clone)]
@@ -51,6 +51,8 @@ pub struct DefectCandidate {
     /// The best view judged, the length's status, and whether to re-shoot
     /// (its `length` says measured, partial or why missing).
     pub evidence: Evidence,
+    /// Its width, from the view that measures it finest (see [`width`]).
+    pub width: Option<WidthRecord>,
     /// Indices of its observations, in frame order.
     pub observations: Vec<usize>,
 }
@@ -218,6 +220,7 @@ fn candidate(
     let confidence = confidence(&scores, &off_surface);
     let voxel = placement(best).hit.voxel;
     let evidence = evidence(placement(best), status);
+    let width = width(group.iter().filter_map(|i| placement(*i).width));
     DefectCandidate {
         id: String::new(),
         position,
@@ -232,8 +235,34 @@ fn candidate(
         max_score: scores[0],
         best,
         evidence,
+        width,
         observations: group,
     }
+}
+
+/// A candidate's width from its views' measures, by resolution: the view
+/// with the fewest millimetres per pixel across the crack that measured
+/// it; with none measuring it, below the finest view's limit.
+fn width(views: impl Iterator<Item = ViewWidth>) -> Option<WidthRecord> {
+    let views: Vec<ViewWidth> = views.collect();
+    let finest = |v: &&ViewWidth, w: &&ViewWidth| v.mm_per_px.total_cmp(&w.mm_per_px);
+    if let Some(v) = views.iter().filter(|v| v.max_mm.is_some()).min_by(finest) {
+        return Some(WidthRecord {
+            max_mm: v.max_mm,
+            median_mm: v.median_mm,
+            uncertainty_mm: Some(v.uncertainty_mm),
+            narrower_than_mm: None,
+            mm_per_px: v.mm_per_px,
+        });
+    }
+    let v = views.iter().min_by(finest)?;
+    Some(WidthRecord {
+        max_mm: None,
+        median_mm: None,
+        uncertainty_mm: None,
+        narrower_than_mm: Some(v.limit_mm),
+        mm_per_px: v.mm_per_px,
+    })
 }
 
 /// Whether the views `measured` (the ones the length came from) make a
@@ -375,6 +404,7 @@ mod tests {
                 view_gsd_mm: 4.0,
                 blur_px: None,
                 view_faults: Vec::new(),
+                width: None,
             }),
             traced_px: 30,
             clipped: false,

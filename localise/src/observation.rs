@@ -15,6 +15,7 @@ use crate::evidence::view_faults;
 
 use crate::surface::{self, SurfaceHit};
 use crate::trace::CrackTrace;
+use crate::width::{PointWidth, Width};
 
 /// A detection and where it lies on the structure.
 #[derive(Debug, Clone)]
@@ -52,6 +53,69 @@ pub struct Placement {
     pub blur_px: Option<f64>,
     /// The View model's rules the view breaks.
     pub view_faults: Vec<ViewFault>,
+    /// The crack's width on the surface as this view measures it (`None`:
+    /// no centre line to measure across).
+    pub width: Option<ViewWidth>,
+}
+
+/// One view's measure of a crack's width on the surface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ViewWidth {
+    /// Widest (95th percentile of the points measured) and median width,
+    /// millimetres; `None` when every point was below resolution.
+    pub max_mm: Option<f64>,
+    pub median_mm: Option<f64>,
+    /// How far off `max_mm` may be, millimetres: a third of a pixel's
+    /// footprint where the edges are seen, else the noise limit's third.
+    pub uncertainty_mm: f64,
+    /// The surface's millimetres per image pixel across the crack (median
+    /// over its points): the view's resolution for width.
+    pub mm_per_px: f64,
+    /// The narrowest width the view tells from the surface, millimetres.
+    pub limit_mm: f64,
+}
+
+/// A view's width from its points measured across the crack, each point
+/// with its millimetres per pixel on the surface.
+fn view_width(points: &[(Width, f64)]) -> Option<ViewWidth> {
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied()
+    };
+    let quantile = |mut v: Vec<f64>, q: f64| {
+        v.sort_by(f64::total_cmp);
+        v.get(((v.len() - 1) as f64 * q).round() as usize).copied()
+    };
+    let mm_per_px = median(points.iter().map(|p| p.1).collect())?;
+    let measured: Vec<f64> = points
+        .iter()
+        .filter(|(w, _)| !matches!(w, Width::Below { .. }))
+        .map(|(w, scale)| w.px() * scale)
+        .collect();
+    let limits: Vec<f64> = points
+        .iter()
+        .filter(|(w, _)| matches!(w, Width::Below { .. }))
+        .map(|(w, scale)| w.px() * scale)
+        .collect();
+    let resolved = points
+        .iter()
+        .filter(|(w, _)| matches!(w, Width::Resolved { .. }))
+        .count();
+    let limit_mm = median(limits).unwrap_or(0.0);
+    // Most points resolved: edges within a third of a pixel; else the
+    // darkness integral, good to about a third of the noise limit.
+    let uncertainty_mm = if 2 * resolved >= measured.len().max(1) {
+        mm_per_px / 3.0
+    } else {
+        (limit_mm / 3.0).max(mm_per_px / 10.0)
+    };
+    Some(ViewWidth {
+        max_mm: quantile(measured.clone(), 0.95),
+        median_mm: median(measured),
+        uncertainty_mm,
+        mm_per_px,
+        limit_mm,
+    })
 }
 
 /// What a detection is placed against.
@@ -91,6 +155,7 @@ impl Scene<'_> {
         pose: &Isometry3<f64>,
         k: &Intrinsics,
         trace: Option<&CrackTrace>,
+        widths: &[PointWidth],
         blur_px: Option<f64>,
     ) -> Observation {
         let b = detection.detection.bbox;
@@ -171,6 +236,17 @@ impl Scene<'_> {
                     on_surface.iter().map(|p| p.map(|p| p.coords)).collect();
                 t.length(&at)
             });
+        let on_plane =
+            |px: Point2<f64>| intersect(&origin, &ray(&px), &surface.point, &surface.normal);
+        let width = measures_length(surface.incidence)
+            .then(|| {
+                let points: Vec<(Width, f64)> = widths
+                    .iter()
+                    .filter_map(|p| Some((p.width, surface_mm_per_px(p, &on_plane)?)))
+                    .collect();
+                view_width(&points)
+            })
+            .flatten();
         // The hit at the crack's centre, for its voxel, face, range and angle.
         let hit = SurfaceHit::new(self.map, &origin, centre, surface.normal);
         observation.outcome = match self.structure {
@@ -194,9 +270,24 @@ impl Scene<'_> {
             extent,
             radius,
             length_m,
+            width,
         });
         observation
     }
+}
+
+/// Millimetres on the surface per image pixel across the crack at `p`:
+/// a pixel's step across the line, on the surface, less its part along
+/// the crack there (an oblique view slants the image's normal).
+fn surface_mm_per_px(
+    p: &PointWidth,
+    on_plane: &impl Fn(Point2<f64>) -> Option<Point3<f64>>,
+) -> Option<f64> {
+    let along = nalgebra::Vector2::new(p.across.y, -p.across.x);
+    let across = on_plane(p.at + p.across * 0.5)? - on_plane(p.at - p.across * 0.5)?;
+    let along =
+        (on_plane(p.at + along * 0.5)? - on_plane(p.at - along * 0.5)?).try_normalize(1e-12)?;
+    Some((across - along * across.dot(&along)).norm() * 1000.0)
 }
 
 /// A voxel of the structure, or touching one: map noise and a surface on a
@@ -371,7 +462,7 @@ mod tests {
             corner[0] < 120.0 && corner[1] < 120.0,
             "crack not in a corner: {corner:?}"
         );
-        let o = scene.place(detection(corner), &pose, &k, Some(&t), None);
+        let o = scene.place(detection(corner), &pose, &k, Some(&t), &[], None);
         assert_eq!(o.outcome, Outcome::Placed);
         let p = o.placement.unwrap();
         let mid = Point3::from((a.coords + b.coords) / 2.0);
@@ -387,11 +478,11 @@ mod tests {
             distortion: Distortion::None,
             ..k.clone()
         };
-        let wrong = scene.place(detection(corner), &pose, &pinhole, Some(&t), None);
+        let wrong = scene.place(detection(corner), &pose, &pinhole, Some(&t), &[], None);
         assert!((wrong.placement.unwrap().centre - mid).norm() > 0.05);
         // So would ignoring the mounting.
         let body_only = pose * Isometry3::translation(0.0, 0.12, -0.25);
-        let wrong = scene.place(detection(corner), &body_only, &k, Some(&t), None);
+        let wrong = scene.place(detection(corner), &body_only, &k, Some(&t), &[], None);
         assert!((wrong.placement.unwrap().centre - mid).norm() > 0.1);
     }
 
@@ -414,7 +505,8 @@ mod tests {
             view: &ViewModel::default(),
         };
         assert_eq!(
-            near.place(detection(b), &pose, &k, Some(&t), None).outcome,
+            near.place(detection(b), &pose, &k, Some(&t), &[], None)
+                .outcome,
             Outcome::NoSurface
         );
         // On a surface that is not the structure.
@@ -426,11 +518,13 @@ mod tests {
             view: &ViewModel::default(),
         };
         assert_eq!(
-            scene.place(detection(b), &pose, &k, Some(&t), None).outcome,
+            scene
+                .place(detection(b), &pose, &k, Some(&t), &[], None)
+                .outcome,
             Outcome::Obstacle
         );
         // Without a trace the box's centre and diagonals place it.
-        let o = scene.place(detection(b), &pose, &k, None, None);
+        let o = scene.place(detection(b), &pose, &k, None, &[], None);
         assert_eq!(o.traced_px, 0);
         assert!(o.placement.unwrap().length_m.is_none());
     }

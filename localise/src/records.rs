@@ -40,6 +40,7 @@ pub fn defect_record(
         confidence: c.confidence,
         max_score: c.max_score,
         evidence: c.evidence.clone(),
+        width: c.width,
         crop,
         best: view(&observations[c.best]).expect("a candidate's views are placed"),
         views: c

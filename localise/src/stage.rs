@@ -27,7 +27,8 @@ use crate::fusion::{DefectCandidate, fuse};
 use crate::observation::{Observation, Scene};
 use crate::records::{defect_record, observation_record};
 use crate::settings::{LocaliseConfig, keys};
-use crate::trace::trace;
+use crate::trace::{trace, trace_mask};
+use crate::width::widths;
 use postflight_core::structure::ElementMap;
 use structure::{Found, Targets};
 
@@ -128,7 +129,14 @@ pub fn localise(
     let recording = Recording::reopen(&flight)?;
 
     let by_frame = detections_by_frame(&flight, detections)?;
-    let (observations, mut warnings) = place(&flight, &recording, by_frame, &scene, progress);
+    let (observations, mut warnings) = place(
+        &flight,
+        &recording,
+        by_frame,
+        &scene,
+        &options.settings,
+        progress,
+    );
     let outcomes = count_outcomes(&observations);
     let total = observations.len() as u64;
     let cast = (outcomes.placed + outcomes.no_surface + outcomes.obstacle) as usize;
@@ -194,6 +202,7 @@ fn place(
     recording: &Recording,
     by_frame: Vec<(u32, Vec<FrameDetection>)>,
     scene: &Scene,
+    options: &LocaliseConfig,
     progress: &mut dyn FnMut(u64, u64),
 ) -> (Vec<Observation>, Vec<String>) {
     let total = by_frame.iter().map(|(_, d)| d.len()).sum::<usize>() as u64;
@@ -205,7 +214,7 @@ fn place(
             .par_iter()
             .map(|(index, dets)| {
                 let frame = flight.frame(*index).expect("frames were checked");
-                place_frame(flight, recording, frame, dets, scene)
+                place_frame(flight, recording, frame, dets, scene, options)
             })
             .collect();
         for (obs, warning) in placed {
@@ -258,6 +267,7 @@ fn place_frame(
     frame: &Frame,
     detections: &[FrameDetection],
     scene: &Scene,
+    options: &LocaliseConfig,
 ) -> (Vec<Observation>, Option<String>) {
     let unplaced = |outcome: Outcome| {
         detections
@@ -295,10 +305,20 @@ fn place_frame(
         .iter()
         .map(|d| {
             let b = d.detection.bbox;
+            // The darkest thin line in the box, followed by hysteresis
+            // along its faint stretches; else the centre line of the
+            // model's crack pixels, where it segments. (A mask thresholded
+            // at one half loses those faint stretches: with the reference
+            // detector's map, lengths from masks came out a third short.)
             let crack = gray
                 .as_ref()
-                .and_then(|g| trace(g, [b.x0, b.y0, b.x1, b.y1]));
-            scene.place(d.clone(), &pose, k, crack.as_ref(), blur_px)
+                .and_then(|g| trace(g, [b.x0, b.y0, b.x1, b.y1]))
+                .or_else(|| d.detection.mask.as_ref().and_then(trace_mask));
+            let widths = match (&gray, &crack) {
+                (Some(g), Some(t)) => widths(g, &t.pixels, &t.edges, options.crack_darkness),
+                _ => Vec::new(),
+            };
+            scene.place(d.clone(), &pose, k, crack.as_ref(), &widths, blur_px)
         })
         .collect();
     (observations, warning)

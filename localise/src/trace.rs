@@ -1,4 +1,5 @@
-//! The crack inside a detection box, traced in the image: pixels clearly
+//! The crack inside a detection box, traced in the image (or in the crack
+//! pixels a segmenting model marked): pixels clearly
 //! darker than the surface around them, thinned to a one-pixel centre line,
 //! joined into a minimum spanning forest, and its pieces bridged where a
 //! hairline crack faded for a few pixels. A box says only roughly where
@@ -8,6 +9,7 @@
 
 use image::GrayImage;
 use nalgebra::{Point2, SVector};
+use postflight_core::mask::Mask;
 
 use crate::union_find::UnionFind;
 
@@ -122,6 +124,27 @@ pub fn trace(gray: &GrayImage, bbox: [f32; 4]) -> Option<CrackTrace> {
     keep_components(&mut mask, cw as usize, ch as usize, |i| {
         in_box(i) && f64::from(values[i]) < strong
     });
+    centre_line(mask, [x0, y0, cw, ch])
+}
+
+/// Trace the crack a segmenting model marked: the centre line of its
+/// pixels (`None` when they are too few to be a crack).
+pub fn trace_mask(mask: &Mask) -> Option<CrackTrace> {
+    // An empty pixel around (inside the frame), so the thinning sees the
+    // mask's edges.
+    let (left, top) = (mask.x0.min(1), mask.y0.min(1));
+    let (w, h) = (mask.width + left + 1, mask.height + top + 1);
+    let mut on = vec![false; (w * h) as usize];
+    for (x, y) in mask.pixels() {
+        on[((y - mask.y0 + top) * w + x - mask.x0 + left) as usize] = true;
+    }
+    centre_line(on, [mask.x0 - left, mask.y0 - top, w, h])
+}
+
+/// The centre line of the crack pixels `mask` of the window `[x0, y0,
+/// width, height]` (frame pixels): holes filled, thinned to one pixel,
+/// joined into a spanning forest, faded stretches bridged.
+fn centre_line(mut mask: Vec<bool>, [x0, y0, cw, ch]: [u32; 4]) -> Option<CrackTrace> {
     fill_holes(&mut mask, cw as usize, ch as usize);
     thin(&mut mask, cw as usize, ch as usize);
     drop_corners(&mut mask, cw as usize, ch as usize);

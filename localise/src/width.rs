@@ -114,13 +114,12 @@ fn measure(p: &Profile, share: f64) -> Width {
     }
     let depth = share * p.surface;
     // The crack's darkness near the line, not a neighbour's further out.
-    let core: f64 = p
-        .t
-        .iter()
-        .zip(&p.dark)
-        .filter(|(t, _)| t.abs() <= 2.5)
-        .map(|(_, d)| d * STEP)
-        .sum();
+    let core: f64 =
+        p.t.iter()
+            .zip(&p.dark)
+            .filter(|(t, _)| t.abs() <= 2.5)
+            .map(|(_, d)| d * STEP)
+            .sum();
     // What noise alone sums to over that window: 3 sigma of the mean of
     // 5 independent pixels, times their span.
     let limit = 3.0 * p.noise * 5.0 / 5f64.sqrt();
@@ -162,12 +161,11 @@ fn resolved(p: &Profile) -> Option<(f64, f64)> {
     };
     let width = edge(1)? - edge(-1)?;
     // A flat bottom: the middle third of the crack is nearly as dark as its deepest.
-    let flat = p
-        .t
-        .iter()
-        .zip(&p.dark)
-        .filter(|(t, _)| t.abs() <= width / 6.0)
-        .all(|(_, d)| *d >= 0.8 * depth);
+    let flat =
+        p.t.iter()
+            .zip(&p.dark)
+            .filter(|(t, _)| t.abs() <= width / 6.0)
+            .all(|(_, d)| *d >= 0.8 * depth);
     (width >= RESOLVED_PX && flat).then_some((width, depth))
 }
 
@@ -210,7 +208,10 @@ fn sample(gray: &GrayImage, p: Point2<f64>) -> Option<f64> {
         return None;
     }
     let (x0, y0) = (u.floor() as u32, v.floor() as u32);
-    let (x1, y1) = ((x0 + 1).min(gray.width() - 1), (y0 + 1).min(gray.height() - 1));
+    let (x1, y1) = (
+        (x0 + 1).min(gray.width() - 1),
+        (y0 + 1).min(gray.height() - 1),
+    );
     let (fx, fy) = (u - f64::from(x0), v - f64::from(y0));
     let at = |x: u32, y: u32| f64::from(gray.get_pixel(x, y).0[0]);
     let top = at(x0, y0) * (1.0 - fx) + at(x1, y0) * fx;
@@ -263,7 +264,11 @@ mod tests {
     /// A straight crack `w` pixels wide at `angle` through the middle of a
     /// 64x64 image of brightness 150 with noise, drawn by the share of each
     /// pixel it covers (16x16 supersampling), its interior 85% darker.
-    fn crack_image(w: f64, angle: f64, seed: u32) -> (GrayImage, Vec<Point2<f64>>, Vec<(u32, u32)>) {
+    fn crack_image(
+        w: f64,
+        angle: f64,
+        seed: u32,
+    ) -> (GrayImage, Vec<Point2<f64>>, Vec<(u32, u32)>) {
         let (dx, dy) = (angle.cos(), angle.sin());
         let mut img = GrayImage::new(64, 64);
         let mut state = seed.wrapping_mul(2_654_435_761).max(1);
@@ -284,7 +289,9 @@ mod tests {
             state ^= state >> 17;
             state ^= state << 5;
             let noise = f64::from(state % 7) - 3.0;
-            p.0[0] = (150.0 * (1.0 - 0.85 * covered) + noise).round().clamp(0.0, 255.0) as u8;
+            p.0[0] = (150.0 * (1.0 - 0.85 * covered) + noise)
+                .round()
+                .clamp(0.0, 255.0) as u8;
         }
         let centre: Vec<Point2<f64>> = (-20..=20)
             .map(|k| Point2::new(32.0 + f64::from(k) * dx, 32.0 + f64::from(k) * dy))
@@ -303,10 +310,20 @@ mod tests {
 
     #[test]
     fn widths_from_a_tenth_of_a_pixel_to_several_pixels_are_measured() {
-        for (w, angle) in [(0.3, 0.2), (0.6, 1.0), (1.0, 0.0), (1.8, 0.7), (3.5, 0.3), (6.0, 1.2)] {
+        for (w, angle) in [
+            (0.3, 0.2),
+            (0.6, 1.0),
+            (1.0, 0.0),
+            (1.8, 0.7),
+            (3.5, 0.3),
+            (6.0, 1.2),
+        ] {
             let (measured, kind) = median_width(w, angle);
             let error = (measured - w).abs() / w;
-            assert!(error < 0.15, "{w} px at {angle} rad measured {measured} ({kind:?})");
+            assert!(
+                error < 0.15,
+                "{w} px at {angle} rad measured {measured} ({kind:?})"
+            );
             if w >= 3.5 {
                 assert!(matches!(kind, Width::Resolved { .. }), "{w}: {kind:?}");
             }

@@ -279,6 +279,11 @@ mod tests {
                 best_y0: 20.0,
                 best_x1: 110.5,
                 best_y1: 60.0,
+                max_width_mm: length_m.map(|_| 1.2),
+                median_width_mm: length_m.map(|_| 0.7),
+                width_uncertainty_mm: length_m.map(|_| 0.2),
+                narrower_than_mm: None,
+                width_mm_per_px: length_m.map(|_| 0.9),
                 crop: Some(format!("defects/{id}.jpg")),
             },
         };

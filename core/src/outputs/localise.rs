@@ -303,12 +303,30 @@ pub struct DefectRecord {
     pub confidence: f64,
     pub max_score: f64,
     pub evidence: Evidence,
+    /// Its width, where a view could measure across its centre line.
+    #[serde(default)]
+    pub width: Option<WidthRecord>,
     /// JPEG of the best view, relative to the run directory (none when its
     /// image could not be decoded).
     pub crop: Option<String>,
     pub best: ViewRecord,
     /// Every supporting view, in frame order.
     pub views: Vec<ViewRecord>,
+}
+
+/// A candidate's width, as the view that resolves it finest measures it.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct WidthRecord {
+    /// Widest (95th percentile along its centre line) and median width,
+    /// millimetres; none when the crack is below the view's resolution.
+    pub max_mm: Option<f64>,
+    pub median_mm: Option<f64>,
+    /// How far off `max_mm` may be, millimetres.
+    pub uncertainty_mm: Option<f64>,
+    /// Below resolution: narrower than this, millimetres.
+    pub narrower_than_mm: Option<f64>,
+    /// The view's millimetres on the surface per pixel across the crack.
+    pub mm_per_px: f64,
 }
 
 /// Write `defects.parquet` and `defects.json` (the same candidates; the
@@ -553,6 +571,12 @@ crate::table! {
         best_y0: f32,
         best_x1: f32,
         best_y1: f32,
+        /// See [`WidthRecord`]; all null where no view measured across it.
+        max_width_mm: Option<f64>,
+        median_width_mm: Option<f64>,
+        width_uncertainty_mm: Option<f64>,
+        narrower_than_mm: Option<f64>,
+        width_mm_per_px: Option<f64>,
         crop: Option<String>,
     }
 }
@@ -606,6 +630,11 @@ impl DefectRow {
             best_y0,
             best_x1,
             best_y1,
+            max_width_mm: d.width.and_then(|w| w.max_mm),
+            median_width_mm: d.width.and_then(|w| w.median_mm),
+            width_uncertainty_mm: d.width.and_then(|w| w.uncertainty_mm),
+            narrower_than_mm: d.width.and_then(|w| w.narrower_than_mm),
+            width_mm_per_px: d.width.map(|w| w.mm_per_px),
             crop: d.crop.clone(),
         }
     }
@@ -643,6 +672,13 @@ impl DefectRow {
                 min_measurable_width_mm: self.min_measurable_width_mm,
                 reshoot: self.reshoot,
             },
+            width: self.width_mm_per_px.map(|mm_per_px| WidthRecord {
+                max_mm: self.max_width_mm,
+                median_mm: self.median_width_mm,
+                uncertainty_mm: self.width_uncertainty_mm,
+                narrower_than_mm: self.narrower_than_mm,
+                mm_per_px,
+            }),
             crop: self.crop,
             best,
             views,
@@ -734,6 +770,14 @@ mod tests {
                     min_measurable_width_mm: 7.6,
                     reshoot: best == 3,
                 },
+                // One measured, one below resolution.
+                width: Some(WidthRecord {
+                    max_mm: (best == 3).then_some(1.4),
+                    median_mm: (best == 3).then_some(0.6),
+                    uncertainty_mm: (best == 3).then_some(0.2),
+                    narrower_than_mm: (best != 3).then_some(0.3),
+                    mm_per_px: 1.1,
+                }),
                 crop: Some(format!("defects/{id}.jpg")),
                 best: views.iter().find(|v| v.frame == best).unwrap().clone(),
                 views,
