@@ -6,7 +6,7 @@
 use nalgebra::{Point3, Vector3};
 
 use crate::rng::Rng;
-use crate::scene::{Scene, area};
+use crate::scene::{FacePicker, Scene};
 
 /// One crack on one planar face of the structure.
 #[derive(Debug, Clone)]
@@ -178,28 +178,15 @@ impl Cracks {
     /// Draw `count` more cracks, clear of those there are, numbered on from
     /// them; how many it drew (fewer when the structure runs out of room).
     pub fn add(&mut self, scene: &Scene, count: usize, rng: &mut Rng) -> usize {
-        let faces: Vec<u32> = scene
-            .infrastructure()
-            .filter(|t| area(&scene.triangles[*t as usize]) > 0.05)
-            .collect();
-        let weights: Vec<f64> = faces
-            .iter()
-            .map(|t| area(&scene.triangles[*t as usize]))
-            .collect();
-        let total: f64 = weights.iter().sum();
+        let faces = FacePicker::new(scene, 0.05);
         let cracks = &mut self.0;
         let (before, mut attempts) = (cracks.len(), 0);
         while cracks.len() < before + count && attempts < count * 50 {
             attempts += 1;
-            let mut pick = rng.uniform() * total;
-            let k = weights
-                .iter()
-                .position(|w| {
-                    pick -= w;
-                    pick <= 0.0
-                })
-                .unwrap_or(faces.len() - 1);
-            if let Some(c) = grow(scene, faces[k], cracks.len() as u32, rng)
+            let Some(face) = faces.pick(rng) else {
+                break;
+            };
+            if let Some(c) = grow(scene, face, cracks.len() as u32, rng)
                 && cracks
                     .iter()
                     .all(|o: &Crack| (o.center - c.center).norm() > o.radius + c.radius + 0.3)

@@ -9,7 +9,7 @@ use serde::Serialize;
 use crate::crack::FaceWalk;
 use crate::render::overlap;
 use crate::rng::Rng;
-use crate::scene::{Scene, area};
+use crate::scene::{FacePicker, Scene};
 
 /// What a mark on the surface is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -55,30 +55,17 @@ pub struct Distractors(pub Vec<Distractor>);
 impl Distractors {
     /// Marks drawn on the structure's larger faces.
     pub fn generate(scene: &Scene, rng: &mut Rng) -> Self {
-        let faces: Vec<u32> = scene
-            .infrastructure()
-            .filter(|t| area(&scene.triangles[*t as usize]) > 0.5)
-            .collect();
-        let weights: Vec<f64> = faces
-            .iter()
-            .map(|t| area(&scene.triangles[*t as usize]))
-            .collect();
-        let total: f64 = weights.iter().sum();
+        let faces = FacePicker::new(scene, 0.5);
         let mut marks = Vec::new();
         for (kind, count) in COUNTS {
             let mut attempts = 0;
             let mut made = 0;
-            while made < count && attempts < count * 20 && !faces.is_empty() {
+            while made < count && attempts < count * 20 {
                 attempts += 1;
-                let mut pick = rng.uniform() * total;
-                let k = weights
-                    .iter()
-                    .position(|w| {
-                        pick -= w;
-                        pick <= 0.0
-                    })
-                    .unwrap_or(faces.len() - 1);
-                if let Some(mark) = place(scene, faces[k], kind, rng) {
+                let Some(face) = faces.pick(rng) else {
+                    break;
+                };
+                if let Some(mark) = place(scene, face, kind, rng) {
                     marks.push(mark);
                     made += 1;
                 }

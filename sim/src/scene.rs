@@ -312,6 +312,49 @@ impl Scene {
     }
 }
 
+/// The structure's faces larger than some area, picked at random in
+/// proportion to their area.
+pub struct FacePicker {
+    faces: Vec<u32>,
+    weights: Vec<f64>,
+    total: f64,
+}
+
+impl FacePicker {
+    /// The structure's triangles of `scene` larger than `min_area`, m².
+    pub fn new(scene: &Scene, min_area: f64) -> Self {
+        let faces: Vec<u32> = scene
+            .infrastructure()
+            .filter(|t| area(&scene.triangles[*t as usize]) > min_area)
+            .collect();
+        let weights: Vec<f64> = faces
+            .iter()
+            .map(|t| area(&scene.triangles[*t as usize]))
+            .collect();
+        let total = weights.iter().sum();
+        Self {
+            faces,
+            weights,
+            total,
+        }
+    }
+
+    /// A face, more likely the larger it is; `None` when there are none.
+    pub fn pick(&self, rng: &mut crate::rng::Rng) -> Option<u32> {
+        let last = self.faces.len().checked_sub(1)?;
+        let mut pick = rng.uniform() * self.total;
+        let k = self
+            .weights
+            .iter()
+            .position(|w| {
+                pick -= w;
+                pick <= 0.0
+            })
+            .unwrap_or(last);
+        Some(self.faces[k])
+    }
+}
+
 pub fn area(t: &[Point3<f64>; 3]) -> f64 {
     0.5 * (t[1] - t[0]).cross(&(t[2] - t[0])).norm()
 }
