@@ -38,11 +38,20 @@ impl ViewPlace {
 pub struct Plane {
     pub width: usize,
     pub height: usize,
+    /// Model input pixels per plane pixel (1: the plane is the input's size).
+    pub stride: f32,
     /// Row-major values.
     pub values: Vec<f32>,
 }
 
 impl Plane {
+    /// The plane coordinates of model-input coordinates `(u, v)` (both
+    /// pixel-centre convention).
+    fn of_input(&self, (u, v): (f32, f32)) -> (f32, f32) {
+        let s = self.stride;
+        ((u + 0.5) / s - 0.5, (v + 0.5) / s - 0.5)
+    }
+
     /// Bilinear sample at `(u, v)` (pixel-centre convention), clamped at
     /// the border.
     fn sample(&self, u: f32, v: f32) -> f32 {
@@ -62,14 +71,18 @@ impl Plane {
 #[derive(Debug, Clone)]
 pub struct ProbabilityMap {
     pub place: ViewPlace,
-    /// Model input pixels per map pixel (1: the map is the input's size).
-    pub stride: f32,
     pub probability: Plane,
 }
 
+/// Order maps finest first, as [`from_maps`] takes them: tiles see more
+/// detail than the whole frame scaled down.
+pub fn finest_first(maps: &mut [ProbabilityMap]) {
+    maps.sort_by(|a, b| b.place.placement.scale.total_cmp(&a.place.placement.scale));
+}
+
 /// Frame pixels of `bbox` whose crack probability is above `threshold`,
-/// each read from the finest view covering it (tiles see more detail than
-/// the whole frame scaled down); `None` when there are none.
+/// each read from the first of `maps` (ordered by [`finest_first`])
+/// covering it; `None` when there are none.
 pub fn from_maps(maps: &[ProbabilityMap], bbox: &BoxXyxy, threshold: f32) -> Option<Mask> {
     let x0 = bbox.x0.max(0.0).floor() as u32;
     let y0 = bbox.y0.max(0.0).floor() as u32;
@@ -80,18 +93,12 @@ pub fn from_maps(maps: &[ProbabilityMap], bbox: &BoxXyxy, threshold: f32) -> Opt
     if x1 <= x0 || y1 <= y0 {
         return None;
     }
-    let mut finest: Vec<&ProbabilityMap> = maps.iter().collect();
-    finest.sort_by(|a, b| b.place.placement.scale.total_cmp(&a.place.placement.scale));
     let mut mask = Mask::empty(x0, y0, x1 - x0, y1 - y0);
     for y in y0..y1 {
         for x in x0..x1 {
-            let p = finest.iter().find_map(|m| {
-                let (u, v) = m.place.input_at(x, y)?;
-                let s = m.stride;
-                Some(
-                    m.probability
-                        .sample((u + 0.5) / s - 0.5, (v + 0.5) / s - 0.5),
-                )
+            let p = maps.iter().find_map(|m| {
+                let (u, v) = m.probability.of_input(m.place.input_at(x, y)?);
+                Some(m.probability.sample(u, v))
             });
             if p.is_some_and(|p| p > threshold) {
                 mask.on[((y - y0) * mask.width + x - x0) as usize] = true;
@@ -106,8 +113,8 @@ pub fn from_maps(maps: &[ProbabilityMap], bbox: &BoxXyxy, threshold: f32) -> Opt
 #[derive(Debug, Clone)]
 pub struct Prototypes {
     pub place: ViewPlace,
-    /// Model input pixels per prototype pixel (4 for YOLO's P3 prototypes).
-    pub stride: f32,
+    /// One plane per coefficient, each of the same size and stride (4 for
+    /// YOLO's P3 prototypes).
     pub planes: Vec<Plane>,
 }
 
@@ -130,11 +137,7 @@ impl Prototypes {
         }
         // Prototype pixels under the box (one more each side for the
         // bilinear taps): the logits are needed there only.
-        let s = self.stride;
-        let to_proto = |x: u32, y: u32| {
-            let (u, v) = self.place.input_at(x, y)?;
-            Some(((u + 0.5) / s - 0.5, (v + 0.5) / s - 0.5))
-        };
+        let to_proto = |x: u32, y: u32| Some(first.of_input(self.place.input_at(x, y)?));
         let (a, b) = (to_proto(x0, y0)?, to_proto(x1 - 1, y1 - 1)?);
         let clamp = |v: f32, n: usize| (v.max(0.0) as usize).min(n - 1);
         let (px0, py0) = (
@@ -158,6 +161,7 @@ impl Prototypes {
         let logits = Plane {
             width: w,
             height: h,
+            stride: first.stride,
             values,
         };
         let mut mask = Mask::empty(x0, y0, x1 - x0, y1 - y0);
@@ -257,6 +261,7 @@ mod tests {
         Plane {
             width,
             height,
+            stride: 1.0,
             values,
         }
     }
@@ -265,7 +270,6 @@ mod tests {
     fn a_map_gives_the_box_pixels_above_threshold_from_the_finest_view() {
         let fine = ProbabilityMap {
             place: whole(40, 30, 1.0),
-            stride: 1.0,
             probability: line(40, 30, 10),
         };
         let b = BoxXyxy {
@@ -280,10 +284,11 @@ mod tests {
         // override the fine one where both cover.
         let coarse = ProbabilityMap {
             place: whole(40, 30, 0.5),
-            stride: 1.0,
             probability: line(20, 15, 15),
         };
-        let m = from_maps(&[coarse, fine], &b, 0.5).unwrap();
+        let mut maps = vec![coarse, fine];
+        finest_first(&mut maps);
+        let m = from_maps(&maps, &b, 0.5).unwrap();
         assert_eq!((m.x0, m.width), (10, 1));
     }
 
@@ -312,6 +317,7 @@ mod tests {
         let left = Plane {
             width: 10,
             height: 10,
+            stride: 4.0,
             values: (0..100)
                 .map(|i| if i % 10 < 5 { 1.0 } else { -1.0 })
                 .collect(),
@@ -319,13 +325,13 @@ mod tests {
         let top = Plane {
             width: 10,
             height: 10,
+            stride: 4.0,
             values: (0..100)
                 .map(|i| if i / 10 < 5 { 1.0 } else { -1.0 })
                 .collect(),
         };
         let protos = Prototypes {
             place: whole(40, 40, 1.0),
-            stride: 4.0,
             planes: vec![left, top],
         };
         let b = BoxXyxy {

@@ -60,11 +60,6 @@ pub enum Head {
 }
 
 impl Head {
-    /// Whether the model gives crack pixels, not only boxes.
-    pub fn segments(&self) -> bool {
-        !matches!(self, Self::Boxes { .. })
-    }
-
     /// Rows of the boxes output besides the box and class scores.
     pub fn extra_rows(&self) -> usize {
         match self {

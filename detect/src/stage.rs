@@ -12,7 +12,7 @@ use ingest::Recording;
 use ort::session::SessionInputValue;
 use ort::value::{Tensor, TensorRef};
 use postflight_core::detection::{BoxXyxy, Detection, FrameDetection};
-use postflight_core::outputs::detect::{self as outputs, DetectSummary, FailedFrame, files};
+use postflight_core::outputs::detect::{DetectSummary, DetectionRow, FailedFrame, files};
 use postflight_core::run_log::sha256_file;
 use postflight_core::{Flight, Frame, ImageStatus, InvalidSetting, Key, RunDir};
 use rayon::prelude::*;
@@ -21,7 +21,9 @@ use crate::boxes::{merge_touching, nms, nms_with};
 use crate::decode::decode;
 use crate::error::DetectError;
 use crate::letterbox::{InputSize, PAD, Placement, letterbox};
-use crate::masks::{Plane, ProbabilityMap, Prototypes, ViewPlace, components, from_maps};
+use crate::masks::{
+    Plane, ProbabilityMap, Prototypes, ViewPlace, components, finest_first, from_maps,
+};
 use crate::prompts::Embeddings;
 use crate::runtime::{Runtime, locate};
 use crate::settings::{DetectConfig, keys};
@@ -457,7 +459,7 @@ impl Detector {
                 by_size.entry(v.size).or_default().push((i, v));
             }
         }
-        let mut found = vec![FrameFound::default(); frames.len()];
+        let mut found: Vec<FrameFound> = frames.iter().map(FrameFound::new).collect();
         let mut stacked = Vec::new();
         let batch = self.batch;
         let chunks = by_size
@@ -490,10 +492,8 @@ impl Detector {
                 images,
             };
             for (b, &(i, view)) in chunk.iter().enumerate() {
-                let frame = &frames[i];
-                let size = (frame.width, frame.height);
                 reader
-                    .read_view(&outputs, b, view, size, options, &mut found[i])
+                    .read_view(&outputs, b, view, options, &mut found[i])
                     .map_err(failed)?;
             }
         }
@@ -548,123 +548,49 @@ struct Reader<'a> {
 }
 
 impl Reader<'_> {
-    /// What image `b` of a run's `outputs` found in `view` of a frame
-    /// `frame_size` pixels: its detections in frame pixels (with crack
-    /// pixels for instance masks), and its probability map.
+    /// What image `b` of a run's `outputs` found in `view`: its detections
+    /// in frame pixels (with their crack pixels for instance masks), and
+    /// its probability map, into the frame's `found`.
     fn read_view(
         &self,
         outputs: &ort::session::SessionOutputs<'_>,
         b: usize,
         view: &View,
-        frame_size: (u32, u32),
         options: &DetectOptions,
         found: &mut FrameFound,
     ) -> Result<(), String> {
-        let images = self.images;
+        let output = Output {
+            outputs,
+            image: b,
+            images: self.images,
+            input_width: view.size.0,
+        };
         let place = ViewPlace {
             window: view.window,
             placement: view.placement,
         };
-        let tensor = |name: &str| -> Result<(Vec<usize>, &[f32]), String> {
-            let (shape, data) = outputs[name]
-                .try_extract_tensor::<f32>()
-                .map_err(|e| e.to_string())?;
-            Ok((
-                shape
-                    .iter()
-                    .map(|d| usize::try_from(*d).unwrap_or(0))
-                    .collect(),
-                data,
-            ))
-        };
-        let plane = |name: &str, channel: usize| -> Result<(Plane, f32), String> {
-            let (shape, data) = tensor(name)?;
-            if shape.len() != 4 || shape[0] < images || channel >= shape[1] {
-                return Err(format!(
-                    "output {name} has shape {shape:?}, expected [batch, channels, height, width]"
-                ));
-            }
-            let (c, h, w) = (shape[1], shape[2], shape[3]);
-            let at = (b * c + channel) * h * w;
-            let stride = view.size.0 as f32 / w as f32;
-            Ok((
-                Plane {
-                    width: w,
-                    height: h,
-                    values: data[at..at + h * w].to_vec(),
-                },
-                stride,
-            ))
-        };
         let confidence = options.settings.confidence;
-        let mut detections: Vec<(Detection, Vec<f32>)> = match &self.head {
-            Head::Boxes { output }
-            | Head::BoxesAndMap { output, .. }
-            | Head::Instances { output, .. } => {
-                let (shape, data) = tensor(output)?;
-                let extra = self.head.extra_rows();
-                if shape.len() != 3 || shape[1] != 4 + self.classes + extra {
-                    return Err(format!(
-                        "output shape {shape:?}, expected [batch, 4 + {} classes{}, anchors]",
-                        self.classes,
-                        if extra > 0 {
-                            format!(" + {extra} mask coefficients")
-                        } else {
-                            String::new()
-                        }
-                    ));
-                }
-                decode(data, self.classes, extra, shape[2], b, confidence)
-            }
-            Head::Semantic { output, channels } => {
-                let (probability, stride) = crack_probability(
-                    plane(output, 0)?,
-                    (*channels == 2)
-                        .then(|| plane(output, 1))
-                        .transpose()?
-                        .map(|p| p.0),
-                );
-                let found_here = components(&probability, MASK_THRESHOLD, MIN_COMPONENT_PX)
-                    .into_iter()
-                    .filter(|(_, score)| *score >= confidence)
-                    .map(|(b, score)| {
-                        let scaled = BoxXyxy {
-                            x0: b.x0 * stride,
-                            y0: b.y0 * stride,
-                            x1: b.x1 * stride,
-                            y1: b.y1 * stride,
-                        };
-                        (
-                            Detection {
-                                bbox: scaled,
-                                score,
-                                class: 0,
-                                tile: -1,
-                                mask: None,
-                            },
-                            Vec::new(),
-                        )
-                    })
-                    .collect();
-                found.maps.push(ProbabilityMap {
-                    place,
-                    stride,
-                    probability,
-                });
-                found_here
+        let mut detections = match &self.head {
+            Head::Boxes { output: name }
+            | Head::BoxesAndMap { output: name, .. }
+            | Head::Instances { output: name, .. } => self.boxes(&output, name, confidence)?,
+            Head::Semantic {
+                output: name,
+                channels,
+            } => {
+                let probability = crack_probability(&output, name, *channels)?;
+                let regions = regions(&probability, confidence);
+                found.maps.push(ProbabilityMap { place, probability });
+                regions
             }
         };
         if let Head::BoxesAndMap { map, .. } = &self.head {
-            let (probability, stride) = plane(map, 0)?;
-            found.maps.push(ProbabilityMap {
-                place,
-                stride,
-                probability,
-            });
+            let probability = output.plane(map, 0)?;
+            found.maps.push(ProbabilityMap { place, probability });
         }
-        // Boxes are clipped to the frame after NMS, as Ultralytics does.
+        // Into frame pixels; boxes are clipped to the frame after NMS, as
+        // Ultralytics does.
         let Window { x, y, tile, .. } = view.window;
-        found.size = (frame_size.0 as f32, frame_size.1 as f32);
         for (d, _) in &mut detections {
             let b = view.placement.to_image(&d.bbox);
             d.bbox = BoxXyxy {
@@ -675,36 +601,100 @@ impl Reader<'_> {
             };
             d.tile = tile;
         }
-        if let Head::Instances {
-            prototypes,
-            coefficients,
-            ..
-        } = &self.head
-        {
-            // As Ultralytics does: suppress first, then decode the survivors'
-            // masks within their clipped boxes, and drop those left empty.
-            let planes: Vec<Plane> = (0..*coefficients)
-                .map(|k| plane(prototypes, k).map(|p| p.0))
-                .collect::<Result<_, _>>()?;
-            let protos = Prototypes {
-                place,
-                stride: view.size.0 as f32 / planes[0].width as f32,
-                planes,
-            };
-            let (w, h) = found.size;
-            let kept = nms_with(detections, options.settings.iou);
-            found
+        match &self.head {
+            Head::Instances {
+                prototypes,
+                coefficients,
+                ..
+            } => {
+                let protos = Prototypes {
+                    place,
+                    planes: (0..*coefficients)
+                        .map(|k| output.plane(prototypes, k))
+                        .collect::<Result<_, _>>()?,
+                };
+                found.add_instances(detections, &protos, options.settings.iou);
+            }
+            _ => found
                 .detections
-                .extend(kept.into_iter().filter_map(|(mut d, coefficients)| {
-                    d.mask = Some(protos.instance(&coefficients, &d.bbox.clip(w, h))?);
-                    Some(d)
-                }));
-        } else {
-            found
-                .detections
-                .extend(detections.into_iter().map(|(d, _)| d));
+                .extend(detections.into_iter().map(|(d, _)| d)),
         }
         Ok(())
+    }
+
+    /// The detections of a boxes output `name` scoring at least
+    /// `confidence`, in model input pixels, each with its mask
+    /// coefficients (none for a model of boxes only).
+    fn boxes(
+        &self,
+        output: &Output<'_, '_>,
+        name: &str,
+        confidence: f32,
+    ) -> Result<Vec<(Detection, Vec<f32>)>, String> {
+        let (shape, data) = output.tensor(name)?;
+        let extra = self.head.extra_rows();
+        if shape.len() != 3 || shape[1] != 4 + self.classes + extra {
+            let coefficients = if extra > 0 {
+                format!(" + {extra} mask coefficients")
+            } else {
+                String::new()
+            };
+            return Err(format!(
+                "output shape {shape:?}, expected [batch, 4 + {} classes{coefficients}, anchors]",
+                self.classes
+            ));
+        }
+        Ok(decode(
+            data,
+            self.classes,
+            extra,
+            shape[2],
+            output.image,
+            confidence,
+        ))
+    }
+}
+
+/// One image's outputs of a run.
+struct Output<'a, 's> {
+    outputs: &'a ort::session::SessionOutputs<'s>,
+    /// The image in the batch, and the batch's size.
+    image: usize,
+    images: usize,
+    /// The model input's width, pixels.
+    input_width: u32,
+}
+
+impl Output<'_, '_> {
+    /// The output `name`: its shape and values, for the whole batch.
+    fn tensor(&self, name: &str) -> Result<(Vec<usize>, &[f32]), String> {
+        let (shape, data) = self.outputs[name]
+            .try_extract_tensor::<f32>()
+            .map_err(|e| e.to_string())?;
+        let shape = shape
+            .iter()
+            .map(|d| usize::try_from(*d).unwrap_or(0))
+            .collect();
+        Ok((shape, data))
+    }
+
+    /// Channel `channel` of this image in a `[batch, channels, height,
+    /// width]` output `name`.
+    fn plane(&self, name: &str, channel: usize) -> Result<Plane, String> {
+        let (shape, data) = self.tensor(name)?;
+        if shape.len() != 4 || shape[0] < self.images || channel >= shape[1] {
+            return Err(format!(
+                "output {name} has shape {shape:?}, expected [batch, channels, height, width]"
+            ));
+        }
+        let (c, h, w) = (shape[1], shape[2], shape[3]);
+        let at = (self.image * c + channel) * h * w;
+        Ok(Plane {
+            width: w,
+            height: h,
+            stride: self.input_width as f32 / w as f32,
+            values: data[at..at + h * w].to_vec(),
+        })
     }
 }
 
@@ -715,28 +705,53 @@ const MASK_THRESHOLD: f32 = 0.5;
 /// a finding (model pixels).
 const MIN_COMPONENT_PX: usize = 8;
 
-/// A semantic map's crack probability: the sigmoid of one channel of logits
-/// (a channel with values outside 0..1), the channel itself (already a
-/// probability), or the softmax of background and crack logits.
-fn crack_probability(first: (Plane, f32), second: Option<Plane>) -> (Plane, f32) {
-    let (mut p, stride) = first;
+/// A semantic map's crack probability: the softmax of background and crack
+/// logits (two channels), or the one channel: the sigmoid of its logits
+/// where its values leave 0..1, else the channel itself.
+fn crack_probability(
+    output: &Output<'_, '_>,
+    name: &str,
+    channels: usize,
+) -> Result<Plane, String> {
     let sigmoid = |v: f32| 1.0 / (1.0 + (-v).exp());
-    match second {
-        Some(crack) => {
-            for (b, c) in p.values.iter_mut().zip(&crack.values) {
-                *b = sigmoid(c - *b);
-            }
+    let mut p = output.plane(name, 0)?;
+    if channels == 2 {
+        let crack = output.plane(name, 1)?;
+        for (b, c) in p.values.iter_mut().zip(&crack.values) {
+            *b = sigmoid(c - *b);
         }
-        None if p.values.iter().any(|v| !(0.0..=1.0).contains(v)) => {
-            p.values.iter_mut().for_each(|v| *v = sigmoid(*v));
-        }
-        None => {}
+    } else if p.values.iter().any(|v| !(0.0..=1.0).contains(v)) {
+        p.values.iter_mut().for_each(|v| *v = sigmoid(*v));
     }
-    (p, stride)
+    Ok(p)
+}
+
+/// A semantic map's connected crack regions scoring at least `confidence`,
+/// as detections in model input pixels.
+fn regions(probability: &Plane, confidence: f32) -> Vec<(Detection, Vec<f32>)> {
+    let s = probability.stride;
+    components(probability, MASK_THRESHOLD, MIN_COMPONENT_PX)
+        .into_iter()
+        .filter(|(_, score)| *score >= confidence)
+        .map(|(b, score)| {
+            let detection = Detection {
+                bbox: BoxXyxy {
+                    x0: b.x0 * s,
+                    y0: b.y0 * s,
+                    x1: b.x1 * s,
+                    y1: b.y1 * s,
+                },
+                score,
+                class: 0,
+                tile: -1,
+                mask: None,
+            };
+            (detection, Vec::new())
+        })
+        .collect()
 }
 
 /// What a frame's views found, until the frame is finished.
-#[derive(Default, Clone)]
 struct FrameFound {
     detections: Vec<Detection>,
     /// Each view's crack probability map (models that give one).
@@ -746,6 +761,32 @@ struct FrameFound {
 }
 
 impl FrameFound {
+    fn new(frame: &Prepared) -> Self {
+        Self {
+            detections: Vec::new(),
+            maps: Vec::new(),
+            size: (frame.width as f32, frame.height as f32),
+        }
+    }
+
+    /// Instances of one view: as Ultralytics does, suppressed first, then
+    /// the survivors' masks decoded within their boxes clipped to the
+    /// frame, and those left empty dropped.
+    fn add_instances(
+        &mut self,
+        detections: Vec<(Detection, Vec<f32>)>,
+        protos: &Prototypes,
+        iou: f32,
+    ) {
+        let (w, h) = self.size;
+        let kept = nms_with(detections, iou);
+        self.detections
+            .extend(kept.into_iter().filter_map(|(mut d, coefficients)| {
+                d.mask = Some(protos.instance(&coefficients, &d.bbox.clip(w, h))?);
+                Some(d)
+            }));
+    }
+
     /// The frame's findings: NMS'd and merged, each with its crack pixels
     /// from the probability maps where the model gives maps.
     fn finish(self, options: &DetectOptions) -> Vec<Detection> {
@@ -762,8 +803,10 @@ impl FrameFound {
             d.bbox = d.bbox.clip(w, h);
         }
         if !self.maps.is_empty() {
+            let mut maps = self.maps;
+            finest_first(&mut maps);
             for d in &mut merged {
-                d.mask = from_maps(&self.maps, &d.bbox, MASK_THRESHOLD);
+                d.mask = from_maps(&maps, &d.bbox, MASK_THRESHOLD);
             }
         }
         merged
@@ -778,20 +821,29 @@ fn write_outputs(
     summary: &DetectSummary,
 ) -> Result<(), DetectError> {
     run.remove(files::SUMMARY)?;
-    let size = |index: u32| {
-        frames
-            .iter()
-            .find(|f| f.index == index)
-            .map_or((0, 0), |f| (f.width.unwrap_or(0), f.height.unwrap_or(0)))
-    };
-    outputs::write_detections(run, found, classes, size)?;
-    run.write_json(files::COCO, &coco(frames, found, classes))?;
+    let sizes: BTreeMap<u32, (u32, u32)> = frames
+        .iter()
+        .map(|f| (f.index, (f.width.unwrap_or(0), f.height.unwrap_or(0))))
+        .collect();
+    // Each mask is run-length encoded once, for the table and the COCO file.
+    let rows: Vec<DetectionRow> = found
+        .iter()
+        .map(|d| DetectionRow::of(d, classes, sizes.get(&d.frame).copied().unwrap_or((0, 0))))
+        .collect();
+    run.write_rows(files::DETECTIONS, &rows)?;
+    run.write_json(files::COCO, &coco(frames, found, &rows, classes))?;
     run.write_json(files::SUMMARY, summary)?;
     Ok(())
 }
 
-/// COCO detection results with their images and categories (ids from 1).
-fn coco(frames: &[Frame], found: &[FrameDetection], classes: &[String]) -> serde_json::Value {
+/// COCO detection results with their images and categories (ids from 1):
+/// the detections `found`, with `rows` their table rows (masks encoded).
+fn coco(
+    frames: &[Frame],
+    found: &[FrameDetection],
+    rows: &[DetectionRow],
+    classes: &[String],
+) -> serde_json::Value {
     let images: Vec<serde_json::Value> = frames
         .iter()
         .map(|f| {
@@ -804,28 +856,26 @@ fn coco(frames: &[Frame], found: &[FrameDetection], classes: &[String]) -> serde
             })
         })
         .collect();
-    let by_index: BTreeMap<u32, &Frame> = frames.iter().map(|f| (f.index, f)).collect();
-    let annotations: Vec<serde_json::Value> = found
+    let annotations: Vec<serde_json::Value> = rows
         .iter()
+        .zip(found)
         .enumerate()
-        .map(|(i, d)| {
-            let b = d.detection.bbox;
+        .map(|(i, (row, d))| {
+            let b = row.detection.bbox();
             let mut annotation = serde_json::json!({
                 "id": i + 1,
-                "image_id": d.frame + 1,
-                "category_id": d.detection.class + 1,
+                "image_id": row.detection.frame + 1,
+                "category_id": row.class + 1,
                 "bbox": [b.x0, b.y0, b.width(), b.height()],
                 "area": b.area(),
-                "score": d.detection.score,
+                "score": row.detection.score,
                 "iscrowd": 0,
             });
             // Crack pixels as COCO RLE over the frame; the area is theirs.
-            let frame = by_index.get(&d.frame);
-            let size = frame.and_then(|f| Some((f.width?, f.height?)));
-            if let (Some(mask), Some((w, h))) = (&d.detection.mask, size) {
+            if let Some((counts, mask)) = row.mask.as_ref().zip(d.detection.mask.as_ref()) {
                 annotation["segmentation"] = serde_json::json!({
-                    "size": [h, w],
-                    "counts": mask.to_coco(w, h),
+                    "size": [row.frame_height, row.frame_width],
+                    "counts": counts,
                 });
                 annotation["area"] = mask.area().into();
             }

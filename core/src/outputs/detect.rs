@@ -168,21 +168,6 @@ impl DetectionRow {
     }
 }
 
-/// Write `detections.parquet`; `classes` names the class ids, `frame_size`
-/// gives each frame's (width, height).
-pub fn write_detections(
-    run: &RunDir,
-    found: &[FrameDetection],
-    classes: &[String],
-    frame_size: impl Fn(u32) -> (u32, u32),
-) -> Result<(), Error> {
-    let rows: Vec<DetectionRow> = found
-        .iter()
-        .map(|d| DetectionRow::of(d, classes, frame_size(d.frame)))
-        .collect();
-    run.write_rows(files::DETECTIONS, &rows)
-}
-
 /// Read `detections.parquet`.
 pub fn read_detections(run: &RunDir) -> Result<Vec<FrameDetection>, Error> {
     let rows: Vec<DetectionRow> = run.read_rows(files::DETECTIONS)?;
