@@ -11,8 +11,9 @@ use nalgebra::{Point3, Vector3};
 use postflight_core::map::{FaceSide, VoxelIndex};
 
 use crate::evidence::evidence;
-use crate::observation::{Observation, Placement, ViewWidth, measures_length};
+use crate::observation::{Observation, Placement, measures_length};
 use crate::settings::LocaliseConfig;
+use crate::stats::median;
 use crate::union_find::UnionFind;
 use postflight_core::outputs::localise::{Evidence, LengthStatus, Outcome, WidthRecord};
 
@@ -242,27 +243,12 @@ fn candidate(
 
 /// A candidate's width from its views' measures, by resolution: the view
 /// with the fewest millimetres per pixel across the crack that measured
-/// it; with none measuring it, below the finest view's limit.
-fn width(views: impl Iterator<Item = ViewWidth>) -> Option<WidthRecord> {
-    let views: Vec<ViewWidth> = views.collect();
-    let finest = |v: &&ViewWidth, w: &&ViewWidth| v.mm_per_px.total_cmp(&w.mm_per_px);
-    if let Some(v) = views.iter().filter(|v| v.max_mm.is_some()).min_by(finest) {
-        return Some(WidthRecord {
-            max_mm: v.max_mm,
-            median_mm: v.median_mm,
-            uncertainty_mm: Some(v.uncertainty_mm),
-            narrower_than_mm: None,
-            mm_per_px: v.mm_per_px,
-        });
-    }
-    let v = views.iter().min_by(finest)?;
-    Some(WidthRecord {
-        max_mm: None,
-        median_mm: None,
-        uncertainty_mm: None,
-        narrower_than_mm: Some(v.limit_mm),
-        mm_per_px: v.mm_per_px,
-    })
+/// it; with none measuring it, the finest view's "narrower than".
+fn width(views: impl Iterator<Item = WidthRecord>) -> Option<WidthRecord> {
+    let views: Vec<WidthRecord> = views.collect();
+    let finest = |v: &&WidthRecord, w: &&WidthRecord| v.mm_per_px.total_cmp(&w.mm_per_px);
+    let measured = views.iter().filter(|v| v.max_mm.is_some()).min_by(finest);
+    measured.or_else(|| views.iter().min_by(finest)).copied()
 }
 
 /// Whether the views `measured` (the ones the length came from) make a
@@ -342,19 +328,6 @@ fn name(candidates: &mut [DefectCandidate]) {
         };
         previous = Some((key(c), n));
     }
-}
-
-fn median(mut values: Vec<f64>) -> Option<f64> {
-    if values.is_empty() {
-        return None;
-    }
-    values.sort_by(f64::total_cmp);
-    let n = values.len();
-    Some(if n % 2 == 1 {
-        values[n / 2]
-    } else {
-        (values[n / 2 - 1] + values[n / 2]) / 2.0
-    })
 }
 
 #[cfg(test)]

@@ -1,9 +1,10 @@
 //! Defect localisation: places each detection on the SLAM map by casting
 //! camera rays through the crack it found (its centre line traced in the
 //! image, or its box) into the voxel map and refining the hit against the
-//! map points, measures the crack on that surface, and fuses observations of
-//! the same crack across frames into defect candidates (position, extent,
-//! length, supporting views, best view). It writes the observations and
+//! map points, measures the crack on that surface (its length along the
+//! centre line, its width across it), and fuses observations of the same
+//! crack across frames into defect candidates (position, extent, length,
+//! width, supporting views, best view). It writes the observations and
 //! defects tables (laid out in `postflight_core::outputs::localise`); it
 //! reads the flight and the detections from the run directory, and frames'
 //! images from the recording through `ingest`.
@@ -16,6 +17,7 @@ pub mod observation;
 pub mod records;
 pub mod settings;
 pub mod stage;
+pub mod stats;
 pub mod surface;
 pub mod trace;
 pub mod union_find;

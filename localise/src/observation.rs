@@ -8,11 +8,12 @@ use std::collections::HashSet;
 use nalgebra::{Isometry3, Point2, Point3, Vector3};
 use postflight_core::detection::FrameDetection;
 use postflight_core::map::{SlamMap, VoxelIndex};
-use postflight_core::outputs::localise::{Outcome, ViewFault};
+use postflight_core::outputs::localise::{Outcome, ViewFault, WidthRecord};
 use postflight_core::{Intrinsics, ViewModel};
 
 use crate::evidence::view_faults;
 
+use crate::stats::{median, quantile};
 use crate::surface::{self, SurfaceHit};
 use crate::trace::CrackTrace;
 use crate::width::{PointWidth, Width};
@@ -55,66 +56,49 @@ pub struct Placement {
     pub view_faults: Vec<ViewFault>,
     /// The crack's width on the surface as this view measures it (`None`:
     /// no centre line to measure across).
-    pub width: Option<ViewWidth>,
+    pub width: Option<WidthRecord>,
 }
 
-/// One view's measure of a crack's width on the surface.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ViewWidth {
-    /// Widest (95th percentile of the points measured) and median width,
-    /// millimetres; `None` when every point was below resolution.
-    pub max_mm: Option<f64>,
-    pub median_mm: Option<f64>,
-    /// How far off `max_mm` may be, millimetres: a third of a pixel's
-    /// footprint where the edges are seen, else the noise limit's third.
-    pub uncertainty_mm: f64,
-    /// The surface's millimetres per image pixel across the crack (median
-    /// over its points): the view's resolution for width.
-    pub mm_per_px: f64,
-    /// The narrowest width the view tells from the surface, millimetres.
-    pub limit_mm: f64,
-}
-
-/// A view's width from its points measured across the crack, each point
-/// with its millimetres per pixel on the surface.
-fn view_width(points: &[(Width, f64)]) -> Option<ViewWidth> {
-    let median = |mut v: Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v.get(v.len() / 2).copied()
-    };
-    let quantile = |mut v: Vec<f64>, q: f64| {
-        v.sort_by(f64::total_cmp);
-        v.get(((v.len() - 1) as f64 * q).round() as usize).copied()
+/// A view's width of the crack from its points measured across it, each
+/// with its millimetres per pixel on the surface: the widest (95th
+/// percentile) and median of the points measured, good to a third of a
+/// pixel's footprint where most show both edges, else to a third of the
+/// noise limit; with none measured, narrower than the points' median limit.
+fn view_width(points: &[(Width, f64)]) -> Option<WidthRecord> {
+    let mm = |keep: fn(&Width) -> bool| -> Vec<f64> {
+        points
+            .iter()
+            .filter(|(w, _)| keep(w))
+            .map(|(w, scale)| w.px() * scale)
+            .collect()
     };
     let mm_per_px = median(points.iter().map(|p| p.1).collect())?;
-    let measured: Vec<f64> = points
-        .iter()
-        .filter(|(w, _)| !matches!(w, Width::Below { .. }))
-        .map(|(w, scale)| w.px() * scale)
-        .collect();
-    let limits: Vec<f64> = points
-        .iter()
-        .filter(|(w, _)| matches!(w, Width::Below { .. }))
-        .map(|(w, scale)| w.px() * scale)
-        .collect();
+    let measured = mm(|w| !matches!(w, Width::Below { .. }));
+    let limit_mm = median(mm(|w| matches!(w, Width::Below { .. })));
+    if measured.is_empty() {
+        return Some(WidthRecord {
+            max_mm: None,
+            median_mm: None,
+            uncertainty_mm: None,
+            narrower_than_mm: limit_mm,
+            mm_per_px,
+        });
+    }
     let resolved = points
         .iter()
         .filter(|(w, _)| matches!(w, Width::Resolved { .. }))
         .count();
-    let limit_mm = median(limits).unwrap_or(0.0);
-    // Most points resolved: edges within a third of a pixel; else the
-    // darkness integral, good to about a third of the noise limit.
-    let uncertainty_mm = if 2 * resolved >= measured.len().max(1) {
+    let uncertainty_mm = if 2 * resolved >= measured.len() {
         mm_per_px / 3.0
     } else {
-        (limit_mm / 3.0).max(mm_per_px / 10.0)
+        (limit_mm.unwrap_or(0.0) / 3.0).max(mm_per_px / 10.0)
     };
-    Some(ViewWidth {
+    Some(WidthRecord {
         max_mm: quantile(measured.clone(), 0.95),
         median_mm: median(measured),
-        uncertainty_mm,
+        uncertainty_mm: Some(uncertainty_mm),
+        narrower_than_mm: None,
         mm_per_px,
-        limit_mm,
     })
 }
 

@@ -19,6 +19,8 @@
 use image::GrayImage;
 use nalgebra::{Point2, Vector2};
 
+use crate::stats::median;
+
 /// Samples per pixel across the crack.
 const STEP: f64 = 0.25;
 /// Centre-line pixels on either side that give the line's local direction.
@@ -85,13 +87,12 @@ pub fn widths(
         })
         .collect();
     // The crack's interior darkness: from its resolved stretches, if any.
-    let mut depths: Vec<f64> = profiles
+    let depths: Vec<f64> = profiles
         .iter()
         .flatten()
         .filter_map(|(_, p)| resolved(p).map(|(_, depth)| depth / p.surface))
         .collect();
-    depths.sort_by(f64::total_cmp);
-    let share = depths.get(depths.len() / 2).copied().unwrap_or(interior);
+    let share = median(depths).unwrap_or(interior);
     profiles
         .into_iter()
         .zip(centre)
@@ -179,17 +180,15 @@ fn profile(gray: &GrayImage, at: Point2<f64>, across: Vector2<f64>) -> Option<Pr
         .iter()
         .map(|t| sample(gray, at + across * *t))
         .collect::<Option<_>>()?;
-    let mut outer: Vec<f64> = t
+    let outer: Vec<f64> = t
         .iter()
         .zip(&values)
         .filter(|(t, _)| t.abs() >= REACH * 0.6)
         .map(|(_, v)| *v)
         .collect();
-    outer.sort_by(f64::total_cmp);
-    let surface = outer[outer.len() / 2];
-    let mut deviations: Vec<f64> = outer.iter().map(|v| (v - surface).abs()).collect();
-    deviations.sort_by(f64::total_cmp);
-    let noise = 1.4826 * deviations[deviations.len() / 2];
+    let deviations = |surface: f64| outer.iter().map(|v| (v - surface).abs()).collect();
+    let surface = median(outer.clone())?;
+    let noise = 1.4826 * median(deviations(surface))?;
     let dark = values.iter().map(|v| (surface - v).max(0.0)).collect();
     Some(Profile {
         t,

@@ -314,7 +314,8 @@ pub struct DefectRecord {
     pub views: Vec<ViewRecord>,
 }
 
-/// A candidate's width, as the view that resolves it finest measures it.
+/// A crack's width as one view measures it; a candidate's is that of its
+/// view with the fewest millimetres per pixel that measured it.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 pub struct WidthRecord {
     /// Widest (95th percentile along its centre line) and median width,
