@@ -9,6 +9,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use clap::Args;
+use postflight_core::condition::ConditionSettings;
 use postflight_core::{PlanFile, ViewSettings};
 use serde::{Deserialize, Serialize};
 
@@ -21,6 +22,7 @@ pub struct RunConfig {
     pub detect: detect::DetectSettings,
     pub localise: localise::LocaliseSettings,
     pub view: ViewSettings,
+    pub condition: ConditionSettings,
     pub coverage: coverage::CoverageSettings,
     pub replan: replan::ReplanSettings,
 }
@@ -29,7 +31,8 @@ pub struct RunConfig {
 #[derive(Debug, Clone, Default, Args)]
 pub struct ConfigArg {
     /// Settings file (postflight.toml; tables [ingest], [detect],
-    /// [localise], [view], [coverage], [replan]); flags given win over it.
+    /// [localise], [view], [condition], [coverage], [replan]); flags given
+    /// win over it.
     #[arg(long, value_name = "postflight.toml")]
     pub config: Option<PathBuf>,
 }
@@ -54,7 +57,7 @@ pub struct Table {
 }
 
 /// Every table, in the order of `postflight.toml`'s documentation.
-pub fn tables() -> [Table; 6] {
+pub fn tables() -> [Table; 7] {
     macro_rules! table {
         ($settings:ty, $from:expr) => {
             Table {
@@ -71,6 +74,7 @@ pub fn tables() -> [Table; 6] {
         table!(detect::DetectSettings, None),
         table!(localise::LocaliseSettings, None),
         table!(ViewSettings, Some("the plan's, else")),
+        table!(ConditionSettings, None),
         table!(coverage::CoverageSettings, None),
         table!(replan::ReplanSettings, None),
     ]
@@ -109,6 +113,7 @@ impl RunConfig {
             detect: self.detect.over(&under.detect),
             localise: self.localise.over(&under.localise),
             view: self.view.over(&under.view),
+            condition: self.condition.over(&under.condition),
             coverage: self.coverage.over(&under.coverage),
             replan: self.replan.over(&under.replan),
         }
@@ -130,7 +135,7 @@ impl RunConfig {
     pub fn parse(text: &str) -> Result<Self, String> {
         toml::from_str(text).map_err(|e| {
             format!(
-                "{}; tables are [ingest], [detect], [localise], [view], [coverage] and [replan] (see docs/cli.md)",
+                "{}; tables are [ingest], [detect], [localise], [view], [condition], [coverage] and [replan] (see docs/cli.md)",
                 e.to_string().trim().replace('\n', " ")
             )
         })
@@ -169,6 +174,7 @@ impl RunConfig {
             targets,
             settings: self.localise.resolve(),
             view: self.view,
+            condition: self.condition,
             ..localise::LocaliseOptions::new(run.to_owned())
         }
     }
@@ -238,6 +244,10 @@ max_incidence_deg = 55.0
 max_blur_px = 2.0
 max_gsd_mm = 5.0
 views_required = 2
+[condition]
+material = "prestressed_concrete"
+insignificant_below_mm = 0.2
+wide_above_mm = 1.0
 [coverage]
 views_near_defects = 3
 defect_radius_m = 1.5

@@ -277,6 +277,8 @@ struct LocaliseArgs {
     #[command(flatten)]
     view: postflight_core::ViewSettings,
     #[command(flatten)]
+    condition: postflight_core::condition::ConditionSettings,
+    #[command(flatten)]
     config: config::ConfigArg,
 }
 
@@ -559,6 +561,7 @@ fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
     let flags = RunConfig {
         localise: args.settings.clone(),
         view: args.view,
+        condition: args.condition,
         ..RunConfig::default()
     };
     let config = args.config.under(flags)?;

@@ -411,6 +411,8 @@ mod tests {
                 "localise" => vec![Stage::Localise],
                 // Localise judges each view by the View model too.
                 "view" => vec![Stage::Localise, Stage::Coverage],
+                // Localise puts each candidate in a condition state.
+                "condition" => vec![Stage::Localise],
                 "coverage" => vec![Stage::Coverage],
                 "replan" => vec![Stage::Replan],
                 other => panic!("[{other}] is no stage's"),

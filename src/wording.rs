@@ -136,6 +136,7 @@ mod tests {
             let flag = flag_of(&table, &name).unwrap_or_else(|| panic!("[{table}] {name}"));
             let commands: &[&str] = match table.as_str() {
                 "view" => &["localise", "coverage"],
+                "condition" => &["localise"],
                 t => &[t],
             };
             for command in commands {

@@ -1,22 +1,60 @@
 //! Condition states from crack width, as element-level bridge inspection
-//! records them.
+//! records them, and their settings, the `[condition]` table of
+//! `postflight.toml`.
 //!
-//! The limits are the AASHTO *Manual for Bridge Element Inspection*'s
-//! width classes for its cracking defects: for
+//! The defaults are the AASHTO *Manual for Bridge Element Inspection*'s
+//! width classes for its cracking defects (see docs/condition.md): for
 //! reinforced concrete (defect 1130) a crack narrower than 0.012 in is
 //! insignificant, 0.012 to 0.05 in moderate and wider than 0.05 in wide; for
 //! prestressed concrete (defect 1110) the limits are 0.004 in and 0.009 in.
 //! An insignificant crack leaves its length in condition state 1 (good), a
 //! moderate one puts it in 2 (fair), a wide one in 3 (poor). State 4
-//! (severe) asks for a structural review, which no width decides.
+//! (severe) asks for a structural review, which no width decides; an
+//! inspector sets it in the review queue.
 
+use crate::outputs::localise::WidthRecord;
+use crate::setting::InvalidSetting;
 use crate::table::Named;
+
+crate::settings! {
+    table = "condition", keys = keys;
+    /// `[condition]`: the width limits that put a crack's length in a
+    /// condition state; an unset limit is the material's.
+    #[derive(Copy)]
+    pub struct ConditionSettings =>
+    /// The material and its width limits.
+    #[derive(Copy)]
+    struct ConditionConfig {
+        /// The structure's material, whose cracking defect's width limits
+        /// apply.
+        #[arg(long, value_enum, value_name = "MATERIAL")]
+        material: Material = Material::ReinforcedConcrete,
+        /// Cracks narrower than this are insignificant (condition state 1),
+        /// millimetres (default: the material's).
+        #[arg(long = "insignificant-below", value_name = "MM")]
+        insignificant_below_mm: f64,
+        /// Cracks wider than this are wide (condition state 3),
+        /// millimetres (default: the material's).
+        #[arg(long = "wide-above", value_name = "MM")]
+        wide_above_mm: f64,
+    }
+}
 
 /// Millimetres in an inch.
 const MM_PER_INCH: f64 = 25.4;
 
 /// A structure's material, as the manual's cracking defects name them.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Material {
     /// Reinforced concrete (defect 1130, Cracking (RC and Other)).
@@ -65,6 +103,57 @@ impl CrackLimits {
         } else {
             ConditionState::Poor
         }
+    }
+
+    /// The state of a crack whose width is only known to be below
+    /// `below_mm`: `None` when that bound straddles a limit.
+    pub fn state_below(&self, below_mm: f64) -> Option<ConditionState> {
+        (below_mm <= self.insignificant_below_mm).then_some(ConditionState::Good)
+    }
+
+    /// The state a candidate's measured `width` puts it in: by its widest
+    /// where measured, by its bound where below resolution; `None` when
+    /// nothing was measured or the bound straddles a limit.
+    pub fn state_of(&self, width: &WidthRecord) -> Option<ConditionState> {
+        match (width.max_mm, width.narrower_than_mm) {
+            (Some(max), _) => Some(self.state(max)),
+            (None, Some(below)) => self.state_below(below),
+            (None, None) => None,
+        }
+    }
+}
+
+impl ConditionConfig {
+    /// The limits: the material's, with those given over them.
+    pub fn limits(&self) -> CrackLimits {
+        let material = self.material.limits();
+        CrackLimits {
+            insignificant_below_mm: self
+                .insignificant_below_mm
+                .unwrap_or(material.insignificant_below_mm),
+            wide_above_mm: self.wide_above_mm.unwrap_or(material.wide_above_mm),
+        }
+    }
+
+    /// Refuse limits that cannot work.
+    pub fn check(&self) -> Result<(), InvalidSetting> {
+        let limits = self.limits();
+        InvalidSetting::check(
+            limits.insignificant_below_mm > 0.0,
+            keys::insignificant_below_mm,
+            limits.insignificant_below_mm,
+            "above 0 millimetres",
+        )?;
+        InvalidSetting::check(
+            limits.wide_above_mm >= limits.insignificant_below_mm,
+            keys::wide_above_mm,
+            limits.wide_above_mm,
+            &format!(
+                "at least {} ({} mm)",
+                keys::insignificant_below_mm,
+                limits.insignificant_below_mm
+            ),
+        )
     }
 }
 
@@ -123,10 +212,29 @@ mod tests {
         let psc = Material::PrestressedConcrete.limits();
         assert_eq!(psc.state(0.2), ConditionState::Fair);
         assert_eq!(psc.state(0.3), ConditionState::Poor);
+        assert_eq!(rc.state_below(0.25), Some(ConditionState::Good));
+        assert_eq!(rc.state_below(0.5), None);
     }
 
     #[test]
-    fn states_are_numbered_one_to_four() {
+    fn limits_given_override_the_materials_and_are_checked() {
+        let config = ConditionSettings {
+            wide_above_mm: Some(2.0),
+            ..Default::default()
+        }
+        .resolve();
+        assert_eq!(config.limits().wide_above_mm, 2.0);
+        assert!((config.limits().insignificant_below_mm - 0.3048).abs() < 1e-9);
+        let bad = ConditionSettings {
+            wide_above_mm: Some(0.1),
+            ..Default::default()
+        }
+        .resolve();
+        let e = bad.check().unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "[condition] wide_above_mm must be at least [condition] insignificant_below_mm (0.3048 mm) (it is 0.1)"
+        );
         assert_eq!(ConditionState::from_number(3), Some(ConditionState::Poor));
         assert_eq!(ConditionState::from_number(0), None);
     }

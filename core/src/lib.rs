@@ -9,7 +9,8 @@
 //!   [`FaceSide`] for a voxel's sides.
 //! - The plan that was flown and the View model it was made for ([`plan`]),
 //!   and a frame's motion blur, which the View model judges ([`motion`]).
-//! - Condition states from crack width, by the material's limits ([`condition`]).
+//! - Condition states from crack width, by the material's limits, and the
+//!   `[condition]` settings that choose them ([`condition`]).
 //! - Detections: boxes with their scores ([`detection`]), and the crack
 //!   pixels of those a segmentation model gives ([`mask`]).
 //! - The run directory ([`RunDir`]: atomic writes), the run log of

@@ -6,6 +6,7 @@ use postflight_core::outputs::localise::{
     DefectRecord, ObservationRecord, PlacedRecord, ViewRecord,
 };
 
+use postflight_core::condition::CrackLimits;
 use postflight_core::structure::Place;
 
 use crate::fusion::DefectCandidate;
@@ -17,12 +18,13 @@ fn view(o: &Observation) -> Option<ViewRecord> {
 }
 
 /// A candidate with its views; `crop` is its best view's JPEG, relative to
-/// the run directory.
+/// the run directory, and `limits` put its width in a condition state.
 pub fn defect_record(
     c: &DefectCandidate,
     observations: &[Observation],
     crop: Option<String>,
     place: Option<Place>,
+    limits: &CrackLimits,
 ) -> DefectRecord {
     DefectRecord {
         element: place.as_ref().map(|p| p.element.clone()),
@@ -41,6 +43,7 @@ pub fn defect_record(
         max_score: c.max_score,
         evidence: c.evidence.clone(),
         width: c.width,
+        condition: c.width.as_ref().and_then(|w| limits.state_of(w)),
         crop,
         best: view(&observations[c.best]).expect("a candidate's views are placed"),
         views: c

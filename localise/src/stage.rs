@@ -9,6 +9,7 @@ use std::time::Instant;
 
 use ingest::Recording;
 use nalgebra::Point3;
+use postflight_core::condition::{ConditionSettings, CrackLimits};
 use postflight_core::detection::FrameDetection;
 use postflight_core::map::{SlamMap, VoxelIndex};
 use postflight_core::motion::frame_blur_px;
@@ -53,6 +54,8 @@ pub struct LocaliseOptions {
     /// The View model each view is judged by, over the plan's (or the
     /// defaults): the same settings coverage takes.
     pub view: ViewSettings,
+    /// The width limits that put each candidate in a condition state.
+    pub condition: ConditionSettings,
 }
 
 impl LocaliseOptions {
@@ -65,6 +68,7 @@ impl LocaliseOptions {
             targets: Targets::Plan,
             settings: LocaliseConfig::default(),
             view: ViewSettings::default(),
+            condition: ConditionSettings::default(),
         }
     }
 
@@ -87,7 +91,8 @@ impl LocaliseOptions {
             keys::max_normal_angle_deg,
             self.settings.max_normal_angle_deg,
             "between 0 and 90 degrees",
-        )
+        )?;
+        self.condition.resolve().check()
     }
 }
 
@@ -174,6 +179,7 @@ pub fn localise(
         observations: &observations,
         candidates: &candidates,
         elements: elements.as_ref(),
+        limits: options.condition.resolve().limits(),
     };
     write_outputs(&flight, &recording, &written, &summary)?;
     Ok(summary)
@@ -406,6 +412,8 @@ struct Written<'a> {
     candidates: &'a [DefectCandidate],
     /// The structure's elements, when there are targets to find them in.
     elements: Option<&'a ElementMap>,
+    /// What puts a candidate in a condition state.
+    limits: CrackLimits,
 }
 
 fn write_outputs(
@@ -418,6 +426,7 @@ fn write_outputs(
         observations,
         candidates,
         elements,
+        limits,
     } = *written;
     let run = &flight.run;
     let crops = run.file(files::CROPS);
@@ -444,6 +453,7 @@ fn write_outputs(
                 observations,
                 written.then_some(name),
                 place,
+                &limits,
             ))
         })
         .collect::<Result<Vec<_>, postflight_core::Error>>()?;

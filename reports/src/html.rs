@@ -16,9 +16,13 @@ use postflight_core::outputs::replan::{GapChoice, ReplanSummary, Unplannable};
 use postflight_core::outputs::report::{DEFAULT_REVIEW_ADDR, RunSummary};
 use postflight_core::table::Named;
 
-use page::{STYLE, document, evidence_text, length_text, place_text, readable_time};
+use page::{
+    STYLE, condition_text, document, evidence_text, length_text, place_text, readable_time,
+    width_cell,
+};
+use postflight_core::condition::ConditionState;
 
-use crate::results::{RunResults, VoxelStatus, review_priority};
+use crate::results::{ElementCracks, RunResults, VoxelStatus, review_priority};
 use crate::svg::bar_chart;
 use crate::views::{HEIGHT_COLOURS, Marker, Overlay, Side, colour, view, width_m};
 
@@ -170,16 +174,20 @@ fn coverage_table(c: &CoverageSummary) -> Markup {
     }
 }
 
-/// Surface area per element by coverage status: where the gaps are.
+/// Per element: surface area by coverage status (where the gaps are) and
+/// crack length by condition state (what element-level records keep).
 fn element_table(r: &RunResults) -> Markup {
     let m2 = |a: f64| format!("{a:.1}");
+    let cracks = r.element_cracks();
     html! {
-        @if !r.element_areas.is_empty() {
+        @if !r.element_areas.is_empty() || !cracks.is_empty() {
             h3 { "By element" }
+        }
+        @if !r.element_areas.is_empty() {
             p.sub {
                 "Exposed surface of the target voxels, m\u{b2}. Elements are found from the map's geometry: piers numbered from the west (south) end, girders from the south (east) side."
             }
-            table {
+            table #element-areas {
                 tr {
                     th { "element" } th.n { "surface" } th.n { "inspected" }
                     th.n { "planned, missed" } th.n { "not planned" } th.n { "uninspectable" }
@@ -196,6 +204,43 @@ fn element_table(r: &RunResults) -> Markup {
                         td.n { (m2(a.not_planned_m2)) }
                         td.n { (m2(a.uninspectable_m2)) }
                     }
+                }
+            }
+        }
+        @if !cracks.is_empty() {
+            (crack_states_table(&cracks))
+        }
+    }
+}
+
+/// Crack length per element in each condition state.
+fn crack_states_table(cracks: &[ElementCracks]) -> Markup {
+    let m = |l: f64| {
+        if l > 0.0 {
+            format!("{l:.2}")
+        } else {
+            "\u{2013}".into()
+        }
+    };
+    html! {
+        p.sub {
+            "Crack length, m, in each condition state its widest point puts it in (AASHTO MBEI cracking defect; docs/condition.md), before review: the review queue's exports carry each inspector's corrections."
+        }
+        table #crack-states {
+            tr {
+                th { "element" } th.n { "cracks" }
+                @for state in ConditionState::ALL {
+                    th.n { (condition_text(Some(*state))) }
+                }
+                th.n { "no state" } th.n { "length unknown" }
+            }
+            @for e in cracks {
+                tr {
+                    td { (e.element.as_deref().unwrap_or("on no element")) }
+                    td.n { (e.cracks) }
+                    @for l in e.state_m { td.n { (m(l)) } }
+                    td.n { (m(e.no_state_m)) }
+                    td.n { @if e.unmeasured > 0 { (e.unmeasured) } @else { "\u{2013}" } }
                 }
             }
         }
@@ -265,7 +310,8 @@ fn defects_section(r: &RunResults) -> Markup {
             table {
                 tr {
                     th { "#" } th { "best view" } th { "candidate" } th.n { "length" }
-                    th.n { "GSD" } th.n { "range" } th.n { "confidence" }
+                    th.n { "width" } th { "state" } th.n { "GSD" } th.n { "range" }
+                    th.n { "confidence" }
                 }
                 @for (i, d) in order.iter().enumerate() {
                     (defect_row(r, i + 1, d))
@@ -404,6 +450,8 @@ fn defect_row(r: &RunResults, rank: usize, d: &DefectRecord) -> Markup {
                 @if let Some(weak) = evidence_text(d) { br; span.flag { (weak) } }
             }
             td.n { (length_text(d)) }
+            td.n { (width_cell(d)) }
+            td { (condition_text(d.condition)) }
             td.n { (format!("{:.1} mm/px", d.best.oblique_gsd_mm)) }
             td.n { (format!("{:.1} m", d.best.range_m)) }
             td.n {

@@ -224,6 +224,21 @@ impl RunResults {
             .collect()
     }
 
+    /// Each element's cracks by condition state (elements named by
+    /// localise, else placed by coverage's elements).
+    pub fn element_cracks(&self) -> Vec<ElementCracks> {
+        let order: Vec<String> = self
+            .element_areas
+            .iter()
+            .map(|a| a.element.clone())
+            .collect();
+        let named = self.defects.iter().map(|d| {
+            let element = d.element.clone().or_else(|| Some(self.place(d)?.element));
+            (d, element)
+        });
+        ElementCracks::of(named, &order)
+    }
+
     /// The candidates as `candidates.csv` lists them, in review order.
     pub fn candidate_rows(&self) -> Vec<CandidateRow> {
         self.defects_for_review()
@@ -243,6 +258,61 @@ impl RunResults {
                 }
             })
             .collect()
+    }
+}
+
+/// One element's cracks: their length in each condition state.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ElementCracks {
+    /// The element's name; `None` for cracks on no element.
+    pub element: Option<String>,
+    pub cracks: usize,
+    /// Length in condition states 1 to 4, metres.
+    pub state_m: [f64; 4],
+    /// Length of cracks whose width gave no state, metres.
+    pub no_state_m: f64,
+    /// Cracks of unknown length (counted, not in the metres).
+    pub unmeasured: usize,
+}
+
+impl ElementCracks {
+    /// The candidates' lengths by element (`element_of` names each one's)
+    /// and state: elements in `order` first, then the rest by name, then
+    /// cracks on no element.
+    fn of<'a>(
+        defects: impl IntoIterator<Item = (&'a DefectRecord, Option<String>)>,
+        order: &[String],
+    ) -> Vec<Self> {
+        let mut by: Vec<Self> = Vec::new();
+        for (d, element) in defects {
+            let i = match by.iter().position(|e| e.element == element) {
+                Some(i) => i,
+                None => {
+                    by.push(Self {
+                        element,
+                        ..Self::default()
+                    });
+                    by.len() - 1
+                }
+            };
+            let e = &mut by[i];
+            e.cracks += 1;
+            match (d.length_m, d.condition) {
+                (None, _) => e.unmeasured += 1,
+                (Some(l), Some(state)) => e.state_m[usize::from(state.number() - 1)] += l,
+                (Some(l), None) => e.no_state_m += l,
+            }
+        }
+        let rank = |e: &Self| match &e.element {
+            Some(name) => (
+                0,
+                order.iter().position(|o| o == name).unwrap_or(order.len()),
+                name.clone(),
+            ),
+            None => (1, 0, String::new()),
+        };
+        by.sort_by_key(rank);
+        by
     }
 }
 

@@ -58,6 +58,8 @@
     const body = {
       version: Number(row.dataset.version), verdict: verdict,
       severity: severity || null, reviewer: name.value.trim(),
+      // A state the reviewer set stays with the crack.
+      condition: row.dataset.condition || null,
     };
     try {
       const r = await fetch("/api/candidates/" + encodeURIComponent(row.dataset.id) + "/decisions", {

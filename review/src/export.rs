@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use postflight_core::RunDir;
+use postflight_core::condition::ConditionState;
 use postflight_core::outputs::csv_text;
 use postflight_core::outputs::localise::DefectRow;
 use postflight_core::table::Row;
@@ -32,6 +33,9 @@ postflight_core::table! {
         /// What the severity means (the scale written beside the number, so
         /// a spreadsheet needs no key).
         severity_meaning: Option<String>,
+        /// The condition state the reviewer put the crack in, over the
+        /// measured `condition_state`; null where the measured one stands.
+        inspector_condition_state: Option<ConditionState>,
         note: String,
         reviewer: String,
         decided_at: String,
@@ -44,6 +48,7 @@ impl DecisionCells {
             verdict: d.verdict,
             severity: d.severity,
             severity_meaning: d.severity.and_then(severity_meaning).map(str::to_string),
+            inspector_condition_state: d.condition,
             note: d.note.clone(),
             reviewer: d.reviewer.clone(),
             decided_at: d.decided_at.clone(),
@@ -205,6 +210,7 @@ mod tests {
             version: 1,
             verdict: Verdict::NeedsRepair,
             severity: Some(3),
+            condition: Some(ConditionState::Severe),
             note: "crack, \"wide\"\nat joint".into(),
             reviewer: "ann".into(),
             decided_at: "2026-11-23T00:00:00Z".into(),
@@ -212,13 +218,15 @@ mod tests {
         let csv = decisions_csv(&[decision]).unwrap();
         assert!(
             csv.starts_with(
-                "candidate,verdict,severity,severity_meaning,note,reviewer,decided_at,version\n"
+                "candidate,verdict,severity,severity_meaning,inspector_condition_state,note,reviewer,decided_at,version\n"
             ),
             "{csv}"
         );
         let row = csv.lines().nth(1).unwrap();
         assert!(
-            row.starts_with("a,needs_repair,3,significant: plan a repair,\"crack, \"\"wide\"\""),
+            row.starts_with(
+                "a,needs_repair,3,significant: plan a repair,severe,\"crack, \"\"wide\"\""
+            ),
             "{csv}"
         );
     }
@@ -232,6 +240,7 @@ mod tests {
                 verdict,
                 severity,
                 severity_meaning: severity.and_then(severity_meaning).map(str::to_string),
+                inspector_condition_state: severity.map(|_| ConditionState::Severe),
                 note: "at the joint, \"wide\"".into(),
                 reviewer: "ann".into(),
                 decided_at: "2026-11-23T10:00:00.000000000Z".into(),
@@ -284,6 +293,7 @@ mod tests {
                 width_uncertainty_mm: length_m.map(|_| 0.2),
                 narrower_than_mm: None,
                 width_mm_per_px: length_m.map(|_| 0.9),
+                condition_state: length_m.map(|_| ConditionState::Fair),
                 crop: Some(format!("defects/{id}.jpg")),
             },
         };

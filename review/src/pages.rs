@@ -8,8 +8,12 @@ use std::collections::HashMap;
 use std::fmt::Write;
 
 use maud::{Markup, PreEscaped, html};
-use page::{evidence_text, length_text, place_text, readable_time};
+use page::{
+    condition_text, evidence_text, length_text, place_text, readable_time, width_cell, width_text,
+};
+use postflight_core::condition::ConditionState;
 use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
+use postflight_core::table::Named;
 
 use crate::queue::{Entry, Filter, Progress, Queue};
 use crate::since::Since;
@@ -112,6 +116,9 @@ fn verdict(d: Option<&Decision>) -> Markup {
                         (v, _) => (v.words()),
                     }
                 }
+                @if let Some(state) = d.condition {
+                    ", state " (condition_text(Some(state)))
+                }
                 " "
                 span.sub { "by " (d.reviewer) }
             }
@@ -181,8 +188,8 @@ pub fn queue_page(ctx: &Context, queue: &Queue) -> String {
                 thead {
                     tr {
                         th.n { "#" } th { "best view" } th { "where" } th.n { "range" }
-                        th.n { "GSD" } th.n { "length" } th { "evidence" } th.n { "conf." }
-                        th { "decision" } th { "decide" }
+                        th.n { "GSD" } th.n { "length" } th.n { "width" } th { "state" }
+                        th { "evidence" } th.n { "conf." } th { "decision" } th { "decide" }
                     }
                 }
                 tbody { @for e in shown { (queue_row(ctx, e)) } }
@@ -202,7 +209,8 @@ fn queue_row(ctx: &Context, e: &Entry) -> Markup {
     let d = e.defect;
     let href = candidate_href(&d.id, ctx.filter);
     html! {
-        tr.row data-href=(href) data-id=(d.id) data-version=(e.version()) {
+        tr.row data-href=(href) data-id=(d.id) data-version=(e.version())
+            data-condition=(reviewed_condition(e).map_or("", ConditionState::name)) {
             td.n { (e.rank) }
             td { (crop_img(d, "thumb")) }
             td {
@@ -213,6 +221,8 @@ fn queue_row(ctx: &Context, e: &Entry) -> Markup {
             td.n { (format!("{:.1} m", d.best.range_m)) }
             td.n { (format!("{:.1} mm", d.best.oblique_gsd_mm)) }
             td.n { (length_text(d)) }
+            td.n { (width_cell(d)) }
+            td { (condition_cell(e)) }
             td {
                 @if d.evidence.reshoot {
                     span.flag title=(evidence_text(d).unwrap_or_default()) { "re-shoot" }
@@ -229,10 +239,30 @@ fn queue_row(ctx: &Context, e: &Entry) -> Markup {
                     input type="hidden" name="filter" value=(ctx.filter.key());
                     input type="hidden" name="back" value="queue";
                     input type="hidden" name="reviewer" value="";
+                    input type="hidden" name="condition"
+                        value=(reviewed_condition(e).map_or("", ConditionState::name));
                     button name="verdict" value="accepted" title="accept (a)" { "\u{2713}" }
                     button name="verdict" value="rejected" title="reject (r)" { "\u{2717}" }
                 }
             }
+        }
+    }
+}
+
+/// The condition state a reviewer set on the candidate, over the measured one.
+fn reviewed_condition(e: &Entry) -> Option<ConditionState> {
+    e.decision.as_ref().and_then(|d| d.condition)
+}
+
+/// The state that stands: the reviewer's (marked so), else the measured.
+fn condition_cell(e: &Entry) -> Markup {
+    html! {
+        @match reviewed_condition(e) {
+            Some(state) => {
+                (condition_text(Some(state))) " "
+                span.sub title=(format!("measured: {}", condition_text(e.defect.condition))) { "(reviewer)" }
+            },
+            None => (condition_text(e.defect.condition)),
         }
     }
 }
@@ -430,13 +460,12 @@ fn facts(ctx: &Context, d: &DefectRecord) -> Markup {
                     }
                 }
             }
+            tr { th { "width" } td { (width_text(d)) } }
             tr {
-                th { "width" }
+                th { "condition state" }
                 td {
-                    (format!(
-                        "not measured: a crack narrower than {:.1} mm is under two pixels in the best view",
-                        d.evidence.min_measurable_width_mm
-                    ))
+                    (condition_text(d.condition))
+                    @if d.condition.is_some() { " " span.sub { "(from its widest)" } }
                 }
             }
             tr {
@@ -460,6 +489,8 @@ fn facts(ctx: &Context, d: &DefectRecord) -> Markup {
 fn decision_form(ctx: &Context, entry: &Entry, v: &CandidateView) -> Markup {
     let current = entry.decision.as_ref();
     let severity = current.and_then(|d| d.severity);
+    let condition = current.and_then(|d| d.condition);
+    let measured = entry.defect.condition;
     // After a refusal the form keeps what was typed; otherwise it shows
     // the current decision's note.
     let note = match &v.refused {
@@ -490,6 +521,19 @@ fn decision_form(ctx: &Context, entry: &Entry, v: &CandidateView) -> Markup {
                         option value="" selected[severity.is_none()] { "\u{2013}" }
                         @for (s, meaning) in SEVERITY_SCALE {
                             option value=(s) selected[severity == Some(s)] { (s) " \u{2013} " (meaning) }
+                        }
+                    }
+                }
+                label {
+                    "Condition state "
+                    select name="condition" #condition {
+                        option value="" selected[condition.is_none()] {
+                            "as measured (" (condition_text(measured)) ")"
+                        }
+                        @for state in ConditionState::ALL {
+                            option value=(state.name()) selected[condition == Some(*state)] {
+                                (condition_text(Some(*state)))
+                            }
                         }
                     }
                 }

@@ -178,6 +178,7 @@ mod tests {
             version: 1,
             verdict,
             severity: (verdict == Verdict::NeedsRepair).then_some(2),
+            condition: None,
             note: String::new(),
             reviewer: "ann".into(),
             decided_at: "2026-11-23T00:00:00Z".into(),

@@ -72,7 +72,7 @@ impl Since {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::store::Verdict;
+    use crate::store::{Ruling, Verdict};
     use crate::testing::defect;
     use postflight_core::outputs::changes::{ChangeRecord, RegistrationRecord};
     use postflight_core::serde_pose::PoseJson;
@@ -100,7 +100,14 @@ mod tests {
             .sync_candidates(&[defect("old-a", 0.9), defect("old-b", 0.8)])
             .unwrap();
         store
-            .decide("old-a", 0, Verdict::NeedsRepair, Some(3), "", "Ana")
+            .decide(
+                "old-a",
+                0,
+                &Ruling {
+                    severity: Some(3),
+                    ..Ruling::new(Verdict::NeedsRepair, "Ana")
+                },
+            )
             .unwrap();
         let summary = ChangesSummary {
             before: earlier.path().to_owned(),

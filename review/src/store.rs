@@ -11,6 +11,7 @@ use std::path::Path;
 use rusqlite::{Connection, OptionalExtension, TransactionBehavior, params};
 use serde::{Deserialize, Serialize};
 
+use postflight_core::condition::ConditionState;
 use postflight_core::outputs::localise::DefectRecord;
 use postflight_core::table::Named;
 
@@ -76,6 +77,33 @@ pub fn severity_meaning(severity: u8) -> Option<&'static str> {
         .map(|(_, m)| *m)
 }
 
+/// What a reviewer rules on a candidate, before it is recorded.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ruling<'a> {
+    pub verdict: Verdict,
+    /// 1 to 5, for a crack that needs repair.
+    pub severity: Option<u8>,
+    /// The condition state the reviewer puts the crack in, over the one its
+    /// width gave; `None` leaves that one. A rejected candidate is no crack
+    /// and is recorded without one.
+    pub condition: Option<ConditionState>,
+    pub note: &'a str,
+    pub reviewer: &'a str,
+}
+
+impl<'a> Ruling<'a> {
+    /// `verdict` by `reviewer`, with no severity, state or note.
+    pub fn new(verdict: Verdict, reviewer: &'a str) -> Self {
+        Self {
+            verdict,
+            severity: None,
+            condition: None,
+            note: "",
+            reviewer,
+        }
+    }
+}
+
 /// One decision, as recorded.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Decision {
@@ -84,6 +112,9 @@ pub struct Decision {
     pub version: i64,
     pub verdict: Verdict,
     pub severity: Option<u8>,
+    /// See [`Ruling::condition`].
+    #[serde(default)]
+    pub condition: Option<ConditionState>,
     pub note: String,
     pub reviewer: String,
     /// RFC 3339, UTC.
@@ -100,6 +131,8 @@ pub enum InvalidDecision {
     Verdict(String),
     #[error("severity {0:?} is not a number from 1 to 5")]
     SeverityNotANumber(String),
+    #[error("unknown condition state {0:?}; use good, fair, poor or severe")]
+    Condition(String),
     #[error("needs repair takes a severity from 1 to 5")]
     SeverityMissing,
     #[error("only a needs-repair decision has a severity")]
@@ -194,9 +227,21 @@ CREATE TABLE IF NOT EXISTS decisions (
     note TEXT NOT NULL,
     reviewer TEXT NOT NULL,
     decided_at TEXT NOT NULL,
+    condition_state TEXT CHECK (condition_state IN ('good', 'fair', 'poor', 'severe')),
     UNIQUE (candidate, version)
 );
 ";
+
+/// Columns added since the first schema: a database made before them
+/// gains them when opened (its decisions keep null there).
+const ADDED_COLUMNS: [(&str, &str); 1] = [(
+    "condition_state",
+    "ALTER TABLE decisions ADD COLUMN condition_state TEXT CHECK (condition_state IN ('good', 'fair', 'poor', 'severe'))",
+)];
+
+/// The decisions' columns, in [`decision_row`]'s order.
+const DECISION_COLUMNS: &str =
+    "candidate, version, verdict, severity, note, reviewer, decided_at, condition_state";
 
 /// The review database's file name in a run directory, by default.
 pub const DEFAULT_DB: &str = "review.sqlite";
@@ -223,6 +268,7 @@ impl ReviewStore {
             conn.pragma_update(None, "foreign_keys", "ON")?;
             conn.busy_timeout(std::time::Duration::from_secs(5))?;
             conn.execute_batch(SCHEMA)?;
+            add_columns(&conn)?;
             Ok(conn)
         };
         let conn = setup().map_err(|cause| ReviewError::Open {
@@ -258,19 +304,16 @@ impl ReviewStore {
         Ok(added)
     }
 
-    /// Record a decision on `candidate`, made on `seen_version` (the version
+    /// Record `ruling` on `candidate`, made on `seen_version` (the version
     /// the reviewer was shown; 0 before any decision). One transaction.
     pub fn decide(
         &mut self,
         candidate: &str,
         seen_version: i64,
-        verdict: Verdict,
-        severity: Option<u8>,
-        note: &str,
-        reviewer: &str,
+        ruling: &Ruling,
     ) -> Result<Decision, ReviewError> {
-        check_decision(verdict, severity, reviewer, note)?;
-        let reviewer = reviewer.trim();
+        check_decision(ruling)?;
+        let reviewer = ruling.reviewer.trim();
         let tx = self
             .conn
             .transaction_with_behavior(TransactionBehavior::Immediate)?;
@@ -291,15 +334,19 @@ impl ReviewStore {
         let decision = Decision {
             candidate: candidate.into(),
             version: current + 1,
-            verdict,
-            severity,
-            note: note.into(),
+            verdict: ruling.verdict,
+            severity: ruling.severity,
+            condition: ruling
+                .condition
+                .filter(|_| ruling.verdict != Verdict::Rejected),
+            note: ruling.note.into(),
             reviewer: reviewer.into(),
             decided_at: postflight_core::time::now_rfc3339(),
         };
         tx.execute(
-            "INSERT INTO decisions (candidate, version, verdict, severity, note, reviewer, decided_at)
-             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
+            &format!(
+                "INSERT INTO decisions ({DECISION_COLUMNS}) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)"
+            ),
             params![
                 decision.candidate,
                 decision.version,
@@ -307,7 +354,8 @@ impl ReviewStore {
                 decision.severity,
                 decision.note,
                 decision.reviewer,
-                decision.decided_at
+                decision.decided_at,
+                decision.condition.map(ConditionState::name),
             ],
         )?;
         tx.execute(
@@ -320,49 +368,65 @@ impl ReviewStore {
 
     /// Every decision on `candidate`, oldest first (the last is current).
     pub fn history(&self, candidate: &str) -> Result<Vec<Decision>, ReviewError> {
-        let mut q = self.conn.prepare(
-            "SELECT candidate, version, verdict, severity, note, reviewer, decided_at
-             FROM decisions WHERE candidate = ?1 ORDER BY version",
-        )?;
+        let mut q = self.conn.prepare(&format!(
+            "SELECT {DECISION_COLUMNS} FROM decisions WHERE candidate = ?1 ORDER BY version"
+        ))?;
         let rows = q.query_map([candidate], decision_row)?;
         Ok(rows.collect::<Result<_, _>>()?)
     }
 
     /// The current decision of every decided candidate, by candidate id.
     pub fn current_decisions(&self) -> Result<Vec<Decision>, ReviewError> {
-        let mut q = self.conn.prepare(
-            "SELECT d.candidate, d.version, d.verdict, d.severity, d.note, d.reviewer, d.decided_at
-             FROM decisions d JOIN candidates c ON c.id = d.candidate AND c.version = d.version
-             ORDER BY d.candidate",
-        )?;
+        let mut q = self.conn.prepare(&format!(
+            "SELECT {DECISION_COLUMNS} FROM decisions
+             WHERE (candidate, version) IN (SELECT id, version FROM candidates)
+             ORDER BY candidate"
+        ))?;
         let rows = q.query_map([], decision_row)?;
         Ok(rows.collect::<Result<_, _>>()?)
     }
 
     /// Every decision ever made, in the order they were made.
     pub fn all_decisions(&self) -> Result<Vec<Decision>, ReviewError> {
-        let mut q = self.conn.prepare(
-            "SELECT candidate, version, verdict, severity, note, reviewer, decided_at
-             FROM decisions ORDER BY seq",
-        )?;
+        let mut q = self.conn.prepare(&format!(
+            "SELECT {DECISION_COLUMNS} FROM decisions ORDER BY seq"
+        ))?;
         let rows = q.query_map([], decision_row)?;
         Ok(rows.collect::<Result<_, _>>()?)
     }
 }
 
+/// Add the [`ADDED_COLUMNS`] a database made before them lacks.
+fn add_columns(conn: &Connection) -> rusqlite::Result<()> {
+    let mut q = conn.prepare("SELECT name FROM pragma_table_info('decisions')")?;
+    let have: Vec<String> = q.query_map([], |r| r.get(0))?.collect::<Result<_, _>>()?;
+    for (column, add) in ADDED_COLUMNS {
+        if !have.iter().any(|c| c == column) {
+            conn.execute_batch(add)?;
+        }
+    }
+    Ok(())
+}
+
 fn decision_row(r: &rusqlite::Row) -> rusqlite::Result<Decision> {
+    // A name the database holds that is not one of the kind's.
+    let named = |i: usize, what: &str, text: &str| {
+        rusqlite::Error::FromSqlConversionFailure(
+            i,
+            rusqlite::types::Type::Text,
+            format!("unknown {what} {text:?}").into(),
+        )
+    };
     let verdict: String = r.get(2)?;
+    let condition: Option<String> = r.get(7)?;
     Ok(Decision {
         candidate: r.get(0)?,
         version: r.get(1)?,
-        verdict: Verdict::parse(&verdict).ok_or_else(|| {
-            rusqlite::Error::FromSqlConversionFailure(
-                2,
-                rusqlite::types::Type::Text,
-                format!("unknown verdict {verdict:?}").into(),
-            )
-        })?,
+        verdict: Verdict::parse(&verdict).ok_or_else(|| named(2, "verdict", &verdict))?,
         severity: r.get(3)?,
+        condition: condition
+            .map(|c| ConditionState::named(&c).ok_or_else(|| named(7, "condition state", &c)))
+            .transpose()?,
         note: r.get(4)?,
         reviewer: r.get(5)?,
         decided_at: r.get(6)?,
@@ -370,12 +434,14 @@ fn decision_row(r: &rusqlite::Row) -> rusqlite::Result<Decision> {
 }
 
 /// The rules a decision must meet before it is recorded.
-fn check_decision(
-    verdict: Verdict,
-    severity: Option<u8>,
-    reviewer: &str,
-    note: &str,
-) -> Result<(), InvalidDecision> {
+fn check_decision(ruling: &Ruling) -> Result<(), InvalidDecision> {
+    let Ruling {
+        verdict,
+        severity,
+        note,
+        reviewer,
+        ..
+    } = *ruling;
     match (verdict, severity) {
         (Verdict::NeedsRepair, Some(1..=5)) | (Verdict::Accepted | Verdict::Rejected, None) => {}
         (Verdict::NeedsRepair, _) => return Err(InvalidDecision::SeverityMissing),
@@ -437,11 +503,11 @@ mod tests {
         let mut s = store(&dir);
         s.sync_candidates(&[defect("a", 0.9)]).unwrap();
         let first = s
-            .decide("a", 0, Verdict::Accepted, None, "", "ann")
+            .decide("a", 0, &Ruling::new(Verdict::Accepted, "ann"))
             .unwrap();
         assert_eq!(first.version, 1);
         // Bob loaded the candidate before Ann decided.
-        match s.decide("a", 0, Verdict::Rejected, None, "", "bob") {
+        match s.decide("a", 0, &Ruling::new(Verdict::Rejected, "bob")) {
             Err(ReviewError::Conflict { current: 1, .. }) => {}
             other => panic!("{other:?}"),
         }
@@ -449,10 +515,11 @@ mod tests {
             .decide(
                 "a",
                 1,
-                Verdict::NeedsRepair,
-                Some(4),
-                "wide, near bearing",
-                "bob",
+                &Ruling {
+                    severity: Some(4),
+                    note: "wide, near bearing",
+                    ..Ruling::new(Verdict::NeedsRepair, "bob")
+                },
             )
             .unwrap();
         let history = s.history("a").unwrap();
@@ -469,8 +536,15 @@ mod tests {
                 .unwrap(),
             2
         );
-        s.decide("a", 0, Verdict::Rejected, None, "stain", "ann")
-            .unwrap();
+        s.decide(
+            "a",
+            0,
+            &Ruling {
+                note: "stain",
+                ..Ruling::new(Verdict::Rejected, "ann")
+            },
+        )
+        .unwrap();
         drop(s);
         // Reopened, with a new localisation: a kept, b gone, c new.
         let mut s = store(&dir);
@@ -486,7 +560,7 @@ mod tests {
             ("a", Verdict::Rejected)
         );
         assert_eq!(
-            s.decide("c", 0, Verdict::Accepted, None, "", "ann")
+            s.decide("c", 0, &Ruling::new(Verdict::Accepted, "ann"))
                 .unwrap()
                 .version,
             1
@@ -500,16 +574,90 @@ mod tests {
         s.sync_candidates(&[defect("a", 0.9)]).unwrap();
         let refused = |r: Result<Decision, ReviewError>| r.unwrap_err().to_string();
         assert!(
-            refused(s.decide("a", 0, Verdict::NeedsRepair, None, "", "ann")).contains("severity")
+            refused(s.decide("a", 0, &Ruling::new(Verdict::NeedsRepair, "ann")))
+                .contains("severity")
         );
         assert!(
-            refused(s.decide("a", 0, Verdict::NeedsRepair, Some(6), "", "ann")).contains("1 to 5")
+            refused(s.decide(
+                "a",
+                0,
+                &Ruling {
+                    severity: Some(6),
+                    ..Ruling::new(Verdict::NeedsRepair, "ann")
+                }
+            ))
+            .contains("1 to 5")
         );
         assert!(
-            refused(s.decide("a", 0, Verdict::Accepted, Some(2), "", "ann")).contains("severity")
+            refused(s.decide(
+                "a",
+                0,
+                &Ruling {
+                    severity: Some(2),
+                    ..Ruling::new(Verdict::Accepted, "ann")
+                }
+            ))
+            .contains("severity")
         );
-        assert!(refused(s.decide("a", 0, Verdict::Accepted, None, "", "  ")).contains("reviewer"));
-        assert!(refused(s.decide("zz", 0, Verdict::Accepted, None, "", "ann")).contains("zz"));
+        assert!(
+            refused(s.decide("a", 0, &Ruling::new(Verdict::Accepted, "  "))).contains("reviewer")
+        );
+        assert!(refused(s.decide("zz", 0, &Ruling::new(Verdict::Accepted, "ann"))).contains("zz"));
         assert!(s.history("a").unwrap().is_empty());
+    }
+
+    #[test]
+    fn a_reviewer_corrects_the_condition_state_and_a_rejection_has_none() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = store(&dir);
+        s.sync_candidates(&[defect("a", 0.9)]).unwrap();
+        let severe = Ruling {
+            condition: Some(ConditionState::Severe),
+            ..Ruling::new(Verdict::Accepted, "ann")
+        };
+        assert_eq!(
+            s.decide("a", 0, &severe).unwrap().condition,
+            Some(ConditionState::Severe)
+        );
+        let rejected = Ruling {
+            verdict: Verdict::Rejected,
+            ..severe
+        };
+        assert_eq!(s.decide("a", 1, &rejected).unwrap().condition, None);
+        let history = s.history("a").unwrap();
+        assert_eq!(
+            history.iter().map(|d| d.condition).collect::<Vec<_>>(),
+            [Some(ConditionState::Severe), None]
+        );
+    }
+
+    #[test]
+    fn a_database_made_before_condition_states_gains_the_column() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("review.sqlite");
+        let old = SCHEMA.replace(
+            "    condition_state TEXT CHECK (condition_state IN ('good', 'fair', 'poor', 'severe')),\n",
+            "",
+        );
+        assert_ne!(old, SCHEMA);
+        let conn = Connection::open(&path).unwrap();
+        conn.execute_batch(&old).unwrap();
+        conn.execute_batch(
+            "INSERT INTO candidates (id, priority, confidence, version) VALUES ('a', 1, 0.9, 1);
+             INSERT INTO decisions (candidate, version, verdict, note, reviewer, decided_at)
+             VALUES ('a', 1, 'accepted', '', 'ann', '2026-11-25T10:00:00Z');",
+        )
+        .unwrap();
+        drop(conn);
+        let mut s = ReviewStore::open(&path).unwrap();
+        assert_eq!(s.current_decisions().unwrap()[0].condition, None);
+        let poor = Ruling {
+            condition: Some(ConditionState::Poor),
+            ..Ruling::new(Verdict::Accepted, "bob")
+        };
+        assert_eq!(
+            s.decide("a", 1, &poor).unwrap().condition,
+            Some(ConditionState::Poor)
+        );
     }
 }

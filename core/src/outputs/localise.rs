@@ -16,6 +16,7 @@ use polars::prelude::{PolarsResult, polars_err};
 use serde::{Deserialize, Serialize};
 
 use super::detect::DetectionCells;
+use crate::condition::ConditionState;
 use crate::detection::BoxXyxy;
 use crate::error::Error;
 use crate::map::{FaceSide, VoxelIndex};
@@ -306,6 +307,11 @@ pub struct DefectRecord {
     /// Its width, where a view could measure across its centre line.
     #[serde(default)]
     pub width: Option<WidthRecord>,
+    /// The condition state its width puts its length in (`[condition]`'s
+    /// limits); none where the width is unknown or its bound straddles a
+    /// limit.
+    #[serde(default)]
+    pub condition: Option<ConditionState>,
     /// JPEG of the best view, relative to the run directory (none when its
     /// image could not be decoded).
     pub crop: Option<String>,
@@ -578,6 +584,8 @@ crate::table! {
         width_uncertainty_mm: Option<f64>,
         narrower_than_mm: Option<f64>,
         width_mm_per_px: Option<f64>,
+        /// See [`DefectRecord::condition`].
+        condition_state: Option<ConditionState>,
         crop: Option<String>,
     }
 }
@@ -636,6 +644,7 @@ impl DefectRow {
             width_uncertainty_mm: d.width.and_then(|w| w.uncertainty_mm),
             narrower_than_mm: d.width.and_then(|w| w.narrower_than_mm),
             width_mm_per_px: d.width.map(|w| w.mm_per_px),
+            condition_state: d.condition,
             crop: d.crop.clone(),
         }
     }
@@ -680,6 +689,7 @@ impl DefectRow {
                 narrower_than_mm: self.narrower_than_mm,
                 mm_per_px,
             }),
+            condition: self.condition_state,
             crop: self.crop,
             best,
             views,
@@ -779,6 +789,7 @@ mod tests {
                     narrower_than_mm: (best != 3).then_some(0.3),
                     mm_per_px: 1.1,
                 }),
+                condition: (best == 3).then_some(ConditionState::Poor),
                 crop: Some(format!("defects/{id}.jpg")),
                 best: views.iter().find(|v| v.frame == best).unwrap().clone(),
                 views,

@@ -1,9 +1,12 @@
 //! What every page postflight writes shares (the report, the review queue,
 //! the fleet's index): the styles, the document shell, and how times,
-//! lengths, places and a candidate's evidence are worded for people.
+//! lengths, widths, condition states, places and a candidate's evidence
+//! are worded for people.
 
 use maud::{DOCTYPE, Markup, html};
+use postflight_core::condition::ConditionState;
 use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
+use postflight_core::table::Named;
 
 /// The pages' styles.
 pub const STYLE: &str = r#"
@@ -13,7 +16,7 @@ h1{font-size:24px;margin:0 0 4px}h2{font-size:19px;margin:32px 0 10px;border-bot
 .cards{display:flex;flex-wrap:wrap;gap:10px;margin:16px 0}.card{border:1px solid #e5e7eb;border-radius:6px;padding:8px 14px;min-width:120px}
 .card b{display:block;font-size:22px}.card span{color:#6b7280;font-size:12px}
 table{border-collapse:collapse;width:100%;margin:8px 0}th,td{text-align:left;padding:4px 8px;border-bottom:1px solid #e5e7eb;vertical-align:top}
-th{background:#f9fafb;font-weight:600}td.n,th.n{text-align:right;font-variant-numeric:tabular-nums}
+th{background:#f9fafb;font-weight:600}td.n,th.n{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
 .views{display:grid;grid-template-columns:1fr 1fr;gap:12px}.views figure{margin:0}figcaption{color:#6b7280;font-size:12px}
 svg{max-width:100%;height:auto}.legend span{display:inline-block;margin-right:14px}.legend i{display:inline-block;width:12px;height:12px;margin-right:4px;vertical-align:-1px}
 img.thumb{width:160px;border:1px solid #d1d5db}.frames{font-size:12px;color:#4b5563}
@@ -55,6 +58,45 @@ pub fn length_text(d: &DefectRecord) -> String {
         (Some(l), _) => format!("{l:.2} m"),
         (None, _) => "\u{2013}".into(),
     }
+}
+
+/// A candidate's width, for people: its widest and median with their
+/// uncertainty, the bound it is below, or why it is unknown.
+pub fn width_text(d: &DefectRecord) -> String {
+    let Some(w) = d.width else {
+        return "not measured: no view traced the crack's line".into();
+    };
+    let scale = format!("at {:.2} mm/px across it", w.mm_per_px);
+    match (w.max_mm, w.median_mm, w.narrower_than_mm) {
+        (Some(max), median, _) => {
+            let median = median.map_or(String::new(), |m| format!(", median {m:.2} mm"));
+            let spread = w
+                .uncertainty_mm
+                .map_or(String::new(), |u| format!(" \u{b1} {u:.2} mm"));
+            format!("{max:.2} mm at its widest{spread}{median} ({scale})")
+        }
+        (None, _, Some(below)) => {
+            format!("below resolution: narrower than {below:.2} mm ({scale})")
+        }
+        (None, _, None) => format!("not measured ({scale})"),
+    }
+}
+
+/// A candidate's width in a table cell: its widest, `< bound` below
+/// resolution, a dash when unknown.
+pub fn width_cell(d: &DefectRecord) -> String {
+    match d.width.map(|w| (w.max_mm, w.narrower_than_mm)) {
+        Some((Some(max), _)) => format!("{max:.2} mm"),
+        Some((None, Some(below))) => format!("< {below:.2} mm"),
+        _ => "\u{2013}".into(),
+    }
+}
+
+/// A condition state as inspectors write it: `2 fair`; a dash for none.
+pub fn condition_text(state: Option<ConditionState>) -> String {
+    state.map_or("\u{2013}".into(), |s| {
+        format!("{} {}", s.number(), s.name())
+    })
 }
 
 /// Where a candidate is, for people: its place on the structure, else

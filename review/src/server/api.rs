@@ -8,13 +8,14 @@ use axum::extract::rejection::JsonRejection;
 use axum::extract::{Path, State};
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
+use postflight_core::condition::ConditionState;
 use postflight_core::outputs::localise::DefectRecord;
 use serde::{Deserialize, Serialize};
 
 use super::App;
 use super::errors::HttpError;
 use crate::queue::Progress;
-use crate::store::{Decision, ReviewError, ReviewStore, Verdict};
+use crate::store::{Decision, ReviewError, ReviewStore, Ruling, Verdict};
 
 /// A decision as the API takes it.
 #[derive(Debug, Deserialize)]
@@ -25,6 +26,9 @@ pub(super) struct DecisionRequest {
     pub(super) verdict: Verdict,
     #[serde(default)]
     pub(super) severity: Option<u8>,
+    /// The reviewer's condition state, over the measured one.
+    #[serde(default)]
+    pub(super) condition: Option<ConditionState>,
     #[serde(default)]
     pub(super) note: String,
     pub(super) reviewer: String,
@@ -32,14 +36,14 @@ pub(super) struct DecisionRequest {
 
 impl DecisionRequest {
     pub(super) fn apply(&self, store: &mut ReviewStore, id: &str) -> Result<Decision, ReviewError> {
-        store.decide(
-            id,
-            self.version,
-            self.verdict,
-            self.severity,
-            &self.note,
-            &self.reviewer,
-        )
+        let ruling = Ruling {
+            verdict: self.verdict,
+            severity: self.severity,
+            condition: self.condition,
+            note: &self.note,
+            reviewer: &self.reviewer,
+        };
+        store.decide(id, self.version, &ruling)
     }
 }
 

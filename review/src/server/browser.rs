@@ -10,6 +10,8 @@ use axum::extract::rejection::{FormRejection, PathRejection, QueryRejection};
 use axum::extract::{Form, Path, Query, State};
 use axum::http::{StatusCode, header};
 use axum::response::{Html, IntoResponse, Redirect, Response};
+use postflight_core::condition::ConditionState;
+use postflight_core::table::Named;
 use serde::Deserialize;
 
 use super::App;
@@ -80,6 +82,9 @@ pub(super) struct DecisionForm {
     verdict: String,
     #[serde(default)]
     severity: String,
+    /// A condition state's name; empty: the measured one.
+    #[serde(default)]
+    condition: String,
     #[serde(default)]
     note: String,
     #[serde(default)]
@@ -106,10 +111,17 @@ impl DecisionForm {
                     .map_err(|_| InvalidDecision::SeverityNotANumber(s.into()))?,
             ),
         };
+        let condition = match self.condition.trim() {
+            "" => None,
+            c => {
+                Some(ConditionState::named(c).ok_or_else(|| InvalidDecision::Condition(c.into()))?)
+            }
+        };
         Ok(DecisionRequest {
             version,
             verdict,
             severity,
+            condition,
             note: self.note.clone(),
             reviewer: self.reviewer.clone(),
         })
