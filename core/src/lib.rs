@@ -12,7 +12,8 @@
 //! - Condition states from crack width, by the material's limits, and the
 //!   `[condition]` settings that choose them ([`condition`]).
 //! - Detections: boxes with their scores ([`detection`]), and the crack
-//!   pixels of those a segmentation model gives ([`mask`]).
+//!   pixels of those a segmentation model gives ([`mask`]); a crack's
+//!   centre line on the structure ([`trace`]).
 //! - The run directory ([`RunDir`]: atomic writes), the run log of
 //!   `postflight run` ([`RunLog`]), and the file contract ([`outputs`]):
 //!   for every stage its files, its summary and one typed writer and reader
@@ -46,6 +47,7 @@ pub mod setting;
 pub mod structure;
 pub mod table;
 pub mod time;
+pub mod trace;
 pub mod trajectory;
 pub mod view;
 

@@ -56,6 +56,7 @@ mod tests {
     use crate::surface::SurfaceHit;
     use nalgebra::{Point3, Vector3};
     use postflight_core::map::VoxelIndex;
+    use postflight_core::trace::Trace;
 
     #[test]
     fn every_rule_a_view_breaks_is_named() {
@@ -102,6 +103,7 @@ mod tests {
             blur_px: Some(0.5),
             view_faults: Vec::new(),
             width: None,
+            trace: Trace::default(),
         };
         let measured = evidence(&sharp, LengthStatus::Measured);
         assert!(!measured.reshoot);

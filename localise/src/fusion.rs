@@ -10,12 +10,14 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::{Point3, Vector3};
 use postflight_core::map::{FaceSide, VoxelIndex};
 
+use crate::centre_line;
 use crate::evidence::evidence;
 use crate::observation::{Observation, Placement, measures_length};
 use crate::settings::LocaliseConfig;
 use crate::stats::median;
 use crate::union_find::UnionFind;
 use postflight_core::outputs::localise::{Evidence, LengthStatus, Outcome, WidthRecord};
+use postflight_core::trace::Trace;
 
 /// One physical crack, as the views of it agree.
 #[derive(Debug, Clone)]
@@ -30,15 +32,18 @@ pub struct DefectCandidate {
     pub extent: [Point3<f64>; 2],
     pub voxel: VoxelIndex,
     pub face: FaceSide,
-    /// Estimated length, metres: the longest measurement of its views from
-    /// `[localise] length_range_m` or closer, complete or cut by the image border
-    /// (a view shows at most the whole crack: faint or hidden stretches and
-    /// the border only shorten it), or, when none of those is complete, of
-    /// its complete views from farther if it has any (see `length_partial`);
-    /// `None` with no view that could measure it (traced, not too oblique).
+    /// Estimated length, metres: along the longest trace of its views from
+    /// `[localise] length_range_m` or closer, complete or cut by the image
+    /// border (a view shows at most the whole crack: faint or hidden
+    /// stretches and the border only shorten it), or, when none of those is
+    /// complete, of its complete views from farther if it has any; `None`
+    /// with no view that could measure it (traced, not too oblique).
     pub length_m: Option<f64>,
     /// Views the length was chosen from.
     pub length_views: u32,
+    /// Its centre line on the structure: the traces of the views its
+    /// length was chosen from, merged, the longest first.
+    pub trace: Trace,
     /// Distinct frames that saw it.
     pub frames: u32,
     /// How much the views agree that this is a crack, 0 to 1 (see
@@ -123,7 +128,7 @@ pub fn fuse(observations: &[Observation], options: &LocaliseConfig) -> Vec<Defec
         .into_values()
         .map(|mut group| {
             group.sort_by_key(|i| (observations[*i].detection.frame, *i));
-            candidate(observations, group, options.length_range_m)
+            candidate(observations, group, options)
         })
         .collect();
     name(&mut candidates);
@@ -143,7 +148,7 @@ pub fn fuse(observations: &[Observation], options: &LocaliseConfig) -> Vec<Defec
 fn candidate(
     observations: &[Observation],
     group: Vec<usize>,
-    length_range_m: f64,
+    options: &LocaliseConfig,
 ) -> DefectCandidate {
     let placement = |i: usize| observations[i].placement.as_ref().expect("placed");
     let complete: Vec<usize> = group
@@ -182,7 +187,7 @@ fn candidate(
     // and the image border only shorten it), so the longest near view,
     // complete or cut, is the estimate; complete views from farther count
     // only when no near view measured it.
-    let mut measured = measuring(&group, length_range_m);
+    let mut measured = measuring(&group, options.length_range_m);
     if !measured.iter().any(|i| complete.contains(i)) {
         let far = measuring(&complete, f64::INFINITY);
         if !far.is_empty() {
@@ -190,6 +195,10 @@ fn candidate(
         }
     }
     let length_views = measured.len() as u32;
+    let trace = trace(&measured, &placement, options.link_distance_m);
+    // The longest view's, not the merged trace's: views misplaced by their
+    // pose error beyond the link distance add stretches twice (with 6 cm of
+    // pose noise, 26 of 30 tower cracks within 30% merged, 30 unmerged).
     let length_m = measured
         .iter()
         .filter_map(|i| placement(*i).length_m)
@@ -231,6 +240,7 @@ fn candidate(
         face: FaceSide::nearest(&normal),
         length_m,
         length_views,
+        trace,
         frames: per_frame.len() as u32,
         confidence,
         max_score: scores[0],
@@ -239,6 +249,27 @@ fn candidate(
         width,
         observations: group,
     }
+}
+
+/// The merged trace keeps every point within this of its polylines, metres.
+const MERGE_TOLERANCE_M: f64 = 0.001;
+
+/// The merged trace of the views `measured`, longest first: a stretch of a
+/// view farther than `apart` (the link distance, which covers the views'
+/// pose error) from the longer views' traces is one they did not show.
+fn trace<'a>(measured: &[usize], placement: &dyn Fn(usize) -> &'a Placement, apart: f64) -> Trace {
+    let mut views: Vec<&Placement> = measured.iter().map(|i| placement(*i)).collect();
+    views.sort_by(|a, b| {
+        b.length_m
+            .unwrap_or(0.0)
+            .total_cmp(&a.length_m.unwrap_or(0.0))
+    });
+    let traces: Vec<&Trace> = views
+        .iter()
+        .map(|p| &p.trace)
+        .filter(|t| !t.is_empty())
+        .collect();
+    centre_line::merge(&traces, apart, MERGE_TOLERANCE_M)
 }
 
 /// A candidate's width from its views' measures, by resolution: the view
@@ -378,6 +409,7 @@ mod tests {
                 blur_px: None,
                 view_faults: Vec::new(),
                 width: None,
+                trace: Trace::default(),
             }),
             traced_px: 30,
             clipped: false,

@@ -9,6 +9,7 @@
 //! reads the flight and the detections from the run directory, and frames'
 //! images from the recording through `ingest`.
 
+pub mod centre_line;
 pub mod crop;
 pub mod error;
 pub mod evidence;

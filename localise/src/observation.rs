@@ -9,8 +9,10 @@ use nalgebra::{Isometry3, Point2, Point3, Vector3};
 use postflight_core::detection::FrameDetection;
 use postflight_core::map::{SlamMap, VoxelIndex};
 use postflight_core::outputs::localise::{Outcome, ViewFault, WidthRecord};
+use postflight_core::trace::Trace;
 use postflight_core::{Intrinsics, ViewModel};
 
+use crate::centre_line;
 use crate::evidence::view_faults;
 
 use crate::stats::{median, quantile};
@@ -45,6 +47,9 @@ pub struct Placement {
     pub radius: f64,
     /// Length of the traced centre line on the surface, metres.
     pub length_m: Option<f64>,
+    /// The traced centre line on the surface (empty where nothing was
+    /// traced, or the view is too oblique to measure on).
+    pub trace: Trace,
     /// Oblique ground sampling distance of the view, millimetres per pixel
     /// (see [`SurfaceHit::oblique_gsd_mm`]).
     pub oblique_gsd_mm: f64,
@@ -213,13 +218,12 @@ impl Scene<'_> {
         let extent = points
             .iter()
             .fold([points[0], points[0]], |[lo, hi], p| [lo.inf(p), hi.sup(p)]);
-        let length_m = trace
-            .filter(|_| measures_length(surface.incidence))
-            .map(|t| {
-                let at: Vec<Option<Vector3<f64>>> =
-                    on_surface.iter().map(|p| p.map(|p| p.coords)).collect();
-                t.length(&at)
-            });
+        let measured = trace.filter(|_| measures_length(surface.incidence));
+        let length_m = measured.map(|t| {
+            let at: Vec<Option<Vector3<f64>>> =
+                on_surface.iter().map(|p| p.map(|p| p.coords)).collect();
+            t.length(&at)
+        });
         let on_plane =
             |px: Point2<f64>| intersect(&origin, &ray(&px), &surface.point, &surface.normal);
         let width = measures_length(surface.incidence)
@@ -238,8 +242,13 @@ impl Scene<'_> {
             _ => Outcome::Placed,
         };
         let view_gsd_mm = ViewModel::gsd_mm(hit.range, k);
+        let oblique_gsd_mm = hit.oblique_gsd_mm(k.fx.min(k.fy));
+        // Within a pixel's footprint: the pixel grid's staircase goes.
+        let trace = measured.map_or_else(Trace::default, |t| {
+            centre_line::on_surface(t, &on_surface, oblique_gsd_mm / 1000.0)
+        });
         observation.placement = Some(Placement {
-            oblique_gsd_mm: hit.oblique_gsd_mm(k.fx.min(k.fy)),
+            oblique_gsd_mm,
             view_gsd_mm,
             blur_px,
             view_faults: view_faults(
@@ -254,6 +263,7 @@ impl Scene<'_> {
             extent,
             radius,
             length_m,
+            trace,
             width,
         });
         observation

@@ -38,6 +38,7 @@ pub fn defect_record(
         face: c.face,
         length_m: c.length_m,
         length_views: c.length_views,
+        trace: c.trace.clone(),
         frames: c.frames,
         confidence: c.confidence,
         max_score: c.max_score,

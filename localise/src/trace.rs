@@ -38,6 +38,42 @@ impl CrackTrace {
         };
         CHAIN_CORRECTION * sum(&self.edges) + sum(&self.bridges)
     }
+
+    /// The centre line as chains of pixels (indices into `pixels`), along
+    /// its edges and bridges: each runs between ends and forks, through
+    /// pixels with two neighbours.
+    pub fn chains(&self) -> Vec<Vec<u32>> {
+        let n = self.pixels.len();
+        let mut next: Vec<Vec<(u32, usize)>> = vec![Vec::new(); n];
+        let joins: Vec<(u32, u32)> = self.edges.iter().chain(&self.bridges).copied().collect();
+        for (e, &(a, b)) in joins.iter().enumerate() {
+            next[a as usize].push((b, e));
+            next[b as usize].push((a, e));
+        }
+        let mut used = vec![false; joins.len()];
+        let mut chains = Vec::new();
+        // From ends and forks first, then round any loop left.
+        let starts = (0..n as u32)
+            .filter(|&p| next[p as usize].len() != 2)
+            .chain(0..n as u32);
+        for start in starts {
+            while let Some(&(to, e)) = next[start as usize].iter().find(|(_, e)| !used[*e]) {
+                used[e] = true;
+                let mut chain = vec![start, to];
+                let mut at = to;
+                while next[at as usize].len() == 2 {
+                    let Some(&(to, e)) = next[at as usize].iter().find(|(_, e)| !used[*e]) else {
+                        break;
+                    };
+                    used[e] = true;
+                    chain.push(to);
+                    at = to;
+                }
+                chains.push(chain);
+            }
+        }
+        chains
+    }
 }
 
 /// Steps of 1 and sqrt 2 between pixel centres overstate a line's length by

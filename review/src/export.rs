@@ -267,6 +267,7 @@ mod tests {
                 face: FaceSide::PosZ,
                 length_m,
                 length_views: u32::from(length_m.is_some()),
+                trace: length_m.map(|_| "MULTILINESTRING Z((1.4 -2.5 3,1.6 -2 3))".into()),
                 frames: 4,
                 confidence: 0.9,
                 max_score: 0.7,

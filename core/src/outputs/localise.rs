@@ -21,6 +21,7 @@ use crate::detection::BoxXyxy;
 use crate::error::Error;
 use crate::map::{FaceSide, VoxelIndex};
 use crate::run_dir::RunDir;
+use crate::trace::Trace;
 
 /// Files of the localise stage.
 pub mod files {
@@ -300,6 +301,10 @@ pub struct DefectRecord {
     pub face: FaceSide,
     pub length_m: Option<f64>,
     pub length_views: u32,
+    /// Its centre line on the structure, its views' traces merged (empty
+    /// where no view traced it).
+    #[serde(default)]
+    pub trace: Trace,
     pub frames: u32,
     pub confidence: f64,
     pub max_score: f64,
@@ -560,6 +565,8 @@ crate::table! {
         face: FaceSide,
         length_m: Option<f64>,
         length_views: u32,
+        /// See [`DefectRecord::trace`]: WKT, `MULTILINESTRING Z`, metres.
+        trace: Option<String>,
         frames: u32,
         confidence: f64,
         max_score: f64,
@@ -622,6 +629,7 @@ impl DefectRow {
             face: d.face,
             length_m: d.length_m,
             length_views: d.length_views,
+            trace: d.trace.wkt(),
             frames: d.frames,
             confidence: d.confidence,
             max_score: d.max_score,
@@ -652,6 +660,11 @@ impl DefectRow {
     /// The candidate, with its supporting `views` (its best view among them).
     fn record(self, views: Vec<ViewRecord>) -> PolarsResult<DefectRecord> {
         let bbox = [self.best_x0, self.best_y0, self.best_x1, self.best_y1];
+        let trace = match &self.trace {
+            Some(text) => Trace::from_wkt(text)
+                .map_err(|why| polars_err!(ComputeError: "candidate {}'s trace: {why}", self.id))?,
+            None => Trace::default(),
+        };
         let best = views
             .iter()
             .find(|v| v.frame == self.best_frame && v.bbox == bbox)
@@ -671,6 +684,7 @@ impl DefectRow {
             face: self.face,
             length_m: self.length_m,
             length_views: self.length_views,
+            trace,
             frames: self.frames,
             confidence: self.confidence,
             max_score: self.max_score,
@@ -766,6 +780,14 @@ mod tests {
                 face: FaceSide::NegX,
                 length_m: Some(0.42),
                 length_views: 1,
+                trace: Trace(if on {
+                    vec![
+                        vec![[1.0, 2.0, 2.3], [1.0, 2.1, 2.7]],
+                        vec![[1.0, 2.05, 2.5], [1.0, 1.95, 2.6]],
+                    ]
+                } else {
+                    Vec::new()
+                }),
                 frames: views.len() as u32,
                 confidence: 0.8,
                 max_score: 0.53,
