@@ -256,6 +256,8 @@ fn coverage_views(r: &RunResults, c: &CoverageSummary) -> Markup {
             label: (i + 1).to_string(),
             position: d.position,
             normal: d.normal,
+            trace: &d.trace,
+            condition: d.condition,
         })
         .collect();
     let overlay = Overlay {
@@ -274,7 +276,7 @@ fn coverage_views(r: &RunResults, c: &CoverageSummary) -> Markup {
                 }
             }
         }
-        p.sub { "Candidates are marked in the views that face their surface: solid where the spot is in front, hollow where nearer parts hide it." }
+        p.sub { "Candidates are marked in the views that face their surface: solid where the spot is in front, hollow where nearer parts hide it; the line over it is the crack's trace, coloured by its condition state (green 1, amber 2, red 3, purple 4, grey none)." }
     }
 }
 

@@ -1,22 +1,27 @@
 //! `flight.rrd`: the run as a Rerun recording, for the 3D viewer (`rerun
 //! flight.rrd`). World frame z up, metres. Static: the map points, the target
-//! voxels by coverage status, the trajectory, the defect candidates and the
-//! follow-up flight. On the `time` timeline (and `frame`), each camera's pose,
-//! pinhole and image with the detector's boxes.
+//! voxels by coverage status, the trajectory, the defect candidates with
+//! their traces (coloured by condition state) and the follow-up flight. On
+//! the `time` timeline (and `frame`), each camera's pose, pinhole and image
+//! with the detector's boxes and, from a segmenting model, its crack pixels.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
 use ingest::Recording;
 use nalgebra::Isometry3;
+use page::condition_text;
 use postflight_core::detection::FrameDetection;
+use postflight_core::mask::Mask;
 use postflight_core::outputs::detect::read_detections;
 use postflight_core::{Camera, Frame};
 
 use crate::error::ReportError;
 use crate::results::{RunResults, VoxelStatus};
-use crate::views::colour;
+use crate::views::{colour, state_colour};
 
+/// The class of crack pixels in the frames' segmentation images.
+const CRACK_CLASS: u16 = 1;
 /// Most map points logged; larger maps are thinned evenly.
 const MAX_MAP_POINTS: usize = 2_000_000;
 
@@ -31,6 +36,14 @@ pub fn write_recording(
         .map_err(|e| rerun_error(path, &e))?;
     let out = Out { rec: &rec, path };
     out.log("world", &rerun::ViewCoordinates::RIGHT_HAND_Z_UP())?;
+    out.log(
+        "world",
+        &rerun::AnnotationContext::new([(
+            CRACK_CLASS,
+            "crack",
+            rerun::Rgba32::from_rgb(215, 48, 31),
+        )]),
+    )?;
     log_map(&out, results)?;
     log_coverage(&out, results)?;
     log_trajectory(&out, results)?;
@@ -138,7 +151,8 @@ fn log_trajectory(out: &Out, results: &RunResults) -> Result<(), ReportError> {
     )
 }
 
-/// The defect candidates, labelled in review order.
+/// The defect candidates, labelled in review order, and their traces
+/// coloured by condition state.
 fn log_defects(out: &Out, results: &RunResults) -> Result<(), ReportError> {
     let review = results.defects_for_review();
     if review.is_empty() {
@@ -151,8 +165,30 @@ fn log_defects(out: &Out, results: &RunResults) -> Result<(), ReportError> {
             .with_colors([rerun::Color::from_rgb(17, 24, 39)])
             .with_labels(review.iter().enumerate().map(|(i, d)| {
                 let length = d.length_m.map_or(String::new(), |l| format!(", {l:.2} m"));
-                format!("#{} {}{length}", i + 1, d.id)
+                let state = d.condition.map_or(String::new(), |s| {
+                    format!(", state {}", condition_text(Some(s)))
+                });
+                format!("#{} {}{length}{state}", i + 1, d.id)
             })),
+    )?;
+    let lines: Vec<(Vec<[f32; 3]>, rerun::Color)> = review
+        .iter()
+        .flat_map(|d| {
+            let colour = rgb(state_colour(d.condition));
+            d.trace
+                .0
+                .iter()
+                .map(move |l| (l.iter().map(|p| f32x3(*p)).collect(), colour))
+        })
+        .collect();
+    if lines.is_empty() {
+        return Ok(());
+    }
+    out.log(
+        "world/defects/traces",
+        &rerun::LineStrips3D::new(lines.iter().map(|(l, _)| l.clone()))
+            .with_colors(lines.iter().map(|(_, c)| *c))
+            .with_radii([0.004]),
     )
 }
 
@@ -230,6 +266,14 @@ fn log_frames(
             .map(Vec::as_slice)
             .unwrap_or_default();
         log_boxes(out, found, &classes, &format!("{image_entity}/detections"))?;
+        if let Some(k) = &camera.intrinsics {
+            log_masks(
+                out,
+                found,
+                [k.width, k.height],
+                &format!("{image_entity}/masks"),
+            )?;
+        }
     }
     progress(total, total);
     Ok(())
@@ -277,6 +321,40 @@ fn log_image(
         // An unreadable image is already reported by ingest and detect.
         Err(_) => Ok(()),
     }
+}
+
+/// The crack pixels of a frame's detections (a segmenting model's), as a
+/// segmentation image over the frame: class 1, crack.
+fn log_masks(
+    out: &Out,
+    found: &[FrameDetection],
+    [width, height]: [u32; 2],
+    entity: &str,
+) -> Result<(), ReportError> {
+    let masks: Vec<&Mask> = found
+        .iter()
+        .filter_map(|d| d.detection.mask.as_ref())
+        .collect();
+    if masks.is_empty() {
+        return Ok(());
+    }
+    let mut classes = vec![0u8; width as usize * height as usize];
+    for (x, y) in masks.iter().flat_map(|m| m.pixels()) {
+        if x < width && y < height {
+            classes[y as usize * width as usize + x as usize] = CRACK_CLASS as u8;
+        }
+    }
+    out.log_now(
+        entity,
+        &rerun::SegmentationImage::new(
+            classes,
+            rerun::datatypes::ImageFormat::segmentation(
+                [width, height],
+                rerun::datatypes::ChannelDatatype::U8,
+            ),
+        )
+        .with_opacity(0.5),
+    )
 }
 
 /// A frame's detections, labelled with class and score.

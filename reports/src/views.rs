@@ -4,6 +4,9 @@
 
 use std::collections::HashMap;
 
+use postflight_core::condition::ConditionState;
+use postflight_core::trace::Trace;
+
 use crate::results::{TargetVoxel, VoxelStatus};
 use crate::svg::Svg;
 
@@ -88,11 +91,14 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 /// A marker for a spot on the surface: drawn only in views that see the
 /// surface it is on.
 #[derive(Debug, Clone)]
-pub struct Marker {
+pub struct Marker<'a> {
     pub label: String,
     pub position: [f64; 3],
     /// Outward normal of the surface at the spot.
     pub normal: [f64; 3],
+    /// The crack's trace there, drawn in its condition state's colour.
+    pub trace: &'a Trace,
+    pub condition: Option<ConditionState>,
 }
 
 /// A surface turned at least this much towards the viewer is drawn in its
@@ -113,11 +119,23 @@ pub fn colour(status: VoxelStatus) -> &'static str {
     }
 }
 
+/// A crack's colour by its condition state (none: grey), in the
+/// elevations and the recording.
+pub fn state_colour(state: Option<ConditionState>) -> &'static str {
+    match state {
+        None => "#6b7280",
+        Some(ConditionState::Good) => "#2e9e5b",
+        Some(ConditionState::Fair) => "#f59e0b",
+        Some(ConditionState::Poor) => "#d7301f",
+        Some(ConditionState::Severe) => "#7c3aed",
+    }
+}
+
 /// What to draw over the voxels.
 #[derive(Default)]
 pub struct Overlay<'a> {
     /// Numbered markers (defect candidates in review order).
-    pub markers: Vec<Marker>,
+    pub markers: Vec<Marker<'a>>,
     /// Polylines (the follow-up flight's sorties).
     pub paths: Vec<&'a [[f64; 3]]>,
     /// Waypoints in flight order, numbered and coloured by height.
@@ -224,6 +242,21 @@ pub fn view(
             svg.circle(u, w, 5.0, "none", "#111827");
         }
         svg.take(u, w, 6.0);
+    }
+    // Over the markers: a crack shorter than a marker is still seen.
+    for (m, _) in &shown {
+        for line in &m.trace.0 {
+            let points: Vec<(f64, f64)> = line
+                .iter()
+                .map(|p| {
+                    let (u, w, _) = side.project(*p);
+                    (u, w)
+                })
+                .collect();
+            // A white halo: the state's colour may be a voxel status's too.
+            svg.polyline(&points, "#ffffff", 5.0);
+            svg.polyline(&points, state_colour(m.condition), 2.5);
+        }
     }
     for (m, _) in &shown {
         let (u, w, _) = side.project(m.position);

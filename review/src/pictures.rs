@@ -79,6 +79,8 @@ pub fn position_svgs(
                     label: String::new(),
                     position: defect.position,
                     normal,
+                    trace: &defect.trace,
+                    condition: defect.condition,
                 }],
                 grey: true,
                 ..Overlay::default()
