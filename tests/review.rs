@@ -1106,6 +1106,81 @@ fn printed_token(server: &Server) -> String {
         .expect("a generated token in the printed address")
 }
 
+/// A reviewer corrects a candidate's condition state: stored as given,
+/// shown in the queue, kept by a later decision from the queue's row, and
+/// exported beside the measured state, as Python's sqlite3 and csv read
+/// them; a state that is none of the four is refused by name.
+#[test]
+fn a_corrected_condition_state_is_stored_shown_and_exported() {
+    let (tmp, db, server, ids) = fresh_review(2);
+    let agent = agent();
+    let url = decisions_url(&server.base, &ids[0]);
+    let (status, body) = post_json(
+        &agent,
+        &url,
+        &json!({"version": 0, "verdict": "accepted", "condition": "severe", "reviewer": "kim"}),
+    );
+    assert_eq!(status, 201, "{body}");
+    let (status, body) = post_json(
+        &agent,
+        &decisions_url(&server.base, &ids[1]),
+        &json!({"version": 0, "verdict": "accepted", "condition": "cracked", "reviewer": "kim"}),
+    );
+    assert!((400..500).contains(&status), "{status} {body}");
+    assert!(
+        body.contains("unknown condition state") && body.contains("cracked"),
+        "{body}"
+    );
+    let (_, queue) = get(&agent, &format!("{}/", server.base));
+    let row = &queue[queue.find(&format!("data-id=\"{}\"", ids[0])).unwrap()..];
+    let row = &row[..row.find("</tr>").unwrap()];
+    assert!(
+        row.contains("4 severe") && row.contains("(reviewer)"),
+        "{row}"
+    );
+    // A quick decision from the row (as the queue's keys send it) keeps it.
+    let (status, body) = post_json(
+        &agent,
+        &url,
+        &json!({"version": 1, "verdict": "needs_repair", "severity": 3, "condition": "severe", "reviewer": "kim"}),
+    );
+    assert_eq!(status, 201, "{body}");
+    let stored = python_run(
+        "import json, sqlite3, sys\n\
+         c = sqlite3.connect(sys.argv[1])\n\
+         print(json.dumps(c.execute('SELECT condition_state FROM decisions ORDER BY seq').fetchall()))",
+        &[&db],
+    );
+    assert_eq!(stored.trim(), r#"[["severe"], ["severe"]]"#);
+    let (status, csv) = get(
+        &agent,
+        &format!("{}/export/accepted-defects.csv", server.base),
+    );
+    assert_eq!(status, 200, "{csv}");
+    let path = tmp.path().join("accepted.csv");
+    std::fs::write(&path, csv).unwrap();
+    let row = python_run(
+        "import csv, json, sys\n\
+         rows = list(csv.DictReader(open(sys.argv[1], newline='')))\n\
+         print(json.dumps([[r['id'], r['inspector_condition_state'], r['condition_state']] for r in rows]))",
+        &[&path],
+    );
+    let defects = read_json(&reviewed_run().join("defects.json"));
+    let measured = defects["defects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|d| d["id"] == ids[0].as_str())
+        .unwrap()["condition"]
+        .as_str()
+        .unwrap_or("")
+        .to_string();
+    assert_eq!(
+        serde_json::from_str::<Value>(&row).unwrap(),
+        json!([[ids[0], "severe", measured]])
+    );
+}
+
 #[test]
 fn exports_show_formulas_as_text() {
     let (tmp, db, server, ids) = fresh_review(1);

@@ -204,14 +204,7 @@ pub fn view(
         svg.square(u, w, resolution * 0.96, fill);
     }
     for path in &overlay.paths {
-        let points: Vec<(f64, f64)> = path
-            .iter()
-            .map(|p| {
-                let (u, w, _) = side.project(*p);
-                (u, w)
-            })
-            .collect();
-        svg.polyline(&points, "#1f4fd1", 1.5);
+        svg.polyline(&projected(side, path), "#1f4fd1", 1.5);
     }
     waypoints(&mut svg, side, &overlay.points);
     if let Some(h) = overlay.home {
@@ -246,13 +239,7 @@ pub fn view(
     // Over the markers: a crack shorter than a marker is still seen.
     for (m, _) in &shown {
         for line in &m.trace.0 {
-            let points: Vec<(f64, f64)> = line
-                .iter()
-                .map(|p| {
-                    let (u, w, _) = side.project(*p);
-                    (u, w)
-                })
-                .collect();
+            let points = projected(side, line);
             // A white halo: the state's colour may be a voxel status's too.
             svg.polyline(&points, "#ffffff", 5.0);
             svg.polyline(&points, state_colour(m.condition), 2.5);
@@ -265,6 +252,16 @@ pub fn view(
     let metres = nice_length((bounds[1][0] - bounds[0][0]) / 5.0);
     svg.scale_bar(metres);
     svg.finish(side.title())
+}
+
+/// A polyline as seen from `side`, in the picture's plane.
+fn projected(side: Side, line: &[[f64; 3]]) -> Vec<(f64, f64)> {
+    line.iter()
+        .map(|p| {
+            let (u, w, _) = side.project(*p);
+            (u, w)
+        })
+        .collect()
 }
 
 /// Waypoints coloured by height and numbered in flight order (a number
