@@ -73,7 +73,8 @@ pub fn merge(views: &[&Trace], apart: f64, tolerance: f64) -> Trace {
         for line in &view.0 {
             let dense = densify(&points(line), apart / 2.0);
             let off: Vec<f64> = dense.iter().map(|p| distance(p, &kept)).collect();
-            let mut runs: Vec<Vec<Point3<f64>>> = Vec::new();
+            // Each stretch off the kept lines, with how far off it reaches.
+            let mut runs: Vec<(Vec<Point3<f64>>, f64)> = Vec::new();
             let mut run: Vec<Point3<f64>> = Vec::new();
             let mut reach: f64 = 0.0;
             for (i, p) in dense.iter().enumerate() {
@@ -86,17 +87,13 @@ pub fn merge(views: &[&Trace], apart: f64, tolerance: f64) -> Trace {
                     reach = reach.max(off[i]);
                 } else if !run.is_empty() {
                     run.push(*p);
-                    if reach > 2.0 * apart {
-                        runs.push(std::mem::take(&mut run));
-                    }
-                    run.clear();
+                    runs.push((std::mem::take(&mut run), reach));
                     reach = 0.0;
                 }
             }
-            if run.len() >= 2 && reach > 2.0 * apart {
-                runs.push(run);
-            }
-            kept.extend(runs.iter().map(|r| simplify(r, tolerance)));
+            runs.push((run, reach));
+            runs.retain(|(run, reach)| run.len() >= 2 && *reach > 2.0 * apart);
+            kept.extend(runs.iter().map(|(r, _)| simplify(r, tolerance)));
         }
     }
     Trace(

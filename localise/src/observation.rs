@@ -218,7 +218,9 @@ impl Scene<'_> {
         let extent = points
             .iter()
             .fold([points[0], points[0]], |[lo, hi], p| [lo.inf(p), hi.sup(p)]);
-        let measured = trace.filter(|_| measures_length(surface.incidence));
+        // Length, trace and width alike only from a view that measures.
+        let measures = measures_length(surface.incidence);
+        let measured = trace.filter(|_| measures);
         let length_m = measured.map(|t| {
             let at: Vec<Option<Vector3<f64>>> =
                 on_surface.iter().map(|p| p.map(|p| p.coords)).collect();
@@ -226,7 +228,7 @@ impl Scene<'_> {
         });
         let on_plane =
             |px: Point2<f64>| intersect(&origin, &ray(&px), &surface.point, &surface.normal);
-        let width = measures_length(surface.incidence)
+        let width = measures
             .then(|| {
                 let points: Vec<(Width, f64)> = widths
                     .iter()

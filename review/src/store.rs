@@ -227,17 +227,26 @@ CREATE TABLE IF NOT EXISTS decisions (
     note TEXT NOT NULL,
     reviewer TEXT NOT NULL,
     decided_at TEXT NOT NULL,
-    condition_state TEXT CHECK (condition_state IN ('good', 'fair', 'poor', 'severe')),
     UNIQUE (candidate, version)
 );
 ";
 
-/// Columns added since the first schema: a database made before them
-/// gains them when opened (its decisions keep null there).
-const ADDED_COLUMNS: [(&str, &str); 1] = [(
-    "condition_state",
-    "ALTER TABLE decisions ADD COLUMN condition_state TEXT CHECK (condition_state IN ('good', 'fair', 'poor', 'severe'))",
-)];
+/// Columns added since the first schema, each with the statement that adds
+/// it: a database made before them (or new) gains them when opened; older
+/// decisions hold null there.
+fn added_columns() -> [(&'static str, String); 1] {
+    let states: Vec<String> = ConditionState::ALL
+        .iter()
+        .map(|s| format!("'{}'", s.name()))
+        .collect();
+    [(
+        "condition_state",
+        format!(
+            "ALTER TABLE decisions ADD COLUMN condition_state TEXT CHECK (condition_state IN ({}))",
+            states.join(", ")
+        ),
+    )]
+}
 
 /// The decisions' columns, in [`decision_row`]'s order.
 const DECISION_COLUMNS: &str =
@@ -396,13 +405,13 @@ impl ReviewStore {
     }
 }
 
-/// Add the [`ADDED_COLUMNS`] a database made before them lacks.
+/// Add the [`added_columns`] a database lacks.
 fn add_columns(conn: &Connection) -> rusqlite::Result<()> {
     let mut q = conn.prepare("SELECT name FROM pragma_table_info('decisions')")?;
     let have: Vec<String> = q.query_map([], |r| r.get(0))?.collect::<Result<_, _>>()?;
-    for (column, add) in ADDED_COLUMNS {
+    for (column, add) in added_columns() {
         if !have.iter().any(|c| c == column) {
-            conn.execute_batch(add)?;
+            conn.execute_batch(&add)?;
         }
     }
     Ok(())
@@ -572,38 +581,26 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let mut s = store(&dir);
         s.sync_candidates(&[defect("a", 0.9)]).unwrap();
-        let refused = |r: Result<Decision, ReviewError>| r.unwrap_err().to_string();
-        assert!(
-            refused(s.decide("a", 0, &Ruling::new(Verdict::NeedsRepair, "ann")))
-                .contains("severity")
-        );
-        assert!(
-            refused(s.decide(
-                "a",
-                0,
-                &Ruling {
-                    severity: Some(6),
-                    ..Ruling::new(Verdict::NeedsRepair, "ann")
-                }
-            ))
-            .contains("1 to 5")
-        );
-        assert!(
-            refused(s.decide(
-                "a",
-                0,
-                &Ruling {
-                    severity: Some(2),
-                    ..Ruling::new(Verdict::Accepted, "ann")
-                }
-            ))
-            .contains("severity")
-        );
-        assert!(
-            refused(s.decide("a", 0, &Ruling::new(Verdict::Accepted, "  "))).contains("reviewer")
-        );
-        assert!(refused(s.decide("zz", 0, &Ruling::new(Verdict::Accepted, "ann"))).contains("zz"));
+        let mut refused = |ruling: Ruling| s.decide("a", 0, &ruling).unwrap_err().to_string();
+        let severity = |verdict, severity| Ruling {
+            severity,
+            ..Ruling::new(verdict, "ann")
+        };
+        assert!(refused(severity(Verdict::NeedsRepair, None)).contains("severity"));
+        assert!(refused(severity(Verdict::NeedsRepair, Some(6))).contains("1 to 5"));
+        assert!(refused(severity(Verdict::Accepted, Some(2))).contains("severity"));
+        assert!(refused(Ruling::new(Verdict::Accepted, "  ")).contains("reviewer"));
+        let unknown = s.decide("zz", 0, &Ruling::new(Verdict::Accepted, "ann"));
+        assert!(unknown.unwrap_err().to_string().contains("zz"));
         assert!(s.history("a").unwrap().is_empty());
+    }
+
+    /// Accepted by `reviewer`, who puts the crack in `state`.
+    fn accepted_in(state: ConditionState, reviewer: &str) -> Ruling<'_> {
+        Ruling {
+            condition: Some(state),
+            ..Ruling::new(Verdict::Accepted, reviewer)
+        }
     }
 
     #[test]
@@ -611,10 +608,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let mut s = store(&dir);
         s.sync_candidates(&[defect("a", 0.9)]).unwrap();
-        let severe = Ruling {
-            condition: Some(ConditionState::Severe),
-            ..Ruling::new(Verdict::Accepted, "ann")
-        };
+        let severe = accepted_in(ConditionState::Severe, "ann");
         assert_eq!(
             s.decide("a", 0, &severe).unwrap().condition,
             Some(ConditionState::Severe)
@@ -635,13 +629,9 @@ mod tests {
     fn a_database_made_before_condition_states_gains_the_column() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("review.sqlite");
-        let old = SCHEMA.replace(
-            "    condition_state TEXT CHECK (condition_state IN ('good', 'fair', 'poor', 'severe')),\n",
-            "",
-        );
-        assert_ne!(old, SCHEMA);
+        // The first schema, as databases were made before condition states.
         let conn = Connection::open(&path).unwrap();
-        conn.execute_batch(&old).unwrap();
+        conn.execute_batch(SCHEMA).unwrap();
         conn.execute_batch(
             "INSERT INTO candidates (id, priority, confidence, version) VALUES ('a', 1, 0.9, 1);
              INSERT INTO decisions (candidate, version, verdict, note, reviewer, decided_at)
@@ -651,10 +641,7 @@ mod tests {
         drop(conn);
         let mut s = ReviewStore::open(&path).unwrap();
         assert_eq!(s.current_decisions().unwrap()[0].condition, None);
-        let poor = Ruling {
-            condition: Some(ConditionState::Poor),
-            ..Ruling::new(Verdict::Accepted, "bob")
-        };
+        let poor = accepted_in(ConditionState::Poor, "bob");
         assert_eq!(
             s.decide("a", 1, &poor).unwrap().condition,
             Some(ConditionState::Poor)
