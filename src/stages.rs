@@ -74,6 +74,12 @@ pub fn localise(options: &localise::LocaliseOptions, quiet: bool) -> anyhow::Res
             o.obstacle,
             options.run.display()
         );
+        if !summary.set_aside.is_empty() {
+            println!(
+                "{} set aside as formwork joints (straight, level or plumb; listed in localise.json)",
+                summary.set_aside.len()
+            );
+        }
     }
     Ok(())
 }

@@ -158,7 +158,8 @@ fn a_repeat_inspection_is_registered_and_its_changes_classified_against_truth() 
     );
 
     // The later run's report says what changed, with the crack before and
-    // now side by side, and lists new and grown candidates first.
+    // now side by side, and lists the changes that stand out (new, first
+    // seen, grown, widened) first.
     let report = std::fs::read_to_string(b.join("report.html")).unwrap();
     assert!(
         report.contains("Changes since 2025-06-15"),
@@ -168,7 +169,9 @@ fn a_repeat_inspection_is_registered_and_its_changes_classified_against_truth() 
         .as_array()
         .unwrap()
         .iter()
-        .filter(|c| c["change"] == "new" || c["change"] == "grown")
+        .filter(|c| {
+            ["new", "first_seen", "grown", "widened"].contains(&c["change"].as_str().unwrap())
+        })
         .map(|c| c["after"].as_str().unwrap().to_string())
         .collect();
     assert!(
@@ -191,7 +194,7 @@ fn a_repeat_inspection_is_registered_and_its_changes_classified_against_truth() 
             .cloned()
             .collect::<std::collections::BTreeSet<_>>(),
         first,
-        "new and grown candidates come first in the review order"
+        "changes that stand out come first in the review order"
     );
 
     // Each truth crack's class: by the later candidate on it, or for one
@@ -237,6 +240,38 @@ fn a_repeat_inspection_is_registered_and_its_changes_classified_against_truth() 
                 .map(|c| c["id"].as_u64().unwrap())
         })
         .collect();
+    // A crack the earlier flight never had in view is never called new.
+    let seen_a: std::collections::BTreeSet<u64> = truth_a["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| !f["dropped"].as_bool().unwrap())
+        .flat_map(|f| {
+            f["cracks"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|c| c["id"].as_u64().unwrap())
+        })
+        .collect();
+    let unseen_old_called_new: Vec<u64> = truth_b["repeat"]["changes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|c| c["change"] != "new")
+        .map(|c| c["id"].as_u64().unwrap())
+        .filter(|id| !seen_a.contains(id))
+        .filter(|id| {
+            on_b.get(id)
+                .and_then(|c| class_after.get(c))
+                .map(String::as_str)
+                == Some("new")
+        })
+        .collect();
+    assert!(
+        unseen_old_called_new.is_empty(),
+        "cracks the earlier flight never had in view called new: {unseen_old_called_new:?}"
+    );
     let mut tally: BTreeMap<String, (usize, usize)> = BTreeMap::new();
     for change in truth_b["repeat"]["changes"].as_array().unwrap() {
         let id = change["id"].as_u64().unwrap();
@@ -263,7 +298,12 @@ fn a_repeat_inspection_is_registered_and_its_changes_classified_against_truth() 
         };
         let t = tally.entry(expected.to_string()).or_default();
         t.1 += 1;
-        if ours.map(String::as_str) == Some(expected) {
+        // A new crack where the earlier flight did not look is first seen.
+        let right = match ours.map(String::as_str) {
+            Some("first_seen") => expected == "new",
+            ours => ours == Some(expected),
+        };
+        if right {
             t.0 += 1;
         } else {
             eprintln!("crack {id}: truth {expected}, classified {ours:?}");

@@ -1,8 +1,8 @@
 //! What changed between two flights of one structure: the earlier flight's
 //! defect candidates, moved into the later flight's frame, matched with
 //! the later ones (a face that agrees, the same element, extents within the
-//! link distance), and each classified: new, grown, unchanged, not seen
-//! again, or not re-inspected.
+//! link distance), and each classified: new, first seen, grown, widened,
+//! unchanged, not seen again, or not re-inspected.
 
 use std::collections::HashMap;
 
@@ -10,7 +10,7 @@ use nalgebra::{Isometry3, Point3, Vector3};
 use postflight_core::map::{VoxelGrid, VoxelIndex};
 use postflight_core::outputs::changes::{ChangeKind, ChangeRecord};
 use postflight_core::outputs::coverage::{CoverageSummary, VoxelRecord};
-use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
+use postflight_core::outputs::localise::{DefectRecord, LengthStatus, WidthRecord};
 use postflight_core::structure::ElementMap;
 
 /// How candidates are matched.
@@ -151,7 +151,7 @@ impl<'a> Placed<'a> {
 }
 
 /// Every change between `before` (the earlier candidates, `to_after` moving
-/// them into this frame) and `after`, new and grown first.
+/// them into this frame) and `after`, those that stand out first.
 pub fn changes(
     before: &[DefectRecord],
     after: &[DefectRecord],
@@ -182,9 +182,14 @@ pub fn changes(
             None => {
                 let earlier_inspected = inspected_before
                     .and_then(|i| i.at(&(back * now.position), &(back * now.normal)));
+                // New only where the earlier flight looked and found nothing.
+                let kind = match earlier_inspected {
+                    Some(true) => ChangeKind::New,
+                    _ => ChangeKind::FirstSeen,
+                };
                 ChangeRecord {
                     earlier_inspected,
-                    ..record(ChangeKind::New, None, Some(now))
+                    ..record(kind, None, Some(now))
                 }
             }
         };
@@ -227,28 +232,56 @@ fn match_pairs(
     pairs
 }
 
-/// A candidate seen in both flights: grown when its length grew by more
-/// than the two measurements' spread. An earlier length that is a lower
-/// bound (its views cut by the image border) cannot show growth.
+/// A candidate seen in both flights: grown when its length along its
+/// trace grew by more than the two measurements' spread, else widened when
+/// its widest grew by more than both flights' uncertainties, else
+/// unchanged.
 fn seen_again(was: &Placed, now: &Placed, options: &MatchOptions) -> ChangeRecord {
     let base = record(ChangeKind::Unchanged, Some(was), Some(now));
-    let (Some(before), Some(after)) = (was.defect.length_m, now.defect.length_m) else {
-        return base;
+    let growth = growth(was.defect, now.defect, options);
+    let widening = widening(was.defect.width.as_ref(), now.defect.width.as_ref());
+    let beyond = |change: Option<(f64, f64)>| change.is_some_and(|(by, spread)| by > spread);
+    let change = if beyond(growth) {
+        ChangeKind::Grown
+    } else if beyond(widening) {
+        ChangeKind::Widened
+    } else {
+        ChangeKind::Unchanged
     };
-    if was.defect.evidence.length == LengthStatus::Partial {
-        return base;
-    }
-    let spread = options.length_spread * (before + after);
-    let growth = after - before;
     ChangeRecord {
-        change: if growth > spread {
-            ChangeKind::Grown
-        } else {
-            ChangeKind::Unchanged
-        },
-        growth_m: Some(growth),
-        spread_m: Some(spread),
+        change,
+        growth_m: growth.map(|g| g.0),
+        spread_m: growth.map(|g| g.1),
+        widening_mm: widening.map(|w| w.0),
+        width_spread_mm: widening.map(|w| w.1),
         ..base
+    }
+}
+
+/// How much longer it is now and the spread that is judged against,
+/// metres; none where either length is unknown, or the earlier one is a
+/// lower bound (its views cut by the image border), which cannot show
+/// growth.
+fn growth(was: &DefectRecord, now: &DefectRecord, options: &MatchOptions) -> Option<(f64, f64)> {
+    let (before, after) = (was.length_m?, now.length_m?);
+    if was.evidence.length == LengthStatus::Partial {
+        return None;
+    }
+    Some((after - before, options.length_spread * (before + after)))
+}
+
+/// How much wider its widest is now, and the uncertainty that is judged
+/// against (both flights' summed), millimetres. Where it was below
+/// resolution before, the growth beyond that bound, against the later
+/// uncertainty alone.
+fn widening(was: Option<&WidthRecord>, now: Option<&WidthRecord>) -> Option<(f64, f64)> {
+    let (was, now) = (was?, now?);
+    let after = now.max_mm?;
+    let uncertainty = |w: &WidthRecord| w.uncertainty_mm.unwrap_or(0.0);
+    match (was.max_mm, was.narrower_than_mm) {
+        (Some(before), _) => Some((after - before, uncertainty(was) + uncertainty(now))),
+        (None, Some(bound)) => Some((after - bound, uncertainty(now))),
+        (None, None) => None,
     }
 }
 
@@ -264,6 +297,45 @@ fn record(kind: ChangeKind, was: Option<&Placed>, now: Option<&Placed>) -> Chang
         length_after_m: now.and_then(|p| p.defect.length_m),
         growth_m: None,
         spread_m: None,
+        width_before_mm: was.and_then(|p| p.defect.width?.max_mm),
+        width_after_mm: now.and_then(|p| p.defect.width?.max_mm),
+        widening_mm: None,
+        width_spread_mm: None,
         earlier_inspected: None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn width(
+        max_mm: Option<f64>,
+        uncertainty_mm: f64,
+        narrower_than_mm: Option<f64>,
+    ) -> WidthRecord {
+        WidthRecord {
+            max_mm,
+            median_mm: max_mm,
+            uncertainty_mm: max_mm.map(|_| uncertainty_mm),
+            narrower_than_mm,
+            mm_per_px: 0.5,
+        }
+    }
+
+    #[test]
+    fn widening_is_judged_against_both_flights_uncertainty() {
+        let before = width(Some(0.6), 0.1, None);
+        let (by, spread) = widening(Some(&before), Some(&width(Some(1.0), 0.15, None))).unwrap();
+        assert!((by - 0.4).abs() < 1e-12 && (spread - 0.25).abs() < 1e-12);
+        let (by, spread) = widening(Some(&before), Some(&width(Some(0.8), 0.15, None))).unwrap();
+        assert!(by < spread, "0.2 mm wider is within 0.25 mm of uncertainty");
+        // Below resolution before: its bound, against the later uncertainty.
+        let below = width(None, 0.0, Some(0.3));
+        let (by, spread) = widening(Some(&below), Some(&width(Some(0.9), 0.2, None))).unwrap();
+        assert!((by - 0.6).abs() < 1e-12 && (spread - 0.2).abs() < 1e-12);
+        // Unknown now, or from a box-only model: nothing to judge.
+        assert_eq!(widening(Some(&before), Some(&below)), None);
+        assert_eq!(widening(None, Some(&before)), None);
     }
 }

@@ -14,6 +14,7 @@ pub mod crop;
 pub mod error;
 pub mod evidence;
 pub mod fusion;
+pub mod joint;
 pub mod observation;
 pub mod records;
 pub mod settings;

@@ -48,7 +48,7 @@ pub struct Placement {
     /// Length of the traced centre line on the surface, metres.
     pub length_m: Option<f64>,
     /// The traced centre line on the surface (empty where nothing was
-    /// traced, or the view is too oblique to measure on).
+    /// traced).
     pub trace: Trace,
     /// Oblique ground sampling distance of the view, millimetres per pixel
     /// (see [`SurfaceHit::oblique_gsd_mm`]).
@@ -246,7 +246,9 @@ impl Scene<'_> {
         let view_gsd_mm = ViewModel::gsd_mm(hit.range, k);
         let oblique_gsd_mm = hit.oblique_gsd_mm(k.fx.min(k.fy));
         // Within a pixel's footprint: the pixel grid's staircase goes.
-        let trace = measured.map_or_else(Trace::default, |t| {
+        // Every traced view's, for telling joints; only measuring views'
+        // make a candidate's trace.
+        let trace = trace.map_or_else(Trace::default, |t| {
             centre_line::on_surface(t, &on_surface, oblique_gsd_mm / 1000.0)
         });
         observation.placement = Some(Placement {

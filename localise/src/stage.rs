@@ -15,7 +15,7 @@ use postflight_core::map::{SlamMap, VoxelIndex};
 use postflight_core::motion::frame_blur_px;
 use postflight_core::outputs::detect::read_detections;
 use postflight_core::outputs::localise::{
-    self as outputs, LocaliseSummary, Outcome, Outcomes, files,
+    self as outputs, LocaliseSummary, Outcome, Outcomes, SetAside, SetAsideReason, files,
 };
 use postflight_core::{
     Flight, FlownPlan, Frame, InvalidSetting, PlanFile, RunDir, Stage, ViewSettings,
@@ -25,6 +25,7 @@ use rayon::prelude::*;
 use crate::crop::write_crop;
 use crate::error::LocaliseError;
 use crate::fusion::{DefectCandidate, fuse};
+use crate::joint;
 use crate::observation::{Observation, Scene};
 use crate::records::{defect_record, observation_record};
 use crate::settings::{LocaliseConfig, keys};
@@ -152,7 +153,9 @@ pub fn localise(
     check_overlap(&flight, &map, options.settings.max_range_m, hit, cast)?;
     warnings.extend(unplaced_warnings(&outcomes));
 
-    let candidates = fuse(&observations, &options.settings);
+    let (candidates, joints): (Vec<_>, Vec<_>) = fuse(&observations, &options.settings)
+        .into_iter()
+        .partition(|c| !joint::is_joint(c, &observations));
     let elements = elements(options, plan.as_ref(), &map)?;
     let traced = observations.iter().filter(|o| o.traced_px > 0).count() as u64;
     let summary = LocaliseSummary {
@@ -172,6 +175,7 @@ pub fn localise(
             hit as f64 / cast as f64
         },
         defects: candidates.len() as u64,
+        set_aside: joints.iter().map(set_aside_joint).collect(),
         seconds: start.elapsed().as_secs_f64(),
         warnings,
     };
@@ -183,6 +187,16 @@ pub fn localise(
     };
     write_outputs(&flight, &recording, &written, &summary)?;
     Ok(summary)
+}
+
+fn set_aside_joint(c: &DefectCandidate) -> SetAside {
+    SetAside {
+        reason: SetAsideReason::Joint,
+        id: c.id.clone(),
+        position: c.position.into(),
+        frames: c.frames,
+        trace: c.trace.clone(),
+    }
 }
 
 /// The detections grouped by frame, in frame order; an error for a frame

@@ -27,6 +27,9 @@ const STEP: f64 = 0.25;
 const DIRECTION_REACH: usize = 3;
 /// A point is resolved (measured at half depth) this many pixels wide or more.
 pub const RESOLVED_PX: f64 = 3.0;
+/// A crack has resolved stretches when this share of its points (and five
+/// at least) are resolved.
+const MIN_RESOLVED_SHARE: f64 = 0.1;
 
 /// A crack's width at one centre-line pixel.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -86,13 +89,22 @@ pub fn widths(
             Some((across, profile(gray, centre[i], across)?))
         })
         .collect();
-    // The crack's interior darkness: from its resolved stretches, if any.
+    // The crack's interior darkness: from its resolved stretches, if it
+    // has some; a few scattered points that look resolved are something
+    // else (a bend the profile runs along, a crossing), and would scale
+    // every thin point's width by a wrong darkness.
     let depths: Vec<f64> = profiles
         .iter()
         .flatten()
         .filter_map(|(_, p)| resolved(p).map(|(_, depth)| depth / p.surface))
         .collect();
-    let share = median(depths).unwrap_or(interior);
+    let measured = profiles.iter().flatten().count();
+    let has_stretches = depths.len() as f64 >= (MIN_RESOLVED_SHARE * measured as f64).max(5.0);
+    let share = if has_stretches {
+        median(depths).unwrap_or(interior)
+    } else {
+        interior
+    };
     profiles
         .into_iter()
         .zip(centre)
@@ -101,16 +113,17 @@ pub fn widths(
             Some(PointWidth {
                 at: *at,
                 across,
-                width: measure(&p, share),
+                width: measure(&p, share, has_stretches),
             })
         })
         .collect()
 }
 
 /// The width from one profile, with `share` the interior's darkness as a
-/// share of the surface's brightness.
-fn measure(p: &Profile, share: f64) -> Width {
-    if let Some((px, depth)) = resolved(p) {
+/// share of the surface's brightness; measured at half depth only where
+/// the crack has resolved stretches.
+fn measure(p: &Profile, share: f64, has_stretches: bool) -> Width {
+    if let Some((px, depth)) = resolved(p).filter(|_| has_stretches) {
         return Width::Resolved { px, depth };
     }
     let depth = share * p.surface;

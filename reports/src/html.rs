@@ -369,7 +369,9 @@ fn changes_section(r: &RunResults) -> Markup {
             p { "Every crack seen before is seen again, and none has grown or is new." }
         } @else {
             p.sub {
-                "New and grown cracks first. A crack is grown when it is longer by more than both flights' measurement spread; "
+                "New, first seen, grown and widened cracks first. A crack is new where the earlier flight inspected its place, "
+                "first seen where it did not; grown when it is longer along its trace by more than both flights' measurement spread, "
+                "widened when its widest is wider by more than both flights' width uncertainties; "
                 "one not re-inspected was not inspected by this flight, so nothing is known of it now. "
                 (c.count(ChangeKind::Unchanged)) " unchanged cracks are listed in changes.parquet."
             }
@@ -377,6 +379,7 @@ fn changes_section(r: &RunResults) -> Markup {
                 tr {
                     th { "change" } th { "before" } th { "now" } th { "where" }
                     th.n { "length before" } th.n { "now" } th.n { "growth" }
+                    th.n { "width before" } th.n { "now" } th.n { "widening" }
                 }
                 @for ch in listed { (change_row(r, ch)) }
             }
@@ -396,6 +399,8 @@ fn change_row(r: &RunResults, ch: &ChangeRecord) -> Markup {
         .map(|b| jpeg_data(&b));
     let metres =
         |m: Option<f64>| m.map_or_else(|| "\u{2013}".to_string(), |m| format!("{m:.2}\u{a0}m"));
+    let millimetres =
+        |m: Option<f64>| m.map_or_else(|| "\u{2013}".to_string(), |m| format!("{m:.2}\u{a0}mm"));
     let place = match now {
         Some(d) => place_text(r.place(d).map(|p| p.to_string()).as_deref(), d),
         None => ch.element.clone().unwrap_or_default(),
@@ -404,10 +409,10 @@ fn change_row(r: &RunResults, ch: &ChangeRecord) -> Markup {
         tr {
             td {
                 @match ch.change {
-                    ChangeKind::New | ChangeKind::Grown => b.flag { (ch.change.words()) },
+                    k if k.stands_out() => b.flag { (ch.change.words()) },
                     other => (other.words()),
                 }
-                @if ch.earlier_inspected == Some(false) {
+                @if ch.change == ChangeKind::FirstSeen {
                     br; span.sub { "the earlier flight did not inspect here" }
                 }
             }
@@ -422,6 +427,13 @@ fn change_row(r: &RunResults, ch: &ChangeRecord) -> Markup {
             td.n {
                 @if let (Some(g), Some(s)) = (ch.growth_m, ch.spread_m) {
                     (format!("{g:+.2} m")) br; span.sub { (format!("spread {s:.2} m")) }
+                }
+            }
+            td.n { (millimetres(ch.width_before_mm)) }
+            td.n { (millimetres(ch.width_after_mm)) }
+            td.n {
+                @if let (Some(w), Some(s)) = (ch.widening_mm, ch.width_spread_mm) {
+                    (format!("{w:+.2} mm")) br; span.sub { (format!("uncertainty {s:.2} mm")) }
                 }
             }
         }

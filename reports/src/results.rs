@@ -179,7 +179,8 @@ impl RunResults {
     }
 
     /// The same order as indices into `defects`: after a comparison with
-    /// an earlier inspection, new and grown cracks first.
+    /// an earlier inspection, cracks whose change stands out first (new,
+    /// first seen, grown, widened).
     pub fn review_order(&self) -> Vec<usize> {
         let d = &self.defects;
         // `false` (new or grown) sorts first.
@@ -187,7 +188,7 @@ impl RunResults {
             .iter()
             .map(|d| {
                 let change = self.change_of(&d.id).map(|c| c.change);
-                !matches!(change, Some(ChangeKind::New | ChangeKind::Grown))
+                !change.is_some_and(ChangeKind::stands_out)
             })
             .collect();
         let mut order: Vec<usize> = (0..d.len()).collect();

@@ -412,12 +412,11 @@ fn views_section(d: &DefectRecord, shown: usize, filter: Filter) -> Markup {
     }
 }
 
-/// A candidate's change since the earlier inspection; new and grown ones
-/// stand out.
+/// A candidate's change since the earlier inspection; new, first seen,
+/// grown and widened ones stand out.
 fn since_line(since: &Since) -> Markup {
-    use postflight_core::outputs::changes::ChangeKind;
     html! {
-        @if matches!(since.change.change, ChangeKind::New | ChangeKind::Grown) {
+        @if since.change.change.stands_out() {
             span.flag.since { (since.text()) }
         } @else {
             span.sub.since { (since.text()) }

@@ -52,9 +52,16 @@ impl Since {
     /// One line: "grown by 0.21 m since 2025-06-15; then needs repair,
     /// severity 3".
     pub fn text(&self) -> String {
-        let what = match (self.change.change, self.change.growth_m) {
-            (ChangeKind::Grown, Some(g)) => format!("grown by {g:.2} m since {}", self.date),
-            (kind, _) => format!("{} since {}", kind.words(), self.date),
+        let c = &self.change;
+        let what = match (c.change, c.growth_m, c.widening_mm) {
+            (ChangeKind::Grown, Some(g), _) => format!("grown by {g:.2} m since {}", self.date),
+            (ChangeKind::Widened, _, Some(w)) => {
+                format!("widened by {w:.2} mm since {}", self.date)
+            }
+            (ChangeKind::FirstSeen, ..) => {
+                format!("first seen: the {} inspection did not look here", self.date)
+            }
+            (kind, ..) => format!("{} since {}", kind.words(), self.date),
         };
         match &self.decision {
             Some(d) => {
@@ -88,6 +95,10 @@ mod tests {
             length_after_m: after.map(|_| 0.8),
             growth_m: (kind == ChangeKind::Grown).then_some(0.3),
             spread_m: None,
+            width_before_mm: None,
+            width_after_mm: None,
+            widening_mm: (kind == ChangeKind::Widened).then_some(0.4),
+            width_spread_mm: None,
             earlier_inspected: None,
         }
     }
@@ -131,17 +142,24 @@ mod tests {
                 change(ChangeKind::Unchanged, Some("new-b"), Some("old-b")),
                 change(ChangeKind::New, Some("new-c"), None),
                 change(ChangeKind::NotReinspected, None, Some("old-d")),
+                change(ChangeKind::Widened, Some("new-e"), Some("old-e")),
+                change(ChangeKind::FirstSeen, Some("new-f"), None),
             ],
             seconds: 0.1,
         };
         let known = pasts(Some(&summary)).unwrap();
-        assert_eq!(known.len(), 3, "one per candidate of this run");
+        assert_eq!(known.len(), 5, "one per candidate of this run");
         assert_eq!(
             known["new-a"].text(),
             "grown by 0.30 m since 2025-06-15; then needs repair, severity 3"
         );
         assert_eq!(known["new-b"].text(), "unchanged since 2025-06-15");
         assert_eq!(known["new-c"].text(), "new since 2025-06-15");
+        assert_eq!(known["new-e"].text(), "widened by 0.40 mm since 2025-06-15");
+        assert_eq!(
+            known["new-f"].text(),
+            "first seen: the 2025-06-15 inspection did not look here"
+        );
         // Without an earlier database, nothing is created there.
         let elsewhere = tempfile::tempdir().unwrap();
         let summary = ChangesSummary {

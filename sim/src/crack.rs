@@ -407,6 +407,11 @@ impl Crack {
         let face = FaceWalk::new(scene, self.triangle);
         let main = &self.lines[0];
         let n = main.len();
+        // A crack the face's edge stopped at its first point has no tip
+        // direction to grow along.
+        if n < 2 {
+            return 0.0;
+        }
         let tips = [(main[n - 1], main[n - 2]), (main[0], main[1])];
         let steps = (by / 0.025).ceil() as usize + 1;
         let walks: Vec<Vec<Point3<f64>>> = tips

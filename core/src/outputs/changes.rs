@@ -66,11 +66,19 @@ pub struct RegistrationRecord {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ChangeKind {
-    /// Seen now, not by the earlier flight.
+    /// Seen now, not by the earlier flight, which inspected its place.
     New,
-    /// Seen by both; longer now by more than both flights' measurement spread.
+    /// Seen now, on surface the earlier flight did not inspect (or, when it
+    /// has no coverage, may not have): it may be old, first seen now. The
+    /// mirror of `NotReinspected`.
+    FirstSeen,
+    /// Seen by both; longer now by more than both flights' measurement
+    /// spread (and perhaps wider too: see the widening).
     Grown,
-    /// Seen by both, as long as before within the spread.
+    /// Seen by both, as long as before, but wider by more than both
+    /// flights' width uncertainties.
+    Widened,
+    /// Seen by both, as long and as wide as before within the spread.
     Unchanged,
     /// Seen before; this flight inspected its place and found nothing.
     NotSeenAgain,
@@ -80,9 +88,11 @@ pub enum ChangeKind {
 }
 
 impl ChangeKind {
-    pub const ALL: [Self; 5] = [
+    pub const ALL: [Self; 7] = [
         Self::New,
+        Self::FirstSeen,
         Self::Grown,
+        Self::Widened,
         Self::Unchanged,
         Self::NotSeenAgain,
         Self::NotReinspected,
@@ -91,7 +101,9 @@ impl ChangeKind {
     pub fn as_str(self) -> &'static str {
         match self {
             Self::New => "new",
+            Self::FirstSeen => "first_seen",
             Self::Grown => "grown",
+            Self::Widened => "widened",
             Self::Unchanged => "unchanged",
             Self::NotSeenAgain => "not_seen_again",
             Self::NotReinspected => "not_reinspected",
@@ -101,10 +113,20 @@ impl ChangeKind {
     /// As people read it: "not seen again".
     pub fn words(self) -> &'static str {
         match self {
+            Self::FirstSeen => "first seen",
             Self::NotSeenAgain => "not seen again",
             Self::NotReinspected => "not re-inspected",
             other => other.as_str(),
         }
+    }
+
+    /// A change an inspector looks at first: a crack not on record before,
+    /// or one that grew or opened.
+    pub fn stands_out(self) -> bool {
+        matches!(
+            self,
+            Self::New | Self::FirstSeen | Self::Grown | Self::Widened
+        )
     }
 }
 
@@ -132,8 +154,21 @@ pub struct ChangeRecord {
     /// judged against (the sum of each candidate's), metres.
     pub growth_m: Option<f64>,
     pub spread_m: Option<f64>,
-    /// For a new candidate: whether the earlier flight inspected its place
-    /// (`false`: it may be old, first seen now).
+    /// Its widest before and now, millimetres (each flight's `max_width_mm`;
+    /// none where it was below resolution or not measured).
+    #[serde(default)]
+    pub width_before_mm: Option<f64>,
+    #[serde(default)]
+    pub width_after_mm: Option<f64>,
+    /// How much wider it is now, and the two flights' width uncertainties
+    /// summed that this is judged against, millimetres.
+    #[serde(default)]
+    pub widening_mm: Option<f64>,
+    #[serde(default)]
+    pub width_spread_mm: Option<f64>,
+    /// For a candidate seen now only: whether the earlier flight inspected
+    /// its place (`false`: first seen; none: the earlier run has no
+    /// coverage there, so first seen too).
     pub earlier_inspected: Option<bool>,
 }
 
@@ -167,6 +202,10 @@ crate::table! {
         length_after_m: Option<f64>,
         growth_m: Option<f64>,
         spread_m: Option<f64>,
+        width_before_mm: Option<f64>,
+        width_after_mm: Option<f64>,
+        widening_mm: Option<f64>,
+        width_spread_mm: Option<f64>,
         earlier_inspected: Option<bool>,
     }
 }
@@ -186,6 +225,10 @@ impl ChangeRow {
             length_after_m: c.length_after_m,
             growth_m: c.growth_m,
             spread_m: c.spread_m,
+            width_before_mm: c.width_before_mm,
+            width_after_mm: c.width_after_mm,
+            widening_mm: c.widening_mm,
+            width_spread_mm: c.width_spread_mm,
             earlier_inspected: c.earlier_inspected,
         }
     }

@@ -102,8 +102,34 @@ pub struct LocaliseSummary {
     /// Share of cast detections (pose and intrinsics known) whose rays met the map.
     pub hit_share: f64,
     pub defects: u64,
+    /// Candidates set aside as not cracks (formwork joints), not counted
+    /// in `defects`.
+    #[serde(default)]
+    pub set_aside: Vec<SetAside>,
     pub seconds: f64,
     pub warnings: Vec<String>,
+}
+
+/// A group of views localise set aside: something a crack detector finds
+/// that is not a crack. Its observations support no candidate.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SetAside {
+    pub reason: SetAsideReason,
+    /// The id it would have had as a candidate.
+    pub id: String,
+    /// World frame, metres.
+    pub position: [f64; 3],
+    pub frames: u32,
+    pub trace: Trace,
+}
+
+/// Why views were set aside.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SetAsideReason {
+    /// Its trace runs straight over 30 cm or more, level or plumb: a
+    /// formwork joint.
+    Joint,
 }
 
 /// One detection as `observations.parquet` holds it.

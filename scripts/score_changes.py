@@ -1,0 +1,140 @@
+"""Score `postflight compare` against a simulated repeat's truth.
+
+    score_changes.py EARLIER_FLIGHT EARLIER_RUN LATER_FLIGHT LATER_RUN [...]
+
+Candidates are put on truth cracks as score_measurement.py does (each
+run's own truth, so in its own frame); a crack's candidate is the one with
+the most frames. For each crack the repeat's truth says grew or widened,
+and both runs found, the later candidate's change is looked up in the later
+run's `changes.json`:
+
+- grown: recognised when its class is `grown`;
+- widened: recognised when its widening exceeds its width uncertainty
+  (`widening_mm > width_spread_mm`; a crack that also grew is classed
+  `grown`, its widening still recorded);
+- new: every candidate classed `new` that lies on a crack older than the
+  earlier flight is counted, split by whether the earlier flight ever had
+  that crack in view (one it never had in view must be `first_seen`).
+
+Prints one JSON object: the tallies and each judged crack.
+"""
+
+import json
+import sys
+from pathlib import Path
+
+from score_measurement import nearest_crack, samples
+
+
+def candidates_on_cracks(truth, run):
+    """Truth crack id -> the candidate on it with the most frames."""
+    cracks = truth["cracks"]
+    for c in cracks:
+        c["_samples"] = samples(c)
+    defects = json.loads((run / "defects.json").read_text())["defects"]
+    on = {}
+    for d in defects:
+        c = nearest_crack(cracks, d["position"])
+        if c is not None and (c["id"] not in on or d["frames"] > on[c["id"]]["frames"]):
+            on[c["id"]] = d
+    return on
+
+
+def in_view(truth):
+    return {
+        c["id"]
+        for f in truth["frames"]
+        if not f.get("dropped")
+        for c in f["cracks"]
+    }
+
+
+def score_pair(earlier, earlier_run, later, later_run):
+    truth_a = json.loads((earlier / "truth.json").read_text())
+    truth_b = json.loads((later / "truth.json").read_text())
+    changes = json.loads((later_run / "changes.json").read_text())
+    by_after = {c["after"]: c for c in changes["changes"] if c["after"]}
+    on_a = candidates_on_cracks(truth_a, earlier_run)
+    on_b = candidates_on_cracks(truth_b, later_run)
+    seen_a = in_view(truth_a)
+    crack_of = {}
+    for cid, d in on_b.items():
+        crack_of[d["id"]] = cid
+    rows = []
+    for change in truth_b["repeat"]["changes"]:
+        cid = change["id"]
+        if cid not in on_a or cid not in on_b:
+            continue
+        record = by_after.get(on_b[cid]["id"], {})
+        widening, spread = record.get("widening_mm"), record.get("width_spread_mm")
+        rows.append(
+            {
+                "pair": later.name,
+                "crack": cid,
+                "truth": change["change"],
+                "truth_widened": change.get("widened", False),
+                "class": record.get("change"),
+                "length_before_m": record.get("length_before_m"),
+                "length_after_m": record.get("length_after_m"),
+                "true_length_before_m": change["length_before_m"],
+                "true_length_m": change["length_m"],
+                "width_before_mm": record.get("width_before_mm"),
+                "width_after_mm": record.get("width_after_mm"),
+                "true_width_before_mm": change.get("width_before_mm"),
+                "true_width_mm": change.get("width_mm"),
+                "widened": widening is not None
+                and spread is not None
+                and widening > spread,
+            }
+        )
+    old = {c["id"] for c in truth_b["repeat"]["changes"] if c["change"] != "new"}
+    called_new = []
+    for c in changes["changes"]:
+        if c["change"] != "new" or c["after"] not in crack_of:
+            continue
+        cid = crack_of[c["after"]]
+        if cid in old:
+            called_new.append({"crack": cid, "earlier_had_in_view": cid in seen_a})
+    return rows, called_new, changes["counts"], changes["registration"]
+
+
+def tally(rows, judged, right):
+    judged = [r for r in rows if judged(r)]
+    return {"right": sum(1 for r in judged if right(r)), "of": len(judged)}
+
+
+def main(args):
+    rows, called_new, pairs = [], [], []
+    for i in range(0, len(args), 4):
+        a, ar, b, br = (Path(p) for p in args[i : i + 4])
+        r, n, counts, registration = score_pair(a, ar, b, br)
+        rows += r
+        called_new += n
+        pairs.append({"pair": b.name, "counts": counts, "registration": registration})
+    out = {
+        "grown": tally(rows, lambda r: r["truth"] == "grown", lambda r: r["class"] == "grown"),
+        "widened": tally(rows, lambda r: r["truth_widened"], lambda r: r["widened"]),
+        "unchanged": tally(
+            rows,
+            lambda r: r["truth"] == "unchanged" and not r["truth_widened"],
+            lambda r: r["class"] == "unchanged",
+        ),
+        "old_cracks_called_new": {
+            "earlier_had_in_view": sum(1 for n in called_new if n["earlier_had_in_view"]),
+            "earlier_never_had_in_view": sum(
+                1 for n in called_new if not n["earlier_had_in_view"]
+            ),
+        },
+        "pairs": pairs,
+        "cracks": rows,
+    }
+    json.dump(out, sys.stdout, indent=1)
+    print()
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 5 or (len(sys.argv) - 1) % 4:
+        sys.exit(
+            "usage: score_changes.py EARLIER_FLIGHT EARLIER_RUN LATER_FLIGHT LATER_RUN [...]"
+        )
+    main(sys.argv[1:])
