@@ -32,7 +32,8 @@ pub struct DefectCandidate {
     pub extent: [Point3<f64>; 2],
     pub voxel: VoxelIndex,
     pub face: FaceSide,
-    /// Estimated length, metres: along the longest trace of its views from
+    /// Estimated length, metres: along the longest trace of its frames (the
+    /// pieces one frame shows, summed) from
     /// `[localise] length_range_m` or closer, complete or cut by the image
     /// border (a view shows at most the whole crack: faint or hidden
     /// stretches and the border only shorten it), or, when none of those is
@@ -196,13 +197,20 @@ fn candidate(
     }
     let length_views = measured.len() as u32;
     let trace = trace(&measured, &placement, options.link_distance_m);
-    // The longest view's, not the merged trace's: views misplaced by their
+    // The longest frame's, not the merged trace's: views misplaced by their
     // pose error beyond the link distance add stretches twice (with 6 cm of
     // pose noise, 26 of 30 tower cracks within 30% merged, 30 unmerged).
-    let length_m = measured
-        .iter()
-        .filter_map(|i| placement(*i).length_m)
-        .reduce(f64::max);
+    // Within one frame the pieces of a crack whose faint stretches broke it
+    // into several detections add up: one image places them consistently.
+    let mut per_frame_length: BTreeMap<u32, f64> = BTreeMap::new();
+    for i in &measured {
+        if let Some(l) = placement(*i).length_m {
+            *per_frame_length
+                .entry(observations[*i].detection.frame)
+                .or_default() += l;
+        }
+    }
+    let length_m = per_frame_length.into_values().reduce(f64::max);
     let best = *basis
         .iter()
         .min_by(|a, b| {
@@ -443,6 +451,24 @@ mod tests {
         let mut ids: Vec<&str> = c.iter().map(|c| c.id.as_str()).collect();
         ids.sort();
         assert_eq!(ids, ["0_0_0+x", "0_0_0-x", "0_0_0-x.2"]);
+    }
+
+    #[test]
+    fn pieces_of_one_crack_in_one_frame_add_up_to_its_length() {
+        // Frame 0 shows the crack in two pieces (a faint stretch between),
+        // 0.4 and 0.3 m; frame 1 shows 0.5 m of it in one.
+        let obs = vec![
+            observation(0, [3.0, 1.0, 2.0], [-1.0, 0.0, 0.0], 0.2),
+            observation(0, [3.0, 1.0, 2.4], [-1.0, 0.0, 0.0], 0.15),
+            observation(1, [3.0, 1.0, 2.2], [-1.0, 0.0, 0.0], 0.25),
+        ];
+        let c = fuse(&obs, &LocaliseConfig::default());
+        assert_eq!(c.len(), 1);
+        assert!(
+            (c[0].length_m.unwrap() - 0.7).abs() < 1e-12,
+            "{:?}",
+            c[0].length_m
+        );
     }
 
     #[test]
