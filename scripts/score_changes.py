@@ -13,13 +13,16 @@ run's `changes.json`:
   (`widening_mm > width_spread_mm`; a crack that also grew is classed
   `grown`, its widening still recorded);
 - new: every candidate classed `new` that lies on a crack older than the
-  earlier flight is counted, split by whether the earlier flight ever had
-  that crack in view (one it never had in view must be `first_seen`).
+  earlier flight is counted, split by whether the earlier flight's true
+  coverage (truth.json `coverage`, the simulator's own) inspected any voxel
+  the crack lies in (one on surface it never inspected must be
+  `first_seen`), and whether it ever had the crack in view.
 
 Prints one JSON object: the tallies and each judged crack.
 """
 
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -47,6 +50,20 @@ def in_view(truth):
         if not f.get("dropped")
         for c in f["cracks"]
     }
+
+
+def truly_inspected(truth, plan, crack):
+    """Whether the flight's true coverage inspected a voxel under the crack."""
+    res, origin = plan["resolution"], plan["origin"]
+    inspected = {
+        tuple(v["voxel"]) for v in truth["coverage"]["voxels"] if v["inspected"]
+    }
+    n = crack["normal"]
+    for p in samples(crack):
+        inside = [p[i] - n[i] * 0.25 * res for i in range(3)]
+        if tuple(math.floor((inside[i] - origin[i]) / res) for i in range(3)) in inspected:
+            return True
+    return False
 
 
 def score_pair(earlier, earlier_run, later, later_run):
@@ -88,13 +105,21 @@ def score_pair(earlier, earlier_run, later, later_run):
             }
         )
     old = {c["id"] for c in truth_b["repeat"]["changes"] if c["change"] != "new"}
+    plan_a = json.loads((earlier / "plan.json").read_text())
+    cracks_a = {c["id"]: c for c in truth_a["cracks"]}
     called_new = []
     for c in changes["changes"]:
         if c["change"] != "new" or c["after"] not in crack_of:
             continue
         cid = crack_of[c["after"]]
         if cid in old:
-            called_new.append({"crack": cid, "earlier_had_in_view": cid in seen_a})
+            called_new.append(
+                {
+                    "crack": cid,
+                    "earlier_had_in_view": cid in seen_a,
+                    "earlier_inspected": truly_inspected(truth_a, plan_a, cracks_a[cid]),
+                }
+            )
     return rows, called_new, changes["counts"], changes["registration"]
 
 
@@ -120,7 +145,12 @@ def main(args):
             lambda r: r["class"] == "unchanged",
         ),
         "old_cracks_called_new": {
-            "earlier_had_in_view": sum(1 for n in called_new if n["earlier_had_in_view"]),
+            "on_surface_the_earlier_flight_inspected": sum(
+                1 for n in called_new if n["earlier_inspected"]
+            ),
+            "on_surface_it_never_inspected": sum(
+                1 for n in called_new if not n["earlier_inspected"]
+            ),
             "earlier_never_had_in_view": sum(
                 1 for n in called_new if not n["earlier_had_in_view"]
             ),

@@ -57,8 +57,8 @@ impl Inspected {
     }
 
     /// Whether the run inspected the target voxel under a surface point
-    /// (its own, or a neighbour's when the point sits on a voxel's edge);
-    /// `None` when no target voxel is there.
+    /// (its own, or, when the point sits on a voxel's edge, the nearest
+    /// target voxel around it); `None` when no target voxel is there.
     pub fn at(&self, point: &Point3<f64>, normal: &Vector3<f64>) -> Option<bool> {
         // Just inside the surface: the structure's voxel, not the air's.
         let inside = point - normal * (0.25 * self.grid.resolution);
@@ -66,10 +66,17 @@ impl Inspected {
         if let Some(&inspected) = self.inspected.get(&v) {
             return Some(inspected);
         }
-        let near: Vec<bool> = neighbours(v)
-            .filter_map(|n| self.inspected.get(&n).copied())
-            .collect();
-        (!near.is_empty()).then(|| near.iter().any(|i| *i))
+        // The nearest, not any: any of 26 neighbours inspected called
+        // surface inspected that the flight never saw.
+        neighbours(v)
+            .filter_map(|n| {
+                Some((
+                    (self.grid.center(n) - inside).norm(),
+                    *self.inspected.get(&n)?,
+                ))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(_, inspected)| inspected)
     }
 
     /// The element at a point, by name.

@@ -418,6 +418,7 @@ mod tests {
                 view_faults: Vec::new(),
                 width: None,
                 trace: Trace::default(),
+                line: None,
             }),
             traced_px: 30,
             clipped: false,

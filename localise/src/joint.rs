@@ -2,10 +2,9 @@
 //! where concrete panels or lifts met, running straight across a face,
 //! level or plumb. A candidate whose trace does that is set aside as a
 //! joint, not proposed as a crack; cracks wander (a crack as straight as a
-//! joint over 30 cm and more is rare, and one also level or plumb rarer).
+//! joint over 15 cm and more is rare, and one also level or plumb rarer).
 
-use nalgebra::{Matrix3, Vector3};
-use postflight_core::trace::Trace;
+use nalgebra::{Matrix3, Point3, Vector3};
 
 use crate::fusion::DefectCandidate;
 use crate::observation::Observation;
@@ -15,7 +14,7 @@ use crate::observation::Observation;
 const STRAY_M: f64 = 0.006;
 const STRAY_SHARE: f64 = 0.005;
 /// Shorter traces say too little about their straightness, metres.
-const MIN_LENGTH_M: f64 = 0.3;
+const MIN_LENGTH_M: f64 = 0.15;
 /// How far from level or from the face's fall line a joint may run, degrees.
 const MAX_TILT_DEG: f64 = 5.0;
 
@@ -31,10 +30,10 @@ pub struct Line {
 }
 
 impl Line {
-    /// The line fitted through every point of `trace` (the principal axis of
-    /// their spread); `None` with fewer than two distinct points.
-    pub fn fit(trace: &Trace) -> Option<Self> {
-        let points: Vec<Vector3<f64>> = trace.0.iter().flatten().map(|p| (*p).into()).collect();
+    /// The line fitted through `points` (the principal axis of their
+    /// spread); `None` with fewer than two distinct points.
+    pub fn fit(points: &[Point3<f64>]) -> Option<Self> {
+        let points: Vec<Vector3<f64>> = points.iter().map(|p| p.coords).collect();
         if points.len() < 2 {
             return None;
         }
@@ -67,6 +66,12 @@ impl Line {
         })
     }
 
+    /// Whether it runs as a formwork joint does on a face with outward
+    /// `normal`: straight over 15 cm or more, level or plumb.
+    pub fn runs_like_a_joint(&self, normal: &Vector3<f64>) -> bool {
+        self.is_straight() && self.is_level_or_plumb(normal)
+    }
+
     /// Straight enough for a joint: long, and close to its line throughout.
     fn is_straight(&self) -> bool {
         self.length_m >= MIN_LENGTH_M && self.stray_m <= STRAY_M + STRAY_SHARE * self.length_m
@@ -82,30 +87,24 @@ impl Line {
     }
 }
 
-/// Whether candidate `c` is a formwork joint: half or more of its views'
-/// traces on the surface (those long enough to judge) run like one. View
-/// by view, not its merged trace: a long joint's candidate gathers views
-/// along many metres, where a stray crossing crack or pose drift would
-/// bend the whole; and a joint seen only obliquely has no merged trace.
+/// Whether candidate `c` is a formwork joint: half or more of its views
+/// (those whose centre line is long enough to judge) see it run like one.
+/// View by view, each on its own surface plane, not its merged trace: a
+/// long joint's candidate gathers views along many metres, where a stray
+/// crossing crack or pose drift would bend the whole; and a joint seen
+/// only obliquely has no merged trace.
 pub fn is_joint(c: &DefectCandidate, observations: &[Observation]) -> bool {
-    let traces: Vec<&Trace> = c
+    let lines: Vec<&Line> = c
         .observations
         .iter()
-        .filter_map(|i| observations[*i].placement.as_ref())
-        .map(|p| &p.trace)
-        .filter(|t| t.length_m() >= MIN_LENGTH_M)
+        .filter_map(|i| observations[*i].placement.as_ref()?.line.as_ref())
+        .filter(|l| l.length_m >= MIN_LENGTH_M)
         .collect();
-    let joints = traces
+    let joints = lines
         .iter()
-        .filter(|t| runs_like_a_joint(t, &c.normal))
+        .filter(|l| l.runs_like_a_joint(&c.normal))
         .count();
-    joints > 0 && 2 * joints >= traces.len()
-}
-
-/// Whether a trace on a face with outward `normal` runs as a formwork
-/// joint does: straight over 30 cm or more, level or plumb.
-pub fn runs_like_a_joint(trace: &Trace, normal: &Vector3<f64>) -> bool {
-    Line::fit(trace).is_some_and(|line| line.is_straight() && line.is_level_or_plumb(normal))
+    joints > 0 && 2 * joints >= lines.len()
 }
 
 #[cfg(test)]
@@ -116,43 +115,33 @@ mod tests {
         Vector3::x()
     }
 
-    /// A trace on the wall x = 0 from (y0, z0) in steps of (dy, dz), each
-    /// point pushed sideways by `wobble(k)`.
-    fn trace(steps: usize, d: (f64, f64), wobble: impl Fn(usize) -> f64) -> Trace {
+    /// Points on the wall x = 0 from the origin in steps of (dy, dz), each
+    /// pushed sideways by `wobble(k)`.
+    fn line(steps: usize, d: (f64, f64), wobble: impl Fn(usize) -> f64) -> Vec<Point3<f64>> {
         let (dy, dz) = d;
         let side = Vector3::new(0.0, -dz, dy).normalize();
-        Trace(vec![
-            (0..=steps)
-                .map(|k| {
-                    let p = Vector3::new(0.0, dy * k as f64, dz * k as f64) + side * wobble(k);
-                    [p.x, p.y, p.z]
-                })
-                .collect(),
-        ])
+        (0..=steps)
+            .map(|k| Point3::new(0.0, dy * k as f64, dz * k as f64) + side * wobble(k))
+            .collect()
+    }
+
+    fn runs_like_a_joint(points: &[Point3<f64>], normal: &Vector3<f64>) -> bool {
+        Line::fit(points).is_some_and(|l| l.runs_like_a_joint(normal))
     }
 
     #[test]
     fn a_straight_level_or_plumb_groove_is_a_joint() {
         // 1 m level and plumb, 2 mm of noise.
         let noise = |k: usize| 0.002 * ((k * 7919) % 5) as f64 / 4.0;
-        assert!(runs_like_a_joint(&trace(50, (0.02, 0.0), noise), &wall()));
-        assert!(runs_like_a_joint(&trace(50, (0.0, 0.02), noise), &wall()));
-        // Two views' stretches along one line make one joint.
-        let mut two = trace(20, (0.02, 0.0), noise);
-        two.0.push(
-            trace(20, (0.02, 0.0), noise).0[0]
-                .iter()
-                .map(|p| [p[0], p[1] + 0.5, p[2]])
-                .collect(),
-        );
-        assert!(runs_like_a_joint(&two, &wall()));
+        assert!(runs_like_a_joint(&line(50, (0.02, 0.0), noise), &wall()));
+        assert!(runs_like_a_joint(&line(50, (0.0, 0.02), noise), &wall()));
     }
 
     #[test]
     fn cracks_that_wander_slant_or_are_short_are_not() {
         // Wandering 3 cm either way over 1 m, level.
         let wander = |k: usize| 0.03 * (k as f64 / 8.0).sin();
-        assert!(!runs_like_a_joint(&trace(50, (0.02, 0.0), wander), &wall()));
+        assert!(!runs_like_a_joint(&line(50, (0.02, 0.0), wander), &wall()));
         // Straight but at 20 degrees.
         let (c, s) = (20f64.to_radians().cos(), 20f64.to_radians().sin());
         assert!(!runs_like_a_joint(
@@ -164,7 +153,7 @@ mod tests {
             &trace(10, (0.02, 0.0), |_| 0.0),
             &wall()
         ));
-        assert!(!runs_like_a_joint(&Trace::default(), &wall()));
+        assert!(!runs_like_a_joint(&[], &wall()));
     }
 
     #[test]
@@ -172,14 +161,9 @@ mod tests {
         // A face tilted 30 degrees back from vertical; its fall line.
         let normal = Vector3::new(30f64.to_radians().cos(), 0.0, 30f64.to_radians().sin());
         let fall = (-Vector3::z() + normal * normal.z).normalize();
-        let line = Trace(vec![
-            (0..=40)
-                .map(|k| {
-                    let p = fall * (0.025 * k as f64);
-                    [p.x, p.y, p.z]
-                })
-                .collect(),
-        ]);
-        assert!(runs_like_a_joint(&line, &normal));
+        let down: Vec<Point3<f64>> = (0..=40)
+            .map(|k| Point3::from(fall * (0.025 * k as f64)))
+            .collect();
+        assert!(runs_like_a_joint(&down, &normal));
     }
 }

@@ -15,6 +15,7 @@ use postflight_core::{Intrinsics, ViewModel};
 use crate::centre_line;
 use crate::evidence::view_faults;
 
+use crate::joint::Line;
 use crate::stats::{median, quantile};
 use crate::surface::{self, SurfaceHit};
 use crate::trace::CrackTrace;
@@ -48,8 +49,12 @@ pub struct Placement {
     /// Length of the traced centre line on the surface, metres.
     pub length_m: Option<f64>,
     /// The traced centre line on the surface (empty where nothing was
-    /// traced).
+    /// traced, or the view is too oblique to measure on).
     pub trace: Trace,
+    /// The straight line its centre line's pixels make on the surface's
+    /// plane, from any angle (`None`: nothing traced); what tells a
+    /// formwork joint.
+    pub line: Option<Line>,
     /// Oblique ground sampling distance of the view, millimetres per pixel
     /// (see [`SurfaceHit::oblique_gsd_mm`]).
     pub oblique_gsd_mm: f64,
@@ -228,6 +233,10 @@ impl Scene<'_> {
         });
         let on_plane =
             |px: Point2<f64>| intersect(&origin, &ray(&px), &surface.point, &surface.normal);
+        let line = trace.and_then(|t| {
+            let points: Vec<Point3<f64>> = t.pixels.iter().filter_map(|p| on_plane(*p)).collect();
+            Line::fit(&points)
+        });
         let width = measures
             .then(|| {
                 let points: Vec<(Width, f64)> = widths
@@ -246,9 +255,7 @@ impl Scene<'_> {
         let view_gsd_mm = ViewModel::gsd_mm(hit.range, k);
         let oblique_gsd_mm = hit.oblique_gsd_mm(k.fx.min(k.fy));
         // Within a pixel's footprint: the pixel grid's staircase goes.
-        // Every traced view's, for telling joints; only measuring views'
-        // make a candidate's trace.
-        let trace = trace.map_or_else(Trace::default, |t| {
+        let trace = measured.map_or_else(Trace::default, |t| {
             centre_line::on_surface(t, &on_surface, oblique_gsd_mm / 1000.0)
         });
         observation.placement = Some(Placement {
@@ -268,6 +275,7 @@ impl Scene<'_> {
             radius,
             length_m,
             trace,
+            line,
             width,
         });
         observation

@@ -127,8 +127,8 @@ pub struct SetAside {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SetAsideReason {
-    /// Its trace runs straight over 30 cm or more, level or plumb: a
-    /// formwork joint.
+    /// Its views see a line straight over 15 cm or more, level or plumb:
+    /// a formwork joint.
     Joint,
 }
 
