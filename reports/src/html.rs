@@ -378,8 +378,7 @@ fn changes_section(r: &RunResults) -> Markup {
             table {
                 tr {
                     th { "change" } th { "before" } th { "now" } th { "where" }
-                    th.n { "length before" } th.n { "now" } th.n { "growth" }
-                    th.n { "width before" } th.n { "now" } th.n { "widening" }
+                    th.n { "length, before \u{2192} now" } th.n { "widest, before \u{2192} now" }
                 }
                 @for ch in listed { (change_row(r, ch)) }
             }
@@ -422,21 +421,29 @@ fn change_row(r: &RunResults, ch: &ChangeRecord) -> Markup {
                 (place) br;
                 span.sub { (ch.after.as_deref().or(ch.before.as_deref()).unwrap_or_default()) }
             }
-            td.n { (metres(ch.length_before_m)) }
-            td.n { (metres(ch.length_after_m)) }
             td.n {
+                (before_now(metres(ch.length_before_m), metres(ch.length_after_m), ch.before.is_some()))
                 @if let (Some(g), Some(s)) = (ch.growth_m, ch.spread_m) {
-                    (format!("{g:+.2} m")) br; span.sub { (format!("spread {s:.2} m")) }
+                    br; span.sub { (format!("{g:+.2} m, spread {s:.2} m")) }
                 }
             }
-            td.n { (millimetres(ch.width_before_mm)) }
-            td.n { (millimetres(ch.width_after_mm)) }
             td.n {
+                (before_now(millimetres(ch.width_before_mm), millimetres(ch.width_after_mm), ch.before.is_some()))
                 @if let (Some(w), Some(s)) = (ch.widening_mm, ch.width_spread_mm) {
-                    (format!("{w:+.2} mm")) br; span.sub { (format!("uncertainty {s:.2} mm")) }
+                    br; span.sub { (format!("{w:+.2} mm, uncertainty {s:.2} mm")) }
                 }
             }
         }
+    }
+}
+
+/// "before \u{2192} now", or now alone for a crack the earlier flight did not
+/// find.
+fn before_now(before: String, now: String, was_found: bool) -> String {
+    if was_found {
+        format!("{before} \u{2192} {now}")
+    } else {
+        now
     }
 }
 
