@@ -145,14 +145,11 @@ mod tests {
         // Straight but at 20 degrees.
         let (c, s) = (20f64.to_radians().cos(), 20f64.to_radians().sin());
         assert!(!runs_like_a_joint(
-            &trace(50, (0.02 * c, 0.02 * s), |_| 0.0),
+            &line(50, (0.02 * c, 0.02 * s), |_| 0.0),
             &wall()
         ));
-        // Straight and level but 20 cm.
-        assert!(!runs_like_a_joint(
-            &trace(10, (0.02, 0.0), |_| 0.0),
-            &wall()
-        ));
+        // Straight and level but 10 cm.
+        assert!(!runs_like_a_joint(&line(5, (0.02, 0.0), |_| 0.0), &wall()));
         assert!(!runs_like_a_joint(&[], &wall()));
     }
 

@@ -128,6 +128,8 @@ const BORDER_PX: f32 = 3.0;
 /// Views more oblique than this do not measure length, degrees (the View
 /// model's default largest incidence for an inspection view).
 const MAX_MEASURED_INCIDENCE_DEG: f64 = 60.0;
+/// Steepest view a width is measured from, degrees from face-on.
+const MAX_WIDTH_INCIDENCE_DEG: f64 = 75.0;
 /// Rays cast per detection, spread along the crack.
 const RAYS: usize = 7;
 /// Rays whose hit lies this far off the crack's surface met something else
@@ -223,7 +225,9 @@ impl Scene<'_> {
         let extent = points
             .iter()
             .fold([points[0], points[0]], |[lo, hi], p| [lo.inf(p), hi.sup(p)]);
-        // Length, trace and width alike only from a view that measures.
+        // Length and trace only from a view that measures; width from
+        // steeper views too, each point's footprint across the crack taking
+        // the slant (a crack seen only obliquely still gets a state).
         let measures = measures_length(surface.incidence);
         let measured = trace.filter(|_| measures);
         let length_m = measured.map(|t| {
@@ -237,7 +241,7 @@ impl Scene<'_> {
             let points: Vec<Point3<f64>> = t.pixels.iter().filter_map(|p| on_plane(*p)).collect();
             Line::fit(&points)
         });
-        let width = measures
+        let width = (surface.incidence.to_degrees() <= MAX_WIDTH_INCIDENCE_DEG)
             .then(|| {
                 let points: Vec<(Width, f64)> = widths
                     .iter()
