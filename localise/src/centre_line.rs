@@ -103,6 +103,24 @@ pub fn merge(views: &[&Trace], apart: f64, tolerance: f64) -> Trace {
     )
 }
 
+/// The share of `trace`'s length within `near` metres of any of `others`
+/// (0 when it is empty).
+pub fn share_near(trace: &Trace, others: &[&Trace], near: f64) -> f64 {
+    let kept: Vec<Vec<Point3<f64>>> = others
+        .iter()
+        .flat_map(|t| t.0.iter().map(|l| points(l)))
+        .collect();
+    let dense: Vec<Point3<f64>> = trace
+        .0
+        .iter()
+        .flat_map(|l| densify(&points(l), near / 2.0))
+        .collect();
+    if dense.is_empty() || kept.is_empty() {
+        return 0.0;
+    }
+    dense.iter().filter(|p| distance(p, &kept) <= near).count() as f64 / dense.len() as f64
+}
+
 fn points(line: &[[f64; 3]]) -> Vec<Point3<f64>> {
     line.iter().map(|p| Point3::from(*p)).collect()
 }

@@ -202,15 +202,17 @@ fn candidate(
     // pose noise, 26 of 30 tower cracks within 30% merged, 30 unmerged).
     // Within one frame the pieces of a crack whose faint stretches broke it
     // into several detections add up: one image places them consistently.
-    let mut per_frame_length: BTreeMap<u32, f64> = BTreeMap::new();
+    let mut by_frame: BTreeMap<u32, Vec<&Placement>> = BTreeMap::new();
     for i in &measured {
-        if let Some(l) = placement(*i).length_m {
-            *per_frame_length
-                .entry(observations[*i].detection.frame)
-                .or_default() += l;
-        }
+        by_frame
+            .entry(observations[*i].detection.frame)
+            .or_default()
+            .push(placement(*i));
     }
-    let length_m = per_frame_length.into_values().reduce(f64::max);
+    let length_m = by_frame
+        .into_values()
+        .filter_map(|pieces| frame_length(pieces))
+        .reduce(f64::max);
     let best = *basis
         .iter()
         .min_by(|a, b| {
@@ -257,6 +259,28 @@ fn candidate(
         width,
         observations: group,
     }
+}
+
+/// One frame's length of a crack from its pieces (detections): the
+/// longest's, then each other's for the share of its trace the longer ones
+/// do not already show (two detections of one stretch count it once);
+/// `None` with no piece measured.
+fn frame_length(mut pieces: Vec<&Placement>) -> Option<f64> {
+    pieces.sort_by(|a, b| {
+        b.length_m
+            .unwrap_or(0.0)
+            .total_cmp(&a.length_m.unwrap_or(0.0))
+    });
+    let mut length = None;
+    for (k, piece) in pieces.iter().enumerate() {
+        let Some(l) = piece.length_m else { continue };
+        let longer: Vec<&Trace> = pieces[..k].iter().map(|p| &p.trace).collect();
+        // Within three pixels' footprint: the same stretch, seen twice.
+        let near = 3.0 * piece.oblique_gsd_mm / 1000.0;
+        let shown = centre_line::share_near(&piece.trace, &longer, near);
+        *length.get_or_insert(0.0) += l * (1.0 - shown);
+    }
+    length
 }
 
 /// The merged trace keeps every point within this of its polylines, metres.

@@ -371,7 +371,7 @@ fn changes_section(r: &RunResults) -> Markup {
             p.sub {
                 "New, first seen, grown and widened cracks first. A crack is new where the earlier flight inspected its place, "
                 "first seen where it did not; grown when it is longer along its trace by more than both flights' measurement spread, "
-                "widened when its widest is wider by more than both flights' width uncertainties; "
+                "widened when its widest is wider by more than both flights' width uncertainties and a fifth; "
                 "one not re-inspected was not inspected by this flight, so nothing is known of it now. "
                 (c.count(ChangeKind::Unchanged)) " unchanged cracks are listed in changes.parquet."
             }

@@ -76,7 +76,7 @@ pub enum ChangeKind {
     /// spread (and perhaps wider too: see the widening).
     Grown,
     /// Seen by both, as long as before, but wider by more than both
-    /// flights' width uncertainties.
+    /// flights' width uncertainties and a fifth of its earlier width.
     Widened,
     /// Seen by both, as long and as wide as before within the spread.
     Unchanged,
@@ -160,8 +160,9 @@ pub struct ChangeRecord {
     pub width_before_mm: Option<f64>,
     #[serde(default)]
     pub width_after_mm: Option<f64>,
-    /// How much wider it is now, and the two flights' width uncertainties
-    /// summed that this is judged against, millimetres.
+    /// How much wider it is now, and the spread that is judged against
+    /// (both flights' width uncertainties summed, at least a fifth of the
+    /// earlier width), millimetres.
     #[serde(default)]
     pub widening_mm: Option<f64>,
     #[serde(default)]
