@@ -1,6 +1,6 @@
 //! `postflight compare` on a simulated repeat inspection: the earlier
 //! flight, then the same structure flown again with grown and new cracks
-//! and another SLAM frame (1.3 m and 35 degrees off); the registration and
+//! and another SLAM frame (0.5 m and 10 degrees off); the registration and
 //! the classification checked against the simulator's truth. The tower: a
 //! silo fits many yaws, and its flights see some thirty cracks from close.
 
@@ -20,7 +20,7 @@ const REPEAT: [&str; 7] = [
     "0.3",
     "--new",
     "5",
-    "--frame-offset=1.2,-0.5,0,35",
+    "--frame-offset=0.5,0,0,10",
 ];
 
 fn pose(v: &Value) -> Isometry3<f64> {

@@ -241,6 +241,9 @@ fn match_pairs(
 
 /// Least widening judged real, as a share of the earlier width.
 const WIDENING_SHARE: f64 = 0.2;
+/// Narrowest width, in its view's pixels, whose change is judged: below
+/// half a pixel a width is a darkness integral near the noise.
+const MIN_JUDGED_PX: f64 = 0.5;
 
 /// A candidate seen in both flights: grown when its length along its
 /// trace grew by more than the two measurements' spread, else widened when
@@ -285,18 +288,21 @@ fn growth(was: &DefectRecord, now: &DefectRecord, options: &MatchOptions) -> Opt
 /// a fifth of the earlier width (thin cracks measure within about 20%,
 /// docs/evaluation.md; the uncertainties do not cover two views' different
 /// resolutions). Where it was below resolution before, the growth beyond
-/// that bound, against the later uncertainty alone.
+/// that bound, against the later uncertainty alone. Not judged where
+/// either width is under half a pixel of its view.
 fn widening(was: Option<&WidthRecord>, now: Option<&WidthRecord>) -> Option<(f64, f64)> {
     let (was, now) = (was?, now?);
-    let after = now.max_mm?;
+    let after = now
+        .max_mm
+        .filter(|mm| mm / now.mm_per_px >= MIN_JUDGED_PX)?;
     let uncertainty = |w: &WidthRecord| w.uncertainty_mm.unwrap_or(0.0);
     match (was.max_mm, was.narrower_than_mm) {
-        (Some(before), _) => Some((
+        (Some(before), _) if before / was.mm_per_px >= MIN_JUDGED_PX => Some((
             after - before,
             (uncertainty(was) + uncertainty(now)).max(WIDENING_SHARE * before),
         )),
         (None, Some(bound)) => Some((after - bound, uncertainty(now))),
-        (None, None) => None,
+        _ => None,
     }
 }
 
@@ -353,6 +359,15 @@ mod tests {
         let wide = width(Some(4.0), 0.1, None);
         let (by, spread) = widening(Some(&wide), Some(&width(Some(4.6), 0.1, None))).unwrap();
         assert!((spread - 0.8).abs() < 1e-12 && by < spread);
+        // Under half a pixel in either view: not judged.
+        let faint = WidthRecord {
+            mm_per_px: 2.0,
+            ..width(Some(0.9), 0.1, None)
+        };
+        assert_eq!(
+            widening(Some(&faint), Some(&width(Some(3.0), 0.1, None))),
+            None
+        );
         // Unknown now, or from a box-only model: nothing to judge.
         assert_eq!(widening(Some(&before), Some(&below)), None);
         assert_eq!(widening(None, Some(&before)), None);
