@@ -52,12 +52,14 @@ def in_view(truth):
     }
 
 
-def truly_inspected(truth, plan, crack):
-    """Whether the flight's true coverage inspected a voxel under the crack."""
+def truly_inspected_voxels(truth):
+    """The voxels the flight's true coverage inspected."""
+    return {tuple(v["voxel"]) for v in truth["coverage"]["voxels"] if v["inspected"]}
+
+
+def truly_inspected(inspected, plan, crack):
+    """Whether any voxel under the crack is in `inspected`."""
     res, origin = plan["resolution"], plan["origin"]
-    inspected = {
-        tuple(v["voxel"]) for v in truth["coverage"]["voxels"] if v["inspected"]
-    }
     n = crack["normal"]
     for p in samples(crack):
         inside = [p[i] - n[i] * 0.25 * res for i in range(3)]
@@ -107,6 +109,7 @@ def score_pair(earlier, earlier_run, later, later_run):
     old = {c["id"] for c in truth_b["repeat"]["changes"] if c["change"] != "new"}
     plan_a = json.loads((earlier / "plan.json").read_text())
     cracks_a = {c["id"]: c for c in truth_a["cracks"]}
+    inspected_a = truly_inspected_voxels(truth_a)
     called_new = []
     for c in changes["changes"]:
         if c["change"] != "new" or c["after"] not in crack_of:
@@ -117,7 +120,7 @@ def score_pair(earlier, earlier_run, later, later_run):
                 {
                     "crack": cid,
                     "earlier_had_in_view": cid in seen_a,
-                    "earlier_inspected": truly_inspected(truth_a, plan_a, cracks_a[cid]),
+                    "earlier_inspected": truly_inspected(inspected_a, plan_a, cracks_a[cid]),
                 }
             )
     return rows, called_new, changes["counts"], changes["registration"]

@@ -1,7 +1,7 @@
 //! Formwork joints, which a crack detector finds too: thin, dark grooves
 //! where concrete panels or lifts met, running straight across a face,
-//! level or plumb. A candidate whose trace does that is set aside as a
-//! joint, not proposed as a crack; cracks wander (a crack as straight as a
+//! level or plumb. A candidate whose views see a line do that is set aside
+//! as a joint, not proposed as a crack; cracks wander (a crack as straight as a
 //! joint over 15 cm and more is rare, and one also level or plumb rarer).
 
 use nalgebra::{Matrix3, Point3, Vector3};
@@ -9,16 +9,16 @@ use nalgebra::{Matrix3, Point3, Vector3};
 use crate::fusion::DefectCandidate;
 use crate::observation::Observation;
 
-/// A trace strays from its straight line by at most this (pose noise and
+/// A joint's points stray from their straight line by at most this (pose noise and
 /// the pixel footprint), metres, plus [`STRAY_SHARE`] of its length.
 const STRAY_M: f64 = 0.006;
 const STRAY_SHARE: f64 = 0.005;
-/// Shorter traces say too little about their straightness, metres.
+/// Shorter lines say too little about their straightness, metres.
 const MIN_LENGTH_M: f64 = 0.15;
 /// How far from level or from the face's fall line a joint may run, degrees.
 const MAX_TILT_DEG: f64 = 5.0;
 
-/// The straight line a trace's points lie along.
+/// The straight line a view's centre-line points lie along.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Line {
     /// Unit direction.
