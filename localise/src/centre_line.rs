@@ -1,5 +1,6 @@
-//! A crack's centre line on the structure: a view's, its traced pixels put
-//! on the surface and simplified, and a candidate's, its views' merged.
+//! A view's centre line on the structure: its traced pixels put on the
+//! surface and simplified (a candidate's, from its views', is
+//! [`crate::fused_line`]'s).
 
 use nalgebra::Point3;
 use postflight_core::trace::Trace;
@@ -57,52 +58,6 @@ fn simplify(line: &[Point3<f64>], tolerance: f64) -> Vec<Point3<f64>> {
         .collect()
 }
 
-/// Several views' centre lines as one: the first whole, then from each of
-/// the others the stretches farther than `apart` metres from what is kept
-/// already (where the earlier views were cut by the image border, or the
-/// crack faded or was hidden in them), each joined to the point it leaves
-/// from, simplified to within `tolerance`. A stretch must reach twice
-/// `apart` away: one that stays near is the same crack seen with another
-/// pose error, running beside it.
-pub fn merge(views: &[&Trace], apart: f64, tolerance: f64) -> Trace {
-    let Some((first, rest)) = views.split_first() else {
-        return Trace::default();
-    };
-    let mut kept: Vec<Vec<Point3<f64>>> = first.0.iter().map(|l| points(l)).collect();
-    for view in rest {
-        for line in &view.0 {
-            let dense = densify(&points(line), apart / 2.0);
-            let off: Vec<f64> = dense.iter().map(|p| distance(p, &kept)).collect();
-            // Each stretch off the kept lines, with how far off it reaches.
-            let mut runs: Vec<(Vec<Point3<f64>>, f64)> = Vec::new();
-            let mut run: Vec<Point3<f64>> = Vec::new();
-            let mut reach: f64 = 0.0;
-            for (i, p) in dense.iter().enumerate() {
-                if off[i] > apart {
-                    // Joined to the kept point it leaves from.
-                    if run.is_empty() && i > 0 {
-                        run.push(dense[i - 1]);
-                    }
-                    run.push(*p);
-                    reach = reach.max(off[i]);
-                } else if !run.is_empty() {
-                    run.push(*p);
-                    runs.push((std::mem::take(&mut run), reach));
-                    reach = 0.0;
-                }
-            }
-            runs.push((run, reach));
-            runs.retain(|(run, reach)| run.len() >= 2 && *reach > 2.0 * apart);
-            kept.extend(runs.iter().map(|(r, _)| simplify(r, tolerance)));
-        }
-    }
-    Trace(
-        kept.iter()
-            .map(|l| l.iter().map(|p| p.coords.into()).collect())
-            .collect(),
-    )
-}
-
 /// The share of `trace`'s length within `near` metres of any of `others`
 /// (0 when it is empty).
 pub fn share_near(trace: &Trace, others: &[&Trace], near: f64) -> f64 {
@@ -121,7 +76,7 @@ pub fn share_near(trace: &Trace, others: &[&Trace], near: f64) -> f64 {
     dense.iter().filter(|p| distance(p, &kept) <= near).count() as f64 / dense.len() as f64
 }
 
-fn points(line: &[[f64; 3]]) -> Vec<Point3<f64>> {
+pub(crate) fn points(line: &[[f64; 3]]) -> Vec<Point3<f64>> {
     line.iter().map(|p| Point3::from(*p)).collect()
 }
 
@@ -196,20 +151,5 @@ mod tests {
         let split = on_surface(&trace, &at, 0.0001);
         assert_eq!(split.0.len(), 2);
         assert!((split.length_m() - 0.012).abs() < 1e-12);
-    }
-
-    #[test]
-    fn merging_keeps_what_only_later_views_show() {
-        // One view shows the crack's first 40 cm, another (2 cm off, as
-        // pose noise puts it) its last 40 cm.
-        let left = Trace(vec![vec![[0.0, 0.0, 0.0], [0.4, 0.0, 0.0]]]);
-        let right = Trace(vec![vec![[0.2, 0.02, 0.0], [0.6, 0.02, 0.0]]]);
-        let merged = merge(&[&left, &right], 0.03, 0.001);
-        assert!((merged.length_m() - 0.6).abs() < 0.03, "{merged:?}");
-        // A view showing nothing new adds nothing, nor one running beside
-        // it (a larger pose error).
-        assert_eq!(merge(&[&left, &left], 0.03, 0.001), left);
-        let beside = Trace(vec![vec![[0.0, 0.05, 0.0], [0.4, 0.04, 0.0]]]);
-        assert_eq!(merge(&[&left, &beside], 0.03, 0.001), left);
     }
 }

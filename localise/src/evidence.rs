@@ -104,6 +104,7 @@ mod tests {
             view_faults: Vec::new(),
             width: None,
             trace: Trace::default(),
+            cut: Vec::new(),
             line: None,
         };
         let measured = evidence(&sharp, LengthStatus::Measured);

@@ -10,8 +10,8 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::{Point3, Vector3};
 use postflight_core::map::{FaceSide, VoxelIndex};
 
-use crate::centre_line;
 use crate::evidence::evidence;
+use crate::fused_line::{self, FusedLine, ViewLine};
 use crate::observation::{Observation, Placement, measures_length};
 use crate::settings::LocaliseConfig;
 use crate::stats::median;
@@ -32,18 +32,14 @@ pub struct DefectCandidate {
     pub extent: [Point3<f64>; 2],
     pub voxel: VoxelIndex,
     pub face: FaceSide,
-    /// Estimated length, metres: along the longest trace of its frames (the
-    /// pieces one frame shows, summed) from
-    /// `[localise] length_range_m` or closer, complete or cut by the image
-    /// border (a view shows at most the whole crack: faint or hidden
-    /// stretches and the border only shorten it), or, when none of those is
-    /// complete, of its complete views from farther if it has any; `None`
-    /// with no view that could measure it (traced, not too oblique).
+    /// Estimated length, metres: along `trace`, from views
+    /// `[localise] length_range_m` or closer (or, when none of those is
+    /// complete, its complete views from farther); `None` with no view that
+    /// could measure it (traced, not too oblique).
     pub length_m: Option<f64>,
-    /// Views the length was chosen from.
+    /// Views its trace is made of.
     pub length_views: u32,
-    /// Its centre line on the structure: the traces of the views its
-    /// length was chosen from, merged, the longest first.
+    /// Its centre line on the structure (see [`fused_line`]).
     pub trace: Trace,
     /// Distinct frames that saw it.
     pub frames: u32,
@@ -195,24 +191,19 @@ fn candidate(
             measured = far;
         }
     }
-    let length_views = measured.len() as u32;
-    let trace = trace(&measured, &placement, options.link_distance_m);
-    // The longest frame's, not the merged trace's: views misplaced by their
-    // pose error beyond the link distance add stretches twice (with 6 cm of
-    // pose noise, 26 of 30 tower cracks within 30% merged, 30 unmerged).
-    // Within one frame the pieces of a crack whose faint stretches broke it
-    // into several detections add up: one image places them consistently.
-    let mut by_frame: BTreeMap<u32, Vec<&Placement>> = BTreeMap::new();
-    for i in &measured {
-        by_frame
-            .entry(observations[*i].detection.frame)
-            .or_default()
-            .push(placement(*i));
-    }
-    let length_m = by_frame
-        .into_values()
-        .filter_map(|pieces| frame_length(pieces))
-        .reduce(f64::max);
+    let lines: Vec<ViewLine> = measured
+        .iter()
+        .map(|i| {
+            let p = placement(*i);
+            ViewLine {
+                trace: &p.trace,
+                cut: &p.cut,
+                frame: observations[*i].detection.frame,
+                near: NEAR_PX * p.oblique_gsd_mm / 1000.0,
+            }
+        })
+        .collect();
+    let fused = fused_line::fuse(&lines, options.link_distance_m);
     let best = *basis
         .iter()
         .min_by(|a, b| {
@@ -223,7 +214,7 @@ fn candidate(
                 .then(pa.oblique_gsd_mm.total_cmp(&pb.oblique_gsd_mm))
         })
         .expect("a member");
-    let status = length_status(&group, &measured, &complete, &placement);
+    let status = length_status(&group, &measured, fused.as_ref(), &placement);
     // Best score per frame.
     let mut per_frame: BTreeMap<u32, f64> = BTreeMap::new();
     for i in &group {
@@ -248,9 +239,9 @@ fn candidate(
         extent,
         voxel,
         face: FaceSide::nearest(&normal),
-        length_m,
-        length_views,
-        trace,
+        length_m: fused.as_ref().map(|f| f.length_m),
+        length_views: fused.as_ref().map_or(0, |f| f.views),
+        trace: fused.map(|f| f.trace).unwrap_or_default(),
         frames: per_frame.len() as u32,
         confidence,
         max_score: scores[0],
@@ -261,48 +252,8 @@ fn candidate(
     }
 }
 
-/// One frame's length of a crack from its pieces (detections): the
-/// longest's, then each other's for the share of its trace the longer ones
-/// do not already show (two detections of one stretch count it once);
-/// `None` with no piece measured.
-fn frame_length(mut pieces: Vec<&Placement>) -> Option<f64> {
-    pieces.sort_by(|a, b| {
-        b.length_m
-            .unwrap_or(0.0)
-            .total_cmp(&a.length_m.unwrap_or(0.0))
-    });
-    let mut length = None;
-    for (k, piece) in pieces.iter().enumerate() {
-        let Some(l) = piece.length_m else { continue };
-        let longer: Vec<&Trace> = pieces[..k].iter().map(|p| &p.trace).collect();
-        // Within three pixels' footprint: the same stretch, seen twice.
-        let near = 3.0 * piece.oblique_gsd_mm / 1000.0;
-        let shown = centre_line::share_near(&piece.trace, &longer, near);
-        *length.get_or_insert(0.0) += l * (1.0 - shown);
-    }
-    length
-}
-
-/// The merged trace keeps every point within this of its polylines, metres.
-const MERGE_TOLERANCE_M: f64 = 0.001;
-
-/// The merged trace of the views `measured`, longest first: a stretch of a
-/// view farther than `apart` (the link distance, which covers the views'
-/// pose error) from the longer views' traces is one they did not show.
-fn trace<'a>(measured: &[usize], placement: &dyn Fn(usize) -> &'a Placement, apart: f64) -> Trace {
-    let mut views: Vec<&Placement> = measured.iter().map(|i| placement(*i)).collect();
-    views.sort_by(|a, b| {
-        b.length_m
-            .unwrap_or(0.0)
-            .total_cmp(&a.length_m.unwrap_or(0.0))
-    });
-    let traces: Vec<&Trace> = views
-        .iter()
-        .map(|p| &p.trace)
-        .filter(|t| !t.is_empty())
-        .collect();
-    centre_line::merge(&traces, apart, MERGE_TOLERANCE_M)
-}
+/// Two lines of a view within this many pixels' footprint are one stretch.
+const NEAR_PX: f64 = 3.0;
 
 /// A candidate's width from its views' measures, by resolution: the view
 /// with the fewest millimetres per pixel across the crack that measured
@@ -315,14 +266,15 @@ fn width(views: impl Iterator<Item = WidthRecord>) -> Option<WidthRecord> {
 }
 
 /// Whether the views `measured` (the ones the length came from) make a
-/// measured length or a lower bound, or why no view measured it.
+/// measured length (every end of their `fused` line seen inside a view) or
+/// a lower bound, or why no view measured it.
 fn length_status<'a>(
     group: &[usize],
     measured: &[usize],
-    complete: &[usize],
+    fused: Option<&FusedLine>,
     placement: &dyn Fn(usize) -> &'a Placement,
 ) -> LengthStatus {
-    if measured.iter().any(|i| complete.contains(i)) {
+    if fused.is_some_and(|f| f.complete) {
         LengthStatus::Measured
     } else if !measured.is_empty() {
         LengthStatus::Partial
@@ -406,6 +358,10 @@ mod tests {
         let centre = Point3::from(centre);
         let normal = Vector3::from(normal).normalize();
         let r = Vector3::repeat(radius);
+        // Its line runs across the surface, horizontally where it can.
+        let along = (Vector3::y() - normal * normal.y)
+            .try_normalize(1e-6)
+            .unwrap_or_else(Vector3::x);
         Observation {
             detection: FrameDetection {
                 frame,
@@ -441,12 +397,26 @@ mod tests {
                 blur_px: None,
                 view_faults: Vec::new(),
                 width: None,
-                trace: Trace::default(),
+                trace: Trace(vec![vec![
+                    (centre - along * radius).coords.into(),
+                    (centre + along * radius).coords.into(),
+                ]]),
+                cut: Vec::new(),
                 line: None,
             }),
             traced_px: 30,
             clipped: false,
         }
+    }
+
+    /// The image border cut `o`'s line at its start, its end, or both.
+    fn cut(o: &mut Observation, ends: &[usize]) {
+        o.clipped = true;
+        let p = o.placement.as_mut().unwrap();
+        p.cut = ends
+            .iter()
+            .map(|e| Point3::from(p.trace.0[0][*e]))
+            .collect();
     }
 
     #[test]
@@ -469,9 +439,10 @@ mod tests {
         assert_eq!(big.best, 0);
         // Three frames at 0.5 agreeing on the surface: 0.5 x 0.78 x 1.
         assert!((0.38..0.39).contains(&big.confidence), "{}", big.confidence);
-        // Views from beyond 5 m (frame 2) do not count towards length.
-        assert_eq!(big.length_views, 2);
-        assert_eq!(big.length_m, Some(0.6));
+        // Views from beyond 5 m (frame 2) do not count towards length; the
+        // longest view saw both its ends.
+        assert_eq!(big.length_views, 1);
+        assert!((big.length_m.unwrap() - 0.6).abs() < 1e-12);
         // Stable names from voxel and face, numbered within one.
         let mut ids: Vec<&str> = c.iter().map(|c| c.id.as_str()).collect();
         ids.sort();
@@ -484,8 +455,8 @@ mod tests {
         // 0.4 and 0.3 m; frame 1 shows 0.5 m of it in one.
         let obs = vec![
             observation(0, [3.0, 1.0, 2.0], [-1.0, 0.0, 0.0], 0.2),
-            observation(0, [3.0, 1.0, 2.4], [-1.0, 0.0, 0.0], 0.15),
-            observation(1, [3.0, 1.0, 2.2], [-1.0, 0.0, 0.0], 0.25),
+            observation(0, [3.0, 1.4, 2.0], [-1.0, 0.0, 0.0], 0.15),
+            observation(1, [3.0, 1.2, 2.0], [-1.0, 0.0, 0.0], 0.25),
         ];
         let c = fuse(&obs, &LocaliseConfig::default());
         assert_eq!(c.len(), 1);
@@ -567,25 +538,32 @@ mod tests {
     }
 
     #[test]
-    fn views_cut_by_the_image_border_give_a_lower_bound() {
+    fn views_cut_by_the_image_border_give_a_lower_bound_until_a_view_sees_the_end() {
+        // Frame 1 shows 0.8..1.4 m along the wall, frame 0 0.8..1.2 m, both
+        // cut at both ends.
         let mut obs = vec![
             observation(0, [3.0, 1.0, 2.0], [-1.0, 0.0, 0.0], 0.2),
             observation(1, [3.0, 1.1, 2.0], [-1.0, 0.0, 0.0], 0.3),
         ];
         for o in &mut obs {
-            o.clipped = true;
+            cut(o, &[0, 1]);
         }
         let c = fuse(&obs, &LocaliseConfig::default());
         assert_eq!(c.len(), 1);
         assert_eq!(c[0].evidence.length, LengthStatus::Partial);
-        assert_eq!(c[0].length_m, Some(0.6));
-        // With a complete view it is an estimate, not a bound; a cut view
-        // longer than the complete one proves that one short (a faint end
-        // it lost), so the longest still counts.
-        obs[0].clipped = false;
+        assert!((c[0].length_m.unwrap() - 0.6).abs() < 1e-12);
+        // Frame 0 saw the crack end at 0.8 m, and frame 2 sees it go on to
+        // 1.5 m and end: measured, 0.7 m, from three views.
+        cut(&mut obs[0], &[1]);
+        obs.push(observation(2, [3.0, 1.35, 2.0], [-1.0, 0.0, 0.0], 0.15));
+        obs[2].placement.as_mut().unwrap().hit.range = 4.0;
         let c = fuse(&obs, &LocaliseConfig::default());
         assert_eq!(c[0].evidence.length, LengthStatus::Measured);
-        assert_eq!(c[0].length_m, Some(0.6));
-        assert_eq!(c[0].length_views, 2);
+        assert!(
+            (c[0].length_m.unwrap() - 0.7).abs() < 1e-9,
+            "{:?}",
+            c[0].length_m
+        );
+        assert_eq!(c[0].length_views, 3);
     }
 }

@@ -13,6 +13,7 @@ pub mod centre_line;
 pub mod crop;
 pub mod error;
 pub mod evidence;
+pub mod fused_line;
 pub mod fusion;
 pub mod joint;
 pub mod observation;

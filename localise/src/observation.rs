@@ -51,6 +51,10 @@ pub struct Placement {
     /// The traced centre line on the surface (empty where nothing was
     /// traced, or the view is too oblique to measure on).
     pub trace: Trace,
+    /// Where its centre line runs out of the image, on the surface: the
+    /// crack may go on there (empty when nothing was traced, or the view is
+    /// too oblique to measure on).
+    pub cut: Vec<Point3<f64>>,
     /// The straight line its centre line's pixels make on the surface's
     /// plane, from any angle (`None`: nothing traced); what tells a
     /// formwork joint.
@@ -125,6 +129,9 @@ pub struct Scene<'a> {
 
 /// Pixels from the image border within which a box counts as clipped.
 const BORDER_PX: f32 = 3.0;
+/// Pixels from the image border within which a centre line's pixel is
+/// where it runs out of view (thinning ends a line a few pixels short).
+const CUT_PX: f32 = 6.0;
 /// Views more oblique than this do not measure length, degrees (the View
 /// model's default largest incidence for an inspection view).
 const MAX_MEASURED_INCIDENCE_DEG: f64 = 60.0;
@@ -262,6 +269,16 @@ impl Scene<'_> {
         let trace = measured.map_or_else(Trace::default, |t| {
             centre_line::on_surface(t, &on_surface, oblique_gsd_mm / 1000.0)
         });
+        let near_border = |p: &Point2<f64>| {
+            let (x, y) = (p.x as f32, p.y as f32);
+            x <= CUT_PX || y <= CUT_PX || x >= w - CUT_PX || y >= h - CUT_PX
+        };
+        let cut = measured.map_or_else(Vec::new, |t| {
+            (t.pixels.iter().zip(&on_surface))
+                .filter(|(px, _)| near_border(px))
+                .filter_map(|(_, p)| *p)
+                .collect()
+        });
         observation.placement = Some(Placement {
             oblique_gsd_mm,
             view_gsd_mm,
@@ -279,6 +296,7 @@ impl Scene<'_> {
             radius,
             length_m,
             trace,
+            cut,
             line,
             width,
         });

@@ -21,7 +21,7 @@ postflight_core::settings! {
         /// Largest angle between the surfaces of two views of one crack, degrees.
         #[arg(long = "max-normal-angle", value_name = "DEGREES")]
         max_normal_angle_deg: f64 = 30.0,
-        /// A candidate's length is its longest view from this far or
+        /// A candidate's length is traced from its views this far or
         /// closer, metres (farther views measure too coarsely to count,
         /// unless no near view is complete).
         #[arg(long = "length-range", value_name = "METRES")]

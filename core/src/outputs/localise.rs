@@ -326,9 +326,10 @@ pub struct DefectRecord {
     pub voxel: [i32; 3],
     pub face: FaceSide,
     pub length_m: Option<f64>,
+    /// Views its trace (and length) is made of.
     pub length_views: u32,
-    /// Its centre line on the structure, its views' traces merged (empty
-    /// where no view traced it).
+    /// Its centre line on the structure, from its views' traces (empty
+    /// where no view traced it); `length_m` is its length.
     #[serde(default)]
     pub trace: Trace,
     pub frames: u32,
