@@ -14,8 +14,9 @@ run's `changes.json`:
   `grown`, its widening still recorded);
 - new: every candidate classed `new` that lies on a crack older than the
   earlier flight is counted, split by whether the earlier flight's true
-  coverage (truth.json `coverage`, the simulator's own) inspected any voxel
-  the crack lies in (one on surface it never inspected must be
+  coverage (truth.json `coverage`, the simulator's own) inspected the
+  surface under the crack (the target voxel it lies in, or the nearest
+  one where that is none; one on surface it never inspected must be
   `first_seen`), and whether it ever had the crack in view.
 
 Prints one JSON object: the tallies and each judged crack.
@@ -53,17 +54,35 @@ def in_view(truth):
 
 
 def truly_inspected_voxels(truth):
-    """The voxels the flight's true coverage inspected."""
-    return {tuple(v["voxel"]) for v in truth["coverage"]["voxels"] if v["inspected"]}
+    """Target voxel -> whether the flight's true coverage inspected it."""
+    return {tuple(v["voxel"]): v["inspected"] for v in truth["coverage"]["voxels"]}
 
 
 def truly_inspected(inspected, plan, crack):
-    """Whether any voxel under the crack is in `inspected`."""
+    """Whether the true coverage inspected the surface under any point of
+    the crack: the target voxel it lies in or, where that is not a target
+    (a point on a voxel's edge, a slanted face), the nearest target voxel
+    around it, as `postflight compare` reads coverage."""
     res, origin = plan["resolution"], plan["origin"]
     n = crack["normal"]
     for p in samples(crack):
         inside = [p[i] - n[i] * 0.25 * res for i in range(3)]
-        if tuple(math.floor((inside[i] - origin[i]) / res) for i in range(3)) in inspected:
+        v = tuple(math.floor((inside[i] - origin[i]) / res) for i in range(3))
+        if v not in inspected:
+            around = [
+                (sum((origin[i] + (w[i] + 0.5) * res - inside[i]) ** 2 for i in range(3)), w)
+                for w in (
+                    (v[0] + dx, v[1] + dy, v[2] + dz)
+                    for dx in (-1, 0, 1)
+                    for dy in (-1, 0, 1)
+                    for dz in (-1, 0, 1)
+                )
+                if w in inspected
+            ]
+            if not around:
+                continue
+            v = min(around)[1]
+        if inspected[v]:
             return True
     return False
 

@@ -40,43 +40,56 @@ impl MatchOptions {
     }
 }
 
-/// A run's coverage: which target voxels it inspected, and their elements.
+/// A run's coverage: how it saw each target voxel, and their elements.
 pub struct Inspected {
     grid: VoxelGrid,
-    inspected: HashMap<VoxelIndex, bool>,
+    looks: HashMap<VoxelIndex, Look>,
     elements: ElementMap,
+}
+
+/// How a run saw a target voxel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Look {
+    pub inspected: bool,
+    /// Its finest view, millimetres per pixel (the View model's GSD).
+    pub mm_per_px: Option<f64>,
 }
 
 impl Inspected {
     pub fn new(summary: &CoverageSummary, records: &[VoxelRecord]) -> Self {
+        let look = |r: &VoxelRecord| Look {
+            inspected: r.inspected,
+            mm_per_px: r.best.map(|b| b.gsd_mm),
+        };
         Self {
             grid: VoxelGrid::new(summary.resolution_m, summary.grid_origin.into()),
-            inspected: records.iter().map(|r| (r.voxel, r.inspected)).collect(),
+            looks: records.iter().map(|r| (r.voxel, look(r))).collect(),
             elements: postflight_core::outputs::coverage::element_map(summary, records),
         }
     }
 
     /// Whether the run inspected the target voxel under a surface point
-    /// (its own, or, when the point sits on a voxel's edge, the nearest
-    /// target voxel around it); `None` when no target voxel is there.
+    /// (see [`Inspected::look`]).
     pub fn at(&self, point: &Point3<f64>, normal: &Vector3<f64>) -> Option<bool> {
+        self.look(point, normal).map(|l| l.inspected)
+    }
+
+    /// How the run saw the target voxel under a surface point: its own,
+    /// or, when the point sits on a voxel's edge, the nearest target voxel
+    /// around it; `None` when no target voxel is there.
+    pub fn look(&self, point: &Point3<f64>, normal: &Vector3<f64>) -> Option<Look> {
         // Just inside the surface: the structure's voxel, not the air's.
         let inside = point - normal * (0.25 * self.grid.resolution);
         let v = self.grid.voxel_of(&inside);
-        if let Some(&inspected) = self.inspected.get(&v) {
-            return Some(inspected);
+        if let Some(&look) = self.looks.get(&v) {
+            return Some(look);
         }
         // The nearest, not any: any of 26 neighbours inspected called
         // surface inspected that the flight never saw.
         neighbours(v)
-            .filter_map(|n| {
-                Some((
-                    (self.grid.center(n) - inside).norm(),
-                    *self.inspected.get(&n)?,
-                ))
-            })
+            .filter_map(|n| Some(((self.grid.center(n) - inside).norm(), *self.looks.get(&n)?)))
             .min_by(|a, b| a.0.total_cmp(&b.0))
-            .map(|(_, inspected)| inspected)
+            .map(|(_, look)| look)
     }
 
     /// The element at a point, by name.
@@ -187,15 +200,21 @@ pub fn changes(
                 seen_again(&earlier[a], now, options)
             }
             None => {
-                let earlier_inspected = inspected_before
-                    .and_then(|i| i.at(&(back * now.position), &(back * now.normal)));
-                // New only where the earlier flight looked and found nothing.
-                let kind = match earlier_inspected {
-                    Some(true) => ChangeKind::New,
-                    _ => ChangeKind::FirstSeen,
+                let look = inspected_before
+                    .and_then(|i| i.look(&(back * now.position), &(back * now.normal)));
+                // New only where the earlier flight looked, finely enough to
+                // see it, and found nothing.
+                let seeable = look.is_some_and(|l| {
+                    l.inspected && !too_narrow_for(now.defect.width.as_ref(), l.mm_per_px)
+                });
+                let kind = if seeable {
+                    ChangeKind::New
+                } else {
+                    ChangeKind::FirstSeen
                 };
                 ChangeRecord {
-                    earlier_inspected,
+                    earlier_inspected: look.map(|l| l.inspected),
+                    earlier_mm_per_px: look.and_then(|l| l.mm_per_px),
                     ..record(kind, None, Some(now))
                 }
             }
@@ -211,6 +230,19 @@ pub fn changes(
     }
     records.sort_by_key(|r| r.change);
     records
+}
+
+/// Narrowest crack a view sees, in its pixels: narrower, the crack darkens
+/// a pixel by less than half its own darkness, near the sensor's noise and
+/// the compression's artefacts.
+const MIN_SEEN_PX: f64 = 0.5;
+
+/// Whether a candidate's widest (or, below resolution now, the bound on
+/// it) is under [`MIN_SEEN_PX`] of a view `mm_per_px` fine; not where
+/// either is unknown (a box model measures no width).
+fn too_narrow_for(width: Option<&WidthRecord>, mm_per_px: Option<f64>) -> bool {
+    let widest = width.and_then(|w| w.max_mm.or(w.narrower_than_mm));
+    matches!((widest, mm_per_px), (Some(w), Some(px)) if w < MIN_SEEN_PX * px)
 }
 
 /// Matches, later candidate to earlier: closest pairs first, each
@@ -323,6 +355,7 @@ fn record(kind: ChangeKind, was: Option<&Placed>, now: Option<&Placed>) -> Chang
         widening_mm: None,
         width_spread_mm: None,
         earlier_inspected: None,
+        earlier_mm_per_px: None,
     }
 }
 
@@ -342,6 +375,18 @@ mod tests {
             narrower_than_mm,
             mm_per_px: 0.5,
         }
+    }
+
+    #[test]
+    fn a_crack_under_half_a_pixel_of_the_earlier_view_could_not_have_been_seen() {
+        let at = |mm: f64| too_narrow_for(Some(&width(Some(mm), 0.1, None)), Some(1.2));
+        assert!(at(0.5) && !at(0.7), "half of 1.2 mm/px is 0.6 mm");
+        // Below resolution now: its bound tells.
+        let below = width(None, 0.0, Some(0.4));
+        assert!(too_narrow_for(Some(&below), Some(1.2)));
+        // Without a width (a box model) or the earlier view, not known.
+        assert!(!too_narrow_for(None, Some(1.2)));
+        assert!(!too_narrow_for(Some(&width(Some(0.1), 0.1, None)), None));
     }
 
     #[test]

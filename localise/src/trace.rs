@@ -98,10 +98,15 @@ const MIN_COMPONENT: usize = 6;
 /// Dark areas holding a full square of `2r + 1` pixels a side, r at least
 /// this, are shade or another surface, not a crack (a thin line).
 const MIN_SHADE_RADIUS: usize = 3;
+/// A centre line longer than this many times the box's width plus height
+/// is a web of texture, not a crack: in deep shade the surface's grain and
+/// the compression's blocks darken by as few grey levels as a crack does.
+const MAX_LINE_PER_BOX: f64 = 3.0;
 
 /// Trace the crack in the box `[x0, y0, x1, y1]` (frame pixels) of `gray`,
 /// following it past the box's edges (a detector often boxes only part of a
-/// crack); `None` when nothing in the box stands out from the surface.
+/// crack); `None` when nothing in the box stands out from the surface, or
+/// too much does (a web, not a line: see [`MAX_LINE_PER_BOX`]).
 pub fn trace(gray: &GrayImage, bbox: [f32; 4]) -> Option<CrackTrace> {
     let (w, h) = gray.dimensions();
     let clip = |v: f32, max: u32| (v.max(0.0) as u32).min(max);
@@ -160,7 +165,9 @@ pub fn trace(gray: &GrayImage, bbox: [f32; 4]) -> Option<CrackTrace> {
     keep_components(&mut mask, cw as usize, ch as usize, |i| {
         in_box(i) && f64::from(values[i]) < strong
     });
+    let box_span = f64::from((bbox[2] - bbox[0]) + (bbox[3] - bbox[1]));
     centre_line(mask, [x0, y0, cw, ch])
+        .filter(|t| (t.pixels.len() as f64) <= MAX_LINE_PER_BOX * box_span.max(1.0))
 }
 
 /// Trace the crack a segmenting model marked: the centre line of its
@@ -713,6 +720,18 @@ mod tests {
         assert!(t.bridges.is_empty(), "{:?}", t.bridges);
         let length = traced_length(&img, [38.0, 36.0, 102.0, 52.0]);
         assert!((length - 120.0).abs() <= 10.0, "length {length}");
+    }
+
+    #[test]
+    fn grain_in_deep_shade_is_a_web_not_a_crack() {
+        // Dark concrete whose grain darkens a third of the pixels by as
+        // many grey levels as a crack.
+        let mut k = 11u32;
+        let img = GrayImage::from_fn(200, 150, |_, _| {
+            k = k.wrapping_mul(1_103_515_245).wrapping_add(12345);
+            Luma([if (k >> 16) % 3 == 0 { 30 } else { 40 }])
+        });
+        assert!(trace(&img, [60.0, 40.0, 140.0, 110.0]).is_none());
     }
 
     #[test]

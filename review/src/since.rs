@@ -58,9 +58,13 @@ impl Since {
             (ChangeKind::Widened, _, Some(w)) => {
                 format!("widened by {w:.2} mm since {}", self.date)
             }
-            (ChangeKind::FirstSeen, ..) => {
-                format!("first seen: the {} inspection did not look here", self.date)
-            }
+            (ChangeKind::FirstSeen, ..) => match (c.earlier_inspected, c.earlier_mm_per_px) {
+                (Some(true), Some(px)) => format!(
+                    "first seen: the {} inspection saw here at {px:.1} mm/px, too coarse for a crack this narrow",
+                    self.date
+                ),
+                _ => format!("first seen: the {} inspection did not look here", self.date),
+            },
             (kind, ..) => format!("{} since {}", kind.words(), self.date),
         };
         match &self.decision {
@@ -100,6 +104,7 @@ mod tests {
             widening_mm: (kind == ChangeKind::Widened).then_some(0.4),
             width_spread_mm: None,
             earlier_inspected: None,
+            earlier_mm_per_px: None,
         }
     }
 
@@ -144,11 +149,16 @@ mod tests {
                 change(ChangeKind::NotReinspected, None, Some("old-d")),
                 change(ChangeKind::Widened, Some("new-e"), Some("old-e")),
                 change(ChangeKind::FirstSeen, Some("new-f"), None),
+                ChangeRecord {
+                    earlier_inspected: Some(true),
+                    earlier_mm_per_px: Some(1.2),
+                    ..change(ChangeKind::FirstSeen, Some("new-g"), None)
+                },
             ],
             seconds: 0.1,
         };
         let known = pasts(Some(&summary)).unwrap();
-        assert_eq!(known.len(), 5, "one per candidate of this run");
+        assert_eq!(known.len(), 6, "one per candidate of this run");
         assert_eq!(
             known["new-a"].text(),
             "grown by 0.30 m since 2025-06-15; then needs repair, severity 3"
@@ -159,6 +169,10 @@ mod tests {
         assert_eq!(
             known["new-f"].text(),
             "first seen: the 2025-06-15 inspection did not look here"
+        );
+        assert_eq!(
+            known["new-g"].text(),
+            "first seen: the 2025-06-15 inspection saw here at 1.2 mm/px, too coarse for a crack this narrow"
         );
         // Without an earlier database, nothing is created there.
         let elsewhere = tempfile::tempdir().unwrap();

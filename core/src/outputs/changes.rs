@@ -66,11 +66,13 @@ pub struct RegistrationRecord {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ChangeKind {
-    /// Seen now, not by the earlier flight, which inspected its place.
+    /// Seen now, not by the earlier flight, which inspected its place
+    /// finely enough to see it.
     New,
     /// Seen now, on surface the earlier flight did not inspect (or, when it
-    /// has no coverage, may not have): it may be old, first seen now. The
-    /// mirror of `NotReinspected`.
+    /// has no coverage, may not have), or saw too coarsely for a crack this
+    /// narrow: it may be old, first seen now. The mirror of
+    /// `NotReinspected`.
     FirstSeen,
     /// Seen by both; longer now by more than both flights' measurement
     /// spread (and perhaps wider too: see the widening).
@@ -171,6 +173,12 @@ pub struct ChangeRecord {
     /// its place (`false`: first seen; none: the earlier run has no
     /// coverage there, so first seen too).
     pub earlier_inspected: Option<bool>,
+    /// For a candidate seen now only: the earlier flight's finest view of
+    /// its place, millimetres per pixel (the View model's GSD); a crack
+    /// narrower than half of it is first seen, not new: that flight could
+    /// not have seen it.
+    #[serde(default)]
+    pub earlier_mm_per_px: Option<f64>,
 }
 
 /// Write `changes.parquet` and, last, `changes.json`.
@@ -208,6 +216,7 @@ crate::table! {
         widening_mm: Option<f64>,
         width_spread_mm: Option<f64>,
         earlier_inspected: Option<bool>,
+        earlier_mm_per_px: Option<f64>,
     }
 }
 
@@ -231,6 +240,7 @@ impl ChangeRow {
             widening_mm: c.widening_mm,
             width_spread_mm: c.width_spread_mm,
             earlier_inspected: c.earlier_inspected,
+            earlier_mm_per_px: c.earlier_mm_per_px,
         }
     }
 }
