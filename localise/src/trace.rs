@@ -729,7 +729,7 @@ mod tests {
         let mut k = 11u32;
         let img = GrayImage::from_fn(200, 150, |_, _| {
             k = k.wrapping_mul(1_103_515_245).wrapping_add(12345);
-            Luma([if (k >> 16) % 3 == 0 { 30 } else { 40 }])
+            Luma([if (k >> 16).is_multiple_of(3) { 30 } else { 40 }])
         });
         assert!(trace(&img, [60.0, 40.0, 140.0, 110.0]).is_none());
     }
