@@ -77,8 +77,9 @@ enum Command {
     Batch(batch::BatchCommand),
     /// What changed since an earlier inspection of the same structure:
     /// registers the two flights' maps and classifies every defect candidate
-    /// (new, grown, unchanged, not seen again, not re-inspected); writes
-    /// changes.json and changes.parquet into the later run.
+    /// (new, first seen, grown, widened, unchanged, not seen again, not
+    /// re-inspected); writes changes.json and changes.parquet into the later
+    /// run.
     Compare(CompareArgs),
     /// Write a fleet directory's tables (fleet/defects.parquet,
     /// coverage.parquet, flights.parquet; Hive-partitioned by structure) and
