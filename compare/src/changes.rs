@@ -316,8 +316,9 @@ fn growth(was: &DefectRecord, now: &DefectRecord, options: &MatchOptions) -> Opt
 }
 
 /// How much wider its widest is now, and the spread that is judged
-/// against, millimetres: both flights' uncertainties summed, and at least
-/// a fifth of the earlier width (thin cracks measure within about 20%,
+/// against, millimetres: both flights' uncertainties combined (root of the
+/// sum of squares: two views' errors are independent), and at least a
+/// fifth of the earlier width (thin cracks measure within about 20%,
 /// docs/evaluation.md; the uncertainties do not cover two views' different
 /// resolutions). Where it was below resolution before, the growth beyond
 /// that bound, against the later uncertainty alone. Not judged where
@@ -331,7 +332,9 @@ fn widening(was: Option<&WidthRecord>, now: Option<&WidthRecord>) -> Option<(f64
     match (was.max_mm, was.narrower_than_mm) {
         (Some(before), _) if before / was.mm_per_px >= MIN_JUDGED_PX => Some((
             after - before,
-            (uncertainty(was) + uncertainty(now)).max(WIDENING_SHARE * before),
+            uncertainty(was)
+                .hypot(uncertainty(now))
+                .max(WIDENING_SHARE * before),
         )),
         (None, Some(bound)) => Some((after - bound, uncertainty(now))),
         _ => None,
@@ -393,9 +396,12 @@ mod tests {
     fn widening_is_judged_against_both_flights_uncertainty() {
         let before = width(Some(0.6), 0.1, None);
         let (by, spread) = widening(Some(&before), Some(&width(Some(1.0), 0.15, None))).unwrap();
-        assert!((by - 0.4).abs() < 1e-12 && (spread - 0.25).abs() < 1e-12);
-        let (by, spread) = widening(Some(&before), Some(&width(Some(0.8), 0.15, None))).unwrap();
-        assert!(by < spread, "0.2 mm wider is within 0.25 mm of uncertainty");
+        assert!((by - 0.4).abs() < 1e-12 && (spread - 0.1f64.hypot(0.15)).abs() < 1e-12);
+        let (by, spread) = widening(Some(&before), Some(&width(Some(0.75), 0.15, None))).unwrap();
+        assert!(
+            by < spread,
+            "0.15 mm wider is within 0.18 mm of uncertainty"
+        );
         // Below resolution before: its bound, against the later uncertainty.
         let below = width(None, 0.0, Some(0.3));
         let (by, spread) = widening(Some(&below), Some(&width(Some(0.9), 0.2, None))).unwrap();

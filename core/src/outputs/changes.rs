@@ -78,7 +78,8 @@ pub enum ChangeKind {
     /// spread (and perhaps wider too: see the widening).
     Grown,
     /// Seen by both, as long as before, but wider by more than both
-    /// flights' width uncertainties and a fifth of its earlier width.
+    /// flights' width uncertainties combined and a fifth of its earlier
+    /// width.
     Widened,
     /// Seen by both, as long and as wide as before within the spread.
     Unchanged,
@@ -163,8 +164,8 @@ pub struct ChangeRecord {
     #[serde(default)]
     pub width_after_mm: Option<f64>,
     /// How much wider it is now, and the spread that is judged against
-    /// (both flights' width uncertainties summed, at least a fifth of the
-    /// earlier width), millimetres.
+    /// (both flights' width uncertainties combined, root of the sum of
+    /// squares, at least a fifth of the earlier width), millimetres.
     #[serde(default)]
     pub widening_mm: Option<f64>,
     #[serde(default)]
