@@ -76,8 +76,7 @@ pub fn fuse(views: &[ViewLine], apart: f64) -> Option<FusedLine> {
         .collect();
     let mut used = vec![false; others.len()];
     let mut kept: Vec<Vec<Point3<f64>>> = pieces.iter().flat_map(|p| p.lines()).collect();
-    for end in free_ends(pieces) {
-        let Some(cut) = end.cut else { continue };
+    for cut in cut_ends(pieces) {
         let carried = carry_on(cut, &others, &mut used, &mut kept, apart);
         fused.length_m += carried.length_m;
         fused.trace.0.extend(carried.lines);
@@ -102,14 +101,9 @@ fn frame_length(pieces: &[&ViewLine]) -> f64 {
     length
 }
 
-/// An end of the base frame's line: where, and where the image border cut
-/// it (`None`: the crack ends or fades there).
-struct End {
-    cut: Option<Point3<f64>>,
-}
-
-/// The ends of a frame's lines that no other of its lines goes on from.
-fn free_ends(pieces: &[&ViewLine]) -> Vec<End> {
+/// The ends of a frame's lines that no other of its lines goes on from and
+/// the image border cut (the others are where the crack ends or fades).
+fn cut_ends(pieces: &[&ViewLine]) -> Vec<Point3<f64>> {
     let lines: Vec<(usize, Vec<Point3<f64>>)> = pieces
         .iter()
         .enumerate()
@@ -125,10 +119,8 @@ fn free_ends(pieces: &[&ViewLine]) -> Vec<End> {
                 .enumerate()
                 .filter(|(j, _)| *j != i)
                 .any(|(_, (_, other))| distance(&p, other) <= view.near);
-            if !joins {
-                ends.push(End {
-                    cut: view.is_cut(&p).then_some(p),
-                });
+            if !joins && view.is_cut(&p) {
+                ends.push(p);
             }
         }
     }
