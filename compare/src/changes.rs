@@ -234,7 +234,8 @@ pub fn changes(
 
 /// Narrowest crack a view sees, in its pixels: narrower, the crack darkens
 /// a pixel by less than half its own darkness, near the sensor's noise and
-/// the compression's artefacts.
+/// the compression's artefacts (a width measured that thin is a darkness
+/// integral near the noise, so its change is not judged either).
 const MIN_SEEN_PX: f64 = 0.5;
 
 /// Whether a candidate's widest (or, below resolution now, the bound on
@@ -273,9 +274,6 @@ fn match_pairs(
 
 /// Least widening judged real, as a share of the earlier width.
 const WIDENING_SHARE: f64 = 0.2;
-/// Narrowest width, in its view's pixels, whose change is judged: below
-/// half a pixel a width is a darkness integral near the noise.
-const MIN_JUDGED_PX: f64 = 0.5;
 
 /// A candidate seen in both flights: grown when its length along its
 /// trace grew by more than the two measurements' spread, else widened when
@@ -325,12 +323,10 @@ fn growth(was: &DefectRecord, now: &DefectRecord, options: &MatchOptions) -> Opt
 /// either width is under half a pixel of its view.
 fn widening(was: Option<&WidthRecord>, now: Option<&WidthRecord>) -> Option<(f64, f64)> {
     let (was, now) = (was?, now?);
-    let after = now
-        .max_mm
-        .filter(|mm| mm / now.mm_per_px >= MIN_JUDGED_PX)?;
+    let after = now.max_mm.filter(|mm| mm / now.mm_per_px >= MIN_SEEN_PX)?;
     let uncertainty = |w: &WidthRecord| w.uncertainty_mm.unwrap_or(0.0);
     match (was.max_mm, was.narrower_than_mm) {
-        (Some(before), _) if before / was.mm_per_px >= MIN_JUDGED_PX => Some((
+        (Some(before), _) if before / was.mm_per_px >= MIN_SEEN_PX => Some((
             after - before,
             uncertainty(was)
                 .hypot(uncertainty(now))

@@ -92,7 +92,7 @@ fn densify(line: &[Point3<f64>], step: f64) -> Vec<Point3<f64>> {
 }
 
 /// Distance from `p` to the nearest of `lines`.
-fn distance(p: &Point3<f64>, lines: &[Vec<Point3<f64>>]) -> f64 {
+pub(crate) fn distance(p: &Point3<f64>, lines: &[Vec<Point3<f64>>]) -> f64 {
     lines
         .iter()
         .flat_map(|l| {
@@ -106,13 +106,18 @@ fn distance(p: &Point3<f64>, lines: &[Vec<Point3<f64>>]) -> f64 {
 
 /// Distance from `p` to the segment `a`–`b`.
 fn to_segment(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
+    (p - closest_on_segment(p, a, b)).norm()
+}
+
+/// The point of the segment `a`–`b` nearest `p`.
+pub(crate) fn closest_on_segment(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> Point3<f64> {
     let ab = b - a;
     let t = if ab.norm_squared() > 0.0 {
         ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0)
     } else {
         0.0
     };
-    (p - (a + ab * t)).norm()
+    a + ab * t
 }
 
 #[cfg(test)]

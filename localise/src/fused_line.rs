@@ -118,7 +118,9 @@ fn cut_ends(pieces: &[&ViewLine]) -> Vec<Point3<f64>> {
                 .iter()
                 .enumerate()
                 .filter(|(j, _)| *j != i)
-                .any(|(_, (_, other))| distance(&p, other) <= view.near);
+                .any(|(_, (_, other))| {
+                    centre_line::distance(&p, std::slice::from_ref(other)) <= view.near
+                });
             if !joins && view.is_cut(&p) {
                 ends.push(p);
             }
@@ -220,12 +222,7 @@ fn beyond(
             (at.distance <= apart).then_some((l, at))
         })
         .min_by(|a, b| a.1.distance.total_cmp(&b.1.distance))?;
-    let off_kept = |p: &Point3<f64>| {
-        kept.iter()
-            .filter(|l| l.len() >= 2)
-            .map(|l| distance(p, l))
-            .fold(f64::INFINITY, f64::min)
-    };
+    let off_kept = |p: &Point3<f64>| centre_line::distance(p, kept);
     let forward: Vec<Point3<f64>> = std::iter::once(at.point)
         .chain(line[at.segment + 1..].iter().copied())
         .collect();
@@ -274,13 +271,7 @@ fn nearest_on(line: &[Point3<f64>], p: &Point3<f64>) -> OnLine {
     line.windows(2)
         .enumerate()
         .map(|(segment, w)| {
-            let ab = w[1] - w[0];
-            let t = if ab.norm_squared() > 0.0 {
-                ((p - w[0]).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let point = w[0] + ab * t;
+            let point = centre_line::closest_on_segment(p, &w[0], &w[1]);
             OnLine {
                 point,
                 distance: (p - point).norm(),
@@ -289,10 +280,6 @@ fn nearest_on(line: &[Point3<f64>], p: &Point3<f64>) -> OnLine {
         })
         .min_by(|a, b| a.distance.total_cmp(&b.distance))
         .expect("a segment")
-}
-
-fn distance(p: &Point3<f64>, line: &[Point3<f64>]) -> f64 {
-    nearest_on(line, p).distance
 }
 
 fn polyline_length(line: &[Point3<f64>]) -> f64 {
