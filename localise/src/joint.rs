@@ -89,10 +89,10 @@ impl Line {
 
 /// Whether candidate `c` is a formwork joint: half or more of its views
 /// (those whose centre line is long enough to judge) see it run like one.
-/// View by view, each on its own surface plane, not its merged trace: a
+/// View by view, each on its own surface plane, not its fused trace: a
 /// long joint's candidate gathers views along many metres, where a stray
 /// crossing crack or pose drift would bend the whole; and a joint seen
-/// only obliquely has no merged trace.
+/// only obliquely has no fused trace.
 pub fn is_joint(c: &DefectCandidate, observations: &[Observation]) -> bool {
     let lines: Vec<&Line> = c
         .observations

@@ -370,8 +370,9 @@ fn changes_section(r: &RunResults) -> Markup {
         } @else {
             p.sub {
                 "New, first seen, grown and widened cracks first. A crack is new where the earlier flight inspected its place, "
-                "first seen where it did not; grown when it is longer along its trace by more than both flights' measurement spread, "
-                "widened when its widest is wider by more than both flights' width uncertainties and a fifth; "
+                "first seen where it did not, or too coarsely to see a crack this narrow; "
+                "grown when it is longer along its trace by more than both flights' measurement spread, "
+                "widened when its widest is wider by more than both flights' width uncertainties combined and a fifth of its earlier width; "
                 "one not re-inspected was not inspected by this flight, so nothing is known of it now. "
                 (c.count(ChangeKind::Unchanged)) " unchanged cracks are listed in changes.parquet."
             }
@@ -412,7 +413,11 @@ fn change_row(r: &RunResults, ch: &ChangeRecord) -> Markup {
                     other => (other.words()),
                 }
                 @if ch.change == ChangeKind::FirstSeen {
-                    br; span.sub { "the earlier flight did not inspect here" }
+                    br;
+                    @match (ch.earlier_inspected, ch.earlier_mm_per_px) {
+                        (Some(true), Some(px)) => span.sub { (format!("the earlier flight saw here at {px:.1} mm/px, too coarse for it")) },
+                        _ => span.sub { "the earlier flight did not inspect here" },
+                    }
                 }
             }
             td { @if let Some(src) = before { img.thumb alt="the crack before" src=(src); } }
