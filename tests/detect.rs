@@ -137,6 +137,24 @@ fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
     assert_eq!(read_json(&run.join("detect.json"))["batch"], 3);
     assert_same_boxes(&found, &detections(&run));
 
+    // The semantic model as PyTorch's exporter often leaves one: no
+    // dimension of its output known. Its channels are read from each result.
+    let semantic = models().join("crack-semantic.onnx");
+    let out = detect(&run, &["--model", semantic.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let via_semantic = detections(&run);
+    assert!(!via_semantic.is_empty());
+    let unknown = dir.path().join("crack-semantic-unknown.onnx");
+    let out = std::process::Command::new(python())
+        .args(["-c", "import onnx, sys\nm = onnx.load(sys.argv[1])\nfor d in m.graph.output[0].type.tensor_type.shape.dim:\n    d.Clear()\nonnx.save(m, sys.argv[2])"])
+        .args([semantic.as_path(), unknown.as_path()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = detect(&run, &["--model", unknown.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_same_boxes(&via_semantic, &detections(&run));
+
     // The open-vocabulary export with the "crack" prompt finds the same boxes;
     // a prompt unrelated to cracks finds none.
     let open = models().join("crack-open.onnx");

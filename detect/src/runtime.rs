@@ -239,22 +239,24 @@ impl Runtime {
                 warning,
             })
         };
-        let (name, available, provider) = match device {
+        let (name, available, provider, needs) = match device {
             Device::Cpu => return cpu(builder, None),
             Device::Cuda => (
                 "CUDA",
                 ep::CUDA::is_available(),
                 ep::CUDA::default().build().error_on_failure(),
+                "the onnxruntime-gpu wheel, and the CUDA and cuDNN libraries it was built for on LD_LIBRARY_PATH",
             ),
             Device::TensorRt => (
                 "TensorRT",
                 ep::TensorRT::is_available(),
                 ep::TensorRT::default().build().error_on_failure(),
+                "the onnxruntime-gpu wheel, and CUDA, cuDNN and TensorRT's libnvinfer on LD_LIBRARY_PATH",
             ),
         };
         let fallback = |why: String| {
             Some(format!(
-                "{} {}: {why}; running on the CPU (install the onnxruntime-gpu wheel with CUDA and cuDNN for GPU inference)",
+                "{} {}: {why}; running on the CPU ({name} inference needs {needs})",
                 keys::device,
                 device.as_str()
             ))
@@ -276,17 +278,31 @@ impl Runtime {
                 // The provider registered but could not load this model
                 // (missing cuDNN, unsupported operators): a fresh CPU session.
                 Err(e) => {
-                    let why = format!("{name} could not run the model: {e}");
+                    let why = format!(
+                        "{name} could not run the model: {}",
+                        ort_reason(&e.to_string())
+                    );
                     let builder = ort::session::Session::builder(&self.environment).map_err(bad)?;
                     cpu(builder, fallback(why))
                 }
             },
             Err(e) => {
-                let why = format!("{name} could not start: {e}");
+                let why = format!("{name} could not start: {}", ort_reason(&e.to_string()));
                 cpu(e.recover(), fallback(why))
             }
         }
     }
+}
+
+/// ONNX Runtime's own words for an error, on one line: without the source
+/// location and status code it puts first (`/onnxruntime_src/...cc:2043
+/// ... [ONNXRuntimeError] : 1 : FAIL : `) and the line break it ends with.
+fn ort_reason(text: &str) -> String {
+    let reason = match text.split_once("[ONNXRuntimeError]") {
+        Some((_, rest)) => rest.splitn(4, " : ").last().unwrap_or(rest),
+        None => text,
+    };
+    reason.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
 pub use postflight_core::detection::Device;
@@ -297,4 +313,20 @@ pub struct Session {
     pub device: Device,
     /// Why it runs on the CPU although another device was asked for.
     pub warning: Option<String>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn onnx_runtime_errors_are_cut_to_their_reason_on_one_line() {
+        // As the onnxruntime-gpu 1.31.1 wheel said on a machine without TensorRT.
+        let said = "/onnxruntime_src/onnxruntime/core/session/provider_bridge_ort.cc:2043 onnxruntime::Provider& onnxruntime::ProviderLibrary::Get() [ONNXRuntimeError] : 1 : FAIL : Failed to load library /tmp/gpu/libonnxruntime_providers_tensorrt.so with error: libnvinfer.so.10: cannot open shared object file: No such file or directory\n";
+        assert_eq!(
+            ort_reason(said),
+            "Failed to load library /tmp/gpu/libonnxruntime_providers_tensorrt.so with error: libnvinfer.so.10: cannot open shared object file: No such file or directory"
+        );
+        assert_eq!(ort_reason("no such\nprovider "), "no such provider");
+    }
 }

@@ -55,8 +55,10 @@ pub enum Head {
     },
     /// Semantic segmentation: one map `[batch, 1, height, width]` of crack
     /// probability (logits where values leave 0..1), or `[batch, 2, height,
-    /// width]` logits of background and crack.
-    Semantic { output: String, channels: usize },
+    /// width]` logits of background and crack. The channel count is read
+    /// from each result: PyTorch's exporter often leaves every dimension of
+    /// such an output unnamed.
+    Semantic { output: String },
 }
 
 impl Head {
@@ -173,14 +175,13 @@ impl Signature {
             },
             ([], [map]) if outputs.len() == 1 && map.shape.len() == 4 => {
                 match fixed(map.shape[1]) {
-                    Some(channels @ (1 | 2)) => (
+                    None | Some(1 | 2) => (
                         Head::Semantic {
                             output: map.name.clone(),
-                            channels,
                         },
                         Some(5),
                     ),
-                    _ => return Err(mismatch()),
+                    Some(_) => return Err(mismatch()),
                 }
             }
             _ => return Err(mismatch()),
@@ -295,16 +296,13 @@ mod tests {
         .unwrap();
         assert!(matches!(reference.head, Head::BoxesAndMap { .. }));
         let semantic = Signature::of(&images, &[t("logits", &[1, 2, 640, 640])]).unwrap();
-        assert_eq!(
-            (semantic.head, semantic.classes),
-            (
-                Head::Semantic {
-                    output: "logits".into(),
-                    channels: 2
-                },
-                Some(1)
-            )
-        );
+        let logits = Head::Semantic {
+            output: "logits".into(),
+        };
+        assert_eq!((&semantic.head, semantic.classes), (&logits, Some(1)));
+        // As torch.onnx.export leaves a DeepLabV3's output: nothing named.
+        let exported = Signature::of(&images, &[t("logits", &[-1, -1, -1, -1])]).unwrap();
+        assert_eq!(exported.head, logits);
         assert!(Signature::of(&images, &[t("seg", &[1, 7, 640, 640])]).is_err());
     }
 }

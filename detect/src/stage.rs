@@ -574,11 +574,8 @@ impl Reader<'_> {
             Head::Boxes { output: name }
             | Head::BoxesAndMap { output: name, .. }
             | Head::Instances { output: name, .. } => self.boxes(&output, name, confidence)?,
-            Head::Semantic {
-                output: name,
-                channels,
-            } => {
-                let probability = crack_probability(&output, name, *channels)?;
+            Head::Semantic { output: name } => {
+                let probability = crack_probability(&output, name)?;
                 let regions = regions(&probability, confidence);
                 found.maps.push(ProbabilityMap { place, probability });
                 regions
@@ -708,12 +705,14 @@ const MIN_COMPONENT_PX: usize = 8;
 /// A semantic map's crack probability: the softmax of background and crack
 /// logits (two channels), or the one channel: the sigmoid of its logits
 /// where its values leave 0..1, else the channel itself.
-fn crack_probability(
-    output: &Output<'_, '_>,
-    name: &str,
-    channels: usize,
-) -> Result<Plane, String> {
+fn crack_probability(output: &Output<'_, '_>, name: &str) -> Result<Plane, String> {
     let sigmoid = |v: f32| 1.0 / (1.0 + (-v).exp());
+    let channels = output.tensor(name)?.0.get(1).copied().unwrap_or(0);
+    if !(1..=2).contains(&channels) {
+        return Err(format!(
+            "output {name} has {channels} channels; a semantic crack map has 1 (crack probability or logit) or 2 (background and crack logits): export the model with one of those"
+        ));
+    }
     let mut p = output.plane(name, 0)?;
     if channels == 2 {
         let crack = output.plane(name, 1)?;
