@@ -246,6 +246,23 @@ impl<'a> FreeSpace<'a> {
             .collect()
     }
 
+    /// Whether [`FreeSpace::path`] from `a` can reach `b`, given
+    /// `lattice`, the voxels [`FreeSpace::distances_from`] `a` reached: in
+    /// a straight clear line, or joined to the lattice at a reached voxel.
+    /// One search from `a` answers this for every `b`; a failed
+    /// [`FreeSpace::path`] searches all the space it can reach.
+    pub fn reaches(
+        &self,
+        lattice: &HashMap<VoxelIndex, f64>,
+        a: &Point3<f64>,
+        b: &Point3<f64>,
+    ) -> bool {
+        let goal = self.map.grid.voxel_of(b);
+        self.segment_is_clear(a, b)
+            || (lattice.contains_key(&goal)
+                && self.segment_is_clear(&self.map.grid.center(goal), b))
+    }
+
     /// Best-first search over the 26-connected clear voxels (costs in
     /// millimetres): A* to `goal`, stopping there, or Dijkstra over all.
     /// Returns each reached voxel's cost and predecessor.
@@ -367,6 +384,7 @@ mod tests {
         let (a, b) = (Point3::new(-3.0, 0.0, 3.0), Point3::new(3.5, 0.0, 3.0));
         assert!(!space.segment_is_clear(&a, &b));
         let path = space.path(&a, &b).expect("round the wall");
+        assert!(space.reaches(&space.distances_from(&a), &a, &b));
         for w in path.windows(2) {
             for i in 0..=100 {
                 let p = w[0] + (w[1] - w[0]) * (f64::from(i) / 100.0);
@@ -412,6 +430,10 @@ mod tests {
         let space = FreeSpace::new(&map, 1.0, &[]);
         let inside = Point3::new(10.25, 10.25, 3.25);
         assert!(space.point_is_clear(&inside));
-        assert!(space.path(&Point3::new(-5.0, -5.0, 3.0), &inside).is_none());
+        let outside = Point3::new(-5.0, -5.0, 3.0);
+        assert!(space.path(&outside, &inside).is_none());
+        // One search from outside says the same as the failed path.
+        let lattice = space.distances_from(&outside);
+        assert!(!space.reaches(&lattice, &outside, &inside));
     }
 }

@@ -2,7 +2,7 @@
 //! coverage stage to a follow-up flight, phase by phase (see the crate
 //! docs), into `replan.json` and `replan.csv`.
 
-use std::collections::{BTreeMap, HashSet};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
@@ -166,7 +166,11 @@ pub fn replan(
     let points: Vec<Point3<f64>> = std::iter::once(home)
         .chain(found.iter().map(|c| Point3::from(c.viewpoint.position)))
         .collect();
-    let Solved { tour, left_out } = solve(&points, &mut by_gap, &space, &options.solver()?);
+    // One search from home: which candidates a path reaches, and how far
+    // home is from each stop when sorties are split.
+    let from_home = space.distances_from(&home);
+    let Solved { tour, left_out } =
+        solve(&points, &mut by_gap, &space, &from_home, &options.solver()?);
     summary.uninspectable_gaps = left_out
         .iter()
         .map(|(&g, &reason)| Uninspectable {
@@ -184,7 +188,7 @@ pub fn replan(
     summary.phases.solve_s = tour.stats.solve_seconds - tour.stats.paths_seconds;
     summary.phases.rounds = tour.stats.rounds;
     let phase = Instant::now();
-    let flights = split_sorties(options, &tour, &points, &space, &map)?;
+    let flights = split_sorties(options, &tour, &points, &space, &map, &from_home)?;
     let waypoint = |i: usize| {
         let v = &found[tour.stops[i] - 1].viewpoint;
         let mut gap_voxels: Vec<VoxelIndex> =
@@ -411,11 +415,13 @@ struct Solved {
 
 /// The tour over the gap voxels that have candidates, solved again without
 /// the candidates no collision-free path reaches; and the gap voxels left
-/// out, with why. `by_gap` loses the unreachable candidates.
+/// out, with why. `by_gap` loses the unreachable candidates. `from_home`:
+/// [`FreeSpace::distances_from`] home, `points[0]`.
 fn solve(
     points: &[Point3<f64>],
     by_gap: &mut [Vec<usize>],
     space: &FreeSpace,
+    from_home: &HashMap<VoxelIndex, f64>,
     solver: &SolveOptions,
 ) -> Solved {
     let mut left_out: BTreeMap<usize, Unplannable> = BTreeMap::new();
@@ -424,6 +430,12 @@ fn solve(
             left_out.insert(g, Unplannable::NoClearViewpoint);
         }
     }
+    // The candidates no path reaches, found by one search from home rather
+    // than by the tour's failed legs (each a search of all reachable space).
+    let lost: HashSet<usize> = (0..points.len() - 1)
+        .filter(|&k| !space.reaches(from_home, &points[0], &points[k + 1]))
+        .collect();
+    drop_candidates(by_gap, &lost, &mut left_out);
     loop {
         let served: Vec<usize> = (0..by_gap.len())
             .filter(|g| !by_gap[*g].is_empty())
@@ -451,14 +463,24 @@ fn solve(
             }
             Err(TourError::Unreachable(lost)) => {
                 let lost: HashSet<usize> = lost.into_iter().map(|s| s - 1).collect();
-                for (g, members) in by_gap.iter_mut().enumerate() {
-                    let before = members.len();
-                    members.retain(|k| !lost.contains(k));
-                    if before > 0 && members.is_empty() {
-                        left_out.insert(g, Unplannable::Unreachable);
-                    }
-                }
+                drop_candidates(by_gap, &lost, &mut left_out);
             }
+        }
+    }
+}
+
+/// Removes the `lost` candidates from every gap's cluster; a gap left with
+/// none is unreachable.
+fn drop_candidates(
+    by_gap: &mut [Vec<usize>],
+    lost: &HashSet<usize>,
+    left_out: &mut BTreeMap<usize, Unplannable>,
+) {
+    for (g, members) in by_gap.iter_mut().enumerate() {
+        let before = members.len();
+        members.retain(|k| !lost.contains(k));
+        if before > 0 && members.is_empty() {
+            left_out.insert(g, Unplannable::Unreachable);
         }
     }
 }
@@ -473,10 +495,10 @@ fn split_sorties(
     points: &[Point3<f64>],
     space: &FreeSpace,
     map: &SlamMap,
+    from_home: &HashMap<VoxelIndex, f64>,
 ) -> Result<Vec<Vec<usize>>, ReplanError> {
     let budget = options.budget();
     let home = points[0];
-    let from_home = space.distances_from(&home);
     let grid = map.voxels.grid;
     let home_m = |stop: usize| {
         let p = points[stop];
