@@ -258,9 +258,8 @@ impl<'a> FreeSpace<'a> {
         b: &Point3<f64>,
     ) -> bool {
         let goal = self.map.grid.voxel_of(b);
-        self.segment_is_clear(a, b)
-            || (lattice.contains_key(&goal)
-                && self.segment_is_clear(&self.map.grid.center(goal), b))
+        (lattice.contains_key(&goal) && self.segment_is_clear(&self.map.grid.center(goal), b))
+            || self.segment_is_clear(a, b)
     }
 
     /// Best-first search over the 26-connected clear voxels (costs in

@@ -432,7 +432,10 @@ fn solve(
     }
     // The candidates no path reaches, found by one search from home rather
     // than by the tour's failed legs (each a search of all reachable space).
-    let lost: HashSet<usize> = (0..points.len() - 1)
+    let lost: HashSet<usize> = by_gap
+        .iter()
+        .flatten()
+        .copied()
         .filter(|&k| !space.reaches(from_home, &points[0], &points[k + 1]))
         .collect();
     drop_candidates(by_gap, &lost, &mut left_out);
