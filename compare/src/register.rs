@@ -57,8 +57,9 @@ pub struct Registration {
     /// Share of the earlier map's (thinned) points above its ground within
     /// [`RegisterOptions::inlier_m`] of the later map.
     pub overlap: f64,
-    /// The thinned earlier map's points above its ground, and those on the
-    /// later map.
+    /// The thinned earlier map's points above its ground that the overlap
+    /// was judged on (a sample of them where a coarse search already found
+    /// far too little), and those on the later map.
     pub points: usize,
     pub inliers: usize,
     pub iterations: usize,
@@ -93,7 +94,7 @@ pub fn register(
     // a flat ground.
     let structure = above_ground(&source, options.above_ground_m);
     let best = best_alignment(&source, &structure, after, options);
-    let overlap = best.fit.inliers as f64 / structure.len().max(1) as f64;
+    let overlap = best.fit.overlap();
     if overlap < options.min_overlap {
         return Err(RegisterError::TooLittleOverlap {
             overlap,
@@ -104,17 +105,22 @@ pub fn register(
         transform: best.transform,
         rms_m: best.fit.rms_m,
         overlap,
-        points: structure.len(),
+        points: best.fit.points,
         inliers: best.fit.inliers,
         iterations: best.iterations,
         coarse_yaw_deg: best.yaw.to_degrees(),
     })
 }
 
+/// Points a coarse start is refined and judged on: a few thousand fix six
+/// degrees of freedom roughly as well as all of them, and a start that
+/// fits nothing (maps of two structures) runs all its iterations.
+const ROUGH_POINTS: usize = 2000;
+
 /// The best registration of `source`, judged by how many of `structure`'s
 /// points it puts on `after`. A structure that looks alike from many sides
 /// (a silo) fits many coarse yaws about as well: each is refined roughly on
-/// a quarter of the points, then the best two fully.
+/// [`ROUGH_POINTS`] of the points, then the best two on all of them.
 fn best_alignment(
     source: &[Point3<f64>],
     structure: &[Point3<f64>],
@@ -122,8 +128,11 @@ fn best_alignment(
     options: &RegisterOptions,
 ) -> Alignment {
     let mut normals = Normals::new(after, options.normal_radius_m);
-    let quarter = |points: &[Point3<f64>]| points.iter().step_by(4).copied().collect::<Vec<_>>();
-    let (probe, structure_probe) = (quarter(source), quarter(structure));
+    let rough_sample = |points: &[Point3<f64>]| {
+        let step = points.len().div_ceil(ROUGH_POINTS).max(1);
+        points.iter().step_by(step).copied().collect::<Vec<_>>()
+    };
+    let (probe, structure_probe) = (rough_sample(source), rough_sample(structure));
     let rough = &options.max_distance_m[..2];
     let mut starts: Vec<Alignment> = coarse_alignments(source, after, options)
         .into_iter()
@@ -145,6 +154,11 @@ fn best_alignment(
         })
         .collect();
     starts.sort_by(|a, b| b.fit.better(&a.fit));
+    // Far too little overlap from every start: maps of two structures,
+    // which refining on all the points would not change.
+    if starts[0].fit.overlap() < options.min_overlap / 2.0 {
+        return starts.swap_remove(0);
+    }
     starts
         .into_iter()
         .take(2)
@@ -259,7 +273,11 @@ fn coarse_alignments(
     let score = |t: &Isometry3<f64>| {
         probe
             .iter()
-            .map(|p| after.nearest(&(t * p)).distance.min(near))
+            .map(|p| {
+                after
+                    .nearest_within(&(t * p), near)
+                    .map_or(near, |q| q.distance)
+            })
             .sum::<f64>()
     };
     let mut scored: Vec<(f64, f64)> = (0..180)
@@ -325,10 +343,9 @@ fn icp_step(
     let mut used = 0;
     for p in source {
         let p = transform * p;
-        let q = after.nearest(&p);
-        if q.distance > max_distance {
+        let Some(q) = after.nearest_within(&p, max_distance) else {
             continue;
-        }
+        };
         let Some(n) = normals.at(q.index) else {
             continue;
         };
@@ -373,10 +390,17 @@ fn above_ground(points: &[Point3<f64>], height: f64) -> Vec<Point3<f64>> {
 /// How well points lie on `after` under a transform.
 struct Fit {
     inliers: usize,
+    /// The points judged.
+    points: usize,
     rms_m: f64,
 }
 
 impl Fit {
+    /// The share of the points judged that lie on the map.
+    fn overlap(&self) -> f64 {
+        self.inliers as f64 / self.points.max(1) as f64
+    }
+
     /// More inliers, then a smaller residual, is better.
     fn better(&self, other: &Fit) -> std::cmp::Ordering {
         self.inliers
@@ -395,10 +419,9 @@ fn fit(
     let (mut inliers, mut squares) = (0, 0.0);
     for p in points {
         let p = transform * p;
-        let q = after.nearest(&p);
-        if q.distance > inlier_m {
+        let Some(q) = after.nearest_within(&p, inlier_m) else {
             continue;
-        }
+        };
         inliers += 1;
         let r = normals
             .at(q.index)
@@ -407,6 +430,7 @@ fn fit(
     }
     Fit {
         inliers,
+        points: points.len(),
         rms_m: if inliers > 0 {
             (squares / inliers as f64).sqrt()
         } else {

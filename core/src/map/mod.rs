@@ -103,6 +103,26 @@ impl SlamMap {
         }
     }
 
+    /// The map point nearest to `p` if one is within `radius`: as fast far
+    /// from the map as near it, where [`SlamMap::nearest`] searches much
+    /// of the tree to find a far point (registration's outliers).
+    pub fn nearest_within(&self, p: &Point3<f64>, radius: f64) -> Option<NearestPoint> {
+        let hits = self
+            .tree
+            .query(&[p.x, p.y, p.z])
+            .nearest_n::<SquaredEuclidean<f64>>(std::num::NonZeroUsize::MIN)
+            .within(radius * radius)
+            .execute();
+        hits.first().map(|hit| {
+            let index = hit.item as usize;
+            NearestPoint {
+                index,
+                point: self.cloud.points[index],
+                distance: hit.distance.sqrt(),
+            }
+        })
+    }
+
     /// Visit the map points within `radius` of `p`, in no order (no
     /// allocation, no sort: for the hot loops of ray casting). Small radii
     /// scan the few voxels the ball touches, which beats a tree descent.
@@ -175,6 +195,12 @@ mod tests {
                 .map(|p| (p - q).norm())
                 .fold(f64::INFINITY, f64::min);
             assert!((map.nearest(&q).distance - brute).abs() < 1e-9);
+            let bounded = |r: f64| map.nearest_within(&q, r).map(|n| n.distance);
+            assert_eq!(
+                bounded(brute + 0.01).map(|d| (d - brute).abs() < 1e-9),
+                Some(true)
+            );
+            assert_eq!(bounded(brute - 0.01), None);
             let n = points.iter().filter(|p| (*p - q).norm() <= 1.5).count();
             let within = map.within(&q, 1.5);
             assert_eq!(within.len(), n);
