@@ -7,7 +7,7 @@
 mod common;
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use common::*;
 use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
@@ -45,6 +45,26 @@ fn compare(a: &Path, b: &Path) -> std::process::Output {
         ],
         a.parent().unwrap(),
     )
+}
+
+/// The flight `simulate` makes with `sim_args` through detect (shared with
+/// the other tests that fly it), localise and coverage: all that compare
+/// reads of the earlier run.
+fn surveyed(dir: &Path, name: &str, sim_args: &[&str]) -> PathBuf {
+    let run = detected_into(dir, name, sim_args);
+    let plan = simulated(sim_args).join("plan.json");
+    for stage in ["localise", "coverage"] {
+        let args = [
+            stage,
+            "--run",
+            run.to_str().unwrap(),
+            "--plan",
+            plan.to_str().unwrap(),
+        ];
+        let out = postflight(&args, dir);
+        assert!(out.status.success(), "{}", stderr(&out));
+    }
+    run
 }
 
 /// Crack ids seen whole (90% of it in view at least) from 5 m or closer,
@@ -138,13 +158,14 @@ fn in_view(truth: &Value) -> std::collections::BTreeSet<u64> {
 
 #[test]
 fn a_repeat_inspection_is_registered_and_its_changes_classified_against_truth() {
-    let earlier = simulated(&["--scene", "tower"]);
+    let earlier_args = ["--scene", "tower"];
+    let earlier = simulated(&earlier_args);
     let mut args = vec!["--scene", "tower", "--repeat-of", earlier.to_str().unwrap()];
     args.extend(REPEAT);
     let later = simulated(&args);
     let dir = tempfile::tempdir().unwrap();
-    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
-    run_simulated(&earlier, &a);
+    let a = surveyed(dir.path(), "a", &earlier_args);
+    let b = dir.path().join("b");
     run_simulated(&later, &b);
     let out = compare(&a, &b);
     assert!(out.status.success(), "{}", stderr(&out));
