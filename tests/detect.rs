@@ -94,7 +94,11 @@ fn score(truth: &serde_json::Value, found: &[(i64, [f64; 4], String)]) -> Score 
 #[test]
 fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = simulate_into(dir.path(), "sim", &["--frames", "120", "--seed", "4"]);
+    let sim = simulate_into(
+        dir.path(),
+        "sim",
+        &["--frames", "60", "--cracks", "80", "--seed", "4"],
+    );
     let run = dir.path().join("run");
     ingest_ok(&sim.join("flight.mcap"), &run, &[]);
 
@@ -302,7 +306,9 @@ fn rust_matches_python_onnxruntime_on_the_same_frames() {
         "sim",
         &[
             "--frames",
-            "40",
+            "20",
+            "--cracks",
+            "80",
             "--seed",
             "4",
             "--width",

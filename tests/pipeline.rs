@@ -597,7 +597,8 @@ fn a_run_killed_mid_detect_resumes_without_redoing_ingest() {
 #[test]
 fn a_simulated_flight_as_ros1_bags_and_ros1_mcap_runs_to_the_same_defects_and_coverage() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = simulate_into(dir.path(), "sim", &["--frames", "100"]);
+    // The 60-frame flight the batch tests fly too.
+    let sim = simulate_into(dir.path(), "sim", &["--frames", "60"]);
     let ros2 = sim.join("flight.mcap");
     let config = dir.path().join("postflight.toml");
     std::fs::write(&config, "[replan]\nsolver_time_limit_s = 0.5\n").unwrap();
