@@ -91,6 +91,14 @@ fn score(truth: &serde_json::Value, found: &[(i64, [f64; 4], String)]) -> Score 
     s
 }
 
+/// `model` changed by `edit` (Python with the `onnx` package, the model
+/// loaded as `m`) and saved as `to`.
+fn edited_model(model: &Path, to: &Path, edit: &str) {
+    let code =
+        format!("import onnx, sys\nm = onnx.load(sys.argv[1])\n{edit}\nonnx.save(m, sys.argv[2])");
+    python_run(&code, &[model, to]);
+}
+
 #[test]
 fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
     let dir = tempfile::tempdir().unwrap();
@@ -130,12 +138,11 @@ fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
     // The same model exported with a fixed batch of 3: views are sent three
     // at a time, the last call padded, and the boxes are the same.
     let fixed = dir.path().join("crack-batch3.onnx");
-    let out = std::process::Command::new(python())
-        .args(["-c", "import onnx, sys\nm = onnx.load(sys.argv[1])\nfor t in (m.graph.input[0], m.graph.output[0]):\n    t.type.tensor_type.shape.dim[0].dim_value = 3\nonnx.save(m, sys.argv[2])"])
-        .args([baked.as_path(), fixed.as_path()])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", stderr(&out));
+    edited_model(
+        &baked,
+        &fixed,
+        "for t in (m.graph.input[0], m.graph.output[0]):\n    t.type.tensor_type.shape.dim[0].dim_value = 3",
+    );
     let out = detect(&run, &["--model", fixed.to_str().unwrap()]);
     assert!(out.status.success(), "{}", stderr(&out));
     assert_eq!(read_json(&run.join("detect.json"))["batch"], 3);
@@ -149,12 +156,11 @@ fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
     let via_semantic = detections(&run);
     assert!(!via_semantic.is_empty());
     let unknown = dir.path().join("crack-semantic-unknown.onnx");
-    let out = std::process::Command::new(python())
-        .args(["-c", "import onnx, sys\nm = onnx.load(sys.argv[1])\nfor d in m.graph.output[0].type.tensor_type.shape.dim:\n    d.Clear()\nonnx.save(m, sys.argv[2])"])
-        .args([semantic.as_path(), unknown.as_path()])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", stderr(&out));
+    edited_model(
+        &semantic,
+        &unknown,
+        "for d in m.graph.output[0].type.tensor_type.shape.dim:\n    d.Clear()",
+    );
     let out = detect(&run, &["--model", unknown.to_str().unwrap()]);
     assert!(out.status.success(), "{}", stderr(&out));
     assert_same_boxes(&via_semantic, &detections(&run));

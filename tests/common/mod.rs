@@ -181,18 +181,18 @@ pub fn simulated(args: &[&str]) -> PathBuf {
 /// `simulate`'s arguments without those that give a default, in order: a
 /// flight asked for with its defaults spelled out is the same flight.
 fn flight_key<'a>(args: &[&'a str]) -> Vec<&'a str> {
-    const DEFAULTS: [[&str; 2]; 3] = [
-        ["--scene", "girder-bridge"],
-        ["--seed", "1"],
-        ["--frames", "300"],
+    let defaults = [
+        // The binary's default scene (its `SceneArg`).
+        ("--scene", "girder-bridge".to_string()),
+        ("--seed", sim::SimOptions::DEFAULT_SEED.to_string()),
+        ("--frames", sim::SimOptions::DEFAULT_FRAMES.to_string()),
     ];
+    let is_default =
+        |flag: &str, value: &str| defaults.iter().any(|(f, v)| *f == flag && v == value);
     let mut key = Vec::new();
     let mut i = 0;
     while i < args.len() {
-        if args
-            .get(i + 1)
-            .is_some_and(|v| DEFAULTS.contains(&[args[i], *v]))
-        {
+        if args.get(i + 1).is_some_and(|v| is_default(args[i], v)) {
             i += 2;
         } else {
             key.push(args[i]);
