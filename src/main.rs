@@ -345,6 +345,11 @@ struct SimulateArgs {
     /// stains, rust streaks and shadow edges (listed in truth.json).
     #[arg(long)]
     distractors: bool,
+    /// Carry the camera on a gimbal (its pitch on /tf) and also plan a
+    /// viewpoint looking straight down over each patch of faces pointing
+    /// up, such as a deck's top (a fixed camera sees those only grazing).
+    #[arg(long)]
+    gimbal: bool,
     /// Compression of the camera frames.
     #[arg(long, value_enum, default_value_t = ImageFormatArg::Jpeg)]
     image_format: ImageFormatArg,
@@ -522,6 +527,7 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
         standoff_m: args.standoff,
         crack_widths: args.crack_widths,
         distractors: args.distractors,
+        gimbal: args.gimbal,
         pose_noise: sim::truth::PoseNoise {
             position_m: args.pose_noise,
             yaw_rad: args.yaw_noise.to_radians(),

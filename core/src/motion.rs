@@ -109,9 +109,13 @@ pub fn frame_blur_px(
     exposure_s: f64,
     map: &VoxelMap,
 ) -> Option<f64> {
-    let extrinsic = flight.camera(frame)?.extrinsic?;
     let PoseAt::Pose(body) = flight.trajectory.at(frame.time_ns, i64::MAX) else {
         return None;
+    };
+    // The frame's own mounting: a gimbal turns the camera from shot to shot.
+    let extrinsic = match frame.camera_pose {
+        Some(camera) => body.inverse() * camera,
+        None => flight.camera(frame)?.extrinsic?,
     };
     let v = velocity(&flight.trajectory, frame.time_ns)?;
     Some(blur_px(&body, &extrinsic, k, &v, exposure_s, map))

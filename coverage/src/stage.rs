@@ -74,19 +74,18 @@ pub fn mount_pitch(extrinsic: &Isometry3<f64>) -> f64 {
 }
 
 /// Camera pose for a plan viewpoint: the body at the viewpoint, the camera
-/// mounted by `extrinsic` turned about the body's y axis to the viewpoint's
-/// gimbal pitch.
+/// mounted by `extrinsic` turned where it is mounted, about the body's y
+/// axis, to the viewpoint's gimbal pitch.
 pub fn viewpoint_camera(v: &Viewpoint, extrinsic: &Isometry3<f64>) -> Isometry3<f64> {
-    let mount_pitch = mount_pitch(extrinsic);
     let body = Isometry3::from_parts(
         Translation3::from(Vector3::from(v.position)),
         UnitQuaternion::from_axis_angle(&Vector3::z_axis(), v.yaw),
     );
-    let gimbal = Isometry3::from_parts(
-        Translation3::identity(),
-        UnitQuaternion::from_axis_angle(&Vector3::y_axis(), v.gimbal_pitch - mount_pitch),
+    let tilt = UnitQuaternion::from_axis_angle(
+        &Vector3::y_axis(),
+        v.gimbal_pitch - mount_pitch(extrinsic),
     );
-    body * gimbal * extrinsic
+    body * Isometry3::from_parts(extrinsic.translation, tilt * extrinsic.rotation)
 }
 
 /// How the flight's first camera is mounted on the body (plan viewpoints

@@ -32,6 +32,9 @@ struct Leg {
     to: Point3<f64>,
     yaw_from: f64,
     yaw_to: f64,
+    /// The camera's pitch (radians down): a gimbal turns it on the way.
+    pitch_from: f64,
+    pitch_to: f64,
     t0: f64,
     t1: f64,
     /// Ease in and out (stop at both ends); rushed legs fly through.
@@ -67,12 +70,12 @@ impl Flight {
             skipped: skipped.clone(),
             shots: Vec::new(),
         };
-        let mut prev: Option<(Point3<f64>, f64)> = None;
+        let mut prev: Option<(Point3<f64>, f64, f64)> = None;
         for i in (0..n).filter(|i| !skipped.contains(i)) {
             let v = &plan.viewpoints[i];
-            let (p, yaw) = (Point3::from(v.position), v.yaw);
+            let (p, yaw, pitch) = (Point3::from(v.position), v.yaw, v.gimbal_pitch);
             let fast = rushed(i);
-            if let Some((from, from_yaw)) = prev {
+            if let Some((from, from_yaw, from_pitch)) = prev {
                 let speed = if fast { FAST_SPEED } else { SPEED };
                 let direct = clear(scene, &from, &p);
                 let over = [
@@ -89,12 +92,17 @@ impl Flight {
                 let mut yaw_at = from_yaw;
                 let last = route.len() - 1;
                 for (k, to) in route.into_iter().enumerate() {
-                    let yaw_to = if k == last {
-                        yaw_at + wrap(yaw - yaw_at)
+                    // Turned and tilted on the last stretch, towards the face.
+                    let (yaw_to, pitch) = if k == last {
+                        ((yaw_at + wrap(yaw - yaw_at)), (from_pitch, pitch))
                     } else {
-                        yaw_at
+                        (yaw_at, (from_pitch, from_pitch))
                     };
-                    flight.leg(at, to, (yaw_at, yaw_to), speed, !(fast && k == last), fast);
+                    let turn = Turn {
+                        yaw: (yaw_at, yaw_to),
+                        pitch,
+                    };
+                    flight.leg(at, to, turn, speed, !(fast && k == last), fast);
                     (at, yaw_at) = (to, yaw_to);
                 }
             }
@@ -103,11 +111,15 @@ impl Flight {
                 flight.shots.push(flight.duration());
             } else {
                 let t = flight.duration();
-                flight.leg(p, p, (yaw, yaw), SPEED, true, false);
+                let turn = Turn {
+                    yaw: (yaw, yaw),
+                    pitch: (pitch, pitch),
+                };
+                flight.leg(p, p, turn, SPEED, true, false);
                 flight.legs.last_mut().expect("just pushed").t1 = t + HOVER;
                 flight.shots.push(t + HOVER / 2.0);
             }
-            prev = Some((p, yaw));
+            prev = Some((p, yaw, pitch));
         }
         flight
     }
@@ -116,20 +128,24 @@ impl Flight {
         &mut self,
         from: Point3<f64>,
         to: Point3<f64>,
-        (yaw_from, yaw_to): (f64, f64),
+        turn: Turn,
         speed: f64,
         ease: bool,
         fast: bool,
     ) {
         let t0 = self.duration();
+        let ((yaw_from, yaw_to), (pitch_from, pitch_to)) = (turn.yaw, turn.pitch);
         // Turning takes time too: 45 deg/s at most.
-        let turn = (yaw_to - yaw_from).abs() / 45f64.to_radians();
-        let duration = ((to - from).norm() / speed).max(turn).max(0.2);
+        let turning =
+            (yaw_to - yaw_from).abs().max((pitch_to - pitch_from).abs()) / 45f64.to_radians();
+        let duration = ((to - from).norm() / speed).max(turning).max(0.2);
         self.legs.push(Leg {
             from,
             to,
             yaw_from,
             yaw_to,
+            pitch_from,
+            pitch_to,
             t0,
             t1: t0 + duration,
             ease,
@@ -152,16 +168,21 @@ impl Flight {
     /// True body pose at `t` seconds (level flight: yaw only).
     pub fn body_pose(&self, t: f64) -> Isometry3<f64> {
         let leg = self.leg_at(t);
-        let mut s = ((t - leg.t0) / (leg.t1 - leg.t0)).clamp(0.0, 1.0);
-        if leg.ease {
-            s = s * s * (3.0 - 2.0 * s);
-        }
+        let s = smooth(leg, t);
         let p = leg.from + (leg.to - leg.from) * s;
         let yaw = leg.yaw_from + (leg.yaw_to - leg.yaw_from) * s;
         Isometry3::from_parts(
             Translation3::from(p.coords),
             UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw),
         )
+    }
+
+    /// The camera's true pitch at `t` seconds, radians down (the plan's
+    /// gimbal pitch at each viewpoint, turned between them).
+    pub fn camera_pitch(&self, t: f64) -> f64 {
+        let leg = self.leg_at(t);
+        let s = smooth(leg, t);
+        leg.pitch_from + (leg.pitch_to - leg.pitch_from) * s
     }
 
     /// Whether `t` falls in a rushed leg.
@@ -182,6 +203,18 @@ impl Flight {
         times.sort_by(f64::total_cmp);
         times
     }
+}
+
+/// Turning on a leg: heading and camera pitch (from, to), radians.
+struct Turn {
+    yaw: (f64, f64),
+    pitch: (f64, f64),
+}
+
+/// How far along `leg` the vehicle is at `t`, 0 to 1 (eased at stops).
+fn smooth(leg: &Leg, t: f64) -> f64 {
+    let s = ((t - leg.t0) / (leg.t1 - leg.t0)).clamp(0.0, 1.0);
+    if leg.ease { s * s * (3.0 - 2.0 * s) } else { s }
 }
 
 /// Whether the straight way from `a` to `b` misses the scene.

@@ -79,6 +79,10 @@ pub struct SimOptions {
     pub crack_widths: Option<crack::WidthRange>,
     /// Draw joints, stains, rust streaks and shadow edges on the structure.
     pub distractors: bool,
+    /// Carry the camera on a gimbal (its pitch recorded on `/tf`), and plan
+    /// a viewpoint looking straight down over each patch of faces pointing
+    /// up, as an inspection of a deck's top flies.
+    pub gimbal: bool,
 }
 
 /// Compression of recorded camera frames (`sensor_msgs/CompressedImage` format).
@@ -117,6 +121,7 @@ impl SimOptions {
             standoff_m: planner::STANDOFF,
             crack_widths: None,
             distractors: false,
+            gimbal: false,
         }
     }
 }
@@ -142,11 +147,17 @@ const DROP_RATE: f64 = 0.02;
 /// Start of the simulated clock (2025-06-15T12:00:00Z), ns.
 const T0_NS: i64 = 1_749_988_800_000_000_000;
 
-/// `T_body_camera` (optical frame: x right, y down, z forward).
+/// `T_body_camera` (optical frame: x right, y down, z forward), as
+/// `T_body_camera_link` and `T_camera_link_optical`.
 pub fn body_to_camera() -> (Isometry3<f64>, Isometry3<f64>) {
+    body_to_camera_pitched(CAMERA_PITCH_DEG.to_radians())
+}
+
+/// [`body_to_camera`] with the camera pitched `pitch` radians down.
+fn body_to_camera_pitched(pitch: f64) -> (Isometry3<f64>, Isometry3<f64>) {
     let link = Isometry3::from_parts(
         Translation3::from(Vector3::from(CAMERA_OFFSET)),
-        UnitQuaternion::from_axis_angle(&Vector3::y_axis(), CAMERA_PITCH_DEG.to_radians()),
+        UnitQuaternion::from_axis_angle(&Vector3::y_axis(), pitch),
     );
     let optical = Isometry3::from_parts(
         Translation3::identity(),
@@ -180,7 +191,7 @@ pub fn simulate(
     check(options)?;
     let world = World::new(options)?;
     std::fs::create_dir_all(&options.out).map_err(SimError::write(&options.out))?;
-    let mut rec = Recorder::create(&options.out.join("flight.mcap"))?;
+    let mut rec = Recorder::create(&options.out.join("flight.mcap"), options.gimbal)?;
     write_mounting(&mut rec, &world)?;
     let recorded = record_frames(&mut rec, &world, options, progress)?;
     let map = map_points(&world.scene, &mut Rng::stream(options.seed, "map"));
@@ -198,6 +209,7 @@ pub fn simulate(
         exposure_s: EXPOSURE_S,
         camera: world.k.clone(),
         t_body_camera: PoseJson::from(&world.body_camera()),
+        gimbal: options.gimbal,
         pose_noise: options.pose_noise,
         skipped_viewpoints: world.flight.skipped.clone(),
         crack_widths: world.crack_widths,
@@ -263,8 +275,11 @@ struct World {
     flight: Flight,
     k: Intrinsics,
     rays: RayTable,
-    /// `T_body_camera_link` and `T_camera_link_optical`.
+    /// `T_body_camera_link` and `T_camera_link_optical` (the gimbal's at
+    /// its side pitch).
     mounting: (Isometry3<f64>, Isometry3<f64>),
+    /// The camera link turns with the plan's gimbal pitch.
+    gimbal: bool,
 }
 
 impl World {
@@ -304,10 +319,16 @@ impl World {
                 (scene.transformed(&iso), cracks, Some(changes))
             }
         };
+        let pitch = CAMERA_PITCH_DEG.to_radians();
+        let mount = if options.gimbal {
+            planner::Mount::Gimbal { pitch }
+        } else {
+            planner::Mount::Fixed { pitch }
+        };
         let plan = planner::plan(
             &scene,
             postflight_core::map::DEFAULT_RESOLUTION,
-            CAMERA_PITCH_DEG.to_radians(),
+            mount,
             options.standoff_m,
         );
         let marks = if options.distractors {
@@ -336,39 +357,53 @@ impl World {
             flight,
             k,
             mounting: body_to_camera(),
+            gimbal: options.gimbal,
         })
     }
 
-    /// `T_body_camera` of the optical frame.
+    /// `T_body_camera` of the optical frame (a gimbal's at its side pitch).
     fn body_camera(&self) -> Isometry3<f64> {
         self.mounting.0 * self.mounting.1
     }
+
+    /// `T_body_camera` of the optical frame at `t` seconds: the gimbal's
+    /// pitch then.
+    fn body_camera_at(&self, t: f64) -> Isometry3<f64> {
+        if !self.gimbal {
+            return self.body_camera();
+        }
+        let (link, optical) = body_to_camera_pitched(self.flight.camera_pitch(t));
+        link * optical
+    }
+
+    /// The true camera pose at `t` seconds.
+    fn camera_at(&self, t: f64) -> Isometry3<f64> {
+        self.flight.body_pose(t) * self.body_camera_at(t)
+    }
 }
 
-/// `/tf_static`: the camera's mounting on the body.
+/// `/tf_static`: the camera's mounting on the body (a gimbal's camera link
+/// moves, so it goes on `/tf` with the poses).
 fn write_mounting(rec: &mut Recorder, world: &World) -> Result<(), SimError> {
-    let tf = |parent: &str, child: &str, p: &Isometry3<f64>| {
-        let pose = ros_pose(p);
-        msg::TransformStamped {
-            header: header(T0_NS, parent),
-            child_frame_id: child.into(),
-            transform: msg::Transform {
-                translation: pose.position,
-                rotation: pose.orientation,
-            },
-        }
-    };
     let (link, optical) = &world.mounting;
-    rec.write(
-        "/tf_static",
-        T0_NS,
-        &msg::TfMessage {
-            transforms: vec![
-                tf("base_link", "camera_link", link),
-                tf("camera_link", "camera_optical", optical),
-            ],
+    let mut transforms = vec![transform(T0_NS, "camera_link", "camera_optical", optical)];
+    if !world.gimbal {
+        transforms.insert(0, transform(T0_NS, "base_link", "camera_link", link));
+    }
+    rec.write("/tf_static", T0_NS, &msg::TfMessage { transforms })
+}
+
+/// A `/tf` transform: `child`'s pose in `parent` at `stamp`.
+fn transform(stamp: i64, parent: &str, child: &str, p: &Isometry3<f64>) -> msg::TransformStamped {
+    let pose = ros_pose(p);
+    msg::TransformStamped {
+        header: header(stamp, parent),
+        child_frame_id: child.into(),
+        transform: msg::Transform {
+            translation: pose.position,
+            rotation: pose.orientation,
         },
-    )
+    }
 }
 
 /// What recording the frames left for the truth.
@@ -389,13 +424,12 @@ fn record_frames(
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<Recorded, SimError> {
     let flight = &world.flight;
-    let body_camera = world.body_camera();
     let duration = flight.duration();
     let pose_times: Vec<f64> = (0..=(duration * flight::POSE_RATE).ceil() as usize)
         .map(|i| (i as f64 / flight::POSE_RATE).min(duration))
         .collect();
     let mut poses = PoseWriter {
-        flight,
+        world,
         times: pose_times,
         next: 0,
         noise: Rng::stream(options.seed, "pose noise"),
@@ -412,9 +446,9 @@ fn record_frames(
         let i = i as u32;
         // Poses stamped up to this frame go first, as a recorder would receive them.
         poses.write_until(t, rec)?;
-        let camera = flight.body_pose(t) * body_camera;
+        let camera = world.camera_at(t);
         let is_dropped = i > 0 && i + 1 < n && drops.uniform() < DROP_RATE;
-        let blur = blur_vector(&world.scene, flight, &body_camera, &world.k, t);
+        let blur = blur_vector(world, t);
         let blur_px = blur.0.hypot(blur.1);
         let in_view =
             truth::cracks_in_view(&world.scene, &world.cracks.0, &world.k, &camera, blur_px);
@@ -494,13 +528,18 @@ fn write_frame(
 
 /// The true coverage of the flight's views and of the plan's viewpoints.
 fn true_coverage(world: &World, views: &[coverage::View]) -> coverage::CoverageTruth {
-    let body_camera = world.body_camera();
     let planned: Vec<(Isometry3<f64>, bool)> = world
         .plan
         .viewpoints
         .iter()
         .enumerate()
         .map(|(i, v)| {
+            let body_camera = if world.gimbal {
+                let (link, optical) = body_to_camera_pitched(v.gimbal_pitch);
+                link * optical
+            } else {
+                world.body_camera()
+            };
             let camera = Isometry3::from_parts(
                 Translation3::from(Vector3::from(v.position)),
                 UnitQuaternion::from_axis_angle(&Vector3::z_axis(), v.yaw),
@@ -519,9 +558,10 @@ fn true_coverage(world: &World, views: &[coverage::View]) -> coverage::CoverageT
     )
 }
 
-/// The recorded SLAM poses: noisy samples of the true body pose at `POSE_RATE`.
+/// The recorded SLAM poses: noisy samples of the true body pose at
+/// `POSE_RATE`, and a gimbal's camera link with each.
 struct PoseWriter<'a> {
-    flight: &'a Flight,
+    world: &'a World,
     times: Vec<f64>,
     next: usize,
     noise: Rng,
@@ -532,12 +572,22 @@ impl PoseWriter<'_> {
     /// Write the poses stamped up to `t` not yet written.
     fn write_until(&mut self, t: f64, rec: &mut Recorder) -> Result<(), SimError> {
         while let Some(&pt) = self.times.get(self.next).filter(|pt| **pt <= t) {
-            let pose = flight::noisy(&self.flight.body_pose(pt), &self.sigma, &mut self.noise);
+            let flight = &self.world.flight;
+            let pose = flight::noisy(&flight.body_pose(pt), &self.sigma, &mut self.noise);
             let msg = msg::PoseStamped {
                 header: header(ns(pt), "map"),
                 pose: ros_pose(&pose),
             };
             rec.write(record::POSE_TOPIC, ns(pt) + 4_000_000, &msg)?;
+            if self.world.gimbal {
+                // The gimbal's encoders: its true pitch.
+                let (link, _) = body_to_camera_pitched(flight.camera_pitch(pt));
+                let link = transform(ns(pt), "base_link", "camera_link", &link);
+                let msg = msg::TfMessage {
+                    transforms: vec![link],
+                };
+                rec.write(record::TF_TOPIC, ns(pt) + 4_000_000, &msg)?;
+            }
             self.next += 1;
         }
         Ok(())
@@ -579,22 +629,17 @@ fn camera_info(k: &Intrinsics, stamp: i64) -> msg::CameraInfo {
 
 /// Image motion during the exposure, pixels: where the scene point at the
 /// image centre moves between the start and end of the exposure.
-fn blur_vector(
-    scene: &Scene,
-    flight: &Flight,
-    body_camera: &Isometry3<f64>,
-    k: &Intrinsics,
-    t: f64,
-) -> (f64, f64) {
-    let camera = flight.body_pose(t) * body_camera;
+fn blur_vector(world: &World, t: f64) -> (f64, f64) {
+    let camera = world.camera_at(t);
     let origin = Point3::from(camera.translation.vector);
     let axis = camera.rotation * Vector3::z();
-    let target = scene
+    let target = world
+        .scene
         .cast(&origin, &axis, 200.0)
         .map_or(origin + axis * 20.0, |h| h.point);
     let at = |time: f64| {
-        let cam = flight.body_pose(time.clamp(0.0, flight.duration())) * body_camera;
-        k.project(&(cam.inverse() * target).coords)
+        let cam = world.camera_at(time.clamp(0.0, world.flight.duration()));
+        world.k.project(&(cam.inverse() * target).coords)
     };
     match (at(t - EXPOSURE_S / 2.0), at(t + EXPOSURE_S / 2.0)) {
         (Some(a), Some(b)) => (b.x - a.x, b.y - a.y),

@@ -5,6 +5,8 @@
 //! The camera is fixed and pitched down (see `CAMERA_PITCH_DEG`), so faces
 //! pointing up or down cannot be seen within the View model's incidence
 //! limit: they are left to the coverage stage to report as uninspectable.
+//! A gimballed camera ([`Mount::Gimbal`]) also gets a viewpoint above each
+//! patch of faces pointing up (a deck's top), looking straight down.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -74,50 +76,57 @@ fn feasible(scene: &Scene, p: &Point3<f64>, face: &Point3<f64>) -> bool {
 /// A patch of faces: their common outward normal and their centres.
 type Patch = (Vector3<f64>, Vec<Point3<f64>>);
 
-/// The plan: viewpoints `standoff` metres in front of the structure's faces.
-pub fn plan(scene: &Scene, resolution: f64, camera_pitch: f64, standoff: f64) -> InspectionPlan {
-    let grid = VoxelGrid::new(resolution, Point3::origin());
-    let targets = target_voxels(scene, &grid);
-    let set: BTreeSet<VoxelIndex> = targets.iter().copied().collect();
-    // Raise the viewpoint so the pitched optical axis meets the face.
-    let rise = standoff * camera_pitch.tan();
-    // Faces grouped by (side, plane, patch along the plane, patch in height).
-    let mut patches: BTreeMap<(usize, i64, i64, i64), Patch> = BTreeMap::new();
-    for v in &targets {
-        for (k, d) in [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]]
-            .iter()
-            .enumerate()
-        {
-            if set.contains(&VoxelIndex([v.0[0] + d[0], v.0[1] + d[1], v.0[2] + d[2]])) {
-                continue;
-            }
-            let n = Vector3::new(f64::from(d[0]), f64::from(d[1]), 0.0);
-            let face = grid.center(*v) + n * (resolution / 2.0);
-            let key = |x: f64| (x / PATCH).floor() as i64;
-            let along = if d[0] != 0 { face.y } else { face.x };
-            let depth = if d[0] != 0 { face.x } else { face.y };
-            let entry = patches
-                .entry((
-                    k,
-                    (depth / resolution).round() as i64,
-                    key(along),
-                    key(face.z),
-                ))
-                .or_insert((n, Vec::new()));
-            entry.1.push(face);
+/// How the camera is carried.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Mount {
+    /// Fixed to the body, pitched down this much (radians).
+    Fixed { pitch: f64 },
+    /// On a gimbal that holds `pitch` (radians down) for the sides and
+    /// turns straight down over faces pointing up.
+    Gimbal { pitch: f64 },
+}
+
+impl Mount {
+    /// The pitch the sides are shot at, radians down.
+    pub fn side_pitch(self) -> f64 {
+        match self {
+            Self::Fixed { pitch } | Self::Gimbal { pitch } => pitch,
         }
     }
+}
+
+/// Outward normals of the faces a viewpoint is planned for: the four sides,
+/// and up where the gimbal can look straight down.
+const SIDES: [[i32; 3]; 4] = [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]];
+const UP: [i32; 3] = [0, 0, 1];
+
+/// The plan: viewpoints `standoff` metres in front of the structure's faces.
+pub fn plan(scene: &Scene, resolution: f64, mount: Mount, standoff: f64) -> InspectionPlan {
+    let grid = VoxelGrid::new(resolution, Point3::origin());
+    let targets = target_voxels(scene, &grid);
     let mut viewpoints = Vec::new();
-    for (n, faces) in patches.values() {
+    for (n, faces) in patches(&grid, &targets, mount).values() {
         let centre =
             Point3::from(faces.iter().map(|p| p.coords).sum::<Vector3<f64>>() / faces.len() as f64);
-        let position = centre + n * standoff + Vector3::z() * rise;
-        if feasible(scene, &position, &centre) {
-            viewpoints.push(Viewpoint {
-                position: [position.x, position.y, position.z],
+        let viewpoint = if n.z > 0.5 {
+            // Above the faces, looking straight down; heading along x.
+            Viewpoint {
+                position: (centre + n * standoff).coords.into(),
+                yaw: 0.0,
+                gimbal_pitch: std::f64::consts::FRAC_PI_2,
+            }
+        } else {
+            // Raised so the pitched optical axis meets the face.
+            let pitch = mount.side_pitch();
+            let position = centre + n * standoff + Vector3::z() * (standoff * pitch.tan());
+            Viewpoint {
+                position: position.coords.into(),
                 yaw: (-n.y).atan2(-n.x),
-                gimbal_pitch: camera_pitch,
-            });
+                gimbal_pitch: pitch,
+            }
+        };
+        if feasible(scene, &Point3::from(viewpoint.position), &centre) {
+            viewpoints.push(viewpoint);
         }
     }
     InspectionPlan {
@@ -128,6 +137,49 @@ pub fn plan(scene: &Scene, resolution: f64, camera_pitch: f64, standoff: f64) ->
         viewpoints: tour(viewpoints),
         view: ViewModel::default(),
     }
+}
+
+/// The targets' exposed faces the mount can shoot face-on, grouped by
+/// (direction, plane, patch along the plane, patch across it).
+fn patches(
+    grid: &VoxelGrid,
+    targets: &[VoxelIndex],
+    mount: Mount,
+) -> BTreeMap<(usize, i64, i64, i64), Patch> {
+    let set: BTreeSet<VoxelIndex> = targets.iter().copied().collect();
+    let directions: &[[i32; 3]] = match mount {
+        Mount::Fixed { .. } => &SIDES,
+        Mount::Gimbal { .. } => &[SIDES[0], SIDES[1], SIDES[2], SIDES[3], UP],
+    };
+    let key = |x: f64| (x / PATCH).floor() as i64;
+    let mut patches: BTreeMap<(usize, i64, i64, i64), Patch> = BTreeMap::new();
+    for v in targets {
+        for (k, d) in directions.iter().enumerate() {
+            if set.contains(&VoxelIndex([v.0[0] + d[0], v.0[1] + d[1], v.0[2] + d[2]])) {
+                continue;
+            }
+            let n = Vector3::new(f64::from(d[0]), f64::from(d[1]), f64::from(d[2]));
+            let face = grid.center(*v) + n * (grid.resolution / 2.0);
+            // (plane, along, across): sides are patched along and in height,
+            // tops in x and y.
+            let (depth, along, across) = match d {
+                [0, 0, _] => (face.z, face.x, face.y),
+                [0, _, _] => (face.y, face.x, face.z),
+                _ => (face.x, face.y, face.z),
+            };
+            patches
+                .entry((
+                    k,
+                    (depth / grid.resolution).round() as i64,
+                    key(along),
+                    key(across),
+                ))
+                .or_insert((n, Vec::new()))
+                .1
+                .push(face);
+        }
+    }
+    patches
 }
 
 /// Order viewpoints by nearest neighbour from the lowest south-west one
@@ -151,4 +203,41 @@ fn tour(mut left: Vec<Viewpoint>) -> Vec<Viewpoint> {
         order.push(left.swap_remove(next));
     }
     order
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::FRAC_PI_2;
+
+    #[test]
+    fn a_gimbal_adds_viewpoints_looking_straight_down_at_the_deck() {
+        let scene = Scene::girder_bridge();
+        let pitch = 12f64.to_radians();
+        let fixed = plan(&scene, 0.5, Mount::Fixed { pitch }, STANDOFF);
+        let gimbal = plan(&scene, 0.5, Mount::Gimbal { pitch }, STANDOFF);
+        let key = |v: &Viewpoint| v.position.map(|c| (c * 1e6).round() as i64);
+        let sides: BTreeSet<_> = fixed.viewpoints.iter().map(key).collect();
+        let (down, level): (Vec<_>, Vec<_>) = gimbal
+            .viewpoints
+            .iter()
+            .partition(|v| v.gimbal_pitch == FRAC_PI_2);
+        // The sides are shot as before; the rest look down from above a top.
+        assert_eq!(level.iter().map(|v| key(v)).collect::<BTreeSet<_>>(), sides);
+        assert!(fixed.viewpoints.iter().all(|v| v.gimbal_pitch == pitch));
+        assert!(down.len() > 100, "{} viewpoints looking down", down.len());
+        // Each `STANDOFF` above the top of a target voxel of its patch.
+        let grid = gimbal.grid();
+        let tops: Vec<Point3<f64>> = gimbal
+            .target_voxels
+            .iter()
+            .map(|v| grid.center(*v) + Vector3::z() * 0.25)
+            .collect();
+        for v in down {
+            let p = Point3::from(v.position) - Vector3::z() * STANDOFF;
+            let near =
+                |t: &&Point3<f64>| (t.z - p.z).abs() < 1e-9 && (t.xy() - p.xy()).norm() < PATCH;
+            assert!(tops.iter().any(|t| near(&t)), "nothing below {p}");
+        }
+    }
 }

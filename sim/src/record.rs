@@ -18,6 +18,8 @@ pub const CAMERA_INFO_TOPIC: &str = "/camera/camera_info";
 pub const EXPOSURE_TOPIC: &str = "/camera/exposure_time";
 pub const POSE_TOPIC: &str = "/slam/pose";
 pub const MAP_TOPIC: &str = "/map";
+/// Transforms that move (a gimbal's camera link), beside `/tf_static`.
+pub const TF_TOPIC: &str = "/tf";
 
 pub struct Recorder {
     path: PathBuf,
@@ -55,7 +57,8 @@ pub fn ros_pose(p: &Isometry3<f64>) -> msg::Pose {
 }
 
 impl Recorder {
-    pub fn create(path: &Path) -> Result<Self, SimError> {
+    /// A recording at `path`; with `moving_tf`, a `/tf` channel too.
+    pub fn create(path: &Path, moving_tf: bool) -> Result<Self, SimError> {
         let file = File::create(path).map_err(SimError::write(path))?;
         let failed = |cause| SimError::Record {
             path: path.to_owned(),
@@ -69,6 +72,13 @@ impl Recorder {
             .create(BufWriter::new(file))
             .map_err(failed)?;
         let mut channels = BTreeMap::new();
+        let moving = moving_tf.then(|| {
+            (
+                TF_TOPIC,
+                "tf2_msgs/msg/TFMessage",
+                definitions::tf_message(),
+            )
+        });
         for (topic, schema, text) in [
             (
                 "/tf_static",
@@ -100,7 +110,10 @@ impl Recorder {
                 "sensor_msgs/msg/PointCloud2",
                 definitions::point_cloud2(),
             ),
-        ] {
+        ]
+        .into_iter()
+        .chain(moving)
+        {
             let schema_id = writer
                 .add_schema(schema, "ros2msg", text.as_bytes())
                 .map_err(failed)?;

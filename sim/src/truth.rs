@@ -242,8 +242,13 @@ pub struct Truth {
     pub seed: u64,
     pub exposure_s: f64,
     pub camera: Intrinsics,
-    /// `T_body_camera`: the camera optical frame in the body frame.
+    /// `T_body_camera`: the camera optical frame in the body frame (with a
+    /// gimbal, at the pitch the sides are shot at; each frame's
+    /// `camera_pose` is exact).
     pub t_body_camera: PoseJson,
+    /// The camera was on a gimbal, its pitch recorded on `/tf`.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub gimbal: bool,
     pub pose_noise: PoseNoise,
     pub skipped_viewpoints: Vec<usize>,
     /// The widths cracks open and close between, when they taper.
