@@ -31,10 +31,16 @@ pub fn view_faults(
     if gsd_mm > view.max_gsd_mm {
         faults.push(ViewFault::TooCoarse);
     }
-    if blur_px.is_some_and(|b| b.is_nan() || b > view.max_blur_px) {
+    if is_blurred(view, blur_px) {
         faults.push(ViewFault::Blurred);
     }
     faults
+}
+
+/// Whether a frame blurred by `blur_px` (`None`: unknown, not judged) is
+/// too blurred for the View model.
+pub fn is_blurred(view: &ViewModel, blur_px: Option<f64>) -> bool {
+    blur_px.is_some_and(|b| b.is_nan() || b > view.max_blur_px)
 }
 
 /// A candidate's evidence from its best view and its length's status.

@@ -16,7 +16,7 @@ use crate::observation::{Observation, Placement, measures_length};
 use crate::settings::LocaliseConfig;
 use crate::stats::median;
 use crate::union_find::UnionFind;
-use postflight_core::outputs::localise::{Evidence, LengthStatus, Outcome, WidthRecord};
+use postflight_core::outputs::localise::{Evidence, LengthStatus, Outcome, ViewFault, WidthRecord};
 use postflight_core::trace::Trace;
 
 /// One physical crack, as the views of it agree.
@@ -283,6 +283,11 @@ fn length_status<'a>(
         .all(|i| !measures_length(placement(*i).hit.incidence))
     {
         LengthStatus::TooOblique
+    } else if group.iter().all(|i| {
+        let p = placement(*i);
+        !measures_length(p.hit.incidence) || p.view_faults.contains(&ViewFault::Blurred)
+    }) {
+        LengthStatus::Blurred
     } else if group.iter().all(|i| placement(*i).length_m.is_none()) {
         LengthStatus::NotTraced
     } else {
@@ -496,6 +501,13 @@ mod tests {
         let c = fuse(&obs, &LocaliseConfig::default());
         assert_eq!(c[0].length_m, None);
         assert_eq!(c[0].evidence.length, LengthStatus::TooOblique);
+        assert!(c[0].evidence.reshoot);
+        // One of them face-on but blurred: no length, because blurred.
+        let p = obs[1].placement.as_mut().unwrap();
+        p.hit.incidence = 10f64.to_radians();
+        p.view_faults = vec![ViewFault::Blurred];
+        let c = fuse(&obs, &LocaliseConfig::default());
+        assert_eq!(c[0].evidence.length, LengthStatus::Blurred);
         assert!(c[0].evidence.reshoot);
     }
 

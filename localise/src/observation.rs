@@ -13,7 +13,7 @@ use postflight_core::trace::Trace;
 use postflight_core::{Intrinsics, ViewModel};
 
 use crate::centre_line;
-use crate::evidence::view_faults;
+use crate::evidence::{is_blurred, view_faults};
 
 use crate::joint::Line;
 use crate::stats::{median, quantile};
@@ -237,8 +237,11 @@ impl Scene<'_> {
             .fold([points[0], points[0]], |[lo, hi], p| [lo.inf(p), hi.sup(p)]);
         // Length and trace only from a view that measures; width from
         // steeper views too, each point's footprint across the crack taking
-        // the slant (a crack seen only obliquely still gets a state).
-        let measures = measures_length(surface.incidence);
+        // the slant (a crack seen only obliquely still gets a state). A
+        // blurred frame measures neither: the smear stretches the crack's
+        // line along the motion and widens or fades it across.
+        let sharp = !is_blurred(self.view, blur_px);
+        let measures = sharp && measures_length(surface.incidence);
         let measured = trace.filter(|_| measures);
         let length_m = measured.map(|t| {
             let at: Vec<Option<Vector3<f64>>> =
@@ -251,7 +254,7 @@ impl Scene<'_> {
             let points: Vec<Point3<f64>> = t.pixels.iter().filter_map(|p| on_plane(*p)).collect();
             Line::fit(&points)
         });
-        let width = (surface.incidence.to_degrees() <= MAX_WIDTH_INCIDENCE_DEG)
+        let width = (sharp && surface.incidence.to_degrees() <= MAX_WIDTH_INCIDENCE_DEG)
             .then(|| {
                 let points: Vec<(Width, f64)> = widths
                     .iter()
@@ -558,5 +561,45 @@ mod tests {
         let o = scene.place(detection(b), &pose, &k, None, &[], None);
         assert_eq!(o.traced_px, 0);
         assert!(o.placement.unwrap().length_m.is_none());
+    }
+
+    #[test]
+    fn a_blurred_frame_places_the_crack_but_measures_neither_length_nor_width() {
+        let map = wall();
+        let view = ViewModel::default();
+        let scene = Scene {
+            map: &map,
+            structure: None,
+            max_range: 30.0,
+            view: &view,
+        };
+        let (pose, k) = camera();
+        let (a, b) = (Point3::new(3.0, 0.2, 2.4), Point3::new(3.0, 0.5, 2.7));
+        let t = imaged_crack(&pose, &k, a, b);
+        let widths: Vec<PointWidth> = t
+            .pixels
+            .iter()
+            .map(|p| PointWidth {
+                at: *p,
+                across: nalgebra::Vector2::new(1.0, 0.0),
+                width: Width::Resolved {
+                    px: 3.0,
+                    depth: 40.0,
+                },
+            })
+            .collect();
+        let place = |blur| {
+            let o = scene.place(detection(bounds(&t)), &pose, &k, Some(&t), &widths, blur);
+            assert_eq!(o.outcome, Outcome::Placed);
+            o.placement.unwrap()
+        };
+        for sharp in [None, Some(0.5 * view.max_blur_px)] {
+            let p = place(sharp);
+            assert!(p.length_m.is_some() && p.width.is_some() && !p.trace.is_empty());
+        }
+        let p = place(Some(2.0 * view.max_blur_px));
+        assert!(p.view_faults.contains(&ViewFault::Blurred));
+        assert!((p.centre - Point3::from((a.coords + b.coords) / 2.0)).norm() < 0.02);
+        assert!(p.length_m.is_none() && p.width.is_none() && p.trace.is_empty());
     }
 }

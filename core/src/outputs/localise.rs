@@ -240,6 +240,8 @@ pub enum LengthStatus {
     Partial,
     /// Every view is too oblique to measure on.
     TooOblique,
+    /// Every view steep enough to measure on is blurred.
+    Blurred,
     /// No view traced the crack's line (its boxes placed it).
     NotTraced,
     /// The only traced views are far away and cut by the image border.
@@ -252,6 +254,7 @@ impl LengthStatus {
             Self::Measured => "measured",
             Self::Partial => "partial",
             Self::TooOblique => "too_oblique",
+            Self::Blurred => "blurred",
             Self::NotTraced => "not_traced",
             Self::FarAndCut => "far_and_cut",
         }
@@ -262,6 +265,7 @@ impl LengthStatus {
         match self {
             Self::Measured | Self::Partial => None,
             Self::TooOblique => Some("every view is too oblique to measure on"),
+            Self::Blurred => Some("every view steep enough to measure on is blurred"),
             Self::NotTraced => Some("no view traced the crack's line"),
             Self::FarAndCut => Some("its only traced views are far and cut by the image border"),
         }
