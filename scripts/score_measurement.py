@@ -222,13 +222,13 @@ def main(args):
                 ]
             ),
             "along_trace_against_seen": summary(
-                [abs(r["length_m"] / r["seen_length_m"] - 1) for r in lengths]
+                [abs(r["length_m"] / r["seen_length_m"] - 1) for r in lengths if r["seen_length_m"]]
             ),
             "every_end_seen_against_seen": summary(
                 [
                     abs(r["length_m"] / r["seen_length_m"] - 1)
                     for r in rows
-                    if r["length_status"] == "measured"
+                    if r["length_status"] == "measured" and r["seen_length_m"]
                 ]
             ),
             "box_diagonal": summary(

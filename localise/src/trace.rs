@@ -103,11 +103,37 @@ const MIN_SHADE_RADIUS: usize = 3;
 /// the compression's blocks darken by as few grey levels as a crack does.
 const MAX_LINE_PER_BOX: f64 = 3.0;
 
+/// Times the window around the box may double while the crack runs on
+/// out of it: a detector often boxes only a crack's darkest stretch, and
+/// its faint tails go on for several boxes' lengths.
+const MAX_DOUBLINGS: u32 = 5;
+
 /// Trace the crack in the box `[x0, y0, x1, y1]` (frame pixels) of `gray`,
 /// following it past the box's edges (a detector often boxes only part of a
-/// crack); `None` when nothing in the box stands out from the surface, or
-/// too much does (a web, not a line: see [`MAX_LINE_PER_BOX`]).
+/// crack) for as long as it runs on; `None` when nothing in the box stands
+/// out from the surface, or too much does (a web, not a line: see
+/// [`MAX_LINE_PER_BOX`]).
 pub fn trace(gray: &GrayImage, bbox: [f32; 4]) -> Option<CrackTrace> {
+    let mut reach = (0.5 * (bbox[2] - bbox[0]).max(bbox[3] - bbox[1])).max(8.0) as u32;
+    let mut line = None;
+    for _ in 0..=MAX_DOUBLINGS {
+        // Nothing, or a web in the wider window: the last line stands.
+        let Some((t, runs_on)) = trace_within(gray, bbox, reach) else {
+            break;
+        };
+        line = Some(t);
+        if !runs_on {
+            break;
+        }
+        reach *= 2;
+    }
+    line
+}
+
+/// [`trace`] in the window `reach` pixels around the box, and whether the
+/// line runs on out of that window (it meets a side that is not the
+/// image's border).
+fn trace_within(gray: &GrayImage, bbox: [f32; 4], reach: u32) -> Option<(CrackTrace, bool)> {
     let (w, h) = gray.dimensions();
     let clip = |v: f32, max: u32| (v.max(0.0) as u32).min(max);
     let inner = [
@@ -119,7 +145,6 @@ pub fn trace(gray: &GrayImage, bbox: [f32; 4]) -> Option<CrackTrace> {
     if inner[2] <= inner[0] + 2 || inner[3] <= inner[1] + 2 {
         return None;
     }
-    let reach = (0.5 * (bbox[2] - bbox[0]).max(bbox[3] - bbox[1])).max(8.0) as u32;
     let (x0, y0) = (
         inner[0].saturating_sub(reach),
         inner[1].saturating_sub(reach),
@@ -165,9 +190,22 @@ pub fn trace(gray: &GrayImage, bbox: [f32; 4]) -> Option<CrackTrace> {
     keep_components(&mut mask, cw as usize, ch as usize, |i| {
         in_box(i) && f64::from(values[i]) < strong
     });
-    let box_span = f64::from((bbox[2] - bbox[0]) + (bbox[3] - bbox[1]));
-    centre_line(mask, [x0, y0, cw, ch])
-        .filter(|t| (t.pixels.len() as f64) <= MAX_LINE_PER_BOX * box_span.max(1.0))
+    // The window's growth past the first counts towards the span: a crack
+    // followed out of its box is longer than the box.
+    let first_reach = (0.5 * (bbox[2] - bbox[0]).max(bbox[3] - bbox[1])).max(8.0);
+    let box_span = f64::from((bbox[2] - bbox[0]) + (bbox[3] - bbox[1]))
+        + 4.0 * (f64::from(reach) - f64::from(first_reach.floor())).max(0.0);
+    let line = centre_line(mask, [x0, y0, cw, ch])
+        .filter(|t| (t.pixels.len() as f64) <= MAX_LINE_PER_BOX * box_span.max(1.0))?;
+    let at_side = |p: &Point2<f64>| {
+        let (x, y) = (p.x as u32, p.y as u32);
+        (x < x0 + 2 && x0 > 0)
+            || (y < y0 + 2 && y0 > 0)
+            || (x + 2 >= x1 && x1 < w)
+            || (y + 2 >= y1 && y1 < h)
+    };
+    let runs_on = line.pixels.iter().any(at_side);
+    Some((line, runs_on))
 }
 
 /// Trace the crack a segmenting model marked: the centre line of its
@@ -671,6 +709,28 @@ mod tests {
             Luma([if on { 113 } else { 120 }])
         });
         assert!(trace(&faint, [20.0, 5.0, 180.0, 145.0]).is_none());
+    }
+
+    #[test]
+    fn a_crack_boxed_at_its_darkest_is_followed_far_out_of_the_box() {
+        // Dark only where the detector boxed it (x 280 to 320), faintly dark
+        // for 260 pixels either side: the window doubles until the line
+        // ends inside it.
+        let img = GrayImage::from_fn(600, 100, |x, y| {
+            let on = (f64::from(y) + 0.5 - 50.0).abs() <= 1.0 && (20..580).contains(&x);
+            Luma([match (on, (280..320).contains(&x)) {
+                (false, _) => 120,
+                (true, true) => 60,
+                (true, false) => 113,
+            }])
+        });
+        let t = trace(&img, [276.0, 44.0, 324.0, 56.0]).unwrap();
+        let at: Vec<_> = t.pixels.iter().map(|p| Some(p.coords)).collect();
+        let len = t.length(&at);
+        assert!(
+            (len - 560.0).abs() / 560.0 < 0.1,
+            "traced {len:.1} px of 560"
+        );
     }
 
     /// `line_image` with the line broken: every `period` pixels along it,
