@@ -275,29 +275,36 @@ fn match_pairs(
 /// Least widening judged real, as a share of the earlier width.
 const WIDENING_SHARE: f64 = 0.2;
 
-/// A candidate seen in both flights: grown when its length along its
-/// trace grew by more than the two measurements' spread, else widened when
-/// its widest grew by more than both flights' uncertainties, else
-/// unchanged.
+/// A candidate seen in both flights, classified by [`classify`].
 fn seen_again(was: &Placed, now: &Placed, options: &MatchOptions) -> ChangeRecord {
     let base = record(ChangeKind::Unchanged, Some(was), Some(now));
     let growth = growth(was.defect, now.defect, options);
     let widening = widening(was.defect.width.as_ref(), now.defect.width.as_ref());
-    let beyond = |change: Option<(f64, f64)>| change.is_some_and(|(by, spread)| by > spread);
-    let change = if beyond(growth) {
-        ChangeKind::Grown
-    } else if beyond(widening) {
-        ChangeKind::Widened
-    } else {
-        ChangeKind::Unchanged
-    };
     ChangeRecord {
-        change,
+        change: classify(growth, widening),
         growth_m: growth.map(|g| g.0),
         spread_m: growth.map(|g| g.1),
         widening_mm: widening.map(|w| w.0),
         width_spread_mm: widening.map(|w| w.1),
         ..base
+    }
+}
+
+/// A crack seen in both flights from its growth and its widening (each
+/// the change and the spread it is judged against, `None` where it cannot
+/// be judged): grown when its length grew by more than the spread, else
+/// widened when its widest did, else unchanged where either could be
+/// judged, and not measured where neither could.
+fn classify(growth: Option<(f64, f64)>, widening: Option<(f64, f64)>) -> ChangeKind {
+    let beyond = |change: Option<(f64, f64)>| change.is_some_and(|(by, spread)| by > spread);
+    if beyond(growth) {
+        ChangeKind::Grown
+    } else if beyond(widening) {
+        ChangeKind::Widened
+    } else if growth.is_none() && widening.is_none() {
+        ChangeKind::NotMeasured
+    } else {
+        ChangeKind::Unchanged
     }
 }
 
@@ -386,6 +393,18 @@ mod tests {
         // Without a width (a box model) or the earlier view, not known.
         assert!(!too_narrow_for(None, Some(1.2)));
         assert!(!too_narrow_for(Some(&width(Some(0.1), 0.1, None)), None));
+    }
+
+    #[test]
+    fn a_crack_seen_again_is_unchanged_only_where_something_was_compared() {
+        let (longer, same) = (Some((0.3, 0.1)), Some((0.02, 0.1)));
+        assert_eq!(classify(longer, same), ChangeKind::Grown);
+        assert_eq!(classify(same, longer), ChangeKind::Widened);
+        assert_eq!(classify(None, longer), ChangeKind::Widened);
+        assert_eq!(classify(same, None), ChangeKind::Unchanged);
+        assert_eq!(classify(None, same), ChangeKind::Unchanged);
+        // Every view of one flight blurred or too oblique: nothing to compare.
+        assert_eq!(classify(None, None), ChangeKind::NotMeasured);
     }
 
     #[test]

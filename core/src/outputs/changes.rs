@@ -83,6 +83,10 @@ pub enum ChangeKind {
     Widened,
     /// Seen by both, as long and as wide as before within the spread.
     Unchanged,
+    /// Seen by both, but neither its length nor its width was measured in
+    /// both (every view of it in one flight blurred, too oblique or cut
+    /// short): whether it changed is not known; shoot it again.
+    NotMeasured,
     /// Seen before; this flight inspected its place and found nothing.
     NotSeenAgain,
     /// Seen before; this flight did not inspect its place, so nothing is
@@ -91,12 +95,13 @@ pub enum ChangeKind {
 }
 
 impl ChangeKind {
-    pub const ALL: [Self; 7] = [
+    pub const ALL: [Self; 8] = [
         Self::New,
         Self::FirstSeen,
         Self::Grown,
         Self::Widened,
         Self::Unchanged,
+        Self::NotMeasured,
         Self::NotSeenAgain,
         Self::NotReinspected,
     ];
@@ -108,6 +113,7 @@ impl ChangeKind {
             Self::Grown => "grown",
             Self::Widened => "widened",
             Self::Unchanged => "unchanged",
+            Self::NotMeasured => "not_measured",
             Self::NotSeenAgain => "not_seen_again",
             Self::NotReinspected => "not_reinspected",
         }
@@ -117,6 +123,7 @@ impl ChangeKind {
     pub fn words(self) -> &'static str {
         match self {
             Self::FirstSeen => "first seen",
+            Self::NotMeasured => "not measured",
             Self::NotSeenAgain => "not seen again",
             Self::NotReinspected => "not re-inspected",
             other => other.as_str(),

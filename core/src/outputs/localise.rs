@@ -277,6 +277,7 @@ impl crate::table::Named for LengthStatus {
         Self::Measured,
         Self::Partial,
         Self::TooOblique,
+        Self::Blurred,
         Self::NotTraced,
         Self::FarAndCut,
     ];
