@@ -114,7 +114,7 @@ const MAX_DOUBLINGS: u32 = 5;
 /// out from the surface, or too much does (a web, not a line: see
 /// [`MAX_LINE_PER_BOX`]).
 pub fn trace(gray: &GrayImage, bbox: [f32; 4]) -> Option<CrackTrace> {
-    let mut reach = (0.5 * (bbox[2] - bbox[0]).max(bbox[3] - bbox[1])).max(8.0) as u32;
+    let mut reach = first_reach(bbox);
     let mut line = None;
     for _ in 0..=MAX_DOUBLINGS {
         // Nothing, or a web in the wider window: the last line stands.
@@ -128,6 +128,12 @@ pub fn trace(gray: &GrayImage, bbox: [f32; 4]) -> Option<CrackTrace> {
         reach *= 2;
     }
     line
+}
+
+/// How far past the box the first window reaches, pixels: half its longer
+/// side, 8 at least.
+fn first_reach(bbox: [f32; 4]) -> u32 {
+    (0.5 * (bbox[2] - bbox[0]).max(bbox[3] - bbox[1])).max(8.0) as u32
 }
 
 /// [`trace`] in the window `reach` pixels around the box, and whether the
@@ -192,9 +198,8 @@ fn trace_within(gray: &GrayImage, bbox: [f32; 4], reach: u32) -> Option<(CrackTr
     });
     // The window's growth past the first counts towards the span: a crack
     // followed out of its box is longer than the box.
-    let first_reach = (0.5 * (bbox[2] - bbox[0]).max(bbox[3] - bbox[1])).max(8.0);
     let box_span = f64::from((bbox[2] - bbox[0]) + (bbox[3] - bbox[1]))
-        + 4.0 * (f64::from(reach) - f64::from(first_reach.floor())).max(0.0);
+        + 4.0 * f64::from(reach.saturating_sub(first_reach(bbox)));
     let line = centre_line(mask, [x0, y0, cw, ch])
         .filter(|t| (t.pixels.len() as f64) <= MAX_LINE_PER_BOX * box_span.max(1.0))?;
     let at_side = |p: &Point2<f64>| {

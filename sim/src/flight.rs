@@ -94,7 +94,7 @@ impl Flight {
                 for (k, to) in route.into_iter().enumerate() {
                     // Turned and tilted on the last stretch, towards the face.
                     let (yaw_to, pitch) = if k == last {
-                        ((yaw_at + wrap(yaw - yaw_at)), (from_pitch, pitch))
+                        (yaw_at + wrap(yaw - yaw_at), (from_pitch, pitch))
                     } else {
                         (yaw_at, (from_pitch, from_pitch))
                     };
