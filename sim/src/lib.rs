@@ -366,14 +366,19 @@ impl World {
         self.mounting.0 * self.mounting.1
     }
 
-    /// `T_body_camera` of the optical frame at `t` seconds: the gimbal's
-    /// pitch then.
-    fn body_camera_at(&self, t: f64) -> Isometry3<f64> {
+    /// `T_body_camera` of the optical frame with the camera pitched
+    /// `pitch` radians down (a fixed camera keeps its mounting).
+    fn body_camera_pitched(&self, pitch: f64) -> Isometry3<f64> {
         if !self.gimbal {
             return self.body_camera();
         }
-        let (link, optical) = body_to_camera_pitched(self.flight.camera_pitch(t));
+        let (link, optical) = body_to_camera_pitched(pitch);
         link * optical
+    }
+
+    /// `T_body_camera` of the optical frame at `t` seconds.
+    fn body_camera_at(&self, t: f64) -> Isometry3<f64> {
+        self.body_camera_pitched(self.flight.camera_pitch(t))
     }
 
     /// The true camera pose at `t` seconds.
@@ -534,16 +539,10 @@ fn true_coverage(world: &World, views: &[coverage::View]) -> coverage::CoverageT
         .iter()
         .enumerate()
         .map(|(i, v)| {
-            let body_camera = if world.gimbal {
-                let (link, optical) = body_to_camera_pitched(v.gimbal_pitch);
-                link * optical
-            } else {
-                world.body_camera()
-            };
             let camera = Isometry3::from_parts(
                 Translation3::from(Vector3::from(v.position)),
                 UnitQuaternion::from_axis_angle(&Vector3::z_axis(), v.yaw),
-            ) * body_camera;
+            ) * world.body_camera_pitched(v.gimbal_pitch);
             (camera, world.flight.skipped.contains(&i))
         })
         .collect();
