@@ -12,6 +12,7 @@ use postflight_core::outputs::changes::{ChangeKind, ChangeRecord};
 use postflight_core::outputs::coverage::{CoverageSummary, VoxelRecord};
 use postflight_core::outputs::localise::{DefectRecord, LengthStatus, WidthRecord};
 use postflight_core::structure::ElementMap;
+use postflight_core::trace::Trace;
 
 /// How candidates are matched.
 #[derive(Debug, Clone, PartialEq)]
@@ -22,6 +23,9 @@ pub struct MatchOptions {
     pub max_normal_angle_deg: f64,
     /// How far a length measurement spreads: this share of the length.
     pub length_spread: f64,
+    /// How far apart two flights may see one crack's end without it
+    /// having grown, metres, beyond their traces' tolerance.
+    pub end_spread_m: f64,
 }
 
 impl MatchOptions {
@@ -36,6 +40,9 @@ impl MatchOptions {
             // Lengths measured from 5 m or closer come within about 10% of
             // the truth (docs/evaluation.md).
             length_spread: 0.1,
+            // Where a hairline tip fades differs between views by a few
+            // centimetres.
+            end_spread_m: 0.03,
         }
     }
 }
@@ -78,8 +85,7 @@ impl Inspected {
     /// or, when the point sits on a voxel's edge, the nearest target voxel
     /// around it; `None` when no target voxel is there.
     pub fn look(&self, point: &Point3<f64>, normal: &Vector3<f64>) -> Option<Look> {
-        // Just inside the surface: the structure's voxel, not the air's.
-        let inside = point - normal * (0.25 * self.grid.resolution);
+        let inside = self.inside(point, normal);
         let v = self.grid.voxel_of(&inside);
         if let Some(&look) = self.looks.get(&v) {
             return Some(look);
@@ -92,11 +98,18 @@ impl Inspected {
             .map(|(_, look)| look)
     }
 
-    /// The element at a point, by name.
-    pub fn element(&self, point: &Point3<f64>) -> Option<String> {
+    /// The element at a surface point, by name: that of the target voxel
+    /// nearest just inside the surface (on a deck above a pier, the deck).
+    pub fn element(&self, point: &Point3<f64>, normal: &Vector3<f64>) -> Option<String> {
         self.elements
-            .element_at(point)
+            .element_at(&self.inside(point, normal))
             .map(|e| self.elements.structure.elements[e].name.clone())
+    }
+
+    /// Just inside the surface at a point: the structure's voxel, not the
+    /// air's.
+    fn inside(&self, point: &Point3<f64>, normal: &Vector3<f64>) -> Point3<f64> {
+        point - normal * (0.25 * self.grid.resolution)
     }
 }
 
@@ -116,6 +129,7 @@ struct Placed<'a> {
     min: Point3<f64>,
     max: Point3<f64>,
     element: Option<String>,
+    trace: Trace,
 }
 
 impl<'a> Placed<'a> {
@@ -139,13 +153,15 @@ impl<'a> Placed<'a> {
             max = max.sup(&c);
         }
         let position = to_after * Point3::from(defect.position);
+        let normal = to_after * Vector3::from(defect.normal);
         Self {
             defect,
             position,
-            normal: to_after * Vector3::from(defect.normal),
+            normal,
             min,
             max,
-            element: after.element(&position),
+            element: after.element(&position, &normal),
+            trace: defect.trace.transformed(to_after),
         }
     }
 
@@ -197,17 +213,18 @@ pub fn changes(
         let record = match pairs.get(&b) {
             Some(&a) => {
                 matched_before[a] = true;
-                seen_again(&earlier[a], now, options)
+                let earlier_saw = |p: &Point3<f64>| {
+                    inspected_before
+                        .is_none_or(|i| sees(i.look(&(back * p), &(back * now.normal)), now.defect))
+                };
+                seen_again(&earlier[a], now, &earlier_saw, options)
             }
             None => {
                 let look = inspected_before
                     .and_then(|i| i.look(&(back * now.position), &(back * now.normal)));
                 // New only where the earlier flight looked, finely enough to
                 // see it, and found nothing.
-                let seeable = look.is_some_and(|l| {
-                    l.inspected && !too_narrow_for(now.defect.width.as_ref(), l.mm_per_px)
-                });
-                let kind = if seeable {
+                let kind = if sees(look, now.defect) {
                     ChangeKind::New
                 } else {
                     ChangeKind::FirstSeen
@@ -246,6 +263,12 @@ fn too_narrow_for(width: Option<&WidthRecord>, mm_per_px: Option<f64>) -> bool {
     matches!((widest, mm_per_px), (Some(w), Some(px)) if w < MIN_SEEN_PX * px)
 }
 
+/// Whether a run's `look` at a surface would have seen `crack` there: it
+/// inspected it, finely enough for its width.
+fn sees(look: Option<Look>, crack: &DefectRecord) -> bool {
+    look.is_some_and(|l| l.inspected && !too_narrow_for(crack.width.as_ref(), l.mm_per_px))
+}
+
 /// Matches, later candidate to earlier: closest pairs first, each
 /// candidate in one pair at most.
 fn match_pairs(
@@ -275,10 +298,19 @@ fn match_pairs(
 /// Least widening judged real, as a share of the earlier width.
 const WIDENING_SHARE: f64 = 0.2;
 
-/// A candidate seen in both flights, classified by [`classify`].
-fn seen_again(was: &Placed, now: &Placed, options: &MatchOptions) -> ChangeRecord {
+/// A candidate seen in both flights, classified by [`classify`];
+/// `earlier_saw` tells where the earlier flight would have seen it.
+fn seen_again(
+    was: &Placed,
+    now: &Placed,
+    earlier_saw: &dyn Fn(&Point3<f64>) -> bool,
+    options: &MatchOptions,
+) -> ChangeRecord {
     let base = record(ChangeKind::Unchanged, Some(was), Some(now));
-    let growth = growth(was.defect, now.defect, options);
+    let growth = stronger(
+        growth(was.defect, now.defect, options),
+        extension(&was.trace, &now.trace, earlier_saw, options),
+    );
     let widening = widening(was.defect.width.as_ref(), now.defect.width.as_ref());
     ChangeRecord {
         change: classify(growth, widening),
@@ -306,6 +338,35 @@ fn classify(growth: Option<(f64, f64)>, widening: Option<(f64, f64)>) -> ChangeK
     } else {
         ChangeKind::Unchanged
     }
+}
+
+/// Of two judgements of one change (each the change and its spread), the
+/// one that shows it more.
+fn stronger(a: Option<(f64, f64)>, b: Option<(f64, f64)>) -> Option<(f64, f64)> {
+    let margin = |c: &(f64, f64)| c.0 - c.1;
+    match (a, b) {
+        (Some(a), Some(b)) => Some(if margin(&b) > margin(&a) { b } else { a }),
+        (a, b) => a.or(b),
+    }
+}
+
+/// How far its trace now runs on beyond the earlier one (more than the
+/// link distance from it: the two flights' pose errors), counting only
+/// surface where the earlier flight would have seen it, and the spread
+/// that is judged against, metres; none where either has no trace. It
+/// judges growth where a length cannot: a crack longer than a frame, cut
+/// by the image border in every view, still shows where it runs on.
+fn extension(
+    was: &Trace,
+    now: &Trace,
+    earlier_saw: &dyn Fn(&Point3<f64>) -> bool,
+    options: &MatchOptions,
+) -> Option<(f64, f64)> {
+    if was.is_empty() || now.is_empty() {
+        return None;
+    }
+    let beyond = now.length_beyond(was, options.link_distance_m, earlier_saw);
+    Some((beyond, options.end_spread_m))
 }
 
 /// How much longer it is now and the spread that is judged against,
@@ -405,6 +466,33 @@ mod tests {
         assert_eq!(classify(None, same), ChangeKind::Unchanged);
         // Every view of one flight blurred or too oblique: nothing to compare.
         assert_eq!(classify(None, None), ChangeKind::NotMeasured);
+    }
+
+    #[test]
+    fn growth_is_where_the_trace_runs_on_beyond_the_earlier_one_on_surface_it_saw() {
+        let options = MatchOptions::with_link_distance(0.1);
+        // Each flight's line of a crack cut by the image border: 0.8 m of it
+        // before, now 4 cm off (pose error) and on 0.4 m further.
+        let was = Trace(vec![vec![[0.0, 0.0, 0.0], [0.8, 0.0, 0.0]]]);
+        let now = Trace(vec![vec![[0.1, 0.04, 0.0], [1.2, 0.04, 0.0]]]);
+        let everywhere = |_: &Point3<f64>| true;
+        let (by, spread) = extension(&was, &now, &everywhere, &options).unwrap();
+        assert!((by - (0.4 - 0.0917)).abs() < 0.011 && by > spread, "{by}");
+        // Where the earlier flight never looked, its running on is not growth.
+        let up_to_1_m = |p: &Point3<f64>| p.x < 1.0;
+        let (by, spread) = extension(&was, &now, &up_to_1_m, &options).unwrap();
+        assert!(by < 0.11 && by > spread, "{by}");
+        let up_to_0_9_m = |p: &Point3<f64>| p.x < 0.9;
+        let (by, spread) = extension(&was, &now, &up_to_0_9_m, &options).unwrap();
+        assert!(by < spread, "{by}");
+        // Not judged without a trace; the stronger judgement shows a change.
+        assert_eq!(
+            extension(&Trace::default(), &now, &everywhere, &options),
+            None
+        );
+        let (short, long) = (Some((0.05, 0.1)), Some((0.4, 0.03)));
+        assert_eq!(stronger(short, long), long);
+        assert_eq!(stronger(short, None), short);
     }
 
     #[test]

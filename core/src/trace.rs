@@ -5,6 +5,7 @@
 
 use std::str::FromStr;
 
+use nalgebra::{Isometry3, Point3};
 use serde::{Deserialize, Serialize};
 use wkt::types::{Coord, Dimension, LineString, MultiLineString};
 
@@ -58,6 +59,70 @@ impl Trace {
                 .collect(),
         ))
     }
+
+    /// The trace moved by `iso` (into another flight's frame).
+    pub fn transformed(&self, iso: &Isometry3<f64>) -> Self {
+        let moved = |p: &[f64; 3]| (iso * Point3::from(*p)).coords.into();
+        Self(
+            self.0
+                .iter()
+                .map(|l| l.iter().map(moved).collect())
+                .collect(),
+        )
+    }
+
+    /// Distance from `p` to its nearest polyline, metres (infinite when
+    /// empty).
+    pub fn distance_to(&self, p: &Point3<f64>) -> f64 {
+        let to_segment = |a: Point3<f64>, b: Point3<f64>| {
+            let ab = b - a;
+            let t = ((p - a).dot(&ab) / ab.norm_squared().max(1e-18)).clamp(0.0, 1.0);
+            (p - (a + ab * t)).norm()
+        };
+        self.0
+            .iter()
+            .flat_map(|line| {
+                let single = (line.len() == 1).then(|| (p - Point3::from(line[0])).norm());
+                line.windows(2)
+                    .map(move |w| to_segment(Point3::from(w[0]), Point3::from(w[1])))
+                    .chain(single)
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Length of its lines farther than `apart` from `other`, counting only
+    /// the stretches `counted` accepts (each judged at its middle), metres.
+    pub fn length_beyond(
+        &self,
+        other: &Trace,
+        apart: f64,
+        counted: impl Fn(&Point3<f64>) -> bool,
+    ) -> f64 {
+        self.0
+            .iter()
+            .flat_map(|line| line.windows(2))
+            .flat_map(|w| stretches(Point3::from(w[0]), Point3::from(w[1])))
+            .filter(|(middle, _)| other.distance_to(middle) > apart && counted(middle))
+            .map(|(_, length)| length)
+            .sum()
+    }
+}
+
+/// Stretches a segment is judged in, metres: short beside a crack's
+/// change and its matching tolerance.
+const STRETCH_M: f64 = 0.01;
+
+/// A segment cut into stretches of at most [`STRETCH_M`]: each one's middle
+/// and length.
+fn stretches(a: Point3<f64>, b: Point3<f64>) -> impl Iterator<Item = (Point3<f64>, f64)> {
+    let length = (b - a).norm();
+    let n = (length / STRETCH_M).ceil().max(1.0) as usize;
+    (0..n).map(move |k| {
+        (
+            a + (b - a) * ((k as f64 + 0.5) / n as f64),
+            length / n as f64,
+        )
+    })
 }
 
 fn distance(a: &[f64; 3], b: &[f64; 3]) -> f64 {
@@ -84,5 +149,25 @@ mod tests {
         assert_eq!(Trace::default().wkt(), None);
         assert!(Trace::from_wkt("POINT (1 2)").is_err());
         assert!(Trace::from_wkt("MULTILINESTRING ((1 2, 3 4))").is_err());
+    }
+
+    #[test]
+    fn the_length_beyond_another_trace_is_what_runs_on_past_it() {
+        let earlier = Trace(vec![vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]]);
+        // 3 cm off it, then on 0.5 m past its end.
+        let later = Trace(vec![vec![[0.0, 0.03, 0.0], [1.5, 0.03, 0.0]]]);
+        let beyond = later.length_beyond(&earlier, 0.1, |_| true);
+        // Past x = 1.0 + sqrt(0.1^2 - 0.03^2).
+        assert!((beyond - (0.5 - 0.0954)).abs() < 0.011, "{beyond}");
+        assert_eq!(earlier.length_beyond(&later, 0.1, |_| true), 0.0);
+        // Only where it is counted.
+        let counted = later.length_beyond(&earlier, 0.1, |p| p.x > 1.3);
+        assert!((counted - 0.2).abs() < 0.011, "{counted}");
+        let moved = earlier.transformed(&Isometry3::translation(0.0, 0.0, 2.0));
+        assert!((moved.distance_to(&Point3::new(0.5, 0.0, 0.0)) - 2.0).abs() < 1e-12);
+        assert_eq!(
+            Trace::default().distance_to(&Point3::origin()),
+            f64::INFINITY
+        );
     }
 }

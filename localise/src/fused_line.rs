@@ -61,12 +61,12 @@ pub fn fuse(views: &[ViewLine], apart: f64) -> Option<FusedLine> {
     }
     let (base_frame, base) = frames
         .iter()
-        .map(|(f, pieces)| (*f, frame_length(pieces)))
-        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+        .map(|(f, pieces)| (*f, frame_line(pieces)))
+        .max_by(|a, b| a.1.length_m.total_cmp(&b.1.length_m))?;
     let pieces = &frames[&base_frame];
     let mut fused = FusedLine {
-        trace: Trace(pieces.iter().flat_map(|p| p.trace.0.clone()).collect()),
-        length_m: base,
+        trace: Trace(base.lines.iter().flat_map(|p| p.trace.0.clone()).collect()),
+        length_m: base.length_m,
         complete: true,
         views: pieces.len() as u32,
     };
@@ -86,20 +86,41 @@ pub fn fuse(views: &[ViewLine], apart: f64) -> Option<FusedLine> {
     Some(fused)
 }
 
-/// One frame's length of a crack from its pieces: the longest's, then each
-/// other's for the share of its line the longer ones do not already show
-/// (two detections of one stretch count it once).
-fn frame_length(pieces: &[&ViewLine]) -> f64 {
+/// What one frame shows of a crack.
+struct FrameLine<'a> {
+    length_m: f64,
+    /// The pieces that show something the longer ones do not.
+    lines: Vec<&'a ViewLine<'a>>,
+}
+
+/// A frame's line of a crack from its pieces: the longest, then each
+/// other for the share of its line the longer ones do not already show
+/// (two detections of one stretch count it once, and draw it once).
+fn frame_line<'a>(pieces: &[&'a ViewLine<'a>]) -> FrameLine<'a> {
     let mut by_length: Vec<&ViewLine> = pieces.to_vec();
     by_length.sort_by(|a, b| b.trace.length_m().total_cmp(&a.trace.length_m()));
-    let mut length = 0.0;
+    let mut line = FrameLine {
+        length_m: 0.0,
+        lines: Vec::new(),
+    };
     for (k, piece) in by_length.iter().enumerate() {
         let longer: Vec<&Trace> = by_length[..k].iter().map(|p| p.trace).collect();
-        let shown = centre_line::share_near(piece.trace, &longer, piece.near);
-        length += piece.trace.length_m() * (1.0 - shown);
+        let shown = centre_line::share_near(piece.trace, &longer, piece.near.max(PLACED_APART));
+        line.length_m += piece.trace.length_m() * (1.0 - shown);
+        if shown < SHOWN_ALREADY {
+            line.lines.push(piece);
+        }
     }
-    length
+    line
 }
+
+/// How far apart one frame's detections of one stretch can be placed,
+/// metres: each on its own fit of the surface (9 mm seen on a bridge deck).
+const PLACED_APART: f64 = 0.02;
+
+/// A piece of a frame's line the longer ones show this much of adds
+/// nothing to draw.
+const SHOWN_ALREADY: f64 = 0.9;
 
 /// The ends of a frame's lines that no other of its lines goes on from and
 /// the image border cut (the others are where the crack ends or fades).
@@ -237,7 +258,7 @@ fn beyond(
         })
         .max_by(|a, b| a.1.total_cmp(&b.1))
         .expect("two ways");
-    if off <= view.near {
+    if off <= along_kept(view, &at, &way) {
         // It does not go on: where its line ends at the end, uncut, it saw
         // the crack end there.
         let ends = [line[0], line[line.len() - 1]];
@@ -259,6 +280,19 @@ fn beyond(
         line: way,
     })
 }
+
+/// How far off the `kept` lines a view's `way` from the end may end and
+/// still run back along them: its few pixels, twice how far its line passes
+/// the end (pose error moves a view's whole line by about that) and
+/// [`POSE_TILT`] of the way's reach (and turns it).
+fn along_kept(view: &ViewLine, at: &OnLine, way: &[Point3<f64>]) -> f64 {
+    let reach = (way[way.len() - 1] - at.point).norm();
+    view.near + 2.0 * at.distance + POSE_TILT * reach
+}
+
+/// How far a view's line may turn from another's under pose error, metres
+/// per metre (about 2 degrees; the simulator's attitude noise is 0.5).
+const POSE_TILT: f64 = 0.035;
 
 /// The point of a polyline nearest `p`: where, how far, on which segment.
 struct OnLine {
@@ -373,11 +407,31 @@ mod tests {
     }
 
     #[test]
+    fn a_view_along_the_line_off_by_its_pose_error_adds_nothing() {
+        // The base, cut at 0.78 m; another frame shows the same stretch 2 cm
+        // off and turned a degree (pose error): it runs back along the base,
+        // not on beyond its end.
+        let base = line([0.0, 0.0, 0.0], [0.78, 0.0, 0.0]);
+        let cut = [Point3::new(0.78, 0.0, 0.0)];
+        let other = line([0.77, 0.02, 0.0], [0.01, 0.02 + 0.76 * 0.0175, 0.0]);
+        let other_cut = [Point3::new(0.77, 0.02, 0.0)];
+        let fused = fuse(&[view(&base, &cut, 0), view(&other, &other_cut, 1)], 0.1).unwrap();
+        assert!((fused.length_m - 0.78).abs() < 1e-9, "{fused:?}");
+    }
+
+    #[test]
     fn pieces_of_one_frame_add_up() {
         let a = line([0.0, 0.0, 0.0], [0.3, 0.0, 0.0]);
         let b = line([0.35, 0.0, 0.0], [0.6, 0.0, 0.0]);
         let c = line([0.0, 0.5, 0.0], [0.4, 0.5, 0.0]);
-        let fused = fuse(&[view(&a, &[], 1), view(&b, &[], 1), view(&c, &[], 2)], 0.1).unwrap();
+        // A second detection of `a`'s stretch, placed on its own fit of the
+        // surface, counts and draws once.
+        let again = line([0.0, 0.0, 0.009], [0.3, 0.0, 0.009]);
+        let views = [a, b, again].map(|t| (t, 1)).into_iter().chain([(c, 2)]);
+        let traces: Vec<(Trace, u32)> = views.collect();
+        let views: Vec<ViewLine> = traces.iter().map(|(t, f)| view(t, &[], *f)).collect();
+        let fused = fuse(&views, 0.1).unwrap();
         assert!((fused.length_m - 0.55).abs() < 1e-9, "{fused:?}");
+        assert_eq!(fused.trace.0.len(), 2, "{fused:?}");
     }
 }

@@ -294,6 +294,14 @@ impl World {
         };
         let seed = options.seed;
         let mut crack_widths = options.crack_widths;
+        let pitch = CAMERA_PITCH_DEG.to_radians();
+        let mount = if options.gimbal {
+            planner::Mount::Gimbal { pitch }
+        } else {
+            planner::Mount::Fixed { pitch }
+        };
+        let resolution = postflight_core::map::DEFAULT_RESOLUTION;
+        let plan = planner::plan(&scene, resolution, mount, options.standoff_m);
         let (scene, cracks, changes) = match &options.repeat {
             None => {
                 let mut cracks =
@@ -319,18 +327,12 @@ impl World {
                 (scene.transformed(&iso), cracks, Some(changes))
             }
         };
-        let pitch = CAMERA_PITCH_DEG.to_radians();
-        let mount = if options.gimbal {
-            planner::Mount::Gimbal { pitch }
-        } else {
-            planner::Mount::Fixed { pitch }
+        // A repeat flies the earlier mission again, where this flight's
+        // SLAM frame has it.
+        let plan = match &options.repeat {
+            Some(r) => planner::reflown(plan, &r.frame_offset.isometry(), &scene),
+            None => plan,
         };
-        let plan = planner::plan(
-            &scene,
-            postflight_core::map::DEFAULT_RESOLUTION,
-            mount,
-            options.standoff_m,
-        );
         let marks = if options.distractors {
             Distractors::generate(&scene, &mut Rng::stream(seed, "distractors"))
         } else {

@@ -160,8 +160,10 @@ pub struct ChangeRecord {
     pub element: Option<String>,
     pub length_before_m: Option<f64>,
     pub length_after_m: Option<f64>,
-    /// Growth in length, and the two flights' measurement spread it is
-    /// judged against (the sum of each candidate's), metres.
+    /// Growth, and the spread it is judged against, metres: in length
+    /// (the spread the sum of each candidate's), or, where that shows it
+    /// more, how far its trace now runs on beyond the earlier one (the
+    /// spread how far a hairline tip's end differs between views).
     pub growth_m: Option<f64>,
     pub spread_m: Option<f64>,
     /// Its widest before and now, millimetres (each flight's `max_width_mm`;
