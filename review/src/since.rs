@@ -65,6 +65,10 @@ impl Since {
                 ),
                 _ => format!("first seen: the {} inspection did not look here", self.date),
             },
+            (ChangeKind::NotMeasured, ..) => format!(
+                "seen by the {} inspection too; whether it changed is not known: neither its length nor its width was measured both times",
+                self.date
+            ),
             (kind, ..) => format!("{} since {}", kind.words(), self.date),
         };
         match &self.decision {
@@ -154,11 +158,12 @@ mod tests {
                     earlier_mm_per_px: Some(1.2),
                     ..change(ChangeKind::FirstSeen, Some("new-g"), None)
                 },
+                change(ChangeKind::NotMeasured, Some("new-h"), Some("old-h")),
             ],
             seconds: 0.1,
         };
         let known = pasts(Some(&summary)).unwrap();
-        assert_eq!(known.len(), 6, "one per candidate of this run");
+        assert_eq!(known.len(), 7, "one per candidate of this run");
         assert_eq!(
             known["new-a"].text(),
             "grown by 0.30 m since 2025-06-15; then needs repair, severity 3"
@@ -173,6 +178,10 @@ mod tests {
         assert_eq!(
             known["new-g"].text(),
             "first seen: the 2025-06-15 inspection saw here at 1.2 mm/px, too coarse for a crack this narrow"
+        );
+        assert_eq!(
+            known["new-h"].text(),
+            "seen by the 2025-06-15 inspection too; whether it changed is not known: neither its length nor its width was measured both times"
         );
         // Without an earlier database, nothing is created there.
         let elsewhere = tempfile::tempdir().unwrap();
