@@ -372,6 +372,7 @@ fn changes_section(r: &RunResults) -> Markup {
                 "New, first seen, grown and widened cracks first. A crack is new where the earlier flight inspected its place, "
                 "first seen where it did not, or too coarsely to see a crack this narrow; "
                 "grown when it is longer along its trace by more than both flights' measurement spread, "
+                "or its trace runs on beyond the earlier one where the earlier flight would have seen it; "
                 "widened when its widest is wider by more than both flights' width uncertainties combined and a fifth of its earlier width; "
                 "one not measured was seen by both, but neither its length nor its width was measured in both, so whether it changed is not known; "
                 "one not re-inspected was not inspected by this flight, so nothing is known of it now. "
