@@ -1,11 +1,13 @@
 //! A candidate's centre line from its views, for cracks no frame holds
 //! whole. The frame that shows the most of the crack is the base (its
-//! pieces summed); where its line runs out of the image, the other views
-//! that pass that end carry it on, each measured along its own line from
-//! the point nearest the end (pose error moves, tilts and scales a view's
-//! line on the surface by centimetres, so lines are never laid over each
-//! other): the median of the views that saw the crack end, or, while every
-//! view there runs out of the image too, the longest, carried on again.
+//! pieces summed, each stretch once); where its line runs out of the image,
+//! the other views that pass that end carry it on beyond the line (a view
+//! that runs back along it adds nothing), each measured along its own line
+//! from the point nearest the end (pose error moves, tilts and scales a
+//! view's line on the surface by centimetres, so lines are never laid over
+//! each other): the median of the views that saw the crack end, or, while
+//! every view there runs out of the image too, the longest, carried on
+//! again.
 
 use std::collections::BTreeMap;
 
