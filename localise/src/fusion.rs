@@ -204,6 +204,11 @@ fn candidate(
         })
         .collect();
     let fused = fused_line::fuse(&lines, options.link_distance_m);
+    // The views the trace was carried on with, cut by the image border, are
+    // not in the basis: the extent covers the trace too.
+    let extent = fused
+        .as_ref()
+        .map_or(extent, |f| covering(extent, &f.trace));
     let best = *basis
         .iter()
         .min_by(|a, b| {
@@ -250,6 +255,16 @@ fn candidate(
         width,
         observations: group,
     }
+}
+
+/// The box `extent` grown to cover every point of `trace`.
+fn covering(extent: [Point3<f64>; 2], trace: &Trace) -> [Point3<f64>; 2] {
+    trace
+        .0
+        .iter()
+        .flatten()
+        .map(|p| Point3::from(*p))
+        .fold(extent, |[lo, hi], p| [lo.inf(&p), hi.sup(&p)])
 }
 
 /// Two lines of a view within this many pixels' footprint are one stretch.
@@ -452,6 +467,26 @@ mod tests {
         let mut ids: Vec<&str> = c.iter().map(|c| c.id.as_str()).collect();
         ids.sort();
         assert_eq!(ids, ["0_0_0+x", "0_0_0-x", "0_0_0-x.2"]);
+    }
+
+    #[test]
+    fn the_extent_covers_the_trace_views_cut_by_the_border_carried_on() {
+        // Frame 0 holds its box whole but its line runs out of the image at
+        // y = 1.2; frame 1's box is clipped, its line going on to 1.75.
+        let mut whole = observation(0, [3.0, 1.0, 2.0], [-1.0, 0.0, 0.0], 0.2);
+        let p = whole.placement.as_mut().unwrap();
+        p.cut = vec![Point3::from(p.trace.0[0][1])];
+        let mut clipped = observation(1, [3.0, 1.45, 2.0], [-1.0, 0.0, 0.0], 0.3);
+        cut(&mut clipped, &[0]);
+        let c = fuse(&[whole, clipped], &LocaliseConfig::default());
+        assert_eq!(c.len(), 1);
+        assert!(
+            (c[0].length_m.unwrap() - 0.95).abs() < 1e-9,
+            "{:?}",
+            c[0].length_m
+        );
+        assert!((c[0].extent[0].y - 0.8).abs() < 1e-9, "{:?}", c[0].extent);
+        assert!((c[0].extent[1].y - 1.75).abs() < 1e-9, "{:?}", c[0].extent);
     }
 
     #[test]
