@@ -74,20 +74,7 @@ impl Trace {
     /// Distance from `p` to its nearest polyline, metres (infinite when
     /// empty).
     pub fn distance_to(&self, p: &Point3<f64>) -> f64 {
-        let to_segment = |a: Point3<f64>, b: Point3<f64>| {
-            let ab = b - a;
-            let t = ((p - a).dot(&ab) / ab.norm_squared().max(1e-18)).clamp(0.0, 1.0);
-            (p - (a + ab * t)).norm()
-        };
-        self.0
-            .iter()
-            .flat_map(|line| {
-                let single = (line.len() == 1).then(|| (p - Point3::from(line[0])).norm());
-                line.windows(2)
-                    .map(move |w| to_segment(Point3::from(w[0]), Point3::from(w[1])))
-                    .chain(single)
-            })
-            .fold(f64::INFINITY, f64::min)
+        distance_to_lines(p, self.0.iter().map(|l| l.iter().map(|q| Point3::from(*q))))
     }
 
     /// Length of its lines farther than `apart` from `other`, counting only
@@ -106,6 +93,36 @@ impl Trace {
             .map(|(_, length)| length)
             .sum()
     }
+}
+
+/// Distance from `p` to the nearest of `lines` (polylines; a lone point
+/// counts as itself), metres; infinite when there are none.
+pub fn distance_to_lines<L>(p: &Point3<f64>, lines: L) -> f64
+where
+    L: IntoIterator,
+    L::Item: IntoIterator<Item = Point3<f64>>,
+{
+    let mut nearest = f64::INFINITY;
+    for line in lines {
+        let mut from: Option<Point3<f64>> = None;
+        for q in line {
+            let on = from.map_or(q, |a| closest_on_segment(p, &a, &q));
+            nearest = nearest.min((p - on).norm());
+            from = Some(q);
+        }
+    }
+    nearest
+}
+
+/// The point of the segment `a`–`b` nearest `p`.
+pub fn closest_on_segment(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> Point3<f64> {
+    let ab = b - a;
+    let t = if ab.norm_squared() > 0.0 {
+        ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    a + ab * t
 }
 
 /// Stretches a segment is judged in, metres: short beside a crack's

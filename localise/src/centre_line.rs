@@ -3,7 +3,7 @@
 //! [`crate::fused_line`]'s).
 
 use nalgebra::Point3;
-use postflight_core::trace::Trace;
+use postflight_core::trace::{Trace, closest_on_segment, distance_to_lines};
 
 use crate::trace::CrackTrace;
 
@@ -61,63 +61,26 @@ fn simplify(line: &[Point3<f64>], tolerance: f64) -> Vec<Point3<f64>> {
 /// The share of `trace`'s length within `near` metres of any of `others`
 /// (0 when it is empty).
 pub fn share_near(trace: &Trace, others: &[&Trace], near: f64) -> f64 {
-    let kept: Vec<Vec<Point3<f64>>> = others
-        .iter()
-        .flat_map(|t| t.0.iter().map(|l| points(l)))
-        .collect();
-    let dense: Vec<Point3<f64>> = trace
-        .0
-        .iter()
-        .flat_map(|l| densify(&points(l), near / 2.0))
-        .collect();
-    if dense.is_empty() || kept.is_empty() {
+    let length = trace.length_m();
+    if length <= 0.0 || others.iter().all(|t| t.is_empty()) {
         return 0.0;
     }
-    dense.iter().filter(|p| distance(p, &kept) <= near).count() as f64 / dense.len() as f64
+    let others = Trace(others.iter().flat_map(|t| t.0.iter().cloned()).collect());
+    1.0 - trace.length_beyond(&others, near, |_| true) / length
 }
 
 pub(crate) fn points(line: &[[f64; 3]]) -> Vec<Point3<f64>> {
     line.iter().map(|p| Point3::from(*p)).collect()
 }
 
-/// `line` with points added so that none is more than `step` from the next.
-fn densify(line: &[Point3<f64>], step: f64) -> Vec<Point3<f64>> {
-    let mut out = Vec::new();
-    for w in line.windows(2) {
-        let n = ((w[1] - w[0]).norm() / step).ceil().max(1.0) as usize;
-        out.extend((0..n).map(|k| w[0] + (w[1] - w[0]) * (k as f64 / n as f64)));
-    }
-    out.extend(line.last());
-    out
-}
-
 /// Distance from `p` to the nearest of `lines`.
 pub(crate) fn distance(p: &Point3<f64>, lines: &[Vec<Point3<f64>>]) -> f64 {
-    lines
-        .iter()
-        .flat_map(|l| {
-            let single = (l.len() == 1).then(|| (p - l[0]).norm());
-            l.windows(2)
-                .map(|w| to_segment(p, &w[0], &w[1]))
-                .chain(single)
-        })
-        .fold(f64::INFINITY, f64::min)
+    distance_to_lines(p, lines.iter().map(|l| l.iter().copied()))
 }
 
 /// Distance from `p` to the segment `a`–`b`.
 fn to_segment(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
     (p - closest_on_segment(p, a, b)).norm()
-}
-
-/// The point of the segment `a`–`b` nearest `p`.
-pub(crate) fn closest_on_segment(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> Point3<f64> {
-    let ab = b - a;
-    let t = if ab.norm_squared() > 0.0 {
-        ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    a + ab * t
 }
 
 #[cfg(test)]

@@ -12,7 +12,7 @@
 use std::collections::BTreeMap;
 
 use nalgebra::Point3;
-use postflight_core::trace::Trace;
+use postflight_core::trace::{Trace, closest_on_segment};
 
 use crate::centre_line::{self, points};
 
@@ -307,7 +307,7 @@ fn nearest_on(line: &[Point3<f64>], p: &Point3<f64>) -> OnLine {
     line.windows(2)
         .enumerate()
         .map(|(segment, w)| {
-            let point = centre_line::closest_on_segment(p, &w[0], &w[1]);
+            let point = closest_on_segment(p, &w[0], &w[1]);
             OnLine {
                 point,
                 distance: (p - point).norm(),
