@@ -28,7 +28,8 @@ pub struct DefectCandidate {
     pub position: Point3<f64>,
     /// Outward normal of the surface it is on.
     pub normal: Vector3<f64>,
-    /// Corners of the axis-aligned box around its observed extent.
+    /// Corners of the axis-aligned box around its observed extent and its
+    /// trace.
     pub extent: [Point3<f64>; 2],
     pub voxel: VoxelIndex,
     pub face: FaceSide,

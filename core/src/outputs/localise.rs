@@ -584,7 +584,7 @@ crate::table! {
         nx: f64,
         ny: f64,
         nz: f64,
-        /// The extent of its views' cracks on the surface.
+        /// The extent of its views' cracks and its trace on the surface.
         min_x: f64,
         min_y: f64,
         min_z: f64,
