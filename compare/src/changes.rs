@@ -350,12 +350,14 @@ fn stronger(a: Option<(f64, f64)>, b: Option<(f64, f64)>) -> Option<(f64, f64)> 
     }
 }
 
-/// How far its trace now runs on beyond the earlier one (more than the
-/// link distance from it: the two flights' pose errors), counting only
-/// surface where the earlier flight would have seen it, and the spread
-/// that is judged against, metres; none where either has no trace. It
-/// judges growth where a length cannot: a crack longer than a frame, cut
-/// by the image border in every view, still shows where it runs on.
+/// How far its trace now runs on beyond the earlier one, and the spread
+/// that is judged against, metres; none where either has no trace. Only
+/// its stretches more than the link distance from the earlier trace (the
+/// two flights' pose errors) count, on surface where the earlier flight
+/// would have seen it; a line running on leaves that band a link distance
+/// past the earlier end, so that is added back to both. It judges growth
+/// where a length cannot: a crack longer than a frame, cut by the image
+/// border in every view, still shows where it runs on.
 fn extension(
     was: &Trace,
     now: &Trace,
@@ -365,8 +367,10 @@ fn extension(
     if was.is_empty() || now.is_empty() {
         return None;
     }
-    let beyond = now.length_beyond(was, options.link_distance_m, earlier_saw);
-    Some((beyond, options.end_spread_m))
+    let band = options.link_distance_m;
+    let beyond = now.length_beyond(was, band, earlier_saw);
+    let by = if beyond > 0.0 { beyond + band } else { 0.0 };
+    Some((by, options.end_spread_m + band))
 }
 
 /// How much longer it is now and the spread that is judged against,
@@ -477,11 +481,14 @@ mod tests {
         let now = Trace(vec![vec![[0.1, 0.04, 0.0], [1.2, 0.04, 0.0]]]);
         let everywhere = |_: &Point3<f64>| true;
         let (by, spread) = extension(&was, &now, &everywhere, &options).unwrap();
-        assert!((by - (0.4 - 0.0917)).abs() < 0.011 && by > spread, "{by}");
+        assert!(
+            (by - (0.4 - 0.0917 + 0.1)).abs() < 0.011 && by > spread,
+            "{by}"
+        );
         // Where the earlier flight never looked, its running on is not growth.
         let up_to_1_m = |p: &Point3<f64>| p.x < 1.0;
         let (by, spread) = extension(&was, &now, &up_to_1_m, &options).unwrap();
-        assert!(by < 0.11 && by > spread, "{by}");
+        assert!(by < 0.11 + 0.1 && by > spread, "{by}");
         let up_to_0_9_m = |p: &Point3<f64>| p.x < 0.9;
         let (by, spread) = extension(&was, &now, &up_to_0_9_m, &options).unwrap();
         assert!(by < spread, "{by}");

@@ -163,7 +163,8 @@ pub struct ChangeRecord {
     /// Growth, and the spread it is judged against, metres: in length
     /// (the spread the sum of each candidate's), or, where that shows it
     /// more, how far its trace now runs on beyond the earlier one (the
-    /// spread how far a hairline tip's end differs between views).
+    /// spread how far a hairline tip's end differs between views, plus the
+    /// link distance the two traces may lie apart).
     pub growth_m: Option<f64>,
     pub spread_m: Option<f64>,
     /// Its widest before and now, millimetres (each flight's `max_width_mm`;
