@@ -14,6 +14,8 @@ use postflight_core::outputs::localise::{DefectRecord, LengthStatus, WidthRecord
 use postflight_core::structure::ElementMap;
 use postflight_core::trace::Trace;
 
+use crate::sight::FramesInView;
+
 /// How candidates are matched.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MatchOptions {
@@ -193,7 +195,7 @@ pub fn changes(
     after: &[DefectRecord],
     to_after: &Isometry3<f64>,
     inspected_after: &Inspected,
-    inspected_before: Option<&Inspected>,
+    seen_before: &Earlier,
     options: &MatchOptions,
 ) -> Vec<ChangeRecord> {
     let identity = Isometry3::identity();
@@ -214,13 +216,13 @@ pub fn changes(
             Some(&a) => {
                 matched_before[a] = true;
                 let earlier_saw = |p: &Point3<f64>| {
-                    inspected_before
-                        .is_none_or(|i| sees(i.look(&(back * p), &(back * now.normal)), now.defect))
+                    seen_before.saw(&(back * p), &(back * now.normal), now.defect)
                 };
                 seen_again(&earlier[a], now, &earlier_saw, options)
             }
             None => {
-                let look = inspected_before
+                let look = seen_before
+                    .inspected
                     .and_then(|i| i.look(&(back * now.position), &(back * now.normal)));
                 // New only where the earlier flight looked, finely enough to
                 // see it, and found nothing.
@@ -261,6 +263,32 @@ const MIN_SEEN_PX: f64 = 0.5;
 fn too_narrow_for(width: Option<&WidthRecord>, mm_per_px: Option<f64>) -> bool {
     let widest = width.and_then(|w| w.max_mm.or(w.narrower_than_mm));
     matches!((widest, mm_per_px), (Some(w), Some(px)) if w < MIN_SEEN_PX * px)
+}
+
+/// What the earlier flight saw, to tell where it would have found a crack.
+pub struct Earlier<'a> {
+    /// Its coverage; `None` where it computed none (then it is taken to
+    /// have seen everywhere).
+    pub inspected: Option<&'a Inspected>,
+    /// Its frames, beyond what coverage counts as inspected.
+    pub frames: Option<&'a FramesInView>,
+}
+
+impl Earlier<'_> {
+    /// Whether it would have seen `crack` at a surface point (earlier
+    /// frame): it inspected the surface finely enough for the crack's
+    /// width, or a usable frame had the point in view that finely (at an
+    /// image's edge, outside the View model's cone).
+    fn saw(&self, point: &Point3<f64>, normal: &Vector3<f64>, crack: &DefectRecord) -> bool {
+        let Some(inspected) = self.inspected else {
+            return true;
+        };
+        sees(inspected.look(point, normal), crack)
+            || self.frames.is_some_and(|f| {
+                f.finest_gsd_mm(point, normal)
+                    .is_some_and(|gsd| !too_narrow_for(crack.width.as_ref(), Some(gsd)))
+            })
+    }
 }
 
 /// Whether a run's `look` at a surface would have seen `crack` there: it

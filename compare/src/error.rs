@@ -13,5 +13,7 @@ pub enum CompareError {
     #[error(transparent)]
     Ingest(#[from] ingest::IngestError),
     #[error(transparent)]
+    Coverage(#[from] coverage::CoverageError),
+    #[error(transparent)]
     Core(#[from] postflight_core::Error),
 }

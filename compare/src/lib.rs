@@ -5,13 +5,15 @@
 //! the transform, the residual and the overlap, refusing maps that do not
 //! overlap enough to trust. [`changes`] moves the earlier defect candidates
 //! into the later frame, matches them with the later ones and classifies
-//! each. [`stage`] reads both run directories and writes `changes.json` and
+//! each; where a crack now runs on, [`sight`] says whether the earlier
+//! flight's frames had that surface in view. [`stage`] reads both run directories and writes `changes.json` and
 //! `changes.parquet` into the later one (laid out in
 //! `postflight_core::outputs::changes`).
 
 pub mod changes;
 pub mod error;
 pub mod register;
+pub mod sight;
 pub mod stage;
 
 pub use error::CompareError;

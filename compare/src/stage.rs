@@ -12,11 +12,12 @@ use postflight_core::outputs::changes::{
 use postflight_core::outputs::coverage::{CoverageSummary, files as coverage_files, read_coverage};
 use postflight_core::outputs::localise::{LocaliseSummary, read_defects};
 use postflight_core::serde_pose::PoseJson;
-use postflight_core::{Flight, RunDir, Stage};
+use postflight_core::{Flight, RunDir, Stage, ViewModel};
 
-use crate::changes::{Inspected, MatchOptions, changes};
+use crate::changes::{Earlier, Inspected, MatchOptions, changes};
 use crate::error::CompareError;
 use crate::register::{RegisterOptions, Registration, register};
+use crate::sight::FramesInView;
 
 /// What to compare.
 #[derive(Debug, Clone)]
@@ -47,8 +48,9 @@ pub fn compare(options: &CompareOptions) -> Result<ChangesSummary, CompareError>
     let started = Instant::now();
     let before = Side::read(&options.before, Stage::Localise)?;
     let after = Side::read(&options.after, Stage::Coverage)?;
+    let before_map = before.map()?;
     let registration =
-        register(&before.map()?, &after.map()?, &options.register).map_err(|cause| {
+        register(&before_map, &after.map()?, &options.register).map_err(|cause| {
             CompareError::Register {
                 before: options.before.clone(),
                 after: options.after.clone(),
@@ -61,12 +63,20 @@ pub fn compare(options: &CompareOptions) -> Result<ChangesSummary, CompareError>
             .link_distance_m
             .unwrap_or(before.link_distance_m.max(after.link_distance_m)),
     );
+    let frames_before = before
+        .view
+        .as_ref()
+        .map(|view| FramesInView::new(&before.flight, before_map, view))
+        .transpose()?;
     let changes = changes(
         &read_defects(&before.flight.run)?,
         &read_defects(&after.flight.run)?,
         &registration.transform,
         inspected_after,
-        before.inspected.as_ref(),
+        &Earlier {
+            inspected: before.inspected.as_ref(),
+            frames: frames_before.as_ref(),
+        },
         &matching,
     );
     let counts = ChangeKind::ALL
@@ -99,6 +109,8 @@ struct Side {
     /// The map file coverage used (`None`: the flight's recorded map).
     map: Option<PathBuf>,
     inspected: Option<Inspected>,
+    /// The View model its coverage judged by.
+    view: Option<ViewModel>,
     /// How far apart its localise fused views of one crack, metres.
     link_distance_m: f64,
 }
@@ -119,6 +131,7 @@ impl Side {
         let localise: LocaliseSummary = run.read_json(Stage::Localise.summary_file())?;
         Ok(Self {
             flight: Flight::load(path)?,
+            view: coverage.as_ref().map(|c| c.view),
             map: coverage.and_then(|c| c.map),
             inspected,
             link_distance_m: localise.link_distance_m,

@@ -34,6 +34,6 @@ pub use error::CoverageError;
 pub use face::{Face, exposed_faces};
 pub use postflight_core::ViewSettings;
 pub use settings::{CoverageConfig, CoverageSettings};
-pub use stage::{CoverageOptions, coverage};
+pub use stage::{CoverageOptions, FlightShots, coverage, flight_shots, lenses};
 pub use structure::Targets;
 pub use view::{Miss, Sight};

@@ -322,8 +322,8 @@ fn summarise(
     }
 }
 
-/// The flight's lenses, one per camera.
-fn lenses(flight: &Flight) -> Result<Vec<Intrinsics>, CoverageError> {
+/// The flight's lenses, one per camera (in cameras.json's order).
+pub fn lenses(flight: &Flight) -> Result<Vec<Intrinsics>, CoverageError> {
     if flight.cameras.is_empty() {
         return Err(CoverageError::NoCamera);
     }
@@ -517,17 +517,17 @@ fn viewpoint_shots(plan: &FlownPlan, extrinsic: &Isometry3<f64>) -> Vec<Shot> {
 }
 
 /// The flight's frames as shots, and the frames that could not be.
-struct FlightShots {
-    shots: Vec<Shot>,
+pub struct FlightShots {
+    pub shots: Vec<Shot>,
     /// Frames without a camera pose (or of a camera not in cameras.json).
-    without_pose: usize,
+    pub without_pose: usize,
     /// Frames whose blur cannot be judged: no exposure time recorded or given.
-    without_exposure: usize,
+    pub without_exposure: usize,
 }
 
 /// Every frame with a pose, with its motion blur (`exposure_s` for frames
-/// that recorded none).
-fn flight_shots(
+/// that recorded none); their lenses are [`lenses`]'s.
+pub fn flight_shots(
     flight: &Flight,
     lenses: &[Intrinsics],
     map: &SlamMap,
