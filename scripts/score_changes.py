@@ -19,6 +19,12 @@ run's `changes.json`:
   one where that is none; one on surface it never inspected must be
   `first_seen`), and whether it ever had the crack in view.
 
+Each tally is given twice: over every crack both runs found, and over
+those both flights also had in a view the View model accepts (see
+`usable_views`): a crack seen only blurred, too obliquely or under half a
+pixel wide in one flight cannot have had its change measured, and
+`not_measured` says so.
+
 Prints one JSON object: the tallies and each judged crack.
 """
 
@@ -42,6 +48,39 @@ def candidates_on_cracks(truth, run):
         if c is not None and (c["id"] not in on or d["frames"] > on[c["id"]]["frames"]):
             on[c["id"]] = d
     return on
+
+
+def usable_views(truth, view):
+    """Truth crack id -> how many of the flight's frames had it in a view
+    the View model accepts: a frame not dropped and sharp (blur within
+    `max_blur_px`), the crack at least half a pixel wide in it (narrower,
+    it darkens a pixel by less than half its own darkness, within the
+    noise), its middle within `max_distance_m` and seen at no more than
+    `max_incidence_deg`. A crack without one in either flight cannot have
+    had its change measured."""
+    cracks = {c["id"]: c for c in truth["cracks"]}
+    middle = {}
+    for cid, c in cracks.items():
+        points = samples(c)
+        middle[cid] = [sum(p[i] for p in points) / len(points) for i in range(3)]
+    counts = {}
+    for f in truth["frames"]:
+        if f.get("dropped") or f["blur_px"] > view["max_blur_px"]:
+            continue
+        eye = f["camera_pose"]["translation"]
+        for seen in f["cracks"]:
+            cid = seen["id"]
+            ray = [eye[i] - middle[cid][i] for i in range(3)]
+            distance = math.hypot(*ray)
+            facing = sum(ray[i] * cracks[cid]["normal"][i] for i in range(3)) / distance
+            incidence = math.degrees(math.acos(max(-1.0, min(1.0, facing))))
+            if (
+                seen["width_px"] >= 0.5
+                and distance <= view["max_distance_m"]
+                and incidence <= view["max_incidence_deg"]
+            ):
+                counts[cid] = counts.get(cid, 0) + 1
+    return counts
 
 
 def in_view(truth):
@@ -95,6 +134,8 @@ def score_pair(earlier, earlier_run, later, later_run):
     on_a = candidates_on_cracks(truth_a, earlier_run)
     on_b = candidates_on_cracks(truth_b, later_run)
     seen_a = in_view(truth_a)
+    usable_a = usable_views(truth_a, json.loads((earlier / "plan.json").read_text())["view"])
+    usable_b = usable_views(truth_b, json.loads((later / "plan.json").read_text())["view"])
     crack_of = {}
     for cid, d in on_b.items():
         crack_of[d["id"]] = cid
@@ -123,6 +164,7 @@ def score_pair(earlier, earlier_run, later, later_run):
                 "widened": widening is not None
                 and spread is not None
                 and widening > spread,
+                "usable_in_both": cid in usable_a and cid in usable_b,
             }
         )
     old = {c["id"] for c in truth_b["repeat"]["changes"] if c["change"] != "new"}
@@ -145,6 +187,18 @@ def score_pair(earlier, earlier_run, later, later_run):
     return rows, called_new, changes["counts"], changes["registration"]
 
 
+def grown(r):
+    return r["truth"] == "grown"
+
+
+def widened(r):
+    return r["truth_widened"]
+
+
+def unchanged(r):
+    return r["truth"] == "unchanged" and not r["truth_widened"]
+
+
 def tally(rows, judged, right):
     judged = [r for r in rows if judged(r)]
     return {"right": sum(1 for r in judged if right(r)), "of": len(judged)}
@@ -158,14 +212,16 @@ def main(args):
         rows += r
         called_new += n
         pairs.append({"pair": b.name, "counts": counts, "registration": registration})
+    usable = [r for r in rows if r["usable_in_both"]]
     out = {
-        "grown": tally(rows, lambda r: r["truth"] == "grown", lambda r: r["class"] == "grown"),
-        "widened": tally(rows, lambda r: r["truth_widened"], lambda r: r["widened"]),
-        "unchanged": tally(
-            rows,
-            lambda r: r["truth"] == "unchanged" and not r["truth_widened"],
-            lambda r: r["class"] == "unchanged",
-        ),
+        "grown": tally(rows, grown, lambda r: r["class"] == "grown"),
+        "widened": tally(rows, widened, lambda r: r["widened"]),
+        "unchanged": tally(rows, unchanged, lambda r: r["class"] == "unchanged"),
+        "with_a_usable_view_in_both_flights": {
+            "grown": tally(usable, grown, lambda r: r["class"] == "grown"),
+            "widened": tally(usable, widened, lambda r: r["widened"]),
+            "unchanged": tally(usable, unchanged, lambda r: r["class"] == "unchanged"),
+        },
         "old_cracks_called_new": {
             "on_surface_the_earlier_flight_inspected": sum(
                 1 for n in called_new if n["earlier_inspected"]
