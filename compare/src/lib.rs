@@ -6,9 +6,9 @@
 //! overlap enough to trust. [`changes`] moves the earlier defect candidates
 //! into the later frame, matches them with the later ones and classifies
 //! each; where a crack now runs on, [`sight`] says whether the earlier
-//! flight's frames had that surface in view. [`stage`] reads both run directories and writes `changes.json` and
-//! `changes.parquet` into the later one (laid out in
-//! `postflight_core::outputs::changes`).
+//! flight's frames had that surface in view. [`stage`] reads both run
+//! directories and writes `changes.json` and `changes.parquet` into the
+//! later one (laid out in `postflight_core::outputs::changes`).
 
 pub mod changes;
 pub mod error;
