@@ -389,6 +389,16 @@ struct SimulateArgs {
     /// a shift (metres) and a yaw (degrees).
     #[arg(long, default_value = "0,0,0,0", value_name = "X,Y,Z,YAW_DEG", value_parser = sim::repeat::FrameOffset::parse, allow_hyphen_values = true, requires = "repeat_of")]
     frame_offset: sim::repeat::FrameOffset,
+    /// Record the flight as this many sorties, cut at battery changes
+    /// (frames shared out evenly): sortie-1.mcap and on, the map in the
+    /// last; truth.json says which frames each holds.
+    #[arg(long, default_value_t = 1, value_name = "K")]
+    sorties: u32,
+    /// With --sorties: the later sorties record in another SLAM frame,
+    /// this far from the first's (a shift in metres and a yaw in degrees),
+    /// each with its own map.
+    #[arg(long, value_name = "X,Y,Z,YAW_DEG", value_parser = sim::repeat::FrameOffset::parse, allow_hyphen_values = true)]
+    sortie_offset: Option<sim::repeat::FrameOffset>,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -543,6 +553,10 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
             new: args.new,
             frame_offset: args.frame_offset,
         }),
+        sorties: sim::sortie::SortieOptions {
+            count: args.sorties,
+            offset: args.sortie_offset,
+        },
         ..sim::SimOptions::new(args.out.clone())
     };
     stages::simulate(&options, quiet)

@@ -172,6 +172,14 @@ pub fn simulate(options: &sim::SimOptions, quiet: bool) -> anyhow::Result<()> {
             summary.duration_s,
             options.out.display()
         );
+        if summary.recordings.len() > 1 {
+            let names: Vec<String> = summary
+                .recordings
+                .iter()
+                .map(|r| r.display().to_string())
+                .collect();
+            println!("recorded as {} sorties: {}", names.len(), names.join(", "));
+        }
     }
     Ok(())
 }

@@ -435,3 +435,159 @@ fn a_repeat_flight_keeps_the_cracks_grows_some_adds_new_ones_and_records_in_its_
         "median {median} m, 90th percentile {p90} m"
     );
 }
+
+/// A recording as tests/fixtures/read_recording.py reads it (the `mcap`
+/// and `mcap-ros2-support` packages, not postflight's reader).
+fn recording(path: &std::path::Path) -> Value {
+    let out = std::process::Command::new(python())
+        .arg(root().join("tests/fixtures/read_recording.py"))
+        .arg(path)
+        .output()
+        .expect("run the recording reader");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// The sorties' recordings of a flight cut with `args`, in `dir/name`, read
+/// back, with truth.json's account of them.
+fn sorties(dir: &std::path::Path, name: &str, args: &[&str]) -> (Vec<Value>, Vec<Value>) {
+    let out = dir.join(name);
+    simulate_fresh(&out, &[&["--frames", "40"], args].concat());
+    let truth = read_json(&out.join("truth.json"));
+    let told = truth["sorties"].as_array().unwrap().clone();
+    let read = told
+        .iter()
+        .map(|s| recording(&out.join(s["recording"].as_str().unwrap())))
+        .collect();
+    (told, read)
+}
+
+#[test]
+fn a_flight_recorded_as_sorties_is_the_whole_flight_cut_at_battery_changes() {
+    let whole = recording(&simulated(&["--frames", "40"]).join("flight.mcap"));
+    let dir = tempfile::tempdir().unwrap();
+    let (told, read) = sorties(dir.path(), "cut", &["--sorties", "3"]);
+    assert_eq!(told.len(), 3);
+    let names: Vec<&str> = told
+        .iter()
+        .map(|s| s["recording"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["sortie-1.mcap", "sortie-2.mcap", "sortie-3.mcap"]);
+    assert!(!dir.path().join("cut/flight.mcap").exists());
+    // The frames shared out evenly, each sortie's stretch starting where
+    // the last one ended.
+    let shot: Vec<u64> = told.iter().map(|s| s["frames"].as_u64().unwrap()).collect();
+    assert_eq!(shot, [14, 13, 13]);
+    for pair in told.windows(2) {
+        assert_eq!(pair[0]["end_ns"], pair[1]["start_ns"]);
+    }
+    // Read independently, the sorties hold the whole flight's images and
+    // poses, each within its stretch, and the map only in the last.
+    let all = |key: &str| -> Vec<Value> {
+        read.iter()
+            .flat_map(|r| r[key].as_array().unwrap().clone())
+            .collect()
+    };
+    assert_eq!(all("images"), *whole["images"].as_array().unwrap());
+    assert_eq!(all("poses"), *whole["poses"].as_array().unwrap());
+    for (s, r) in told.iter().zip(&read) {
+        let (start, end) = (
+            s["start_ns"].as_i64().unwrap(),
+            s["end_ns"].as_i64().unwrap(),
+        );
+        for stamped in r["images"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .chain(r["poses"].as_array().unwrap())
+        {
+            let t = stamped[0].as_i64().unwrap();
+            assert!(start <= t && t <= end, "{t} outside {start}..{end}");
+        }
+        assert_eq!(r["topics"]["/tf_static"], 1);
+        assert!(r["topics"]["/camera/camera_info"].as_u64().unwrap() > 0);
+        assert_eq!(s["map"], s["recording"] == "sortie-3.mcap");
+    }
+    let maps: Vec<Value> = all("maps");
+    assert_eq!(maps, *whole["maps"].as_array().unwrap());
+
+    // In another SLAM frame from the second sortie on: its poses and its
+    // own map are the whole flight's, moved 15 degrees and (0.8, -0.3, 0).
+    let (told, read) = sorties(
+        dir.path(),
+        "moved",
+        &["--sorties", "3", "--sortie-offset=0.8,-0.3,0,15"],
+    );
+    let turn = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 15f64.to_radians());
+    let moved = |p: [f64; 3], s: usize| {
+        let p = Vector3::from(p);
+        if s == 0 {
+            p
+        } else {
+            turn * p + Vector3::new(0.8, -0.3, 0.0)
+        }
+    };
+    let xyz = |v: &Value, from: usize| [f(&v[from]), f(&v[from + 1]), f(&v[from + 2])];
+    let whole_poses = whole["poses"].as_array().unwrap();
+    let mut at = 0;
+    for (s, r) in read.iter().enumerate() {
+        assert!(
+            told[s]["map"].as_bool().unwrap(),
+            "sortie {s} records its own map"
+        );
+        for pose in r["poses"].as_array().unwrap() {
+            let expected = &whole_poses[at];
+            at += 1;
+            assert_eq!(pose[0], expected[0]);
+            let gap = (Vector3::from(xyz(pose, 1)) - moved(xyz(expected, 1), s)).norm();
+            assert!(gap < 1e-9, "sortie {s}: pose {gap} m off");
+            let q = |v: &Value| {
+                UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+                    f(&v[7]),
+                    f(&v[4]),
+                    f(&v[5]),
+                    f(&v[6]),
+                ))
+            };
+            let want = if s == 0 {
+                q(expected)
+            } else {
+                turn * q(expected)
+            };
+            assert!(q(pose).angle_to(&want) < 1e-9);
+        }
+        let map = &r["maps"][0];
+        let first = xyz(&whole["maps"][0]["first"], 0);
+        let gap = (Vector3::from(xyz(&map["first"], 0)) - moved(first, s)).norm();
+        assert!(gap < 1e-4, "sortie {s}: map {gap} m off");
+        assert_eq!(map["points"], whole["maps"][0]["points"]);
+    }
+    assert_eq!(at, whole_poses.len());
+}
+
+#[test]
+fn more_sorties_than_frames_is_refused_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sim");
+    let args = [
+        "simulate",
+        "--out",
+        out.to_str().unwrap(),
+        "--frames",
+        "4",
+        "--sorties",
+        "5",
+    ];
+    let result = postflight(&args, dir.path());
+    assert!(!result.status.success());
+    let err = stderr(&result);
+    assert!(
+        err.contains("--sorties from 1 to 4") && err.trim().lines().count() == 1,
+        "{err}"
+    );
+    assert!(!out.exists(), "nothing is written");
+}

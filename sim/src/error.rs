@@ -15,6 +15,8 @@ pub enum SimError {
     /// `--repeat-of` names no flight this one can repeat.
     #[error("--repeat-of {}: {why}", path.display())]
     Repeat { path: PathBuf, why: String },
+    #[error("cannot cut {frames} frames into {sorties} sorties: give --sorties from 1 to {frames}")]
+    Sorties { sorties: u32, frames: u32 },
     #[error("the structure is too small to plan a flight around")]
     StructureTooSmall,
     #[error("cannot write {}: {cause}", path.display())]

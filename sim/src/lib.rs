@@ -23,6 +23,7 @@ pub mod render;
 pub mod repeat;
 pub mod rng;
 pub mod scene;
+pub mod sortie;
 pub mod truth;
 
 use std::io::Cursor;
@@ -39,6 +40,7 @@ use crate::record::{Recorder, header, ros_pose};
 use crate::render::RayTable;
 use crate::rng::Rng;
 use crate::scene::{Class, Scene, area};
+use crate::sortie::Sorties;
 use crate::truth::{CrackTruth, FrameTruth, Truth};
 pub use error::SimError;
 use postflight_core::serde_pose::PoseJson;
@@ -83,6 +85,8 @@ pub struct SimOptions {
     /// a viewpoint looking straight down over each patch of faces pointing
     /// up, as an inspection of a deck's top flies.
     pub gimbal: bool,
+    /// Record the flight as sorties, one recording per battery.
+    pub sorties: sortie::SortieOptions,
 }
 
 /// Compression of recorded camera frames (`sensor_msgs/CompressedImage` format).
@@ -122,6 +126,7 @@ impl SimOptions {
             crack_widths: None,
             distractors: false,
             gimbal: false,
+            sorties: sortie::SortieOptions::default(),
         }
     }
 }
@@ -134,7 +139,10 @@ pub struct SimSummary {
     pub cracks: usize,
     pub duration_s: f64,
     pub map_points: usize,
+    /// The recording (the first sortie's, when cut into several).
     pub flight: PathBuf,
+    /// Every recording, in flying order.
+    pub recordings: Vec<PathBuf>,
 }
 
 /// Camera mounting: ahead of and below the body origin, pitched down.
@@ -191,17 +199,23 @@ pub fn simulate(
     check(options)?;
     let world = World::new(options)?;
     std::fs::create_dir_all(&options.out).map_err(SimError::write(&options.out))?;
-    let mut rec = Recorder::create(&options.out.join("flight.mcap"), options.gimbal)?;
-    write_mounting(&mut rec, &world)?;
-    let recorded = record_frames(&mut rec, &world, options, progress)?;
-    let map = map_points(&world.scene, &mut Rng::stream(options.seed, "map"));
     let duration = world.flight.duration();
-    rec.write(
-        record::MAP_TOPIC,
-        ns(duration) + 500_000_000,
-        &record::point_cloud(&map, ns(duration)),
+    let frame_times = world.flight.frame_times(options.frames as usize);
+    let mut sorties = Sorties::create(
+        &options.out,
+        &options.sorties,
+        &frame_times,
+        duration,
+        options.gimbal,
     )?;
-    rec.finish()?;
+    for (rec, span) in sorties.each() {
+        write_mounting(rec, &world, ns(span.start_s))?;
+    }
+    let recorded = record_frames(&mut sorties, &world, options, progress)?;
+    let map = map_points(&world.scene, &mut Rng::stream(options.seed, "map"));
+    write_maps(&mut sorties, &map)?;
+    let sortie_truth = sorties.truth(ns);
+    let recordings = sorties.finish(&options.out)?;
     record::write_ply(&options.out.join("map.ply"), &map)?;
     let truth = Truth {
         scene: world.scene.name.clone(),
@@ -232,6 +246,7 @@ pub fn simulate(
             .as_ref()
             .zip(world.changes.clone())
             .map(|(r, changes)| repeat::truth(r, changes)),
+        sorties: sortie_truth,
     };
     write_json(&options.out.join("plan.json"), &world.plan)?;
     write_json(&options.out.join("truth.json"), &truth)?;
@@ -241,13 +256,20 @@ pub fn simulate(
         cracks: world.cracks.0.len(),
         duration_s: duration,
         map_points: map.len(),
-        flight: options.out.join("flight.mcap"),
+        flight: recordings[0].clone(),
+        recordings,
     })
 }
 
 fn check(options: &SimOptions) -> Result<(), SimError> {
     if options.frames < 2 || options.width < 16 || options.height < 16 {
         return Err(SimError::FlightTooSmall);
+    }
+    if options.sorties.count == 0 || options.sorties.count > options.frames {
+        return Err(SimError::Sorties {
+            sorties: options.sorties.count,
+            frames: options.frames,
+        });
     }
     let noise = options.pose_noise;
     if !(noise.position_m >= 0.0
@@ -389,15 +411,28 @@ impl World {
     }
 }
 
-/// `/tf_static`: the camera's mounting on the body (a gimbal's camera link
-/// moves, so it goes on `/tf` with the poses).
-fn write_mounting(rec: &mut Recorder, world: &World) -> Result<(), SimError> {
+/// `/tf_static` at `stamp`: the camera's mounting on the body (a gimbal's
+/// camera link moves, so it goes on `/tf` with the poses).
+fn write_mounting(rec: &mut Recorder, world: &World, stamp: i64) -> Result<(), SimError> {
     let (link, optical) = &world.mounting;
-    let mut transforms = vec![transform(T0_NS, "camera_link", "camera_optical", optical)];
+    let mut transforms = vec![transform(stamp, "camera_link", "camera_optical", optical)];
     if !world.gimbal {
-        transforms.insert(0, transform(T0_NS, "base_link", "camera_link", link));
+        transforms.insert(0, transform(stamp, "base_link", "camera_link", link));
     }
-    rec.write("/tf_static", T0_NS, &msg::TfMessage { transforms })
+    rec.write("/tf_static", stamp, &msg::TfMessage { transforms })
+}
+
+/// The map, at the end of each sortie that records one, in its SLAM frame.
+fn write_maps(sorties: &mut Sorties, map: &[Point3<f64>]) -> Result<(), SimError> {
+    for (rec, span) in sorties.each().filter(|(_, span)| span.with_map) {
+        let points: Vec<Point3<f64>> = map.iter().map(|p| span.slam * p).collect();
+        rec.write(
+            record::MAP_TOPIC,
+            ns(span.end_s) + 500_000_000,
+            &record::point_cloud(&points, ns(span.end_s)),
+        )?;
+    }
+    Ok(())
 }
 
 /// A `/tf` transform: `child`'s pose in `parent` at `stamp`.
@@ -425,7 +460,7 @@ struct Recorded {
 /// frame rendered (with its motion blur), compressed and written with its
 /// CameraInfo and exposure, unless the recorder dropped it.
 fn record_frames(
-    rec: &mut Recorder,
+    sorties: &mut Sorties,
     world: &World,
     options: &SimOptions,
     progress: &mut dyn FnMut(u64, u64),
@@ -452,7 +487,7 @@ fn record_frames(
     for (i, t) in flight.frame_times(n as usize).into_iter().enumerate() {
         let i = i as u32;
         // Poses stamped up to this frame go first, as a recorder would receive them.
-        poses.write_until(t, rec)?;
+        poses.write_until(t, sorties)?;
         let camera = world.camera_at(t);
         let is_dropped = i > 0 && i + 1 < n && drops.uniform() < DROP_RATE;
         let blur = blur_vector(world, t);
@@ -474,7 +509,7 @@ fn record_frames(
                 blur.0,
                 blur.1,
             );
-            write_frame(rec, &img, options.image_format, &world.k, ns(t))?;
+            write_frame(sorties.at(t).0, &img, options.image_format, &world.k, ns(t))?;
         }
         recorded.views.push(coverage::View {
             camera,
@@ -491,7 +526,7 @@ fn record_frames(
         });
         progress(u64::from(i) + 1, u64::from(n));
     }
-    poses.write_until(duration, rec)?;
+    poses.write_until(duration, sorties)?;
     Ok(recorded)
 }
 
@@ -571,10 +606,11 @@ struct PoseWriter<'a> {
 
 impl PoseWriter<'_> {
     /// Write the poses stamped up to `t` not yet written.
-    fn write_until(&mut self, t: f64, rec: &mut Recorder) -> Result<(), SimError> {
+    fn write_until(&mut self, t: f64, sorties: &mut Sorties) -> Result<(), SimError> {
         while let Some(&pt) = self.times.get(self.next).filter(|pt| **pt <= t) {
             let flight = &self.world.flight;
-            let pose = flight::noisy(&flight.body_pose(pt), &self.sigma, &mut self.noise);
+            let (rec, slam) = sorties.at(pt);
+            let pose = slam * flight::noisy(&flight.body_pose(pt), &self.sigma, &mut self.noise);
             let msg = msg::PoseStamped {
                 header: header(ns(pt), "map"),
                 pose: ros_pose(&pose),

@@ -264,6 +264,9 @@ pub struct Truth {
     /// A repeat flight's earlier flight, frame and changes.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub repeat: Option<crate::repeat::RepeatTruth>,
+    /// The recordings a flight cut into sorties was written as.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sorties: Option<Vec<crate::sortie::SortieTruth>>,
 }
 
 /// White noise added to each recorded pose, 1 sigma.
