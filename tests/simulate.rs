@@ -439,17 +439,7 @@ fn a_repeat_flight_keeps_the_cracks_grows_some_adds_new_ones_and_records_in_its_
 /// A recording as tests/fixtures/read_recording.py reads it (the `mcap`
 /// and `mcap-ros2-support` packages, not postflight's reader).
 fn recording(path: &std::path::Path) -> Value {
-    let out = std::process::Command::new(python())
-        .arg(root().join("tests/fixtures/read_recording.py"))
-        .arg(path)
-        .output()
-        .expect("run the recording reader");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).unwrap()
+    serde_json::from_str(&python_fixture("read_recording.py", &[path])).unwrap()
 }
 
 /// The sorties' recordings of a flight cut with `args`, in `dir/name`, read

@@ -29,11 +29,21 @@ pub fn python() -> PathBuf {
 
 /// Run Python `code` (`python -c`) with `args`; returns its stdout, trimmed.
 pub fn python_run<S: AsRef<std::ffi::OsStr>>(code: &str, args: &[S]) -> String {
-    let out = Command::new(python())
-        .args(["-c", code])
-        .args(args)
-        .output()
-        .expect("run the project's Python");
+    python_stdout(Command::new(python()).args(["-c", code]).args(args))
+}
+
+/// Run the script tests/fixtures/`script` with `args`; returns its
+/// stdout, trimmed.
+pub fn python_fixture<S: AsRef<std::ffi::OsStr>>(script: &str, args: &[S]) -> String {
+    python_stdout(
+        Command::new(python())
+            .arg(root().join("tests/fixtures").join(script))
+            .args(args),
+    )
+}
+
+fn python_stdout(command: &mut Command) -> String {
+    let out = command.output().expect("run the project's Python");
     assert!(
         out.status.success(),
         "{}",
