@@ -442,11 +442,10 @@ fn recording(path: &std::path::Path) -> Value {
     serde_json::from_str(&python_fixture("read_recording.py", &[path])).unwrap()
 }
 
-/// The sorties' recordings of a flight cut with `args`, in `dir/name`, read
+/// The sorties' recordings of the 20-frame flight cut with `args`, read
 /// back, with truth.json's account of them.
-fn sorties(dir: &std::path::Path, name: &str, args: &[&str]) -> (Vec<Value>, Vec<Value>) {
-    let out = dir.join(name);
-    simulate_fresh(&out, &[&["--frames", "40"], args].concat());
+fn sorties(args: &[&str]) -> (Vec<Value>, Vec<Value>) {
+    let out = simulated(&[&["--frames", "20"], args].concat());
     let truth = read_json(&out.join("truth.json"));
     let told = truth["sorties"].as_array().unwrap().clone();
     let read = told
@@ -458,20 +457,24 @@ fn sorties(dir: &std::path::Path, name: &str, args: &[&str]) -> (Vec<Value>, Vec
 
 #[test]
 fn a_flight_recorded_as_sorties_is_the_whole_flight_cut_at_battery_changes() {
-    let whole = recording(&simulated(&["--frames", "40"]).join("flight.mcap"));
-    let dir = tempfile::tempdir().unwrap();
-    let (told, read) = sorties(dir.path(), "cut", &["--sorties", "3"]);
+    // The 20-frame flight the parser tests fly too.
+    let whole = recording(&simulated(&["--frames", "20"]).join("flight.mcap"));
+    let (told, read) = sorties(&["--sorties", "3"]);
     assert_eq!(told.len(), 3);
     let names: Vec<&str> = told
         .iter()
         .map(|s| s["recording"].as_str().unwrap())
         .collect();
     assert_eq!(names, ["sortie-1.mcap", "sortie-2.mcap", "sortie-3.mcap"]);
-    assert!(!dir.path().join("cut/flight.mcap").exists());
+    assert!(
+        !simulated(&["--frames", "20", "--sorties", "3"])
+            .join("flight.mcap")
+            .exists()
+    );
     // The frames shared out evenly, each sortie's stretch starting where
     // the last one ended.
     let shot: Vec<u64> = told.iter().map(|s| s["frames"].as_u64().unwrap()).collect();
-    assert_eq!(shot, [14, 13, 13]);
+    assert_eq!(shot, [7, 7, 6]);
     for pair in told.windows(2) {
         assert_eq!(pair[0]["end_ns"], pair[1]["start_ns"]);
     }
@@ -507,11 +510,7 @@ fn a_flight_recorded_as_sorties_is_the_whole_flight_cut_at_battery_changes() {
 
     // In another SLAM frame from the second sortie on: its poses and its
     // own map are the whole flight's, moved 15 degrees and (0.8, -0.3, 0).
-    let (told, read) = sorties(
-        dir.path(),
-        "moved",
-        &["--sorties", "3", "--sortie-offset=0.8,-0.3,0,15"],
-    );
+    let (told, read) = sorties(&["--sorties", "3", "--sortie-offset=0.8,-0.3,0,15"]);
     let turn = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 15f64.to_radians());
     let moved = |p: [f64; 3], s: usize| {
         let p = Vector3::from(p);
