@@ -139,9 +139,7 @@ pub struct SimSummary {
     pub cracks: usize,
     pub duration_s: f64,
     pub map_points: usize,
-    /// The recording (the first sortie's, when cut into several).
-    pub flight: PathBuf,
-    /// Every recording, in flying order.
+    /// Every recording, in flying order (`flight.mcap` alone when whole).
     pub recordings: Vec<PathBuf>,
 }
 
@@ -208,10 +206,10 @@ pub fn simulate(
         duration,
         options.gimbal,
     )?;
-    for (rec, span) in sorties.each() {
-        write_mounting(rec, &world, ns(span.start_s))?;
+    for (rec, sortie) in sorties.each() {
+        write_mounting(rec, &world, ns(sortie.start_s()))?;
     }
-    let recorded = record_frames(&mut sorties, &world, options, progress)?;
+    let recorded = record_frames(&mut sorties, &world, &frame_times, options, progress)?;
     let map = map_points(&world.scene, &mut Rng::stream(options.seed, "map"));
     write_maps(&mut sorties, &map)?;
     let sortie_truth = sorties.truth(ns);
@@ -256,7 +254,6 @@ pub fn simulate(
         cracks: world.cracks.0.len(),
         duration_s: duration,
         map_points: map.len(),
-        flight: recordings[0].clone(),
         recordings,
     })
 }
@@ -424,12 +421,13 @@ fn write_mounting(rec: &mut Recorder, world: &World, stamp: i64) -> Result<(), S
 
 /// The map, at the end of each sortie that records one, in its SLAM frame.
 fn write_maps(sorties: &mut Sorties, map: &[Point3<f64>]) -> Result<(), SimError> {
-    for (rec, span) in sorties.each().filter(|(_, span)| span.with_map) {
-        let points: Vec<Point3<f64>> = map.iter().map(|p| span.slam * p).collect();
+    for (rec, sortie) in sorties.each().filter(|(_, s)| s.with_map) {
+        let points: Vec<Point3<f64>> = map.iter().map(|p| sortie.slam * p).collect();
+        let end = ns(sortie.end_s());
         rec.write(
             record::MAP_TOPIC,
-            ns(span.end_s) + 500_000_000,
-            &record::point_cloud(&points, ns(span.end_s)),
+            end + 500_000_000,
+            &record::point_cloud(&points, end),
         )?;
     }
     Ok(())
@@ -462,6 +460,7 @@ struct Recorded {
 fn record_frames(
     sorties: &mut Sorties,
     world: &World,
+    frame_times: &[f64],
     options: &SimOptions,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<Recorded, SimError> {
@@ -484,7 +483,7 @@ fn record_frames(
         dropped: 0,
     };
     let n = options.frames;
-    for (i, t) in flight.frame_times(n as usize).into_iter().enumerate() {
+    for (i, &t) in frame_times.iter().enumerate() {
         let i = i as u32;
         // Poses stamped up to this frame go first, as a recorder would receive them.
         poses.write_until(t, sorties)?;

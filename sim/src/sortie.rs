@@ -68,31 +68,40 @@ fn stretches(frame_times: &[f64], duration_s: f64, count: u32) -> Vec<Stretch> {
         .collect()
 }
 
-/// A sortie's stretch of the flight, as its recording needs it.
-#[derive(Debug, Clone, Copy)]
-pub struct SortieSpan {
-    /// Its start and end, seconds into the flight.
-    pub start_s: f64,
-    pub end_s: f64,
+/// One sortie: its recording's file name, its stretch, its SLAM frame and
+/// whether its recording holds the map.
+#[derive(Debug, Clone)]
+pub struct Sortie {
+    pub name: String,
+    stretch: Stretch,
     /// Its SLAM frame: a world point `p` is recorded at `slam * p`.
     pub slam: Isometry3<f64>,
-    /// Whether its recording holds the map.
     pub with_map: bool,
 }
 
-/// The recordings a flight is written into.
+impl Sortie {
+    /// Its start and end, seconds into the flight.
+    pub fn start_s(&self) -> f64 {
+        self.stretch.start_s
+    }
+
+    pub fn end_s(&self) -> f64 {
+        self.stretch.end_s
+    }
+}
+
+/// The recordings a flight is written into, one per sortie.
 pub struct Sorties {
-    stretches: Vec<Stretch>,
+    sorties: Vec<Sortie>,
     recorders: Vec<Recorder>,
-    names: Vec<String>,
-    /// Each sortie's SLAM frame: a world point `p` is recorded at `slam * p`.
-    slam: Vec<Isometry3<f64>>,
 }
 
 impl Sorties {
     /// The recordings in `out` for a flight of `frame_times` (seconds,
     /// `duration_s` long): `flight.mcap` when whole, else `sortie-1.mcap`
-    /// and on; with `moving_tf`, each with a `/tf` channel.
+    /// and on; with `moving_tf`, each with a `/tf` channel. The map goes
+    /// with the last, or, where the later sorties have a frame of their
+    /// own, with each.
     pub fn create(
         out: &Path,
         options: &SortieOptions,
@@ -101,57 +110,41 @@ impl Sorties {
         moving_tf: bool,
     ) -> Result<Self, SimError> {
         // `count` is 1 to the frames (checked before anything is written).
-        let names: Vec<String> = match options.count {
-            1 => vec!["flight.mcap".to_string()],
-            k => (1..=k).map(|s| format!("sortie-{s}.mcap")).collect(),
-        };
-        let later = options
-            .offset
-            .map_or_else(Isometry3::identity, |o| o.isometry());
-        Ok(Self {
-            stretches: stretches(frame_times, duration_s, options.count),
-            recorders: names
-                .iter()
-                .map(|name| Recorder::create(&out.join(name), moving_tf))
-                .collect::<Result<_, _>>()?,
-            slam: (0..options.count)
-                .map(|s| if s == 0 { Isometry3::identity() } else { later })
-                .collect(),
-            names,
-        })
-    }
-
-    /// The sortie whose stretch holds `t` seconds.
-    fn index_at(&self, t: f64) -> usize {
-        self.stretches
+        let count = options.count as usize;
+        let later = options.offset.map(|o| o.isometry());
+        let sorties: Vec<Sortie> = stretches(frame_times, duration_s, options.count)
+            .into_iter()
+            .enumerate()
+            .map(|(i, stretch)| Sortie {
+                name: match count {
+                    1 => "flight.mcap".to_string(),
+                    _ => format!("sortie-{}.mcap", i + 1),
+                },
+                stretch,
+                slam: later.filter(|_| i > 0).unwrap_or_else(Isometry3::identity),
+                with_map: i + 1 == count || later.is_some(),
+            })
+            .collect();
+        let recorders = sorties
             .iter()
-            .rposition(|s| s.start_s <= t)
-            .unwrap_or(0)
+            .map(|s| Recorder::create(&out.join(&s.name), moving_tf))
+            .collect::<Result<_, _>>()?;
+        Ok(Self { sorties, recorders })
     }
 
     /// The recording of the sortie flying at `t` seconds, and its SLAM frame.
     pub fn at(&mut self, t: f64) -> (&mut Recorder, Isometry3<f64>) {
-        let s = self.index_at(t);
-        (&mut self.recorders[s], self.slam[s])
+        let s = self
+            .sorties
+            .iter()
+            .rposition(|s| s.start_s() <= t)
+            .unwrap_or(0);
+        (&mut self.recorders[s], self.sorties[s].slam)
     }
 
-    /// Each sortie's recording with what it holds once, to write that.
-    pub fn each(&mut self) -> impl Iterator<Item = (&mut Recorder, SortieSpan)> {
-        let spans: Vec<SortieSpan> = (0..self.recorders.len())
-            .map(|i| SortieSpan {
-                start_s: self.stretches[i].start_s,
-                end_s: self.stretches[i].end_s,
-                slam: self.slam[i],
-                with_map: self.records_map(i),
-            })
-            .collect();
-        self.recorders.iter_mut().zip(spans)
-    }
-
-    /// Whether a sortie records the map: the last, or, where the later
-    /// sorties have a frame of their own, each.
-    fn records_map(&self, sortie: usize) -> bool {
-        sortie + 1 == self.recorders.len() || self.slam.iter().any(|s| *s != self.slam[0])
+    /// Each sortie's recording, to write what each holds once.
+    pub fn each(&mut self) -> impl Iterator<Item = (&mut Recorder, &Sortie)> {
+        self.recorders.iter_mut().zip(&self.sorties)
     }
 
     /// Close every recording; their paths.
@@ -159,23 +152,22 @@ impl Sorties {
         for r in self.recorders {
             r.finish()?;
         }
-        Ok(self.names.iter().map(|n| out.join(n)).collect())
+        Ok(self.sorties.iter().map(|s| out.join(&s.name)).collect())
     }
 
     /// What truth.json says of the sorties; `None` for a whole flight.
     pub fn truth(&self, stamp: impl Fn(f64) -> i64) -> Option<Vec<SortieTruth>> {
-        (self.recorders.len() > 1).then(|| {
-            self.stretches
+        (self.sorties.len() > 1).then(|| {
+            self.sorties
                 .iter()
-                .enumerate()
-                .map(|(i, s)| SortieTruth {
-                    recording: self.names[i].clone(),
-                    first_frame: s.frames.0,
-                    frames: s.frames.1 - s.frames.0,
-                    start_ns: stamp(s.start_s),
-                    end_ns: stamp(s.end_s),
-                    slam_from_world: PoseJson::from(&self.slam[i]),
-                    map: self.records_map(i),
+                .map(|s| SortieTruth {
+                    recording: s.name.clone(),
+                    first_frame: s.stretch.frames.0,
+                    frames: s.stretch.frames.1 - s.stretch.frames.0,
+                    start_ns: stamp(s.start_s()),
+                    end_ns: stamp(s.end_s()),
+                    slam_from_world: PoseJson::from(&s.slam),
+                    map: s.with_map,
                 })
                 .collect()
         })
