@@ -4,12 +4,10 @@
 //! the classification checked against the simulator's truth. The tower: a
 //! silo fits many yaws, and its flights see some thirty cracks from close.
 
-mod common;
-
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use common::*;
+use crate::common::*;
 use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use serde_json::Value;
 

@@ -1,13 +1,11 @@
 //! End-to-end tests of `postflight coverage` against the simulator's true
 //! coverage (truth.json: true poses, the true mesh, the true blur).
 
-mod common;
-
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use common::*;
+use crate::common::*;
 use serde_json::Value;
 
 type Voxel = [i64; 3];
@@ -187,7 +185,7 @@ fn coverage_matches_the_simulators_true_coverage_on_a_tower_flight() {
 #[test]
 fn a_plan_is_checked_before_anyone_flies_it() {
     let dir = tempfile::tempdir().unwrap();
-    let (sim, run) = ingested_flight(dir.path(), "tower", &["--scene", "tower", "--frames", "60"]);
+    let (sim, run) = ingested_flight(dir.path(), "tower", &["--scene", "tower", "--frames", "80"]);
     let plan_path = sim.join("plan.json");
     let plan = plan_path.to_str().unwrap();
     // Only the viewpoints the flight skipped: a follow-up for that segment.

@@ -1,11 +1,9 @@
 //! End-to-end tests of `postflight detect` with the shipped reference
 //! detectors on a simulated flight, scored against truth.json.
 
-mod common;
-
 use std::path::{Path, PathBuf};
 
-use common::*;
+use crate::common::*;
 
 fn models() -> PathBuf {
     root().join("detect/models")

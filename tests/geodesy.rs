@@ -2,9 +2,7 @@
 //! against PROJ (pyproj, an independent implementation) over a 2 km
 //! structure, and the map frame found from a flight's GPS fixes.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use nalgebra::Point3;
 use postflight_core::geo::GeoOrigin;
 

@@ -4,13 +4,11 @@
 //! their published best-known costs; an asymmetric instance is solved to
 //! the optimum found by brute force; bad files get line-numbered errors.
 
-mod common;
-
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-use common::*;
+use crate::common::*;
 use serde_json::Value;
 
 /// (file, best known, time limit in seconds, largest accepted gap in %).

@@ -2,11 +2,9 @@
 //! official Python MCAP + ROS 2 writers (tests/fixtures/write_flight.py),
 //! whose expected.json holds every value written.
 
-mod common;
-
 use std::path::{Path, PathBuf};
 
-use common::*;
+use crate::common::*;
 use ingest::ros::schema::ros2_name;
 use polars::prelude::*;
 use serde_json::Value;

@@ -2,12 +2,10 @@
 //! ingest, detect and localise, with the defect candidates scored against
 //! the simulator's truth.json (crack polylines in the world).
 
-mod common;
-
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 
-use common::*;
+use crate::common::*;
 use serde_json::Value;
 
 /// Simulate, ingest and detect; returns (sim dir, run dir). The sim dir is

@@ -4,13 +4,11 @@
 //! was built from, pruned or not, and a flight's coverage over such a map is
 //! its coverage over the PLY of the same points.
 
-mod common;
-
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use common::*;
+use crate::common::*;
 use nalgebra::Point3;
 use postflight_core::map::octomap::{self, Format};
 use postflight_core::map::{PointCloud, VoxelGrid};

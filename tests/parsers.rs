@@ -3,12 +3,10 @@
 //! so; it must never panic or allocate what the input only claims to hold.
 //! The damage is deterministic (seeded), so a failure reproduces.
 
-mod common;
-
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use common::*;
+use crate::common::*;
 use ingest::recording::{RecordedMessage, ScanEvent, ScanReport};
 use ingest::ros::{Wire, msg, schema};
 use sim::rng::Rng;

@@ -6,13 +6,11 @@
 //! leaves the earlier results intact; a flight recorded by ROS 1 (bags,
 //! MCAP) runs to the same defects and coverage as its ROS 2 recording.
 
-mod common;
-
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant, SystemTime};
 
-use common::*;
+use crate::common::*;
 use serde_json::Value;
 
 fn stdout(out: &std::process::Output) -> String {
@@ -394,7 +392,7 @@ fn the_demo_reports_the_simulated_cracks_and_the_simulated_gap() {
 #[test]
 fn a_run_killed_mid_detect_resumes_without_redoing_ingest() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = simulate_into(dir.path(), "sim", &["--frames", "140"]);
+    let sim = simulate_into(dir.path(), "sim", &["--frames", "150", "--seed", "3"]);
     let run = dir.path().join("run");
     let config = dir.path().join("postflight.toml");
     std::fs::write(&config, "[replan]\nsolver_time_limit_s = 2.0\n").unwrap();

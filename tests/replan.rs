@@ -4,13 +4,11 @@
 //! reason, and no segment of the flown path comes within the clearance of
 //! an occupied voxel of the map (checked here from map.ply, point by point).
 
-mod common;
-
 use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use common::*;
+use crate::common::*;
 use nalgebra::{Point3, Vector3};
 use postflight_core::map::{PointCloud, VoxelGrid, VoxelIndex, VoxelMap};
 use serde_json::Value;
@@ -383,7 +381,7 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
 #[test]
 fn no_gaps_give_an_empty_plan_and_bad_runs_say_what_to_do() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = simulate_into(dir.path(), "bridge", &["--frames", "120"]);
+    let sim = simulate_into(dir.path(), "bridge", &["--frames", "60"]);
     let run = dir.path().join("run");
     ingest_ok(&sim.join("flight.mcap"), &run, &[]);
 

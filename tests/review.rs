@@ -4,8 +4,6 @@
 //! are malformed or come from where they should not. What the server
 //! stored is read back with Python's sqlite3 and csv modules.
 
-mod common;
-
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -13,7 +11,7 @@ use std::process::{Child, ChildStdout, Command, Stdio};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-use common::*;
+use crate::common::*;
 use serde_json::{Value, json};
 
 /// A simulated flight through ingest, detect, localise and coverage, made

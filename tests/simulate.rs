@@ -1,12 +1,10 @@
 //! End-to-end tests of `postflight simulate`: its flights read back through
 //! `postflight ingest` as any recording would, and agree with truth.json.
 
-mod common;
-
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
-use common::*;
+use crate::common::*;
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use postflight_core::Flight;
 use serde_json::Value;

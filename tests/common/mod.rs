@@ -1,6 +1,5 @@
 //! Shared helpers for the end-to-end tests: the project's Python (for the
 //! independent MCAP writer), fixture generation and running the binary.
-#![allow(dead_code)]
 
 use std::hash::{DefaultHasher, Hash, Hasher};
 use std::path::{Path, PathBuf};
