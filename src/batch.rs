@@ -177,7 +177,7 @@ fn run_flight(
         YawUnit::Radians
     };
     let inputs = RunInputs {
-        flight: entry.flight.clone(),
+        flights: vec![entry.flight.clone()],
         map: entry.map.clone(),
         plan: entry.plan.clone().map(|path| PlanFile { path, yaw }),
         targets,

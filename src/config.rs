@@ -141,10 +141,10 @@ impl RunConfig {
         })
     }
 
-    pub fn ingest_options(&self, flight: &Path, out: &Path) -> ingest::IngestOptions {
+    pub fn ingest_options(&self, flights: &[PathBuf], out: &Path) -> ingest::IngestOptions {
         ingest::IngestOptions {
             settings: self.ingest.resolve(),
-            ..ingest::IngestOptions::new(flight.to_owned(), out.to_owned())
+            ..ingest::IngestOptions::new(flights.to_vec(), out.to_owned())
         }
     }
 
@@ -296,7 +296,7 @@ mod tests {
             return;
         };
         let (run, file) = (Path::new("run"), Path::new("f"));
-        let _ = c.ingest_options(file, run);
+        let _ = c.ingest_options(&[file.to_owned()], run);
         let _ = c.detect_options(run, file, None);
         let _ = c.localise_options(run, None, None, coverage::Targets::Plan);
         let _ = c.coverage_options(run, None, None, coverage::Targets::Plan);

@@ -46,7 +46,7 @@ pub fn demo(out: &Path, force: Option<Stage>, quiet: bool) -> anyhow::Result<()>
     let run_dir = out.join("run");
     run(
         &RunInputs {
-            flight: flight.join("flight.mcap"),
+            flights: vec![flight.join("flight.mcap")],
             map: None,
             plan: Some(postflight_core::PlanFile::new(flight.join("plan.json"))),
             targets: coverage::Targets::Plan,

@@ -103,11 +103,32 @@ struct FleetDirArgs {
     fleet_dir: PathBuf,
 }
 
+/// The flight's recordings.
+#[derive(Args)]
+struct FlightArgs {
+    /// A flight recording: MCAP (ROS 2 or ROS 1 messages) or a ROS 1 bag
+    /// (.bag). Repeat it for a flight recorded in several sorties or by
+    /// several drones (--flight A.mcap --flight B.mcap), or give a
+    /// directory: its .mcap and .bag files in name order.
+    #[arg(long = "flight", required = true, value_name = "RECORDING")]
+    flights: Vec<PathBuf>,
+}
+
+impl FlightArgs {
+    /// Every recording given, directories listed.
+    fn recordings(&self) -> anyhow::Result<Vec<PathBuf>> {
+        let mut all = Vec::new();
+        for path in &self.flights {
+            all.extend(ingest::stage::recordings_in(path)?);
+        }
+        Ok(all)
+    }
+}
+
 #[derive(Args)]
 struct RunArgs {
-    /// The flight recording: MCAP (ROS 2 or ROS 1 messages) or a ROS 1 bag (.bag).
-    #[arg(long)]
-    flight: PathBuf,
+    #[command(flatten)]
+    flight: FlightArgs,
     /// SLAM map (PLY, PCD, or OctoMap .bt/.ot) instead of the one recorded in the flight.
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
@@ -415,9 +436,8 @@ enum SceneArg {
 
 #[derive(Args)]
 struct IngestArgs {
-    /// The flight recording: MCAP (ROS 2 or ROS 1 messages) or a ROS 1 bag (.bag).
-    #[arg(long)]
-    flight: PathBuf,
+    #[command(flatten)]
+    flight: FlightArgs,
     /// Run directory to write (created if missing).
     #[arg(long)]
     out: PathBuf,
@@ -516,7 +536,8 @@ fn ingest(args: &IngestArgs, quiet: bool) -> anyhow::Result<()> {
         ..RunConfig::default()
     };
     let config = args.config.under(flags)?;
-    stages::ingest(&config.ingest_options(&args.flight, &args.out), quiet)
+    let recordings = args.flight.recordings()?;
+    stages::ingest(&config.ingest_options(&recordings, &args.out), quiet)
 }
 
 fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
@@ -637,7 +658,7 @@ fn report(args: &ReportArgs, quiet: bool) -> anyhow::Result<()> {
 fn run_pipeline(args: &RunArgs, quiet: bool) -> anyhow::Result<()> {
     let config = args.config.under(RunConfig::default())?;
     let inputs = pipeline::RunInputs {
-        flight: args.flight.clone(),
+        flights: args.flight.recordings()?,
         map: args.map.clone(),
         plan: args.plan.plan(),
         targets: args.targets.targets(),

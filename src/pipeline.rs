@@ -20,7 +20,8 @@ use crate::stages;
 /// What `postflight run` was given.
 #[derive(Debug, Clone)]
 pub struct RunInputs {
-    pub flight: PathBuf,
+    /// The flight's recordings (one, or one per sortie or drone).
+    pub flights: Vec<PathBuf>,
     pub map: Option<PathBuf>,
     pub plan: Option<PlanFile>,
     /// The structure to inspect: the plan's target voxels, or a file's.
@@ -100,15 +101,20 @@ fn processed(dir: &RunDir, seconds: f64) -> anyhow::Result<String> {
     ))
 }
 
-/// Every input file given exists, before anything is written.
+/// Every input file given exists, and each recording is given once,
+/// before anything is written.
 fn check_inputs(inputs: &RunInputs) -> anyhow::Result<()> {
-    let given = [
-        ("--flight", Some(inputs.flight.as_path())),
+    ingest::stage::check_recordings(&inputs.flights)?;
+    let flights = inputs
+        .flights
+        .iter()
+        .map(|f| ("--flight", Some(f.as_path())));
+    let given = flights.chain([
         ("--model", inputs.model.as_deref()),
         ("--map", inputs.map.as_deref()),
         ("--plan", inputs.plan.as_ref().map(|p| p.path.as_path())),
         ("the targets file", inputs.targets.file()),
-    ];
+    ]);
     for (what, path) in given {
         if let Some(p) = path.filter(|p| !p.is_file()) {
             anyhow::bail!("{what} {} is not a file; check the path", p.display());
@@ -254,7 +260,7 @@ struct StageInputs {
     /// The options it runs with, without their paths.
     settings: serde_json::Value,
     /// Its input files from outside the run directory, by role.
-    files: Vec<(&'static str, PathBuf)>,
+    files: Vec<(String, PathBuf)>,
 }
 
 /// The options a stage runs with.
@@ -273,7 +279,7 @@ impl StageOptions {
         let c = &i.config;
         let (run, map) = (i.out.as_path(), i.map.as_deref());
         match stage {
-            Stage::Ingest => Self::Ingest(c.ingest_options(&i.flight, run)),
+            Stage::Ingest => Self::Ingest(c.ingest_options(&i.flights, run)),
             Stage::Detect => {
                 Self::Detect(c.detect_options(run, &i.model_path(), i.onnxruntime.as_deref()))
             }
@@ -323,15 +329,17 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
     let settings = StageOptions::new(stage, i).settings();
     let c = &i.config;
     let map = i.map.iter().map(|m| ("map", m.clone()));
-    let files: Vec<_> = match stage {
-        Stage::Ingest => std::iter::once(("flight", i.flight.clone()))
-            .chain(
-                c.ingest
-                    .camera_info_file
-                    .iter()
-                    .map(|f| ("camera_info", f.clone())),
-            )
-            .collect(),
+    let files: Vec<(&str, PathBuf)> = match stage {
+        Stage::Ingest => {
+            let calibration = c.ingest.camera_info_file.iter();
+            let calibration = calibration.map(|f| ("camera_info", f.clone()));
+            return Some(StageInputs {
+                settings,
+                files: flight_roles(&i.flights)
+                    .chain(calibration.map(|(r, f)| (r.to_string(), f)))
+                    .collect(),
+            });
+        }
         Stage::Detect => std::iter::once(("model", i.model_path()))
             .chain(
                 c.detect
@@ -354,7 +362,17 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
         Stage::Replan => map.collect(),
         Stage::Report => Vec::new(),
     };
+    let files = files.into_iter().map(|(r, f)| (r.to_string(), f)).collect();
     Some(StageInputs { settings, files })
+}
+
+/// The recordings by role: `flight`, then `flight 2`, `flight 3`... in the
+/// order given (the order is the recordings' numbering in the run).
+fn flight_roles(flights: &[PathBuf]) -> impl Iterator<Item = (String, PathBuf)> + '_ {
+    (1..).zip(flights).map(|(n, f)| match n {
+        1 => ("flight".to_string(), f.clone()),
+        n => (format!("flight {n}"), f.clone()),
+    })
 }
 
 /// Coverage and replanning need a structure to inspect: a plan's target
@@ -375,7 +393,7 @@ mod tests {
     /// What each stage's fingerprint hashes of the options `config` gives it.
     fn fingerprinted(config: RunConfig) -> Vec<(Stage, serde_json::Value)> {
         let inputs = RunInputs {
-            flight: "flight.mcap".into(),
+            flights: vec!["flight.mcap".into()],
             map: None,
             plan: Some(PlanFile::new("plan.json")),
             targets: coverage::Targets::Plan,

@@ -15,12 +15,16 @@ pub fn ingest(options: &ingest::IngestOptions, quiet: bool) -> anyhow::Result<()
     }
     if !quiet {
         println!(
-            "ingested {} frames ({} with pose), {} poses, {:.1} s of flight{} into {}",
+            "ingested {} frames ({} with pose), {} poses, {:.1} s of flight{}{} into {}",
             summary.frames,
             summary.frames_with_pose,
             summary.poses,
             summary.duration_s,
-            if summary.truncated {
+            match summary.recordings.len() {
+                1 => String::new(),
+                n => format!(" from {n} recordings"),
+            },
+            if summary.truncated() {
                 " (TRUNCATED recording, salvaged)"
             } else {
                 ""

@@ -83,7 +83,7 @@ fn check_summary(summary: &Value, expected: &Value) {
             .collect()
     };
     assert_eq!(
-        messages(&summary["messages"]),
+        messages(&summary["recordings"][0]["messages"]),
         messages(&expected["messages"])
     );
     assert_eq!(summary["poses"], expected["poses"]);
@@ -109,8 +109,8 @@ fn check_summary(summary: &Value, expected: &Value) {
         1e-9,
         "duration",
     );
-    assert_eq!(summary["truncated"], false);
-    assert_eq!(summary["corrupt_chunks"], 0);
+    assert_eq!(summary["recordings"][0]["truncated"], false);
+    assert_eq!(summary["recordings"][0]["corrupt_chunks"], 0);
 }
 
 #[test]
@@ -121,8 +121,11 @@ fn odometry_jpeg_flight_decodes_every_value() {
     let summary = ingest_ok(&mcap, &run, &[]);
     check_summary(&summary, &expected);
     check_frames(&run, &expected);
-    assert_eq!(summary["pose_source"]["topic"], "/odom");
-    assert_eq!(summary["pose_source"]["child_frame_id"], "base_link");
+    assert_eq!(summary["recordings"][0]["pose_source"]["topic"], "/odom");
+    assert_eq!(
+        summary["recordings"][0]["pose_source"]["child_frame_id"],
+        "base_link"
+    );
     let warnings = summary["warnings"].to_string();
     assert!(
         warnings.contains("/imu (sensor_msgs/msg/Imu)"),
@@ -149,14 +152,14 @@ fn odometry_jpeg_flight_decodes_every_value() {
 
     // The recorded map, read back lazily from the recording.
     let flight = postflight_core::Flight::load(&run).unwrap();
-    let recording = ingest::Recording::reopen(&flight).unwrap();
-    let map = recording.recorded_map(&flight).unwrap().unwrap();
+    let recording = ingest::Recordings::reopen(&flight).unwrap();
+    let map = recording.recorded_map(&flight).unwrap().unwrap().0;
     let em = &expected["map"];
     assert_eq!(map.points.len() as u64, em["points"].as_u64().unwrap());
     for (p, q) in map.points.iter().zip(em["first"].as_array().unwrap()) {
         assert_eq!([p.x, p.y, p.z], vec3(q));
     }
-    assert_eq!(summary["map"]["bounds"], em["bounds"]);
+    assert_eq!(summary["recordings"][0]["map"]["bounds"], em["bounds"]);
 
     // JPEG pixels decode close to the pattern written (lossy, so loosely).
     let img = recording.image(&flight.frames[0]).unwrap().to_rgb8();
@@ -186,10 +189,16 @@ fn every_pose_message_type_gives_the_same_camera_poses() {
         let (mcap, expected) = write_flight(dir.path(), kind, &["--poses", kind]);
         let run = dir.path().join(format!("run-{kind}"));
         let summary = ingest_ok(&mcap, &run, &[]);
-        assert_eq!(summary["pose_source"]["topic"], topic, "{kind}");
-        assert_eq!(summary["pose_source"]["frame_id"], "map", "{kind}");
         assert_eq!(
-            summary["pose_source"]["child_frame_id"], "base_link",
+            summary["recordings"][0]["pose_source"]["topic"], topic,
+            "{kind}"
+        );
+        assert_eq!(
+            summary["recordings"][0]["pose_source"]["frame_id"], "map",
+            "{kind}"
+        );
+        assert_eq!(
+            summary["recordings"][0]["pose_source"]["child_frame_id"], "base_link",
             "{kind}"
         );
         check_summary(&summary, &expected);
@@ -234,7 +243,7 @@ fn check_pixels(run: &Path, expected: &Value, kind: &str) {
     let flight = postflight_core::Flight::load(run).unwrap();
     let frame = &flight.frames[3];
     assert_eq!(frame.encoding, kind);
-    let img = ingest::Recording::reopen(&flight)
+    let img = ingest::Recordings::reopen(&flight)
         .unwrap()
         .image(frame)
         .unwrap();
@@ -290,11 +299,12 @@ fn equidistant_lz4_uncompressed_and_big_endian_float64_clouds() {
         );
         assert_eq!(cam["distortion"]["coefficients"], expected["camera"]["d"]);
         let flight = postflight_core::Flight::load(&run).unwrap();
-        let map = ingest::Recording::reopen(&flight)
+        let map = ingest::Recordings::reopen(&flight)
             .unwrap()
             .recorded_map(&flight)
             .unwrap()
-            .unwrap();
+            .unwrap()
+            .0;
         for (p, q) in map
             .points
             .iter()
@@ -362,7 +372,7 @@ fn cut_and_ingest(recording: &Path, dir: &Path, name: &str, cut_chunk_salvaged: 
         stderr(&out)
     );
     let summary = read_json(&run.join("ingest.json"));
-    assert_eq!(summary["truncated"], true, "{name}");
+    assert_eq!(summary["recordings"][0]["truncated"], true, "{name}");
     if cut_chunk_salvaged {
         assert!(
             summary["warnings"]
@@ -459,8 +469,8 @@ fn corrupt_chunk_is_skipped_and_counted() {
     std::fs::write(&bad, &bytes).unwrap();
     let run = dir.path().join("run");
     let summary = ingest_ok(&bad, &run, &[]);
-    assert_eq!(summary["corrupt_chunks"], 1);
-    assert_eq!(summary["truncated"], false);
+    assert_eq!(summary["recordings"][0]["corrupt_chunks"], 1);
+    assert_eq!(summary["recordings"][0]["truncated"], false);
     let total = |v: &Value| -> u64 {
         v.as_object()
             .unwrap()
@@ -469,7 +479,7 @@ fn corrupt_chunk_is_skipped_and_counted() {
             .sum()
     };
     assert_eq!(
-        total(&summary["messages"]),
+        total(&summary["recordings"][0]["messages"]),
         total(&expected["messages"]) - lost
     );
 }

@@ -17,6 +17,7 @@ mod localise;
 mod octomap;
 mod parsers;
 mod pipeline;
+mod recordings;
 mod replan;
 mod review;
 mod simulate;

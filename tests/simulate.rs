@@ -40,7 +40,7 @@ fn ingest_recovers_poses_intrinsics_and_extrinsics_of_the_truth() {
         Value::Array(vec![]),
         "a simulated flight must ingest cleanly"
     );
-    assert_eq!(summary["truncated"], false);
+    assert_eq!(summary["recordings"][0]["truncated"], false);
 
     let flight = Flight::load(&run).unwrap();
     let kept: Vec<&Value> = truth["frames"]
@@ -112,12 +112,16 @@ fn ingest_recovers_poses_intrinsics_and_extrinsics_of_the_truth() {
     let plan = postflight_core::InspectionPlan::load(&dir.join("sim/plan.json")).unwrap();
     assert!(plan.target_voxels.len() > 100 && plan.viewpoints.len() > 50);
     let ply = postflight_core::map::PointCloud::load(&dir.join("sim/map.ply")).unwrap();
-    assert_eq!(ply.len() as u64, summary["map"]["points"].as_u64().unwrap());
-    let recorded = ingest::Recording::reopen(&flight)
+    assert_eq!(
+        ply.len() as u64,
+        summary["recordings"][0]["map"]["points"].as_u64().unwrap()
+    );
+    let recorded = ingest::Recordings::reopen(&flight)
         .unwrap()
         .recorded_map(&flight)
         .unwrap()
-        .unwrap();
+        .unwrap()
+        .0;
     assert_eq!(recorded.points[10], ply.points[10]);
 }
 
@@ -163,7 +167,7 @@ fn darkness(img: &image::GrayImage, points: &[(f64, f64)], dx: i32, dy: i32) -> 
 fn truth_cracks_are_drawn_where_the_recovered_camera_projects_them() {
     let (dir, truth) = bridge();
     let flight = Flight::load(&dir.join("run")).unwrap();
-    let recording = ingest::Recording::reopen(&flight).unwrap();
+    let recording = ingest::Recordings::reopen(&flight).unwrap();
     let cracks = truth["cracks"].as_array().unwrap();
     let mut checked = 0;
     for t in truth["frames"]

@@ -207,6 +207,10 @@ impl Intrinsics {
 /// One camera of the flight: its image stream, intrinsics and mounting.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Camera {
+    /// The recording whose images it took (its place in `ingest.json`'s
+    /// `recordings`): each drone of a team, or each sortie, has its own.
+    #[serde(default)]
+    pub recording: u16,
     /// Image topic.
     pub topic: String,
     /// Optical frame of the images (`header.frame_id`).

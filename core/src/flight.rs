@@ -17,17 +17,20 @@ pub struct Flight {
     pub summary: IngestSummary,
     pub frames: Vec<Frame>,
     pub cameras: Vec<Camera>,
-    pub trajectory: Trajectory,
+    /// Each recording's body trajectory, in the order of
+    /// `summary.recordings`.
+    pub trajectories: Vec<Trajectory>,
 }
 
 impl Flight {
     /// Load the ingest outputs of `run_dir`.
     pub fn load(run_dir: &Path) -> Result<Self, Error> {
         let run = RunDir::open(run_dir, Stage::Ingest)?;
+        let summary: IngestSummary = run.read_json(files::SUMMARY)?;
         Ok(Self {
-            summary: run.read_json(files::SUMMARY)?,
             frames: ingest::read_frames(&run)?,
-            trajectory: ingest::read_trajectory(&run)?,
+            trajectories: ingest::read_trajectories(&run, summary.recordings.len())?,
+            summary,
             cameras: run.read_json(files::CAMERAS)?,
             run,
         })
@@ -43,6 +46,16 @@ impl Flight {
 
     /// The camera that took a frame.
     pub fn camera(&self, frame: &Frame) -> Option<&Camera> {
-        self.cameras.iter().find(|c| c.topic == frame.topic)
+        self.cameras
+            .iter()
+            .find(|c| c.recording == frame.recording && c.topic == frame.topic)
+    }
+
+    /// The trajectory of the drone that took a frame (its recording's).
+    pub fn trajectory(&self, frame: &Frame) -> &Trajectory {
+        static EMPTY: std::sync::OnceLock<Trajectory> = std::sync::OnceLock::new();
+        self.trajectories
+            .get(usize::from(frame.recording))
+            .unwrap_or_else(|| EMPTY.get_or_init(Trajectory::default))
     }
 }

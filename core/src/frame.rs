@@ -88,8 +88,11 @@ impl crate::table::Named for ImageStatus {
 /// One camera image of the flight.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Frame {
-    /// Position in time order among all frames of the flight, from 0.
+    /// Position in time order among all frames of the flight (of every
+    /// recording), from 0.
     pub index: u32,
+    /// The recording it is in: its place in `ingest.json`'s `recordings`.
+    pub recording: u16,
     /// Capture time (`header.stamp`; the log time when the stamp is unset), ns.
     pub time_ns: i64,
     /// Time the recorder logged the message, ns.

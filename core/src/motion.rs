@@ -109,7 +109,8 @@ pub fn frame_blur_px(
     exposure_s: f64,
     map: &VoxelMap,
 ) -> Option<f64> {
-    let PoseAt::Pose(body) = flight.trajectory.at(frame.time_ns, i64::MAX) else {
+    let trajectory = flight.trajectory(frame);
+    let PoseAt::Pose(body) = trajectory.at(frame.time_ns, i64::MAX) else {
         return None;
     };
     // The frame's own mounting: a gimbal turns the camera from shot to shot.
@@ -117,7 +118,7 @@ pub fn frame_blur_px(
         Some(camera) => body.inverse() * camera,
         None => flight.camera(frame)?.extrinsic?,
     };
-    let v = velocity(&flight.trajectory, frame.time_ns)?;
+    let v = velocity(trajectory, frame.time_ns)?;
     Some(blur_px(&body, &extrinsic, k, &v, exposure_s, map))
 }
 

@@ -183,7 +183,7 @@ macro_rules! small {
     )*};
 }
 
-small!(u8, i8);
+small!(u8, i8, u16);
 
 impl Cell for String {
     fn column(name: &str, values: &[&Self]) -> Column {

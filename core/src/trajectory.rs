@@ -6,7 +6,7 @@ use nalgebra::Isometry3;
 use crate::pose::{StampedPose, interpolate};
 
 /// Time-ordered poses of `child_frame_id` (the body) in `frame_id` (the world).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct Trajectory {
     /// World frame, e.g. `map`.
     pub frame_id: String,

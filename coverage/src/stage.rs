@@ -541,7 +541,10 @@ pub fn flight_shots(
     for frame in &flight.frames {
         let (Some(camera), Some(lens)) = (
             frame.camera_pose,
-            flight.cameras.iter().position(|c| c.topic == frame.topic),
+            flight
+                .cameras
+                .iter()
+                .position(|c| c.recording == frame.recording && c.topic == frame.topic),
         ) else {
             out.without_pose += 1;
             continue;

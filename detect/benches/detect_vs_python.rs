@@ -45,7 +45,7 @@ impl Flight {
         };
         sim::simulate(&options, &mut |_, _| {}).expect("simulate");
         let mcap = sim_dir.join("flight.mcap");
-        let ingest = ingest::IngestOptions::new(mcap.clone(), run.clone());
+        let ingest = ingest::IngestOptions::new(vec![mcap.clone()], run.clone());
         ingest::ingest(&ingest, &mut |_, _| {}).expect("ingest");
         Self {
             name,

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use std::sync::mpsc::sync_channel;
 use std::time::Instant;
 
-use ingest::Recording;
+use ingest::Recordings;
 use ort::session::SessionInputValue;
 use ort::value::{Tensor, TensorRef};
 use postflight_core::detection::{BoxXyxy, Detection, FrameDetection};
@@ -120,7 +120,7 @@ struct View {
 }
 
 fn prepare(
-    recording: &Recording,
+    recording: &Recordings,
     frame: &Frame,
     size: InputSize,
     options: &DetectOptions,
@@ -201,7 +201,7 @@ pub fn detect(
     options.check()?;
     let start = Instant::now();
     let flight = Flight::load(&options.run)?;
-    let recording = Recording::reopen(&flight)?;
+    let recording = Recordings::reopen(&flight)?;
     let library = locate(options.onnxruntime.as_deref())?;
     let runtime = Runtime::start(library)?;
     let session = runtime.session(&options.model, options.settings.device)?;
@@ -284,7 +284,7 @@ pub fn detect(
 /// how many frames ran.
 fn infer_all(
     detector: &mut Detector,
-    recording: &Recording,
+    recording: &Recordings,
     runnable: &[&Frame],
     options: &DetectOptions,
     failed: &mut Vec<FailedFrame>,

@@ -60,11 +60,19 @@ impl FleetRun {
         self.record.as_ref().and_then(|r| r.date.as_deref())
     }
 
-    /// The flight recording, as the task or the report names it.
+    /// The flight recording, as the task or the report names it (several
+    /// recordings separated by `;`).
     pub fn flight(&self) -> Option<String> {
-        let record = self.record.as_ref().map(|r| &r.flight);
-        let summary = self.summary.as_ref().map(|s| &s.flight);
-        record.or(summary).map(|p| p.display().to_string())
+        let record = self.record.as_ref().map(|r| r.flight.display().to_string());
+        let summary = self.summary.as_ref().map(|s| {
+            let paths: Vec<String> = s
+                .recordings
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect();
+            paths.join(";")
+        });
+        record.or(summary)
     }
 
     /// `finished`, `failed`, `running`, or `complete` for a run made by

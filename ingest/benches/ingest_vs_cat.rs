@@ -201,7 +201,7 @@ fn time_cat(path: &Path) -> f64 {
 }
 
 fn time_ingest(path: &Path, out: &Path) -> (f64, postflight_core::outputs::ingest::IngestSummary) {
-    let options = ingest::IngestOptions::new(path.to_owned(), out.to_owned());
+    let options = ingest::IngestOptions::new(vec![path.to_owned()], out.to_owned());
     let start = Instant::now();
     let summary = ingest::ingest(&options, &mut |_: u64, _: u64| {}).unwrap();
     (start.elapsed().as_secs_f64(), summary)

@@ -20,6 +20,7 @@ use crate::tf::TransformTree;
 
 pub(crate) fn cameras(
     options: &IngestOptions,
+    path: &Path,
     scan: &Scan,
     trajectory: &Trajectory,
     warnings: &mut Vec<String>,
@@ -83,7 +84,7 @@ pub(crate) fn cameras(
             (None, Some((t, info))) => {
                 let i = calibration::from_camera_info(info).map_err(|why| {
                     IngestError::Calibration {
-                        path: options.flight.clone(),
+                        path: path.to_owned(),
                         why: format!(
                             "CameraInfo on {t}: {why}; pass a calibration file as {}",
                             keys::camera_info_file
@@ -94,7 +95,7 @@ pub(crate) fn cameras(
             }
             (None, None) => {
                 return Err(IngestError::NoIntrinsics {
-                    path: options.flight.clone(),
+                    path: path.to_owned(),
                     topic: topic.to_string(),
                     frame_id: frame.frame_id.clone(),
                 });
@@ -116,6 +117,7 @@ pub(crate) fn cameras(
             ));
         }
         cameras.push(Camera {
+            recording: frame.recording,
             topic: topic.to_string(),
             frame_id: frame.frame_id.clone(),
             intrinsics: Some(intrinsics),

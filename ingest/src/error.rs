@@ -33,6 +33,18 @@ pub enum IngestError {
     },
 
     #[error(
+        "{} is given twice; give each recording once",
+        path.display()
+    )]
+    GivenTwice { path: PathBuf },
+
+    #[error(
+        "no flight recordings in {:?}: found no .mcap or .bag file; pass a recording, several (--flight A --flight B), or a directory of them",
+        path.display().to_string()
+    )]
+    NoRecordingsIn { path: PathBuf },
+
+    #[error(
         "no usable pose topic in {}: found no geometry_msgs/msg/PoseStamped, nav_msgs/msg/Odometry or /tf messages{hint}; record the SLAM pose or name its topic with {}",
         path.display(),
         keys::pose_topic

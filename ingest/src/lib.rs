@@ -27,6 +27,6 @@ pub mod tf;
 
 pub use error::IngestError;
 pub use recording::Recording;
-pub use reopen::{load_map, map_cloud};
+pub use reopen::{Recordings, load_map, map_cloud};
 pub use settings::{IngestConfig, IngestSettings};
 pub use stage::{IngestOptions, Progress, ingest};

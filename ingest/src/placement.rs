@@ -4,6 +4,7 @@
 //! mounting, or the reason it has none.
 
 use std::collections::BTreeSet;
+use std::path::Path;
 
 use nalgebra::Isometry3;
 use postflight_core::{Frame, PoseAt, PoseStatus, Trajectory};
@@ -17,6 +18,7 @@ use crate::tf::TransformTree;
 /// The body trajectory: from the chosen pose topic, else the `/tf` chain.
 pub(crate) fn choose_trajectory(
     options: &IngestOptions,
+    path: &Path,
     scan: &mut Scan,
     camera_frames: &BTreeSet<String>,
     max_gap_ns: i64,
@@ -92,7 +94,7 @@ pub(crate) fn choose_trajectory(
         )
     };
     Err(IngestError::NoPoses {
-        path: options.flight.clone(),
+        path: path.to_owned(),
         hint,
     })
 }
@@ -117,7 +119,7 @@ pub(crate) fn infer_body_frame(
     Some(frame)
 }
 
-/// Give each frame its index and its camera pose, or the reason it has none.
+/// Give each frame its camera pose, or the reason it has none.
 pub(crate) fn place_frames(
     frames: &mut [Frame],
     trajectory: &Trajectory,
@@ -125,8 +127,7 @@ pub(crate) fn place_frames(
     max_gap_ns: i64,
 ) {
     let body = trajectory.child_frame_id.as_str();
-    for (i, f) in frames.iter_mut().enumerate() {
-        f.index = i as u32;
+    for f in frames.iter_mut() {
         let body_pose = match trajectory.at(f.time_ns, max_gap_ns) {
             PoseAt::Pose(p) => p,
             PoseAt::BeforeStart => {

@@ -158,6 +158,12 @@ impl Recording {
         &self.path
     }
 
+    /// Whether a file is named as a recording: `.mcap` or `.bag`.
+    pub fn is_recording_name(path: &Path) -> bool {
+        let extension = path.extension().and_then(|e| e.to_str());
+        extension.is_some_and(|e| e.eq_ignore_ascii_case("mcap") || e.eq_ignore_ascii_case("bag"))
+    }
+
     /// File size in bytes.
     pub fn len(&self) -> u64 {
         self.map.len() as u64

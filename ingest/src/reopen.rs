@@ -1,13 +1,15 @@
-//! A flight's recording reopened after ingest, for what later stages read
-//! from it on demand: a frame's image (decoded, or still compressed) and
-//! the recorded SLAM map. Frames and `ingest.json` say where each message
-//! is, so nothing is searched and nothing else is read.
+//! A flight's recordings reopened after ingest, for what later stages read
+//! from them on demand: a frame's image (decoded, or still compressed) and
+//! the recorded SLAM maps. Frames and `ingest.json` say which recording
+//! holds each message and where, so nothing is searched and nothing else
+//! is read.
 
 use std::collections::HashMap;
 use std::path::Path;
 
 use image::DynamicImage;
 use postflight_core::map::{PointCloud, SlamMap, VoxelGrid};
+use postflight_core::outputs::ingest::RecordingSummary;
 use postflight_core::{Flight, Frame};
 
 use crate::error::IngestError;
@@ -15,25 +17,102 @@ use crate::image::{decode_compressed, decode_raw};
 use crate::recording::Recording;
 use crate::ros::{Wire, msg, pointcloud2};
 
-impl Recording {
-    /// The recording a flight was ingested from; an error if it changed
+/// Every recording of a flight, reopened.
+pub struct Recordings {
+    /// In the order of `ingest.json`'s `recordings`, as frames name them.
+    recordings: Vec<Recording>,
+}
+
+impl Recordings {
+    /// The recordings a flight was ingested from; an error if one changed
     /// size since (then the message locations are stale).
     pub fn reopen(flight: &Flight) -> Result<Self, IngestError> {
-        let file = &flight.summary.flight;
-        let mut recording = Self::open(&file.path)?;
-        if recording.len() != file.size_bytes {
+        let recordings = flight.summary.recordings.iter();
+        let recordings = recordings
+            .map(|r| Recording::reopen(flight, r))
+            .collect::<Result<_, _>>()?;
+        Ok(Self { recordings })
+    }
+
+    /// The recording holding a frame.
+    fn of(&self, frame: &Frame) -> Result<&Recording, IngestError> {
+        let index = usize::from(frame.recording);
+        self.recordings.get(index).ok_or_else(|| {
+            postflight_core::Error::RunDir {
+                path: Default::default(),
+                why: format!(
+                    "frame {} names recording {index}, but ingest.json lists {}; rerun `postflight ingest`",
+                    frame.index,
+                    self.recordings.len()
+                ),
+            }
+            .into()
+        })
+    }
+
+    /// Decode a frame's image.
+    pub fn image(&self, frame: &Frame) -> Result<DynamicImage, IngestError> {
+        self.of(frame)?.image(frame)
+    }
+
+    /// A frame's image as recorded, still compressed (JPEG or PNG bytes), for
+    /// passing on without decoding; `None` for raw images.
+    pub fn compressed_image(&self, frame: &Frame) -> Result<Option<Vec<u8>>, IngestError> {
+        self.of(frame)?.compressed_image(frame)
+    }
+
+    /// The SLAM maps recorded in the flight's recordings, as one cloud
+    /// (`None` when none had one), and the topics and files it came from.
+    pub fn recorded_map(
+        &self,
+        flight: &Flight,
+    ) -> Result<Option<(PointCloud, String)>, IngestError> {
+        let mut merged: Option<PointCloud> = None;
+        let mut sources = Vec::new();
+        for (recording, summary) in self.recordings.iter().zip(&flight.summary.recordings) {
+            let Some(cloud) = recording.recorded_map(summary)? else {
+                continue;
+            };
+            let topic = summary.map.as_ref().map(|m| m.topic.as_str());
+            sources.push(match flight.summary.recordings.len() {
+                1 => format!("recorded {}", topic.unwrap_or_default()),
+                _ => format!(
+                    "recorded {} of {}",
+                    topic.unwrap_or_default(),
+                    summary.name()
+                ),
+            });
+            match &mut merged {
+                None => merged = Some(cloud),
+                Some(m) => {
+                    m.points.extend(cloud.points);
+                    // Maps of several recordings are no longer one voxel map.
+                    m.grid = m.grid.filter(|g| Some(*g) == cloud.grid);
+                }
+            }
+        }
+        Ok(merged.map(|m| (m, sources.join(", "))))
+    }
+}
+
+impl Recording {
+    /// One recording of a flight, as ingest found it; an error if it
+    /// changed size since.
+    fn reopen(flight: &Flight, summary: &RecordingSummary) -> Result<Self, IngestError> {
+        let mut recording = Self::open(&summary.path)?;
+        if recording.len() != summary.size_bytes {
             return Err(postflight_core::Error::RunDir {
                 path: flight.run.path().to_owned(),
                 why: format!(
                     "the recording {} changed size since ingest ({} bytes, was {}); rerun `postflight ingest`",
-                    file.path.display(),
+                    summary.path.display(),
                     recording.len(),
-                    file.size_bytes
+                    summary.size_bytes
                 ),
             }
             .into());
         }
-        recording.wires = wires(flight);
+        recording.wires = wires(summary);
         Ok(recording)
     }
 
@@ -43,7 +122,7 @@ impl Recording {
     }
 
     /// Decode a frame's image.
-    pub fn image(&self, frame: &Frame) -> Result<DynamicImage, IngestError> {
+    fn image(&self, frame: &Frame) -> Result<DynamicImage, IngestError> {
         let payload = self.read_message(frame.location)?;
         let bad = |why: String| self.bad_frame(frame, why);
         let wire = self.wire(&frame.topic);
@@ -66,9 +145,8 @@ impl Recording {
         }
     }
 
-    /// A frame's image as recorded, still compressed (JPEG or PNG bytes), for
-    /// passing on without decoding; `None` for raw images.
-    pub fn compressed_image(&self, frame: &Frame) -> Result<Option<Vec<u8>>, IngestError> {
+    /// A frame's image still compressed; `None` for raw images.
+    fn compressed_image(&self, frame: &Frame) -> Result<Option<Vec<u8>>, IngestError> {
         if !is_compressed(frame) {
             return Ok(None);
         }
@@ -80,9 +158,9 @@ impl Recording {
         Ok(Some(data.to_vec()))
     }
 
-    /// The SLAM map recorded in the flight, if it had one.
-    pub fn recorded_map(&self, flight: &Flight) -> Result<Option<PointCloud>, IngestError> {
-        let Some(map) = &flight.summary.map else {
+    /// The SLAM map recorded in this recording, if it had one.
+    fn recorded_map(&self, summary: &RecordingSummary) -> Result<Option<PointCloud>, IngestError> {
+        let Some(map) = &summary.map else {
             return Ok(None);
         };
         let payload = self.read_message(map.location)?;
@@ -115,14 +193,7 @@ pub fn map_cloud(
     if let Some(path) = given {
         return Ok(Some((PointCloud::load(path)?, path.display().to_string())));
     }
-    let Some(cloud) = Recording::reopen(flight)?.recorded_map(flight)? else {
-        return Ok(None);
-    };
-    let topic = flight.summary.map.as_ref().map(|m| m.topic.as_str());
-    Ok(Some((
-        cloud,
-        format!("recorded {}", topic.unwrap_or_default()),
-    )))
+    Recordings::reopen(flight)?.recorded_map(flight)
 }
 
 /// The map a stage works on ([`map_cloud`]), voxelised on `grid` (without
@@ -149,10 +220,10 @@ fn is_compressed(frame: &Frame) -> bool {
     matches!(frame.encoding.as_str(), "jpeg" | "png")
 }
 
-/// How the ROS 1 topics read again decode, from the definitions ingest
-/// kept in `ingest.json` (every other topic is CDR).
-fn wires(flight: &Flight) -> HashMap<String, Wire> {
-    let summaries = flight.summary.messages.iter();
+/// How a recording's ROS 1 topics read again decode, from the definitions
+/// ingest kept in `ingest.json` (every other topic is CDR).
+fn wires(recording: &RecordingSummary) -> HashMap<String, Wire> {
+    let summaries = recording.messages.iter();
     summaries
         .filter_map(|(topic, summary)| {
             let definition = summary.definition.as_deref()?;

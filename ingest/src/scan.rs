@@ -234,6 +234,7 @@ impl Scan {
         let frame =
             |header: &msg::Header, size: Option<(u32, u32)>, encoding, image_status| Frame {
                 index: 0,
+                recording: 0,
                 time_ns: capture_time(header, log_time_ns),
                 log_time_ns,
                 topic: topic.to_string(),
@@ -308,6 +309,7 @@ impl Scan {
             Kind::NavSatFix => {
                 let fix: msg::NavSatFix = wire.decode(m.data)?;
                 self.fixes.push(GnssFix {
+                    recording: 0,
                     time_ns: capture_time(&fix.header, log_time_ns),
                     topic: topic.to_string(),
                     position: Geodetic {

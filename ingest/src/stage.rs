@@ -1,5 +1,6 @@
-//! The ingest stage: one pass over a flight recording, then the frames,
-//! trajectory, cameras and a summary written into the run directory.
+//! The ingest stage: one pass over each of a flight's recordings (one, or
+//! one per sortie or drone), then the frames, trajectories, cameras and a
+//! summary written into the run directory.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -8,8 +9,8 @@ use nalgebra::Point3;
 use postflight_core::frame::camera_namespace;
 use postflight_core::geo::{GeoAlignment, Geodetic};
 use postflight_core::outputs::ingest::{
-    self as outputs, FlightFile, GnssFix, IngestSummary, PoseSource, RecordedMap, TopicSummary,
-    files,
+    self as outputs, GnssFix, IngestSummary, PoseSource, RecordedMap, RecordingSummary,
+    TopicSummary, files,
 };
 use postflight_core::time::rfc3339;
 use postflight_core::{
@@ -30,27 +31,53 @@ use crate::settings::{IngestConfig, keys};
 /// settings, not the paths.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct IngestOptions {
+    /// The flight's recordings: one, or one per sortie or drone (see
+    /// [`recordings_in`]).
     #[serde(skip)]
-    pub flight: PathBuf,
+    pub flights: Vec<PathBuf>,
     #[serde(skip)]
     pub out: PathBuf,
     pub settings: IngestConfig,
 }
 
 impl IngestOptions {
-    /// `flight` into `out` with the default settings.
-    pub fn new(flight: PathBuf, out: PathBuf) -> Self {
+    /// `flights` into `out` with the default settings.
+    pub fn new(flights: Vec<PathBuf>, out: PathBuf) -> Self {
         Self {
-            flight,
+            flights,
             out,
             settings: IngestConfig::default(),
         }
     }
 }
 
+/// The recordings a `--flight` names: the file, or a directory's MCAP and
+/// bag files in name order (sortie-1.mcap, sortie-2.mcap, ...).
+pub fn recordings_in(path: &Path) -> Result<Vec<PathBuf>, IngestError> {
+    if !path.is_dir() {
+        return Ok(vec![path.to_owned()]);
+    }
+    let listed = std::fs::read_dir(path).map_err(|e| IngestError::NotRecording {
+        path: path.to_owned(),
+        why: e.to_string(),
+    })?;
+    let mut found: Vec<PathBuf> = listed
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.is_file() && Recording::is_recording_name(p))
+        .collect();
+    found.sort();
+    if found.is_empty() {
+        return Err(IngestError::NoRecordingsIn {
+            path: path.to_owned(),
+        });
+    }
+    Ok(found)
+}
+
 /// Progress of an ingest, for progress bars.
 pub trait Progress {
-    /// `done` of `total` bytes of the recording read.
+    /// `done` of `total` bytes of the recordings read.
     fn bytes(&mut self, done: u64, total: u64);
 }
 
@@ -60,7 +87,18 @@ impl<F: FnMut(u64, u64)> Progress for F {
     }
 }
 
-/// Ingest a flight recording into a run directory.
+/// One recording, ingested: its summary, its frames placed on its own
+/// trajectory, its cameras and fixes.
+struct Ingested {
+    summary: RecordingSummary,
+    frames: Vec<Frame>,
+    trajectory: Trajectory,
+    cameras: Vec<Camera>,
+    fixes: Vec<GnssFix>,
+    warnings: Vec<String>,
+}
+
+/// Ingest a flight's recordings into a run directory.
 pub fn ingest(
     options: &IngestOptions,
     progress: &mut dyn Progress,
@@ -71,7 +109,64 @@ pub fn ingest(
         options.settings.max_pose_gap_s,
         "a positive number of seconds",
     )?;
-    let recording = Recording::open(&options.flight)?;
+    let recordings = open_all(&options.flights)?;
+    let total: u64 = recordings.iter().map(Recording::len).sum();
+    let mut done = 0;
+    let mut ingested = Vec::new();
+    for (index, recording) in (0u16..).zip(&recordings) {
+        let mut progress = |bytes, _| progress.bytes(done + bytes, total);
+        ingested.push(ingest_one(index, recording, options, &mut progress)?);
+        done += recording.len();
+    }
+    let messages = ingested.iter().map(|i| &i.summary.messages);
+    check_topic_flags(
+        options,
+        &messages.fold(BTreeMap::new(), |mut all, m| {
+            all.extend(m.iter().map(|(t, s)| (t.clone(), s.clone())));
+            all
+        }),
+    )?;
+    if ingested.iter().all(|i| i.frames.is_empty()) {
+        return Err(IngestError::NoImages {
+            path: options.flights[0].clone(),
+        });
+    }
+    let (summary, flight) = combine(ingested, options);
+    write_outputs(&options.out, &flight, &summary)?;
+    Ok(summary)
+}
+
+/// The recordings, opened.
+fn open_all(paths: &[PathBuf]) -> Result<Vec<Recording>, IngestError> {
+    check_recordings(paths)?;
+    paths.iter().map(|p| Recording::open(p)).collect()
+}
+
+/// A flight's recordings are at least one, each given once.
+pub fn check_recordings(paths: &[PathBuf]) -> Result<(), IngestError> {
+    let mut seen = BTreeSet::new();
+    for p in paths {
+        let key = std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
+        if !seen.insert(key) {
+            return Err(IngestError::GivenTwice { path: p.clone() });
+        }
+    }
+    if paths.is_empty() {
+        return Err(IngestError::NoRecordingsIn {
+            path: PathBuf::new(),
+        });
+    }
+    Ok(())
+}
+
+/// One pass over one recording, and its frames placed on its own
+/// trajectory (a pose never comes from another sortie or drone).
+fn ingest_one(
+    index: u16,
+    recording: &Recording,
+    options: &IngestOptions,
+    progress: &mut dyn Progress,
+) -> Result<Ingested, IngestError> {
     let total = recording.len();
     let mut scan = Scan::default();
     let report = recording.scan(|event| match event {
@@ -80,42 +175,51 @@ pub fn ingest(
         ScanEvent::Progress { bytes } => progress.bytes(bytes, total),
     });
     scan.tf.finish();
-    let path = options.flight.clone();
+    for f in &mut scan.frames {
+        f.recording = index;
+    }
+    for f in &mut scan.fixes {
+        f.recording = index;
+    }
+    let path = recording.path().to_owned();
     let messages = scan.topics();
-    let salvaged: u64 = messages.values().map(|t| t.count).sum();
     if report.truncated && options.settings.strict {
         return Err(IngestError::Truncated {
             path,
             offset: report.truncated_at.unwrap_or(total),
-            salvaged,
+            salvaged: messages.values().map(|t| t.count).sum(),
         });
     }
-    check_topic_flags(options, &messages)?;
-
     let mut warnings = damage_warnings(&report, &scan, total);
-    if scan.frames.is_empty() {
-        return Err(IngestError::NoImages { path });
-    }
     let max_gap_ns = (options.settings.max_pose_gap_s * 1e9) as i64;
     let camera_frames: BTreeSet<String> = scan.frames.iter().map(|f| f.frame_id.clone()).collect();
     let trajectory = choose_trajectory(
         options,
+        &path,
         &mut scan,
         &camera_frames,
         max_gap_ns,
         &mut warnings,
-    )?;
-    let cameras = cameras(options, &scan, &trajectory, &mut warnings)?;
+    );
+    let (trajectory, cameras) = if scan.frames.is_empty() {
+        // A recording without images (a mapping drone's) counts for its map.
+        warnings.push("no camera images; read for its map and GPS only".to_string());
+        (trajectory.unwrap_or_default(), Vec::new())
+    } else {
+        let trajectory = trajectory?;
+        let cameras = cameras(options, &path, &scan, &trajectory, &mut warnings)?;
+        (trajectory, cameras)
+    };
     let mut frames = std::mem::take(&mut scan.frames);
     for f in &mut frames {
         let key = (camera_namespace(&f.topic).to_string(), f.log_time_ns);
         f.exposure_s = scan.exposures.get(&key).copied();
     }
-    frames.sort_by(|a, b| (a.time_ns, &a.topic).cmp(&(b.time_ns, &b.topic)));
     place_frames(&mut frames, &trajectory, &scan.tf, max_gap_ns);
-    let map = recorded_map(&recording, &scan, &mut warnings);
+    let map = recorded_map(recording, &scan, &mut warnings);
     if let Some(m) = &map
         && !m.frame_id.is_empty()
+        && !trajectory.frame_id.is_empty()
         && m.frame_id != trajectory.frame_id
     {
         warnings.push(format!(
@@ -123,20 +227,95 @@ pub fn ingest(
             m.topic, m.frame_id, trajectory.frame_id
         ));
     }
-
-    let by_status = frames_by_pose_status(&frames);
-    warnings.extend(frame_warnings(&frames, &by_status));
-    scan.fixes.sort_by_key(|f| f.time_ns);
-    let geo_origin = geo_origin(&scan.fixes, &trajectory, max_gap_ns, &mut warnings);
-
+    let fixes = std::mem::take(&mut scan.fixes);
     let (start, end) = scan.time_range.unwrap_or((0, 0));
+    let summary = RecordingSummary {
+        path: std::path::absolute(&path).unwrap_or(path),
+        size_bytes: total,
+        messages,
+        frames: frames.len() as u64,
+        poses: trajectory.len() as u64,
+        pose_source: PoseSource {
+            topic: trajectory.source.clone(),
+            frame_id: trajectory.frame_id.clone(),
+            child_frame_id: trajectory.child_frame_id.clone(),
+        },
+        start_time_ns: start as i64,
+        end_time_ns: end as i64,
+        truncated: report.truncated,
+        truncated_at_byte: report.truncated_at,
+        corrupt_chunks: report.corrupt_chunks,
+        map,
+    };
+    Ok(Ingested {
+        summary,
+        frames,
+        trajectory,
+        cameras,
+        fixes,
+        warnings,
+    })
+}
+
+/// What ingest writes, the recordings' together.
+struct FlightTables {
+    frames: Vec<Frame>,
+    trajectories: Vec<Trajectory>,
+    cameras: Vec<Camera>,
+    fixes: Vec<GnssFix>,
+}
+
+/// The recordings as one flight: frames in time order across recordings,
+/// each recording's trajectory and cameras, one geo origin from every fix,
+/// and the summary.
+fn combine(ingested: Vec<Ingested>, options: &IngestOptions) -> (IngestSummary, FlightTables) {
+    let several = ingested.len() > 1;
+    let mut warnings = Vec::new();
+    let mut tables = FlightTables {
+        frames: Vec::new(),
+        trajectories: Vec::new(),
+        cameras: Vec::new(),
+        fixes: Vec::new(),
+    };
+    let mut recordings = Vec::new();
+    for one in ingested {
+        let name = one.summary.name();
+        // With several recordings, each warning names its own.
+        warnings.extend(one.warnings.into_iter().map(|w| match several {
+            true => format!("{name}: {w}"),
+            false => w,
+        }));
+        tables.frames.extend(one.frames);
+        tables.trajectories.push(one.trajectory);
+        tables.cameras.extend(one.cameras);
+        tables.fixes.extend(one.fixes);
+        recordings.push(one.summary);
+    }
+    let frames = &mut tables.frames;
+    frames.sort_by(|a, b| {
+        (a.time_ns, a.recording, &a.topic).cmp(&(b.time_ns, b.recording, &b.topic))
+    });
+    for (i, f) in frames.iter_mut().enumerate() {
+        f.index = i as u32;
+    }
+    let by_status = frames_by_pose_status(frames);
+    warnings.extend(frame_warnings(frames, &by_status));
+    tables.fixes.sort_by_key(|f| (f.time_ns, f.recording));
+    let max_gap_ns = (options.settings.max_pose_gap_s * 1e9) as i64;
+    let geo_origin = geo_origin(
+        &tables.fixes,
+        &tables.trajectories,
+        max_gap_ns,
+        &mut warnings,
+    );
+    let start = recordings
+        .iter()
+        .map(|r| r.start_time_ns)
+        .min()
+        .unwrap_or(0);
+    let end = recordings.iter().map(|r| r.end_time_ns).max().unwrap_or(0);
     let summary = IngestSummary {
         postflight_version: env!("CARGO_PKG_VERSION").to_string(),
-        flight: FlightFile {
-            path: std::path::absolute(&options.flight).unwrap_or_else(|_| options.flight.clone()),
-            size_bytes: total,
-        },
-        messages,
         frames: frames.len() as u64,
         frames_with_pose: frames.iter().filter(|f| f.camera_pose.is_some()).count() as u64,
         frames_by_pose_status: by_status,
@@ -146,41 +325,25 @@ pub fn ingest(
             .collect::<BTreeSet<_>>()
             .into_iter()
             .collect(),
-        poses: trajectory.len() as u64,
-        pose_source: PoseSource {
-            topic: trajectory.source.clone(),
-            frame_id: trajectory.frame_id.clone(),
-            child_frame_id: trajectory.child_frame_id.clone(),
-        },
-        duration_s: (end - start) as f64 * 1e-9,
-        start_time: rfc3339(start as i64),
-        end_time: rfc3339(end as i64),
-        start_time_ns: start as i64,
-        end_time_ns: end as i64,
-        truncated: report.truncated,
-        truncated_at_byte: report.truncated_at,
-        corrupt_chunks: report.corrupt_chunks,
-        map,
+        poses: recordings.iter().map(|r| r.poses).sum(),
+        duration_s: recordings.iter().map(RecordingSummary::duration_s).sum(),
+        start_time: rfc3339(start),
+        end_time: rfc3339(end),
+        start_time_ns: start,
+        end_time_ns: end,
         max_pose_gap_s: options.settings.max_pose_gap_s,
         geo_origin,
         warnings,
+        recordings,
     };
-    write_outputs(
-        &options.out,
-        &frames,
-        &trajectory,
-        &cameras,
-        &scan.fixes,
-        &summary,
-    )?;
-    Ok(summary)
+    (summary, tables)
 }
 
 /// The map frame on the Earth from the GPS fixes (those with a fix, at
 /// times the trajectory has a pose); a warning when they cannot tell.
 fn geo_origin(
     fixes: &[GnssFix],
-    trajectory: &Trajectory,
+    trajectories: &[Trajectory],
     max_gap_ns: i64,
     warnings: &mut Vec<String>,
 ) -> Option<GeoAlignment> {
@@ -190,9 +353,14 @@ fn geo_origin(
     let (local, geodetic): (Vec<Point3<f64>>, Vec<Geodetic>) = fixes
         .iter()
         .filter(|f| f.status >= 0)
-        .filter_map(|f| match trajectory.at(f.time_ns, max_gap_ns) {
-            PoseAt::Pose(pose) => Some((Point3::from(pose.translation.vector), f.position)),
-            _ => None,
+        .filter_map(|f| {
+            match trajectories
+                .get(usize::from(f.recording))?
+                .at(f.time_ns, max_gap_ns)
+            {
+                PoseAt::Pose(pose) => Some((Point3::from(pose.translation.vector), f.position)),
+                _ => None,
+            }
         })
         .unzip();
     GeoAlignment::fit(&local, &geodetic)
@@ -366,18 +534,15 @@ fn recorded_map(
 
 fn write_outputs(
     out: &Path,
-    frames: &[Frame],
-    trajectory: &Trajectory,
-    cameras: &[Camera],
-    fixes: &[GnssFix],
+    flight: &FlightTables,
     summary: &IngestSummary,
 ) -> Result<(), IngestError> {
     let run = RunDir::create(out)?;
     run.remove(files::SUMMARY)?;
-    outputs::write_frames(&run, frames)?;
-    outputs::write_trajectory(&run, trajectory)?;
-    outputs::write_gnss(&run, fixes)?;
-    run.write_json(files::CAMERAS, &cameras)?;
+    outputs::write_frames(&run, &flight.frames)?;
+    outputs::write_trajectories(&run, &flight.trajectories)?;
+    outputs::write_gnss(&run, &flight.fixes)?;
+    run.write_json(files::CAMERAS, &flight.cameras)?;
     run.write_json(files::SUMMARY, summary)?;
     Ok(())
 }

@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use image::{DynamicImage, Rgb, RgbImage};
-use ingest::Recording;
+use ingest::Recordings;
 use postflight_core::Frame;
 
 use crate::observation::Observation;
@@ -40,7 +40,7 @@ pub fn draw_box(img: &mut RgbImage, bbox: [f32; 4], thickness: u32) {
 /// The frame is decoded again: keeping every frame's image until fusion
 /// picks the best views would hold the whole flight in memory.
 pub(crate) fn write_crop(
-    recording: &Recording,
+    recording: &Recordings,
     frame: &Frame,
     best: &Observation,
     path: &Path,

@@ -7,7 +7,7 @@ use std::collections::{BTreeMap, HashSet};
 use std::path::PathBuf;
 use std::time::Instant;
 
-use ingest::Recording;
+use ingest::Recordings;
 use nalgebra::Point3;
 use postflight_core::condition::{ConditionSettings, CrackLimits};
 use postflight_core::detection::FrameDetection;
@@ -132,7 +132,7 @@ pub fn localise(
         max_range: options.settings.max_range_m,
         view: &view,
     };
-    let recording = Recording::reopen(&flight)?;
+    let recording = Recordings::reopen(&flight)?;
 
     let by_frame = detections_by_frame(&flight, detections)?;
     let (observations, mut warnings) = place(
@@ -219,7 +219,7 @@ fn detections_by_frame(
 /// warning for each frame whose image could not be decoded.
 fn place(
     flight: &Flight,
-    recording: &Recording,
+    recording: &Recordings,
     by_frame: Vec<(u32, Vec<FrameDetection>)>,
     scene: &Scene,
     options: &LocaliseConfig,
@@ -283,7 +283,7 @@ fn unplaced_warnings(outcomes: &Outcomes) -> Vec<String> {
 /// Place one frame's detections, decoding its image once for their traces.
 fn place_frame(
     flight: &Flight,
-    recording: &Recording,
+    recording: &Recordings,
     frame: &Frame,
     detections: &[FrameDetection],
     scene: &Scene,
@@ -432,7 +432,7 @@ struct Written<'a> {
 
 fn write_outputs(
     flight: &Flight,
-    recording: &Recording,
+    recording: &Recordings,
     written: &Written,
     summary: &LocaliseSummary,
 ) -> Result<(), LocaliseError> {

@@ -280,13 +280,15 @@ fn choose_gaps(run: &RunDir, choice: GapChoice) -> Result<ChosenGaps, ReplanErro
     })
 }
 
-/// Home: as given, else where the flight took off.
+/// Home: as given, else where the flight (its first recording) took off.
 fn take_off(options: &ReplanOptions, flight: &Flight) -> Result<Point3<f64>, ReplanError> {
     match options.settings.home {
         Some(h) => Ok(Point3::from(h)),
         None => flight
-            .trajectory
-            .poses()
+            .trajectories
+            .first()
+            .map(|t| t.poses())
+            .unwrap_or_default()
             .first()
             .map(|p| Point3::from(p.pose.translation.vector))
             .ok_or(ReplanError::NoTakeOff),

@@ -26,13 +26,25 @@ use crate::results::{ElementCracks, RunResults, VoxelStatus, review_priority};
 use crate::svg::bar_chart;
 use crate::views::{HEIGHT_COLOURS, Marker, Overlay, Side, colour, view, width_m};
 
+/// The flight as the title names it: its recording's file name, or with
+/// several, the first and how many more.
+fn flight_name(recordings: &[std::path::PathBuf]) -> String {
+    let name = |p: &std::path::PathBuf| {
+        p.file_name().map_or_else(
+            || p.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        )
+    };
+    match recordings {
+        [] => String::new(),
+        [one] => name(one),
+        [first, rest @ ..] => format!("{} and {} more recordings", name(first), rest.len()),
+    }
+}
+
 /// The page for `results`, with `summary` already computed from them.
 pub fn page(results: &RunResults, summary: &RunSummary) -> String {
-    let flight = summary.flight.file_name().map_or_else(
-        || summary.flight.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    );
-    let title = format!("Inspection report: {flight}");
+    let title = format!("Inspection report: {}", flight_name(&summary.recordings));
     let body = html! {
         h1 { (title) }
         p.sub {
@@ -44,10 +56,11 @@ pub fn page(results: &RunResults, summary: &RunSummary) -> String {
         @if summary.truncated {
             p.warn {
                 b { "Truncated recording." }
-                " The flight file was cut short; postflight salvaged what it holds, and everything below describes only that part of the flight."
+                " A flight file was cut short; postflight salvaged what it holds, and everything below describes only that part of the flight."
             }
         }
         (cards(summary))
+        (recordings_section(results))
         (files_section(results))
         (changes_section(results))
         (coverage_section(results))
@@ -474,6 +487,9 @@ fn defect_row(r: &RunResults, rank: usize, d: &DefectRecord) -> Markup {
                     (d.id) (format!(" at ({:.2}, {:.2}, {:.2}) m", p[0], p[1], p[2])) "; "
                     (d.frames) " supporting frames, best frame " (d.best.frame)
                     " (" a href=(format!("#boxes-{rank}")) { "boxes" } ")"
+                    @if r.flight.summary.recordings.len() > 1 {
+                        "; seen in " (r.recording_names_of(d))
+                    }
                 }
                 @if let Some(weak) = evidence_text(d) { br; span.flag { (weak) } }
             }
@@ -485,6 +501,54 @@ fn defect_row(r: &RunResults, rank: usize, d: &DefectRecord) -> Markup {
             td.n {
                 (format!("{:.2}", d.confidence)) br;
                 span.sub { (format!("priority {:.2}", review_priority(d))) }
+            }
+        }
+    }
+}
+
+/// A flight of several recordings (sorties, or drones): what each held
+/// and how many candidates its frames show. Nothing for one recording.
+fn recordings_section(r: &RunResults) -> Markup {
+    let recordings = &r.flight.summary.recordings;
+    if recordings.len() < 2 {
+        return html! {};
+    }
+    let mut frames_with_pose = vec![0u64; recordings.len()];
+    for f in r.flight.frames.iter().filter(|f| f.camera_pose.is_some()) {
+        if let Some(n) = frames_with_pose.get_mut(usize::from(f.recording)) {
+            *n += 1;
+        }
+    }
+    let mut candidates = vec![0usize; recordings.len()];
+    for d in &r.defects {
+        for i in r.recordings_of(d) {
+            if let Some(n) = candidates.get_mut(usize::from(i)) {
+                *n += 1;
+            }
+        }
+    }
+    html! {
+        h2 { "Recordings" }
+        p {
+            "The flight was recorded as " (recordings.len()) " recordings (sorties or drones), processed as one: "
+            "coverage counts every frame of every recording, and the views of one crack are fused into one candidate whichever recording saw them."
+        }
+        table {
+            tr {
+                th { "#" } th { "recording" } th { "start" } th.n { "flown" } th.n { "frames" }
+                th.n { "poses" } th { "map" } th.n { "candidates seen" }
+            }
+            @for (i, rec) in recordings.iter().enumerate() {
+                tr {
+                    td { (i + 1) }
+                    td { code { (rec.name()) } @if rec.truncated { br; span.flag { "truncated, salvaged" } } }
+                    td { (readable_time(&postflight_core::time::rfc3339(rec.start_time_ns))) }
+                    td.n { (format!("{:.0} s", rec.duration_s())) }
+                    td.n { (rec.frames) br; span.sub { (frames_with_pose[i]) " with pose" } }
+                    td.n { (rec.poses) }
+                    td { @match &rec.map { Some(m) => { (m.points) " points on " code { (m.topic) } }, None => "\u{2013}" } }
+                    td.n { (candidates[i]) }
+                }
             }
         }
     }

@@ -8,13 +8,13 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use ingest::Recording;
+use ingest::Recordings;
 use nalgebra::Isometry3;
 use page::condition_text;
 use postflight_core::detection::FrameDetection;
 use postflight_core::mask::Mask;
 use postflight_core::outputs::detect::read_detections;
-use postflight_core::{Camera, Frame};
+use postflight_core::{Camera, Flight, Frame};
 
 use crate::error::ReportError;
 use crate::results::{RunResults, VoxelStatus};
@@ -134,20 +134,25 @@ fn log_coverage(out: &Out, results: &RunResults) -> Result<(), ReportError> {
 }
 
 fn log_trajectory(out: &Out, results: &RunResults) -> Result<(), ReportError> {
-    let trajectory: Vec<[f32; 3]> = results
+    // One strip per recording: no line jumps from one sortie or drone to the next.
+    let strips: Vec<Vec<[f32; 3]>> = results
         .flight
-        .trajectory
-        .poses()
+        .trajectories
         .iter()
-        .map(|p| f32x3(p.pose.translation.vector.into()))
+        .map(|t| {
+            let poses = t.poses().iter();
+            poses
+                .map(|p| f32x3(p.pose.translation.vector.into()))
+                .collect::<Vec<_>>()
+        })
+        .filter(|strip| strip.len() >= 2)
         .collect();
-    if trajectory.len() < 2 {
+    if strips.is_empty() {
         return Ok(());
     }
     out.log(
         "world/trajectory",
-        &rerun::LineStrips3D::new([trajectory])
-            .with_colors([rerun::Color::from_rgb(240, 240, 240)]),
+        &rerun::LineStrips3D::new(strips).with_colors([rerun::Color::from_rgb(240, 240, 240)]),
     )
 }
 
@@ -247,7 +252,7 @@ fn log_frames(
         .as_ref()
         .map(|d| d.classes.clone())
         .unwrap_or_default();
-    let recording = Recording::reopen(flight)?;
+    let recording = Recordings::reopen(flight)?;
     let total = flight.frames.len() as u64;
     for (done, frame) in flight.frames.iter().enumerate() {
         progress(done as u64, total);
@@ -257,7 +262,7 @@ fn log_frames(
         out.rec
             .set_timestamp_nanos_since_epoch("time", frame.time_ns);
         out.rec.set_time_sequence("frame", i64::from(frame.index));
-        let entity = format!("world/cameras/{}", entity_name(&camera.topic));
+        let entity = camera_entity(flight, camera);
         out.log_now(&entity, &transform(&pose))?;
         let image_entity = format!("{entity}/image");
         log_image(out, &recording, frame, camera, &image_entity)?;
@@ -282,7 +287,7 @@ fn log_frames(
 /// A frame's pinhole and image (passed on compressed when it was recorded so).
 fn log_image(
     out: &Out,
-    recording: &Recording,
+    recording: &Recordings,
     frame: &Frame,
     camera: &Camera,
     entity: &str,
@@ -401,6 +406,20 @@ fn f32x3(p: [f64; 3]) -> [f32; 3] {
 fn rgb(hex: &str) -> rerun::Color {
     let v = u32::from_str_radix(hex.trim_start_matches('#'), 16).unwrap_or(0);
     rerun::Color::from_rgb((v >> 16) as u8, (v >> 8) as u8, v as u8)
+}
+
+/// A camera's entity: by its topic, under its recording's name when the
+/// flight has several (two drones may use the same topic).
+fn camera_entity(flight: &Flight, camera: &Camera) -> String {
+    let topic = entity_name(&camera.topic);
+    match flight.summary.recordings.as_slice() {
+        [_] => format!("world/cameras/{topic}"),
+        all => {
+            let recording = all.get(usize::from(camera.recording));
+            let name = recording.map(|r| r.name()).unwrap_or_default();
+            format!("world/cameras/{}/{topic}", entity_name(&name))
+        }
+    }
 }
 
 /// A topic as an entity path part: `/camera/image_raw` -> `camera_image_raw`.

@@ -201,6 +201,38 @@ impl RunResults {
         order
     }
 
+    /// The recordings whose frames show a candidate (their places in
+    /// `ingest.json`'s `recordings`), in order.
+    pub fn recordings_of(&self, d: &DefectRecord) -> Vec<u16> {
+        let frames = d.views.iter().filter_map(|v| self.flight.frame(v.frame));
+        let seen: std::collections::BTreeSet<u16> = frames.map(|f| f.recording).collect();
+        seen.into_iter().collect()
+    }
+
+    /// The names of the recordings that saw a candidate, comma-separated.
+    pub fn recording_names_of(&self, d: &DefectRecord) -> String {
+        let recordings = &self.flight.summary.recordings;
+        let names: Vec<String> = self
+            .recordings_of(d)
+            .into_iter()
+            .filter_map(|i| recordings.get(usize::from(i)).map(|r| r.name()))
+            .collect();
+        names.join(", ")
+    }
+
+    /// The recordings that saw each candidate ([`Self::recording_names_of`]),
+    /// by id; empty for a flight of one recording.
+    pub fn seen_in(&self) -> HashMap<String, String> {
+        if self.flight.summary.recordings.len() < 2 {
+            return HashMap::new();
+        }
+        let names = self
+            .defects
+            .iter()
+            .map(|d| (d.id.clone(), self.recording_names_of(d)));
+        names.collect()
+    }
+
     /// Where a candidate is on the structure; `None` before coverage has
     /// found the structure's elements, or off them.
     pub fn place(&self, d: &DefectRecord) -> Option<Place> {

@@ -30,10 +30,10 @@ pub fn run_summary(results: &RunResults, timings_s: BTreeMap<String, f64>) -> Ru
     RunSummary {
         run: std::path::absolute(results.dir().path())
             .unwrap_or_else(|_| results.dir().path().to_owned()),
-        flight: i.flight.path.clone(),
+        recordings: i.recordings.iter().map(|r| r.path.clone()).collect(),
         flight_start: i.start_time.clone(),
         duration_s: i.duration_s,
-        truncated: i.truncated,
+        truncated: i.truncated(),
         frames: i.frames,
         frames_with_pose: i.frames_with_pose,
         detections: results.detect.as_ref().map(|d| d.detections),

@@ -23,13 +23,16 @@ use crate::store::{
 
 /// What the page is about, for its title and heading.
 pub struct Context<'a> {
-    /// The flight's file name.
+    /// The flight's recordings' file names.
     pub flight: &'a str,
     pub filter: Filter,
     /// Each candidate's place on the structure, by id.
     pub places: &'a HashMap<String, String>,
     /// Each candidate's change since an earlier inspection, by id.
     pub since: &'a HashMap<String, Since>,
+    /// The recordings that saw each candidate, by id; empty for a flight
+    /// of one recording.
+    pub seen_in: &'a HashMap<String, String>,
 }
 
 impl Context<'_> {
@@ -141,14 +144,17 @@ fn severity_scale() -> Markup {
 }
 
 /// How many boxes support a candidate, in how many frames (a frame may
-/// hold two boxes of one crack).
-fn support_text(d: &DefectRecord) -> String {
+/// hold two boxes of one crack), and of which recordings when the flight
+/// has several.
+fn support_text(ctx: &Context, d: &DefectRecord) -> String {
     let boxes = d.views.len();
+    let seen_in = ctx.seen_in.get(&d.id);
     format!(
-        "{boxes} box{} in {} frame{}",
+        "{boxes} box{} in {} frame{}{}",
         if boxes == 1 { "" } else { "es" },
         d.frames,
-        if d.frames == 1 { "" } else { "s" }
+        if d.frames == 1 { "" } else { "s" },
+        seen_in.map_or(String::new(), |names| format!(" of {names}"))
     )
 }
 
@@ -215,7 +221,7 @@ fn queue_row(ctx: &Context, e: &Entry) -> Markup {
             td { (crop_img(d, "thumb")) }
             td {
                 a href=(href) { (ctx.place(d)) } br;
-                span.sub { (d.id) " \u{b7} " (support_text(d)) }
+                span.sub { (d.id) " \u{b7} " (support_text(ctx, d)) }
                 @if let Some(since) = ctx.since.get(&d.id) { br; (since_line(since)) }
             }
             td.n { (format!("{:.1} m", d.best.range_m)) }
@@ -480,7 +486,7 @@ fn facts(ctx: &Context, d: &DefectRecord) -> Markup {
                 td { (format!("{:.2} (best score {:.2})", d.confidence, d.max_score)) }
             }
             tr { th { "detector scores" } td { (scores.join(", ")) } }
-            tr { th { "support" } td { (support_text(d)) } }
+            tr { th { "support" } td { (support_text(ctx, d)) } }
         }
     }
 }

@@ -5,7 +5,7 @@
 use std::io::Cursor;
 
 use image::DynamicImage;
-use ingest::Recording;
+use ingest::Recordings;
 use postflight_core::Flight;
 use postflight_core::outputs::localise::{DefectRecord, ViewRecord};
 
@@ -19,7 +19,7 @@ const MAX_WIDTH: u32 = 1280;
 /// `draw_box` is false (scaled down to at most [`MAX_WIDTH`] pixels wide).
 pub fn view_jpeg(
     flight: &Flight,
-    recording: &Recording,
+    recording: &Recordings,
     v: &ViewRecord,
     draw_box: bool,
 ) -> Result<Vec<u8>, String> {

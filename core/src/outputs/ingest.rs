@@ -64,43 +64,82 @@ pub struct RecordedMap {
     pub location: MessageLocation,
 }
 
-/// The flight recording ingested.
+/// One recording of the flight (a sortie's MCAP or bag, or one drone's):
+/// what it held and where its messages are.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct FlightFile {
+pub struct RecordingSummary {
     pub path: PathBuf,
     pub size_bytes: u64,
+    /// Messages per topic.
+    pub messages: BTreeMap<String, TopicSummary>,
+    pub frames: u64,
+    pub poses: u64,
+    pub pose_source: PoseSource,
+    /// Span of its messages (log time).
+    pub start_time_ns: i64,
+    pub end_time_ns: i64,
+    pub truncated: bool,
+    pub truncated_at_byte: Option<u64>,
+    pub corrupt_chunks: u64,
+    /// The SLAM map recorded in it, if any.
+    pub map: Option<RecordedMap>,
 }
 
-/// `ingest.json`: what the recording held and what ingest made of it.
+impl RecordingSummary {
+    /// Span of its messages, seconds.
+    pub fn duration_s(&self) -> f64 {
+        (self.end_time_ns - self.start_time_ns) as f64 * 1e-9
+    }
+
+    /// Its file name, as the report and warnings name it.
+    pub fn name(&self) -> String {
+        self.path.file_name().map_or_else(
+            || self.path.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        )
+    }
+}
+
+/// `ingest.json`: what the recordings held and what ingest made of them.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct IngestSummary {
     pub postflight_version: String,
-    pub flight: FlightFile,
-    /// Messages per topic.
-    pub messages: BTreeMap<String, TopicSummary>,
+    /// The flight's recordings, in the order given; frames, cameras and
+    /// poses name theirs by its place here.
+    pub recordings: Vec<RecordingSummary>,
     pub frames: u64,
     pub frames_with_pose: u64,
     /// Frames per `pose_status`.
     pub frames_by_pose_status: BTreeMap<PoseStatus, u64>,
     pub image_topics: Vec<String>,
     pub poses: u64,
-    pub pose_source: PoseSource,
-    /// Span of the recorded messages (log time), seconds.
+    /// Time flown: the recordings' spans added up, seconds (battery
+    /// changes between sorties do not count).
     pub duration_s: f64,
+    /// From the first recording's start to the last one's end.
     pub start_time: String,
     pub end_time: String,
     pub start_time_ns: i64,
     pub end_time_ns: i64,
-    pub truncated: bool,
-    pub truncated_at_byte: Option<u64>,
-    pub corrupt_chunks: u64,
-    pub map: Option<RecordedMap>,
     pub max_pose_gap_s: f64,
     /// The map frame on the Earth, from the GPS fixes aligned to the
     /// trajectory (none without fixes).
     #[serde(default)]
     pub geo_origin: Option<GeoAlignment>,
     pub warnings: Vec<String>,
+}
+
+impl IngestSummary {
+    /// Whether any recording was cut short.
+    pub fn truncated(&self) -> bool {
+        self.recordings.iter().any(|r| r.truncated)
+    }
+
+    /// The recordings' file names, comma-separated.
+    pub fn recording_names(&self) -> String {
+        let names: Vec<String> = self.recordings.iter().map(RecordingSummary::name).collect();
+        names.join(", ")
+    }
 }
 
 crate::table! {
@@ -146,6 +185,8 @@ impl PoseColumns {
 /// as DJI's SDK publishes it), for placing the map frame on the Earth.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GnssFix {
+    /// The recording it is in.
+    pub recording: u16,
     /// `header.stamp` (else the log time).
     pub time_ns: i64,
     pub topic: String,
@@ -158,6 +199,7 @@ pub struct GnssFix {
 crate::table! {
     /// One row of `gnss.parquet`: a fix.
     pub struct GnssRow {
+        recording: u16,
         time_ns: i64,
         topic: String,
         latitude_deg: f64,
@@ -172,6 +214,7 @@ pub fn write_gnss(run: &RunDir, fixes: &[GnssFix]) -> Result<(), Error> {
     let rows: Vec<GnssRow> = fixes
         .iter()
         .map(|f| GnssRow {
+            recording: f.recording,
             time_ns: f.time_ns,
             topic: f.topic.clone(),
             latitude_deg: f.position.latitude_deg,
@@ -189,6 +232,7 @@ pub fn read_gnss(run: &RunDir) -> Result<Vec<GnssFix>, Error> {
     Ok(rows
         .into_iter()
         .map(|r| GnssFix {
+            recording: r.recording,
             time_ns: r.time_ns,
             topic: r.topic,
             position: Geodetic {
@@ -206,6 +250,7 @@ crate::table! {
     /// optical frame in the world, null when `pose_status` is not `ok`.
     pub struct FrameRow {
         frame: u32,
+        recording: u16,
         time_ns: i64,
         log_time_ns: i64,
         topic: String,
@@ -228,6 +273,7 @@ impl FrameRow {
     fn of(f: &Frame) -> Self {
         Self {
             frame: f.index,
+            recording: f.recording,
             time_ns: f.time_ns,
             log_time_ns: f.log_time_ns,
             topic: f.topic.clone(),
@@ -248,6 +294,7 @@ impl FrameRow {
     fn frame(self) -> Frame {
         Frame {
             index: self.frame,
+            recording: self.recording,
             time_ns: self.time_ns,
             log_time_ns: self.log_time_ns,
             camera_pose: self.pose.pose(),
@@ -268,8 +315,10 @@ impl FrameRow {
 }
 
 crate::table! {
-    /// One row of `trajectory.parquet`: the body's pose in the world frame.
+    /// One row of `trajectory.parquet`: a body's pose in the world frame
+    /// (the body of the drone that flew the recording).
     pub struct TrajectoryRow {
+        recording: u16,
         time_ns: i64,
         pose: PoseColumns,
         frame_id: String,
@@ -291,26 +340,48 @@ pub fn read_frames(run: &RunDir) -> Result<Vec<Frame>, Error> {
     Ok(rows.into_iter().map(FrameRow::frame).collect())
 }
 
-/// Write `trajectory.parquet`.
-pub fn write_trajectory(run: &RunDir, trajectory: &Trajectory) -> Result<(), Error> {
-    let t = trajectory;
-    let rows: Vec<TrajectoryRow> = t
-        .poses()
-        .iter()
-        .map(|p| TrajectoryRow {
+/// Write `trajectory.parquet`: each recording's trajectory (one per
+/// recording, in its order), in time order.
+pub fn write_trajectories(run: &RunDir, trajectories: &[Trajectory]) -> Result<(), Error> {
+    let mut rows = Vec::new();
+    for (recording, t) in (0u16..).zip(trajectories) {
+        rows.extend(t.poses().iter().map(|p| TrajectoryRow {
+            recording,
             time_ns: p.time_ns,
             pose: PoseColumns::of(Some(&p.pose)),
             frame_id: t.frame_id.clone(),
             child_frame_id: t.child_frame_id.clone(),
             source: t.source.clone(),
-        })
-        .collect();
+        }));
+    }
     run.write_rows(files::TRAJECTORY, &rows)
 }
 
-/// Read `trajectory.parquet`.
-pub fn read_trajectory(run: &RunDir) -> Result<Trajectory, Error> {
+/// Read `trajectory.parquet`: one trajectory per recording of the flight
+/// (`recordings` of them; empty for a recording without poses).
+pub fn read_trajectories(run: &RunDir, recordings: usize) -> Result<Vec<Trajectory>, Error> {
     let rows: Vec<TrajectoryRow> = run.read_rows(files::TRAJECTORY)?;
+    let mut by_recording: Vec<Vec<TrajectoryRow>> = (0..recordings).map(|_| Vec::new()).collect();
+    for row in rows {
+        let Some(list) = by_recording.get_mut(usize::from(row.recording)) else {
+            return Err(Error::RunDir {
+                path: run.path().join(files::TRAJECTORY),
+                why: format!(
+                    "a pose names recording {}, but ingest.json lists {recordings}; rerun `postflight ingest`",
+                    row.recording
+                ),
+            });
+        };
+        list.push(row);
+    }
+    Ok(by_recording
+        .into_iter()
+        .map(|rows| trajectory(&rows))
+        .collect())
+}
+
+/// A recording's rows as its trajectory.
+fn trajectory(rows: &[TrajectoryRow]) -> Trajectory {
     let first =
         |get: fn(&TrajectoryRow) -> &String| rows.first().map(get).cloned().unwrap_or_default();
     let names = (
@@ -327,5 +398,5 @@ pub fn read_trajectory(run: &RunDir) -> Result<Trajectory, Error> {
             })
         })
         .collect();
-    Ok(Trajectory::new(names.0, names.1, names.2, poses))
+    Trajectory::new(names.0, names.1, names.2, poses)
 }

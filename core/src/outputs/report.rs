@@ -29,10 +29,12 @@ pub const DEFAULT_REVIEW_ADDR: &str = "127.0.0.1:8765";
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct RunSummary {
     pub run: PathBuf,
-    pub flight: PathBuf,
+    /// The flight's recordings (one, or one per sortie or drone).
+    pub recordings: Vec<PathBuf>,
     pub flight_start: String,
+    /// Time flown, the recordings' spans added up.
     pub duration_s: f64,
-    /// The recording was cut short and salvaged.
+    /// A recording was cut short and salvaged.
     pub truncated: bool,
     pub frames: u64,
     pub frames_with_pose: u64,

@@ -28,7 +28,7 @@ use axum::extract::DefaultBodyLimit;
 use axum::middleware;
 use axum::response::Html;
 use axum::routing::{get, post};
-use ingest::Recording;
+use ingest::Recordings;
 use postflight_core::outputs::localise::DefectRecord;
 use reports::results::{RunResults, TargetVoxel};
 use reports::views::Side;
@@ -83,7 +83,7 @@ struct App {
     /// stays inside.
     run_root: PathBuf,
     /// The flight's recording, for the supporting views' frames.
-    recording: Recording,
+    recording: Recordings,
     /// Indices into `results.defects`, in review order.
     order: Vec<usize>,
     backdrop: Vec<(Side, Vec<TargetVoxel>)>,
@@ -93,6 +93,7 @@ struct App {
     flight: String,
     /// Each candidate's place on the structure, by id.
     places: HashMap<String, String>,
+    seen_in: HashMap<String, String>,
     /// Each candidate's change since an earlier inspection, by id.
     since: HashMap<String, crate::since::Since>,
 }
@@ -134,6 +135,7 @@ impl App {
             flight: &self.flight,
             filter,
             places: &self.places,
+            seen_in: &self.seen_in,
             since: &self.since,
         }
     }
@@ -186,21 +188,16 @@ pub fn serve(options: ServeOptions, on_ready: impl FnOnce(&Listening)) -> Result
     };
     let order = results.review_order();
     let resolution = results.coverage.as_ref().map_or(0.1, |c| c.resolution_m);
-    let flight = results
-        .flight
-        .summary
-        .flight
-        .path
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let flight = results.flight.summary.recording_names();
     let run_root = std::fs::canonicalize(&options.run).map_err(ReviewError::Server)?;
     let app = Arc::new(App {
         run_root,
-        recording: Recording::reopen(&results.flight)?,
+        recording: Recordings::reopen(&results.flight)?,
         backdrop: backdrop(&results.voxels, resolution),
         resolution,
         order,
         places: results.places(),
+        seen_in: results.seen_in(),
         since: crate::since::pasts(results.changes.as_ref())?,
         store: Mutex::new(store),
         token,

@@ -1,0 +1,189 @@
+//! One flight recorded as several recordings (a recording per battery
+//! sortie) and run as one: `postflight run --flight DIR` gives the frames,
+//! coverage and candidates of the same flight recorded once; each frame,
+//! pose and camera names its recording; the report and the review queue
+//! say which recordings saw each candidate; recordings given twice, or a
+//! directory without any, are refused in one line before anything is
+//! written.
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use crate::common::*;
+use polars::prelude::*;
+
+const WHOLE: [&str; 2] = ["--frames", "60"];
+const SORTIES: [&str; 4] = ["--frames", "60", "--sorties", "3"];
+
+fn run(flights: &[&Path], plan: &Path, out: &Path) -> std::process::Output {
+    let mut args = vec!["run"];
+    for f in flights {
+        args.extend(["--flight", f.to_str().unwrap()]);
+    }
+    args.extend([
+        "--plan",
+        plan.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    postflight(&args, out.parent().unwrap())
+}
+
+/// A column of a run's table, as integers.
+fn column(run: &Path, table: &str, name: &str) -> Vec<i64> {
+    let frame = read_parquet(&run.join(table));
+    let values = frame.column(name).unwrap().cast(&DataType::Int64).unwrap();
+    values.i64().unwrap().into_no_null_iter().collect()
+}
+
+/// Candidates' positions.
+fn candidates(run: &Path) -> Vec<[f64; 3]> {
+    let frame = read_parquet(&run.join("defects.parquet"));
+    let get = |c: &str| -> Vec<f64> {
+        let column = frame.column(c).unwrap().f64().unwrap();
+        column.into_no_null_iter().collect()
+    };
+    let (x, y, z) = (get("x"), get("y"), get("z"));
+    (0..x.len()).map(|i| [x[i], y[i], z[i]]).collect()
+}
+
+#[test]
+fn three_sorties_run_as_one_give_the_results_of_the_flight_recorded_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let sorties = simulated(&SORTIES);
+    let whole = simulated(&WHOLE);
+    let (one, three) = (dir.path().join("whole"), dir.path().join("sorties"));
+    // The plan is the same flight's either way.
+    let plan = whole.join("plan.json");
+    let out = run(&[&whole.join("flight.mcap")], &plan, &one);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = run(&[&sorties], &plan, &three);
+    assert!(out.status.success(), "{}", stderr(&out));
+
+    // Every recording, in name order, with its own frames, poses and map.
+    let summary = read_json(&three.join("ingest.json"));
+    let recordings = summary["recordings"].as_array().unwrap();
+    let names: Vec<&str> = recordings
+        .iter()
+        .map(|r| {
+            Path::new(r["path"].as_str().unwrap())
+                .file_name()
+                .unwrap()
+                .to_str()
+                .unwrap()
+        })
+        .collect();
+    assert_eq!(names, ["sortie-1.mcap", "sortie-2.mcap", "sortie-3.mcap"]);
+
+    // The sortie of each frame the simulator recorded (it drops some).
+    let truth = read_json(&sorties.join("truth.json"));
+    let told = truth["sorties"].as_array().unwrap();
+    let sortie_of = |frame: u64| {
+        let ends = told
+            .iter()
+            .map(|s| s["first_frame"].as_u64().unwrap() + s["frames"].as_u64().unwrap());
+        ends.take_while(|end| *end <= frame).count() as i64
+    };
+    let recorded = truth["frames"].as_array().unwrap().iter();
+    let recorded = recorded.filter(|f| f["dropped"] == false);
+    let expected: Vec<i64> = recorded
+        .map(|f| sortie_of(f["index"].as_u64().unwrap()))
+        .collect();
+    for (i, (r, s)) in recordings.iter().zip(told).enumerate() {
+        let frames = expected.iter().filter(|e| **e == i as i64).count();
+        assert_eq!(r["frames"], frames, "{r}");
+        // The simulator records the map in the last sortie only.
+        assert_eq!(r["map"].is_object(), s["map"].as_bool().unwrap(), "{r}");
+    }
+
+    // The same frames, each in the recording the truth says, with a pose.
+    let times = |run: &Path| column(run, "frames.parquet", "time_ns");
+    assert_eq!(times(&three), times(&one));
+    assert_eq!(column(&three, "frames.parquet", "recording"), expected);
+    assert_eq!(
+        summary["frames_with_pose"],
+        read_json(&one.join("ingest.json"))["frames_with_pose"]
+    );
+    // Each recording's poses are its own.
+    let posed: BTreeSet<i64> = column(&three, "trajectory.parquet", "recording")
+        .into_iter()
+        .collect();
+    assert_eq!(posed, BTreeSet::from([0, 1, 2]));
+    let cameras = read_json(&three.join("cameras.json"));
+    let camera_recordings: Vec<u64> = cameras
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["recording"].as_u64().unwrap())
+        .collect();
+    assert_eq!(camera_recordings, [0, 1, 2]);
+
+    // Coverage over every frame of every recording: the flight's.
+    let inspected = |run: &Path| f(&read_json(&run.join("coverage.json"))["inspected_voxels"]);
+    let (a, b) = (inspected(&one), inspected(&three));
+    eprintln!("inspected voxels: {a} recorded once, {b} as three sorties");
+    assert!(a > 50.0 && (a - b).abs() <= 0.005 * a, "{a} against {b}");
+
+    // The same candidates: as many, each within 5 cm of one of the other run's.
+    let (a, b) = (candidates(&one), candidates(&three));
+    eprintln!(
+        "candidates: {} recorded once, {} as three sorties",
+        a.len(),
+        b.len()
+    );
+    assert!(
+        a.len() >= 3 && a.len().abs_diff(b.len()) <= 1,
+        "{} against {}",
+        a.len(),
+        b.len()
+    );
+    let near = |p: &[f64; 3], all: &[[f64; 3]]| {
+        all.iter()
+            .any(|q| (0..3).map(|i| (p[i] - q[i]).powi(2)).sum::<f64>().sqrt() < 0.05)
+    };
+    let matched = a.iter().filter(|p| near(p, &b)).count();
+    assert!(matched + 1 >= a.len(), "{matched} of {} matched", a.len());
+
+    // The report lists the recordings and which saw each candidate.
+    let report = std::fs::read_to_string(three.join("report.html")).unwrap();
+    assert!(
+        report.contains("<h2>Recordings</h2>"),
+        "no recordings section"
+    );
+    assert!(
+        report.contains("seen in sortie-"),
+        "no candidate says where it was seen"
+    );
+    let report = std::fs::read_to_string(one.join("report.html")).unwrap();
+    assert!(!report.contains("<h2>Recordings</h2>"));
+}
+
+#[test]
+fn a_recording_given_twice_or_a_directory_without_any_is_refused_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let whole = simulated(&WHOLE);
+    let flight = whole.join("flight.mcap");
+    let plan = whole.join("plan.json");
+
+    let out_dir = dir.path().join("twice");
+    let out = run(&[&flight, &flight], &plan, &out_dir);
+    assert_eq!(out.status.code(), Some(1));
+    let err = stderr(&out);
+    assert!(err.contains("given twice"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!out_dir.join("ingest.json").exists());
+
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    std::fs::write(empty.join("notes.txt"), "no recordings here").unwrap();
+    let out_dir = dir.path().join("none");
+    let out = run(&[&empty], &plan, &out_dir);
+    assert_eq!(out.status.code(), Some(1));
+    let err = stderr(&out);
+    assert!(
+        err.contains("no flight recordings in") && err.contains("empty"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!out_dir.exists(), "a refused run made its directory");
+}
