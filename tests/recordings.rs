@@ -2,7 +2,10 @@
 //! sortie) and run as one: `postflight run --flight DIR` gives the frames,
 //! coverage and candidates of the same flight recorded once; each frame,
 //! pose and camera names its recording; the report and the review queue
-//! say which recordings saw each candidate; recordings given twice, or a
+//! say which recordings saw each candidate. Sorties in SLAM frames of
+//! their own (a SLAM system started afresh after each landing) are
+//! registered onto the first sortie's map, as the simulator's truth puts
+//! them. Recordings given twice, or a
 //! directory without any, are refused in one line before anything is
 //! written.
 
@@ -10,6 +13,7 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use crate::common::*;
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use polars::prelude::*;
 
 const WHOLE: [&str; 2] = ["--frames", "60"];
@@ -186,4 +190,76 @@ fn a_recording_given_twice_or_a_directory_without_any_is_refused_in_one_line() {
     );
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(!out_dir.exists(), "a refused run made its directory");
+}
+
+/// A `{translation, rotation_xyzw}` object as a pose.
+fn pose(v: &serde_json::Value) -> Isometry3<f64> {
+    let t = vec3(&v["translation"]);
+    let q = v["rotation_xyzw"].as_array().unwrap();
+    let q = Quaternion::new(f(&q[3]), f(&q[0]), f(&q[1]), f(&q[2]));
+    Isometry3::from_parts(
+        Translation3::new(t[0], t[1], t[2]),
+        UnitQuaternion::from_quaternion(q),
+    )
+}
+
+#[test]
+fn sorties_in_slam_frames_of_their_own_are_registered_onto_the_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let offset = [&SORTIES[..], &["--sortie-offset=0.6,-0.4,0.1,12"]].concat();
+    let sorties = simulated(&offset);
+    let whole = simulated(&WHOLE);
+    let (one, three) = (dir.path().join("whole"), dir.path().join("sorties"));
+    let plan = whole.join("plan.json");
+    let out = run(&[&whole.join("flight.mcap")], &plan, &one);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = run(&[&sorties], &plan, &three);
+    assert!(out.status.success(), "{}", stderr(&out));
+
+    // Each later sortie's frame where the truth puts it: T_first_k =
+    // slam_1 * slam_k^-1 (a point of sortie k's frame in the first's).
+    let summary = read_json(&three.join("ingest.json"));
+    let truth = read_json(&sorties.join("truth.json"));
+    let told = truth["sorties"].as_array().unwrap();
+    let first = pose(&told[0]["slam_from_world"]);
+    for (k, r) in summary["recordings"].as_array().unwrap().iter().enumerate() {
+        let placement = &r["placement"];
+        let expected = first * pose(&told[k]["slam_from_world"]).inverse();
+        let found = pose(&placement["transform"]);
+        let error = expected.inverse() * found;
+        let (metres, degrees) = (
+            error.translation.vector.norm(),
+            error.rotation.angle().to_degrees(),
+        );
+        eprintln!(
+            "sortie {}: {placement}, off by {metres:.4} m, {degrees:.3} deg",
+            k + 1
+        );
+        let kind = placement["by"]["kind"].as_str().unwrap();
+        assert_eq!(kind, if k == 0 { "reference" } else { "registered" });
+        assert!(metres < 0.05 && degrees < 0.5, "sortie {}", k + 1);
+    }
+
+    // The same results as the flight recorded once, within 1%.
+    let inspected = |run: &Path| f(&read_json(&run.join("coverage.json"))["inspected_voxels"]);
+    let (a, b) = (inspected(&one), inspected(&three));
+    eprintln!("inspected voxels: {a} recorded once, {b} as three sorties in three frames");
+    assert!((a - b).abs() <= 0.01 * a, "{a} against {b}");
+    let (a, b) = (candidates(&one), candidates(&three));
+    eprintln!(
+        "candidates: {} recorded once, {} as three sorties in three frames",
+        a.len(),
+        b.len()
+    );
+    assert_eq!(a.len(), b.len());
+    for p in &a {
+        let nearest = b
+            .iter()
+            .map(|q| (0..3).map(|i| (p[i] - q[i]).powi(2)).sum::<f64>().sqrt());
+        let nearest = nearest.fold(f64::INFINITY, f64::min);
+        assert!(
+            nearest < 0.05,
+            "a candidate at {p:?} is {nearest:.3} m from the nearest"
+        );
+    }
 }

@@ -8,7 +8,7 @@ pub enum CompareError {
     Register {
         before: PathBuf,
         after: PathBuf,
-        cause: crate::register::RegisterError,
+        cause: postflight_core::map::register::RegisterError,
     },
     #[error(transparent)]
     Ingest(#[from] ingest::IngestError),

@@ -16,8 +16,8 @@ use postflight_core::{Flight, RunDir, Stage, ViewModel};
 
 use crate::changes::{Earlier, Inspected, MatchOptions, changes};
 use crate::error::CompareError;
-use crate::register::{RegisterOptions, Registration, register};
 use crate::sight::FramesInView;
+use postflight_core::map::register::{RegisterOptions, Registration, register};
 
 /// What to compare.
 #[derive(Debug, Clone)]

@@ -60,6 +60,14 @@ impl Trajectory {
         &self.poses
     }
 
+    /// The same poses in another world frame: `t` is `T_new_old`.
+    pub fn moved(mut self, t: &Isometry3<f64>) -> Self {
+        for p in &mut self.poses {
+            p.pose = t * p.pose;
+        }
+        self
+    }
+
     pub fn len(&self) -> usize {
         self.poses.len()
     }

@@ -45,6 +45,15 @@ pub enum IngestError {
     NoRecordingsIn { path: PathBuf },
 
     #[error(
+        "{recording} is in a SLAM frame of its own, and its map cannot be put on {reference}'s: {why}; record the sorties in one SLAM session (or relocalise in the first sortie's map), or process them as separate runs"
+    )]
+    Unregistered {
+        recording: String,
+        reference: String,
+        why: String,
+    },
+
+    #[error(
         "no usable pose topic in {}: found no geometry_msgs/msg/PoseStamped, nav_msgs/msg/Odometry or /tf messages{hint}; record the SLAM pose or name its topic with {}",
         path.display(),
         keys::pose_topic

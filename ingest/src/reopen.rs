@@ -70,9 +70,14 @@ impl Recordings {
         let mut merged: Option<PointCloud> = None;
         let mut sources = Vec::new();
         for (recording, summary) in self.recordings.iter().zip(&flight.summary.recordings) {
-            let Some(cloud) = recording.recorded_map(summary)? else {
+            let Some(mut cloud) = recording.recorded_map(summary)? else {
                 continue;
             };
+            // Into the run's map frame.
+            let t = summary.placement.transform;
+            if t != nalgebra::Isometry3::identity() {
+                cloud.points.iter_mut().for_each(|p| *p = t * *p);
+            }
             let topic = summary.map.as_ref().map(|m| m.topic.as_str());
             sources.push(match flight.summary.recordings.len() {
                 1 => format!("recorded {}", topic.unwrap_or_default()),
@@ -184,8 +189,9 @@ impl Recording {
     }
 }
 
-/// The map's points: the file given, else the one recorded in the flight
-/// (`None` without either); and which it is (the path, or `recorded TOPIC`).
+/// The map's points: the file given, else the ones recorded in the
+/// flight's recordings (`None` without either); and which it is (the path,
+/// or `recorded TOPIC`).
 pub fn map_cloud(
     flight: &Flight,
     given: Option<&Path>,

@@ -5,11 +5,12 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
-use nalgebra::Point3;
+use nalgebra::{Isometry3, Point3};
 use postflight_core::frame::camera_namespace;
 use postflight_core::geo::{GeoAlignment, Geodetic};
+use postflight_core::map::PointCloud;
 use postflight_core::outputs::ingest::{
-    self as outputs, GnssFix, IngestSummary, PoseSource, RecordedMap, RecordingSummary,
+    self as outputs, GnssFix, IngestSummary, Placement, PoseSource, RecordedMap, RecordingSummary,
     TopicSummary, files,
 };
 use postflight_core::time::rfc3339;
@@ -25,6 +26,7 @@ use crate::recording::{Recording, ScanEvent, ScanReport};
 use crate::ros::{msg, pointcloud2, schema};
 use crate::scan::Scan;
 use crate::settings::{IngestConfig, keys};
+use crate::slam_frames::{self, RecordedFrame};
 
 /// What to ingest and how. Serialised, it is what the stage's result
 /// depends on besides its input files (`postflight run`'s fingerprint): the
@@ -95,7 +97,24 @@ struct Ingested {
     trajectory: Trajectory,
     cameras: Vec<Camera>,
     fixes: Vec<GnssFix>,
+    /// Its map, in its own SLAM frame, until the recordings are placed.
+    cloud: Option<PointCloud>,
     warnings: Vec<String>,
+}
+
+impl Ingested {
+    /// Move its poses into the run's map frame.
+    fn place(&mut self, placement: Placement) {
+        let t = placement.transform;
+        if t != Isometry3::identity() {
+            for f in &mut self.frames {
+                f.camera_pose = f.camera_pose.map(|p| t * p);
+            }
+            self.trajectory = std::mem::take(&mut self.trajectory).moved(&t);
+        }
+        self.summary.placement = placement;
+        self.cloud = None;
+    }
 }
 
 /// Ingest a flight's recordings into a run directory.
@@ -131,7 +150,8 @@ pub fn ingest(
             path: options.flights[0].clone(),
         });
     }
-    let (summary, flight) = combine(ingested, options);
+    let warnings = place_recordings(&mut ingested)?;
+    let (summary, flight) = combine(ingested, options, warnings);
     write_outputs(&options.out, &flight, &summary)?;
     Ok(summary)
 }
@@ -216,7 +236,7 @@ fn ingest_one(
         f.exposure_s = scan.exposures.get(&key).copied();
     }
     place_frames(&mut frames, &trajectory, &scan.tf, max_gap_ns);
-    let map = recorded_map(recording, &scan, &mut warnings);
+    let (map, cloud) = recorded_map(recording, &scan, &mut warnings).unzip();
     if let Some(m) = &map
         && !m.frame_id.is_empty()
         && !trajectory.frame_id.is_empty()
@@ -246,6 +266,7 @@ fn ingest_one(
         truncated_at_byte: report.truncated_at,
         corrupt_chunks: report.corrupt_chunks,
         map,
+        placement: Placement::default(),
     };
     Ok(Ingested {
         summary,
@@ -253,8 +274,26 @@ fn ingest_one(
         trajectory,
         cameras,
         fixes,
+        cloud,
         warnings,
     })
+}
+
+/// Every recording's poses in the run's map frame ([`slam_frames`]); the
+/// warnings that gives.
+fn place_recordings(ingested: &mut [Ingested]) -> Result<Vec<String>, IngestError> {
+    let frames: Vec<RecordedFrame> = ingested
+        .iter()
+        .map(|i| RecordedFrame {
+            name: i.summary.name(),
+            map: i.cloud.as_ref().filter(|c| !c.is_empty()),
+        })
+        .collect();
+    let (placements, warnings) = slam_frames::place(&frames)?;
+    for (one, placement) in ingested.iter_mut().zip(placements) {
+        one.place(placement);
+    }
+    Ok(warnings)
 }
 
 /// What ingest writes, the recordings' together.
@@ -268,9 +307,12 @@ struct FlightTables {
 /// The recordings as one flight: frames in time order across recordings,
 /// each recording's trajectory and cameras, one geo origin from every fix,
 /// and the summary.
-fn combine(ingested: Vec<Ingested>, options: &IngestOptions) -> (IngestSummary, FlightTables) {
+fn combine(
+    ingested: Vec<Ingested>,
+    options: &IngestOptions,
+    mut warnings: Vec<String>,
+) -> (IngestSummary, FlightTables) {
     let several = ingested.len() > 1;
-    let mut warnings = Vec::new();
     let mut tables = FlightTables {
         frames: Vec::new(),
         trajectories: Vec::new(),
@@ -494,11 +536,12 @@ fn damage_warnings(report: &ScanReport, scan: &Scan, file_len: u64) -> Vec<Strin
     warnings
 }
 
+/// The map recorded in a recording, and where it is in it.
 fn recorded_map(
     recording: &Recording,
     scan: &Scan,
     warnings: &mut Vec<String>,
-) -> Option<RecordedMap> {
+) -> Option<(RecordedMap, PointCloud)> {
     let mut candidates: Vec<(&String, &MessageLocation)> = scan.clouds.iter().collect();
     // A topic named like a map wins over, say, a raw lidar scan.
     candidates.sort_by_key(|(t, _)| !t.contains("map"));
@@ -517,13 +560,14 @@ fn recorded_map(
             let (lo, hi) = cloud
                 .bounds()
                 .unwrap_or((Point3::origin(), Point3::origin()));
-            Some(RecordedMap {
+            let map = RecordedMap {
                 topic: topic.to_string(),
                 frame_id: cloud.frame_id.clone(),
                 points: cloud.len() as u64,
                 bounds: [[lo.x, lo.y, lo.z], [hi.x, hi.y, hi.z]],
                 location: **location,
-            })
+            };
+            Some((map, cloud))
         }
         Err(e) => {
             warnings.push(format!("map on {topic} could not be read: {e}"));

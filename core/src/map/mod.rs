@@ -7,6 +7,7 @@ mod pcd;
 pub mod plane;
 mod ply;
 pub mod raycast;
+pub mod register;
 pub mod side;
 pub mod voxel;
 

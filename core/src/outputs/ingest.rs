@@ -81,8 +81,53 @@ pub struct RecordingSummary {
     pub truncated: bool,
     pub truncated_at_byte: Option<u64>,
     pub corrupt_chunks: u64,
-    /// The SLAM map recorded in it, if any.
+    /// The SLAM map recorded in it, if any (in its own SLAM frame).
     pub map: Option<RecordedMap>,
+    /// Where its SLAM frame is in the run's map frame.
+    #[serde(default)]
+    pub placement: Placement,
+}
+
+/// Where a recording's SLAM frame is in the run's map frame (the frame of
+/// the first recording with a map), and how that was found. Its poses and
+/// frames in the run's tables are already moved there; its map is moved
+/// when read ([`Placement::transform`]).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Placement {
+    /// `T_run_recording`: a point `p` of the recording's SLAM frame is at
+    /// `transform * p` in the run's map frame.
+    #[serde(with = "crate::serde_pose")]
+    pub transform: Isometry3<f64>,
+    pub by: PlacedBy,
+}
+
+impl Default for Placement {
+    fn default() -> Self {
+        Self {
+            transform: Isometry3::identity(),
+            by: PlacedBy::Reference,
+        }
+    }
+}
+
+/// How a recording's SLAM frame was put into the run's map frame.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum PlacedBy {
+    /// Its map frame is the run's: the first recording with a map (or the
+    /// first recording, when none has one).
+    Reference,
+    /// In the reference's SLAM frame: it has no map of its own, or its map
+    /// already lies on the reference's (one SLAM session across
+    /// batteries).
+    SharedFrame,
+    /// Its map registered onto the reference's (a SLAM session of its own).
+    Registered {
+        /// Point-to-plane residual of the registration, RMS, metres.
+        rms_m: f64,
+        /// Share of its map on the reference's.
+        overlap: f64,
+    },
 }
 
 impl RecordingSummary {

@@ -1,5 +1,7 @@
-//! Registering two flights' maps: the rigid motion that puts the earlier
-//! flight's SLAM frame onto the later one's. SLAM frames of a
+//! Registering two maps: the rigid motion that puts one SLAM frame onto
+//! another (an earlier flight's onto a later one's, as `compare` does; a
+//! sortie's onto the first sortie's, as `ingest` does when a SLAM system
+//! started afresh after a landing). SLAM frames of a
 //! gravity-aligned system (LIO-SAM, FAST-LIO) differ by a shift and a yaw,
 //! so a coarse search over yaw with the centroids aligned gives the starts
 //! (the best few yaws: a silo fits several) for point-to-plane ICP
@@ -9,9 +11,9 @@
 
 use std::collections::HashMap;
 
+use crate::map::plane::fit_plane;
+use crate::map::{SlamMap, VoxelGrid};
 use nalgebra::{Isometry3, Matrix6, Point3, Translation3, UnitQuaternion, Vector3, Vector6};
-use postflight_core::map::plane::fit_plane;
-use postflight_core::map::{SlamMap, VoxelGrid};
 
 /// How a registration is done and judged.
 #[derive(Debug, Clone, PartialEq)]
@@ -71,7 +73,7 @@ pub struct Registration {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum RegisterError {
     #[error(
-        "the maps overlap in only {:.0}% of the earlier map (at least {:.0}% is needed to trust the alignment); are both flights of the same structure?",
+        "the maps overlap in only {:.0}% of the earlier map (at least {:.0}% is needed to trust the alignment); are both maps of the same structure?",
         overlap * 100.0,
         min * 100.0
     )]
@@ -442,7 +444,7 @@ fn fit(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use postflight_core::map::PointCloud;
+    use crate::map::PointCloud;
 
     /// An L-shaped wall with a floor and a pillar: enough planes in every
     /// direction to pin all six degrees.
