@@ -177,7 +177,8 @@ fn run_flight(
         YawUnit::Radians
     };
     let inputs = RunInputs {
-        flights: vec![entry.flight.clone()],
+        // A directory holds the flight's sorties.
+        flights: ingest::stage::recordings_in(&entry.flight)?,
         map: entry.map.clone(),
         plan: entry.plan.clone().map(|path| PlanFile { path, yaw }),
         targets,

@@ -22,7 +22,15 @@ pub fn ingest(options: &ingest::IngestOptions, quiet: bool) -> anyhow::Result<()
             summary.duration_s,
             match summary.recordings.len() {
                 1 => String::new(),
-                n => format!(" from {n} recordings"),
+                n => {
+                    let reused = summary.recordings.iter().filter(|r| r.reused).count();
+                    match reused {
+                        0 => format!(" from {n} recordings"),
+                        r => format!(
+                            " from {n} recordings ({r} read by an earlier ingest, not read again)"
+                        ),
+                    }
+                }
             },
             if summary.truncated() {
                 " (TRUNCATED recording, salvaged)"

@@ -98,10 +98,6 @@ fn assert_same_results(batch: &Path, reference: &Path) {
     );
 }
 
-fn stdout(out: &std::process::Output) -> String {
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
 /// `postflight batch status`'s line for `flight`.
 fn status_line(manifest: &Path, fleet: &Path, flight: &str) -> String {
     let out = postflight(

@@ -61,8 +61,22 @@ fn three_sorties_run_as_one_give_the_results_of_the_flight_recorded_once() {
     let plan = whole.join("plan.json");
     let out = run(&[&whole.join("flight.mcap")], &plan, &one);
     assert!(out.status.success(), "{}", stderr(&out));
+    // The first two sorties ingested as they come back, then the third
+    // added: only the third is read.
+    let first_two = [1, 2].map(|k| sorties.join(format!("sortie-{k}.mcap")));
+    let two = ingest_ok(
+        &first_two[0],
+        &three,
+        &["--flight", first_two[1].to_str().unwrap()],
+    );
+    assert_eq!(two["recordings"].as_array().unwrap().len(), 2);
     let out = run(&[&sorties], &plan, &three);
     assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        stdout(&out).contains("from 3 recordings (2 read by an earlier ingest"),
+        "{}",
+        stdout(&out)
+    );
 
     // Every recording, in name order, with its own frames, poses and map.
     let summary = read_json(&three.join("ingest.json"));
@@ -94,6 +108,7 @@ fn three_sorties_run_as_one_give_the_results_of_the_flight_recorded_once() {
         .map(|f| sortie_of(f["index"].as_u64().unwrap()))
         .collect();
     for (i, (r, s)) in recordings.iter().zip(told).enumerate() {
+        assert_eq!(r["reused"], i < 2, "{r}");
         let frames = expected.iter().filter(|e| **e == i as i64).count();
         assert_eq!(r["frames"], frames, "{r}");
         // The simulator records the map in the last sortie only.

@@ -20,6 +20,7 @@ pub mod image;
 mod placement;
 pub mod recording;
 pub mod reopen;
+mod reuse;
 pub mod ros;
 mod scan;
 pub mod settings;

@@ -8,7 +8,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use image::DynamicImage;
-use postflight_core::map::{PointCloud, SlamMap, VoxelGrid};
+use postflight_core::map::{PointCloud, SlamMap, VoxelGrid, merged};
 use postflight_core::outputs::ingest::RecordingSummary;
 use postflight_core::{Flight, Frame};
 
@@ -16,6 +16,10 @@ use crate::error::IngestError;
 use crate::image::{decode_compressed, decode_raw};
 use crate::recording::Recording;
 use crate::ros::{Wire, msg, pointcloud2};
+
+/// Two recordings' map points closer than this are of one surface, metres
+/// (a registration's inlier distance).
+const SAME_SURFACE_M: f64 = 0.1;
 
 /// Every recording of a flight, reopened.
 pub struct Recordings {
@@ -61,13 +65,14 @@ impl Recordings {
         self.of(frame)?.compressed_image(frame)
     }
 
-    /// The SLAM maps recorded in the flight's recordings, as one cloud
-    /// (`None` when none had one), and the topics and files it came from.
+    /// The SLAM maps recorded in the flight's recordings, in the run's map
+    /// frame, as one cloud (`None` when none had one; where two agree, the
+    /// first's points: [`merged`]), and the topics and files it came from.
     pub fn recorded_map(
         &self,
         flight: &Flight,
     ) -> Result<Option<(PointCloud, String)>, IngestError> {
-        let mut merged: Option<PointCloud> = None;
+        let mut clouds = Vec::new();
         let mut sources = Vec::new();
         for (recording, summary) in self.recordings.iter().zip(&flight.summary.recordings) {
             let Some(mut cloud) = recording.recorded_map(summary)? else {
@@ -87,17 +92,20 @@ impl Recordings {
                     summary.name()
                 ),
             });
-            match &mut merged {
-                None => merged = Some(cloud),
-                Some(m) => {
-                    m.points.extend(cloud.points);
-                    // Maps of several recordings are no longer one voxel map.
-                    m.grid = m.grid.filter(|g| Some(*g) == cloud.grid);
-                }
-            }
+            clouds.push(cloud);
         }
-        Ok(merged.map(|m| (m, sources.join(", "))))
+        Ok(merged(clouds, SAME_SURFACE_M).map(|m| (m, sources.join(", "))))
     }
+}
+
+/// The map recorded in `recording`, where `summary` (its ingest) says it
+/// is, in its own SLAM frame.
+pub(crate) fn recorded_map_of(
+    recording: &mut Recording,
+    summary: &RecordingSummary,
+) -> Result<Option<PointCloud>, IngestError> {
+    recording.wires = wires(summary);
+    recording.recorded_map(summary)
 }
 
 impl Recording {

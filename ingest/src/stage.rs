@@ -8,7 +8,6 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Isometry3, Point3};
 use postflight_core::frame::camera_namespace;
 use postflight_core::geo::{GeoAlignment, Geodetic};
-use postflight_core::map::PointCloud;
 use postflight_core::outputs::ingest::{
     self as outputs, GnssFix, IngestSummary, Placement, PoseSource, RecordedMap, RecordingSummary,
     TopicSummary, files,
@@ -23,6 +22,8 @@ use crate::cameras::cameras;
 use crate::error::IngestError;
 use crate::placement::{choose_trajectory, place_frames};
 use crate::recording::{Recording, ScanEvent, ScanReport};
+use crate::reopen::recorded_map_of;
+use crate::reuse;
 use crate::ros::{msg, pointcloud2, schema};
 use crate::scan::Scan;
 use crate::settings::{IngestConfig, keys};
@@ -91,15 +92,13 @@ impl<F: FnMut(u64, u64)> Progress for F {
 
 /// One recording, ingested: its summary, its frames placed on its own
 /// trajectory, its cameras and fixes.
-struct Ingested {
-    summary: RecordingSummary,
-    frames: Vec<Frame>,
-    trajectory: Trajectory,
-    cameras: Vec<Camera>,
-    fixes: Vec<GnssFix>,
-    /// Its map, in its own SLAM frame, until the recordings are placed.
-    cloud: Option<PointCloud>,
-    warnings: Vec<String>,
+pub(crate) struct Ingested {
+    pub(crate) summary: RecordingSummary,
+    pub(crate) frames: Vec<Frame>,
+    pub(crate) trajectory: Trajectory,
+    pub(crate) cameras: Vec<Camera>,
+    pub(crate) fixes: Vec<GnssFix>,
+    pub(crate) warnings: Vec<String>,
 }
 
 impl Ingested {
@@ -113,7 +112,6 @@ impl Ingested {
             self.trajectory = std::mem::take(&mut self.trajectory).moved(&t);
         }
         self.summary.placement = placement;
-        self.cloud = None;
     }
 }
 
@@ -128,15 +126,29 @@ pub fn ingest(
         options.settings.max_pose_gap_s,
         "a positive number of seconds",
     )?;
-    let recordings = open_all(&options.flights)?;
+    let mut recordings = open_all(&options.flights)?;
     let total: u64 = recordings.iter().map(Recording::len).sum();
     let mut done = 0;
     let mut ingested = Vec::new();
+    let mut kept = Vec::new();
     for (index, recording) in (0u16..).zip(&recordings) {
-        let mut progress = |bytes, _| progress.bytes(done + bytes, total);
-        ingested.push(ingest_one(index, recording, options, &mut progress)?);
+        // A recording ingested before with the same settings is not read again.
+        let place = reuse::place_of(recording.path(), options);
+        let one = match reuse::load(&place, index) {
+            Some(one) => one,
+            None => {
+                let mut progress = |bytes, _| progress.bytes(done + bytes, total);
+                let one = ingest_one(index, recording, options, &mut progress)?;
+                reuse::keep(&place, &one)?;
+                one
+            }
+        };
         done += recording.len();
+        progress.bytes(done, total);
+        ingested.push(one);
+        kept.push(place);
     }
+    reuse::forget_all_but(&options.out, &kept)?;
     let messages = ingested.iter().map(|i| &i.summary.messages);
     check_topic_flags(
         options,
@@ -150,7 +162,7 @@ pub fn ingest(
             path: options.flights[0].clone(),
         });
     }
-    let warnings = place_recordings(&mut ingested)?;
+    let warnings = place_recordings(&mut ingested, &mut recordings)?;
     let (summary, flight) = combine(ingested, options, warnings);
     write_outputs(&options.out, &flight, &summary)?;
     Ok(summary)
@@ -236,7 +248,7 @@ fn ingest_one(
         f.exposure_s = scan.exposures.get(&key).copied();
     }
     place_frames(&mut frames, &trajectory, &scan.tf, max_gap_ns);
-    let (map, cloud) = recorded_map(recording, &scan, &mut warnings).unzip();
+    let map = recorded_map(recording, &scan, &mut warnings);
     if let Some(m) = &map
         && !m.frame_id.is_empty()
         && !trajectory.frame_id.is_empty()
@@ -267,6 +279,7 @@ fn ingest_one(
         corrupt_chunks: report.corrupt_chunks,
         map,
         placement: Placement::default(),
+        reused: false,
     };
     Ok(Ingested {
         summary,
@@ -274,19 +287,26 @@ fn ingest_one(
         trajectory,
         cameras,
         fixes,
-        cloud,
         warnings,
     })
 }
 
-/// Every recording's poses in the run's map frame ([`slam_frames`]); the
-/// warnings that gives.
-fn place_recordings(ingested: &mut [Ingested]) -> Result<Vec<String>, IngestError> {
+/// Every recording's poses in the run's map frame ([`slam_frames`], by
+/// the maps recorded in them); the warnings that gives.
+fn place_recordings(
+    ingested: &mut [Ingested],
+    recordings: &mut [Recording],
+) -> Result<Vec<String>, IngestError> {
+    let mut maps = Vec::new();
+    for (one, recording) in ingested.iter().zip(recordings) {
+        maps.push(recorded_map_of(recording, &one.summary)?);
+    }
     let frames: Vec<RecordedFrame> = ingested
         .iter()
-        .map(|i| RecordedFrame {
+        .zip(&maps)
+        .map(|(i, map)| RecordedFrame {
             name: i.summary.name(),
-            map: i.cloud.as_ref().filter(|c| !c.is_empty()),
+            map: map.as_ref().filter(|c| !c.is_empty()),
         })
         .collect();
     let (placements, warnings) = slam_frames::place(&frames)?;
@@ -536,12 +556,12 @@ fn damage_warnings(report: &ScanReport, scan: &Scan, file_len: u64) -> Vec<Strin
     warnings
 }
 
-/// The map recorded in a recording, and where it is in it.
+/// Where the map recorded in a recording is, and what it holds.
 fn recorded_map(
     recording: &Recording,
     scan: &Scan,
     warnings: &mut Vec<String>,
-) -> Option<(RecordedMap, PointCloud)> {
+) -> Option<RecordedMap> {
     let mut candidates: Vec<(&String, &MessageLocation)> = scan.clouds.iter().collect();
     // A topic named like a map wins over, say, a raw lidar scan.
     candidates.sort_by_key(|(t, _)| !t.contains("map"));
@@ -560,14 +580,13 @@ fn recorded_map(
             let (lo, hi) = cloud
                 .bounds()
                 .unwrap_or((Point3::origin(), Point3::origin()));
-            let map = RecordedMap {
+            Some(RecordedMap {
                 topic: topic.to_string(),
                 frame_id: cloud.frame_id.clone(),
                 points: cloud.len() as u64,
                 bounds: [[lo.x, lo.y, lo.z], [hi.x, hi.y, hi.z]],
                 location: **location,
-            };
-            Some((map, cloud))
+            })
         }
         Err(e) => {
             warnings.push(format!("map on {topic} could not be read: {e}"));

@@ -169,9 +169,56 @@ impl SlamMap {
     }
 }
 
+/// Several maps of one place as one: the first cloud's points, then each
+/// other's points farther than `beyond_m` from every point taken so far
+/// (the surface it adds). Maps that agree are not doubled where they do:
+/// one SLAM session's map recorded at two times, or two sessions' maps
+/// registered onto each other. `None` without clouds.
+pub fn merged(clouds: Vec<PointCloud>, beyond_m: f64) -> Option<PointCloud> {
+    let mut clouds = clouds.into_iter();
+    let mut merged = clouds.next()?;
+    for cloud in clouds {
+        if cloud.grid != merged.grid {
+            merged.grid = None;
+        }
+        let Some(taken) = SlamMap::on_grid(merged.clone(), VoxelGrid::default()) else {
+            merged.points = cloud.points;
+            continue;
+        };
+        let new = cloud.points.into_iter();
+        let new = new.filter(|p| taken.nearest_within(p, beyond_m).is_none());
+        merged.points.extend(new.collect::<Vec<_>>());
+    }
+    Some(merged)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn merged_maps_keep_the_first_where_they_agree_and_add_what_is_new() {
+        let wall = |x0: f64, shift: f64| -> PointCloud {
+            let points = (0..20)
+                .flat_map(|i| (0..20).map(move |j| (i, j)))
+                .map(|(i, j)| {
+                    Point3::new(x0 + f64::from(i) * 0.05 + shift, f64::from(j) * 0.05, 0.0)
+                })
+                .collect();
+            PointCloud {
+                points,
+                ..PointCloud::default()
+            }
+        };
+        let first = wall(0.0, 0.0);
+        // The same wall 3 cm off (a registration's error), and one beside it.
+        let again = wall(0.0, 0.03);
+        let beside = wall(5.0, 0.0);
+        let one = merged(vec![first.clone(), again, beside.clone()], 0.1).unwrap();
+        assert_eq!(one.points.len(), first.points.len() + beside.points.len());
+        assert_eq!(one.points[..first.points.len()], first.points[..]);
+        assert!(merged(Vec::new(), 0.1).is_none());
+    }
 
     #[test]
     fn nearest_and_radius_queries_match_brute_force() {

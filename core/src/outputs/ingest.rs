@@ -86,6 +86,10 @@ pub struct RecordingSummary {
     /// Where its SLAM frame is in the run's map frame.
     #[serde(default)]
     pub placement: Placement,
+    /// Read from the run directory's copy of an earlier ingest of the same
+    /// file with the same settings, not from the file again.
+    #[serde(default)]
+    pub reused: bool,
 }
 
 /// Where a recording's SLAM frame is in the run's map frame (the frame of
