@@ -261,6 +261,7 @@ gaps = "all"
 speed_m_s = 3.0
 hover_s = 1.0
 solver_time_limit_s = 5.0
+drones = 2
 seed = 7
 geo_origin = [47.397742, 8.545594, 488.0, 23.5]
 "#;

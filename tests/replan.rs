@@ -292,6 +292,8 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
     let first = rows.iter().find(|r| r[6] == "waypoint").unwrap();
     assert!((number(first, 4) + f(&waypoints[0]["gimbal_pitch"]).to_degrees()).abs() < 0.06);
 
+    team_shares_the_flight(&run, &plan_file, &planned_set, &plan);
+
     // Battery: sorties no longer than the limit, each from home and back,
     // planning the same gaps.
     let limit = f(&plan["length_m"]) / 3.0;
@@ -376,6 +378,78 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
     assert_eq!(missed["gaps"], "missed");
     assert_eq!(missed["gap_voxels"].as_u64(), Some(planned_missed as u64));
     assert!(planned_missed < gaps.len());
+}
+
+/// Three drones share the same follow-up: together they inspect every gap
+/// the one drone would (judged by coverage on the union of their routes),
+/// the mission takes at most 40% of the one drone's time, and each drone
+/// gets its own path and missions.
+fn team_shares_the_flight(
+    run: &Path,
+    plan_file: &Path,
+    planned: &BTreeSet<Voxel>,
+    one_drone: &Value,
+) {
+    let zurich = ZURICH.join(",");
+    let args = [
+        &EVERY_GAP_ONE_BATTERY[..],
+        &[
+            "--solver-time-limit",
+            "3",
+            "--geo-origin",
+            &zurich,
+            "--drones",
+            "3",
+        ],
+    ];
+    let out = replan(run, &args.concat());
+    assert!(out.status.success(), "replan: {}", stderr(&out));
+    let team = read_json(&run.join("replan.json"));
+    let drones = team["drones"].as_array().unwrap();
+    assert_eq!(drones.len(), 3, "{}", team["drones"]);
+    let (mission, alone) = (f(&team["mission_time_s"]), f(&one_drone["time_s"]));
+    eprintln!("3 drones: the mission takes {mission:.0} s, one drone {alone:.0} s");
+    assert!(
+        mission <= 0.4 * alone,
+        "{mission:.0} s against {alone:.0} s"
+    );
+    for (d, drone) in drones.iter().enumerate() {
+        let own: Vec<&Value> = team["sorties"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|s| s["drone"] == d)
+            .collect();
+        let time: f64 = own.iter().map(|s| f(&s["time_s"])).sum();
+        assert_close(time, f(&drone["time_s"]), 1e-6, "a drone's time");
+        assert!(time <= mission + 1e-6);
+        // Its own path file: its waypoints, home to home.
+        let csv = std::fs::read_to_string(run.join(format!("replan-drone-{}.csv", d + 1))).unwrap();
+        let waypoints = csv.lines().filter(|l| l.ends_with(",waypoint")).count();
+        assert_eq!(waypoints as u64, drone["waypoints"].as_u64().unwrap());
+    }
+    // The missions: one per drone and sortie, each checked against PROJ.
+    let geo = ground_station_files(run, ZURICH);
+    assert_eq!(
+        geo["plans"].as_u64(),
+        Some(team["sorties"].as_array().unwrap().len() as u64)
+    );
+    // Together, every gap the one drone plans.
+    coverage(
+        run,
+        &[
+            "--plan",
+            plan_file.to_str().unwrap(),
+            "--viewpoints",
+            run.join("replan.json").to_str().unwrap(),
+        ],
+    );
+    let after = coverage_rows(&run.join("coverage-viewpoints.parquet"));
+    let missed = planned.iter().filter(|v| !after[*v].0).count();
+    assert_eq!(
+        missed, 0,
+        "{missed} planned gap voxels not inspected by the team"
+    );
 }
 
 #[test]

@@ -115,10 +115,15 @@ impl Placement {
                 .iter()
                 .map(|p| lon_lat_alt(&self.geodetic(p)))
                 .collect();
+            let mut properties =
+                json!({"sortie": s + 1, "length_m": sortie.length_m, "time_s": sortie.time_s});
+            if team(sorties) {
+                properties["drone"] = json!(sortie.drone + 1);
+            }
             features.push(json!({
                 "type": "Feature",
                 "geometry": {"type": "LineString", "coordinates": line},
-                "properties": {"sortie": s + 1, "length_m": sortie.length_m, "time_s": sortie.time_s},
+                "properties": properties,
             }));
             for (k, w) in sortie.waypoints.iter().enumerate() {
                 features.push(json!({
@@ -147,10 +152,13 @@ impl Placement {
                 .iter()
                 .map(|p| kml_coordinates(&self.geodetic(p)))
                 .collect();
+            let n = match team(sorties) {
+                true => format!("{} (drone {})", s + 1, sortie.drone + 1),
+                false => (s + 1).to_string(),
+            };
             folders += &format!(
                 "<Folder><name>Sortie {n}</name>\n<Placemark><name>Sortie {n} path</name><styleUrl>#path</styleUrl><LineString><altitudeMode>absolute</altitudeMode><coordinates>{}</coordinates></LineString></Placemark>\n",
                 path.join(" "),
-                n = s + 1
             );
             for (k, w) in sortie.waypoints.iter().enumerate() {
                 folders += &format!(
@@ -248,6 +256,11 @@ pub fn path_csv(sorties: &[Sortie], frame_id: &str) -> String {
         }
     }
     text
+}
+
+/// Whether the sorties are a team's (flown by more than one drone).
+fn team(sorties: &[Sortie]) -> bool {
+    sorties.iter().any(|s| s.drone > 0)
 }
 
 /// Mission items in order, numbered from 1.

@@ -20,6 +20,7 @@ pub mod free_space;
 pub mod ground_station;
 pub mod settings;
 pub mod stage;
+pub mod team;
 pub mod tour;
 pub mod viewpoints;
 

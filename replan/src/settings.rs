@@ -42,6 +42,11 @@ postflight_core::settings! {
         /// when it converges, and gets 1 s plus 2 ms per cluster at most.
         #[arg(long = "solver-time-limit", value_name = "S")]
         solver_time_limit_s: f64 = 10.0,
+        /// Drones flying the follow-up together, all from home: the tour is
+        /// split among them so that the slowest is done soonest, each
+        /// drone's share flown in battery sorties.
+        #[arg(long, value_name = "N")]
+        drones: u32 = 1,
         /// Solver seed.
         #[arg(long, value_name = "N")]
         seed: u64 = gtsp::SolveOptions::default().seed,

@@ -16,7 +16,8 @@ use postflight_core::map::{SlamMap, VoxelGrid, VoxelIndex};
 use postflight_core::outputs::coverage::{self as coverage_outputs, CoverageSummary};
 use postflight_core::outputs::localise::{self as localise_outputs, read_defects};
 use postflight_core::outputs::replan::{
-    GapChoice, ReplanSummary, ReshootSpot, Sortie, Uninspectable, Unplannable, Waypoint, files,
+    DronePlan, GapChoice, ReplanSummary, ReshootSpot, Sortie, Uninspectable, Unplannable, Waypoint,
+    files,
 };
 use postflight_core::{Flight, InvalidSetting, Key, RunDir, Stage, Viewpoint};
 
@@ -84,6 +85,7 @@ impl ReplanOptions {
         let at_least_0 = |key: Key, v: f64| InvalidSetting::check(v >= 0.0, key, v, "0 or more");
         at_least_0(keys::clearance_m, s.clearance_m)?;
         at_least_0(keys::hover_s, s.hover_s)?;
+        InvalidSetting::check(s.drones >= 1, keys::drones, s.drones, "1 or more drones")?;
         InvalidSetting::check(
             s.battery_minutes.is_finite() && s.battery_minutes > 0.0,
             keys::battery_minutes,
@@ -188,7 +190,7 @@ pub fn replan(
     summary.phases.solve_s = tour.stats.solve_seconds - tour.stats.paths_seconds;
     summary.phases.rounds = tour.stats.rounds;
     let phase = Instant::now();
-    let flights = split_sorties(options, &tour, &points, &space, &map, &from_home)?;
+    let drones = split_sorties(options, &tour, &points, &space, &map, &from_home)?;
     let waypoint = |i: usize| {
         let v = &found[tour.stops[i] - 1].viewpoint;
         let mut gap_voxels: Vec<VoxelIndex> =
@@ -203,10 +205,13 @@ pub fn replan(
             gap_voxels,
         }
     };
-    summary.sorties = flights
-        .iter()
-        .map(|indices| fly(options, &tour, &points, &space, indices, &waypoint))
-        .collect();
+    for (drone, sorties) in (0u32..).zip(&drones) {
+        for indices in sorties {
+            let mut sortie = fly(options, &tour, &points, &space, indices, &waypoint);
+            sortie.drone = drone;
+            summary.sorties.push(sortie);
+        }
+    }
     summary.phases.paths_s = tour.stats.paths_seconds + phase.elapsed().as_secs_f64();
     summarise(&mut summary, tour);
     write(&run, summary, placement.as_ref(), started)
@@ -330,6 +335,8 @@ fn empty_plan(
         waypoints: 0,
         length_m: 0.0,
         time_s: 0.0,
+        drones: Vec::new(),
+        mission_time_s: 0.0,
         solver: None,
         phases: Default::default(),
         geo_origin: None,
@@ -494,6 +501,8 @@ fn drop_candidates(
 /// fits one battery (and the longest sortie, if set). Splitting bounds each
 /// way home by the lattice distance (one search from home), then flies the
 /// legs home it chose.
+/// The tour's stops as each drone's sorties (one drone: the tour's
+/// sorties; a team: [`crate::team::split`]).
 fn split_sorties(
     options: &ReplanOptions,
     tour: &Tour,
@@ -501,7 +510,7 @@ fn split_sorties(
     space: &FreeSpace,
     map: &SlamMap,
     from_home: &HashMap<VoxelIndex, f64>,
-) -> Result<Vec<Vec<usize>>, ReplanError> {
+) -> Result<Vec<Vec<Vec<usize>>>, ReplanError> {
     let budget = options.budget();
     let home = points[0];
     let grid = map.voxels.grid;
@@ -517,14 +526,17 @@ fn split_sorties(
                 (d + (p - grid.center(grid.voxel_of(&p))).norm()) * 1.001 + 0.01
             })
     };
-    crate::tour::sorties(tour, &budget, &home_m).map_err(|(stop, round_trip_m)| {
-        ReplanError::SortieTooLong {
-            point: points[stop].coords.into(),
-            round_trip_m,
-            round_trip_s: budget.time_s(round_trip_m, 1),
-            max_m: budget.max_length_m,
-            battery_minutes: options.settings.battery_minutes,
-        }
+    let drones = options.settings.drones as usize;
+    let split = match drones {
+        1 => crate::tour::sorties(tour, &budget, &home_m).map(|one| vec![one]),
+        n => crate::team::split(tour, n, &budget, &home_m),
+    };
+    split.map_err(|(stop, round_trip_m)| ReplanError::SortieTooLong {
+        point: points[stop].coords.into(),
+        round_trip_m,
+        round_trip_s: budget.time_s(round_trip_m, 1),
+        max_m: budget.max_length_m,
+        battery_minutes: options.settings.battery_minutes,
     })
 }
 
@@ -571,6 +583,7 @@ fn fly(
     }
     let length_m = length(&path);
     Sortie {
+        drone: 0,
         time_s: options.budget().time_s(length_m, waypoints.len()),
         waypoints,
         path: path.iter().map(|p| p.coords.into()).collect(),
@@ -595,9 +608,34 @@ fn summarise(summary: &mut ReplanSummary, tour: Tour) {
     summary.waypoints = summary.viewpoints.len();
     summary.length_m = summary.sorties.iter().map(|s| s.length_m).sum();
     summary.time_s = summary.sorties.iter().map(|s| s.time_s).sum();
+    summary.drones = drone_plans(&summary.sorties);
+    summary.mission_time_s = summary.drones.iter().map(|d| d.time_s).fold(0.0, f64::max);
     summary.hover_time_s = summary.hover_s * summary.waypoints as f64;
     summary.travel_time_s = summary.length_m / summary.speed_m_s;
     summary.solver = Some(tour.stats);
+}
+
+/// Each drone's share of the sorties.
+fn drone_plans(sorties: &[Sortie]) -> Vec<DronePlan> {
+    let mut drones: Vec<DronePlan> = Vec::new();
+    for s in sorties {
+        let at = s.drone as usize;
+        while drones.len() <= at {
+            drones.push(DronePlan {
+                drone: drones.len() as u32,
+                sorties: 0,
+                waypoints: 0,
+                length_m: 0.0,
+                time_s: 0.0,
+            });
+        }
+        let d = &mut drones[at];
+        d.sorties += 1;
+        d.waypoints += s.waypoints.len();
+        d.length_m += s.length_m;
+        d.time_s += s.time_s;
+    }
+    drones
 }
 
 /// Writes `replan.csv` (every point of every sortie's path, `X,Y,Z,Yaw`,
@@ -614,10 +652,35 @@ fn write(
         &ground_station::path_csv(&summary.sorties, &summary.frame_id),
     )?;
     remove_ground_station_files(run)?;
+    let team = summary.drones.len() > 1;
+    if team {
+        for d in 0..summary.drones.len() {
+            let own: Vec<Sortie> = summary
+                .sorties
+                .iter()
+                .filter(|s| s.drone as usize == d)
+                .cloned()
+                .collect();
+            let name = files::drone_path_csv(d);
+            run.write_text(&name, &ground_station::path_csv(&own, &summary.frame_id))?;
+        }
+    }
     if let Some(placement) = placement.filter(|_| !summary.sorties.is_empty()) {
         let count = summary.sorties.len();
+        let mut in_drone = 0;
         for (i, sortie) in summary.sorties.iter().enumerate() {
-            let name = files::mission(i, count);
+            let drone = sortie.drone as usize;
+            let name = match team {
+                false => files::mission(i, count),
+                true => {
+                    in_drone = if i > 0 && summary.sorties[i - 1].drone == sortie.drone {
+                        in_drone + 1
+                    } else {
+                        0
+                    };
+                    files::drone_mission(drone, in_drone, summary.drones[drone].sorties)
+                }
+            };
             run.write_json(&name, &placement.mission(sortie))?;
             summary.ground_station_files.push(name);
         }
@@ -641,7 +704,7 @@ fn remove_ground_station_files(run: &RunDir) -> Result<(), ReplanError> {
             cause,
         })?
         .filter_map(|entry| entry.ok()?.file_name().into_string().ok());
-    for name in names.filter(|n| files::is_mission(n)) {
+    for name in names.filter(|n| files::is_mission(n) || files::is_drone_path_csv(n)) {
         run.remove(&name)?;
     }
     run.remove(files::KML)?;

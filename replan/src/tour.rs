@@ -315,31 +315,116 @@ pub fn sorties(
     budget: &Budget,
     home_m: &dyn Fn(usize) -> f64,
 ) -> Result<Vec<Vec<usize>>, (usize, f64)> {
-    let mut out: Vec<Vec<usize>> = Vec::new();
-    let mut current: Vec<usize> = Vec::new();
-    let mut so_far = 0.0;
+    let mut cutter = Cutter::new(tour, budget, home_m);
     for i in 1..tour.stops.len() {
-        let back = home_m(tour.stops[i]);
-        if !budget.fits(2.0 * back, 1) {
-            return Err((tour.stops[i], 2.0 * back));
+        cutter.push(i)?;
+    }
+    Ok(cutter.finish())
+}
+
+/// A stop flown on to: the way back from it, the way to it in the current
+/// sortie, and whether the battery allows both.
+struct Next {
+    back: f64,
+    to_here: f64,
+    in_this_sortie: bool,
+}
+
+/// A stretch of a tour cut into battery sorties as it grows, stop by stop
+/// (the greedy rule of [`sorties`]), knowing how long flying it takes.
+pub struct Cutter<'a> {
+    tour: &'a Tour,
+    budget: &'a Budget,
+    home_m: &'a dyn Fn(usize) -> f64,
+    done: Vec<Vec<usize>>,
+    /// The finished sorties' time, seconds.
+    done_s: f64,
+    current: Vec<usize>,
+    /// The current sortie's length from home to its last stop, metres.
+    so_far: f64,
+}
+
+impl<'a> Cutter<'a> {
+    pub fn new(tour: &'a Tour, budget: &'a Budget, home_m: &'a dyn Fn(usize) -> f64) -> Self {
+        Self {
+            tour,
+            budget,
+            home_m,
+            done: Vec::new(),
+            done_s: 0.0,
+            current: Vec::new(),
+            so_far: 0.0,
         }
-        let to_here = if current.is_empty() {
-            back
+    }
+
+    /// Fly on to tour index `i` (the next one), in this sortie or, when it
+    /// no longer fits the battery, in a new one; an error (the stop and its
+    /// round trip) when its round trip alone does not fit.
+    pub fn push(&mut self, i: usize) -> Result<(), (usize, f64)> {
+        let next = self.next(i)?;
+        if next.in_this_sortie {
+            self.so_far = next.to_here;
         } else {
-            so_far + length(&tour.legs[i - 1])
+            self.done_s += self.current_s();
+            self.done.push(std::mem::take(&mut self.current));
+            self.so_far = next.back;
+        }
+        self.current.push(i);
+        Ok(())
+    }
+
+    /// How long the sorties would take flown on to tour index `i`, seconds
+    /// (without flying on).
+    pub fn time_with(&self, i: usize) -> Result<f64, (usize, f64)> {
+        let next = self.next(i)?;
+        let count = self.current.len();
+        Ok(if next.in_this_sortie {
+            self.done_s + self.budget.time_s(next.to_here + next.back, count + 1)
+        } else {
+            self.time_s() + self.budget.time_s(2.0 * next.back, 1)
+        })
+    }
+
+    /// Where flying on to tour index `i` leads.
+    fn next(&self, i: usize) -> Result<Next, (usize, f64)> {
+        let stop = self.tour.stops[i];
+        let back = (self.home_m)(stop);
+        if !self.budget.fits(2.0 * back, 1) {
+            return Err((stop, 2.0 * back));
+        }
+        let to_here = match self.current.last() {
+            None => back,
+            Some(&last) => self.so_far + length(&self.tour.legs[last]),
         };
-        if budget.fits(to_here + back, current.len() + 1) {
-            so_far = to_here;
-        } else {
-            out.push(std::mem::take(&mut current));
-            so_far = back;
+        let in_this_sortie = self.budget.fits(to_here + back, self.current.len() + 1);
+        Ok(Next {
+            back,
+            to_here,
+            in_this_sortie,
+        })
+    }
+
+    /// The current sortie's time, home to home, seconds.
+    fn current_s(&self) -> f64 {
+        let Some(&last) = self.current.last() else {
+            return 0.0;
+        };
+        let back = (self.home_m)(self.tour.stops[last]);
+        self.budget.time_s(self.so_far + back, self.current.len())
+    }
+
+    /// Flying every sortie so far, one after the other, seconds.
+    pub fn time_s(&self) -> f64 {
+        self.done_s + self.current_s()
+    }
+
+    /// The sorties: indices into `tour.stops`.
+    pub fn finish(mut self) -> Vec<Vec<usize>> {
+        if !self.current.is_empty() {
+            self.done.push(self.current);
         }
-        current.push(i);
+        self.done
     }
-    if !current.is_empty() {
-        out.push(current);
-    }
-    Ok(out)
 }
 
 #[cfg(test)]

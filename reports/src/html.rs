@@ -12,7 +12,9 @@ use maud::{Markup, PreEscaped, html};
 use postflight_core::outputs::changes::{ChangeKind, ChangeRecord, files as changes_files};
 use postflight_core::outputs::coverage::CoverageSummary;
 use postflight_core::outputs::localise::DefectRecord;
-use postflight_core::outputs::replan::{GapChoice, ReplanSummary, Unplannable};
+use postflight_core::outputs::replan::{
+    GapChoice, ReplanSummary, Unplannable, files as replan_files,
+};
 use postflight_core::outputs::report::{DEFAULT_REVIEW_ADDR, RunSummary};
 use postflight_core::table::Named;
 
@@ -581,8 +583,16 @@ pub fn follow_up_text(p: &ReplanSummary) -> String {
         GapChoice::Reshoot => format!("none of the {n} gaps"),
     };
     let plural = |n: usize, word: &str| format!("{n} {word}{}", if n == 1 { "" } else { "s" });
+    let team = match p.drones.len() {
+        0 | 1 => String::new(),
+        n => format!(
+            ", shared by {n} drones: the mission takes about {:.1} min (its slowest drone), the sorties {:.1} min in all",
+            p.mission_time_s / 60.0,
+            p.time_s / 60.0
+        ),
+    };
     format!(
-        "{} of {} chosen voxels planned ({chosen}, plus {} to re-shoot): {} (a greedy set cover needs {}) in {} within a {:.0}-minute battery: {:.0} m, about {:.1} min ({:.1} min hovering, {:.0} s a waypoint; {:.1} min flying at {:.1} m/s); at least {:.1} m from every occupied voxel.",
+        "{} of {} chosen voxels planned ({chosen}, plus {} to re-shoot): {} (a greedy set cover needs {}) in {} within a {:.0}-minute battery{team}: {:.0} m, about {:.1} min ({:.1} min hovering, {:.0} s a waypoint; {:.1} min flying at {:.1} m/s); at least {:.1} m from every occupied voxel.",
         p.planned_gap_voxels,
         p.gap_voxels,
         plural(p.reshoot_spots.len(), "candidate"),
@@ -620,6 +630,7 @@ fn follow_up(r: &RunResults, p: &ReplanSummary) -> Markup {
             .filter(|u| u.reason == reason)
             .count()
     };
+    let team = p.drones.len() > 1;
     let overlay = Overlay {
         paths: p.sorties.iter().map(|s| s.path.as_slice()).collect(),
         points: p
@@ -679,18 +690,67 @@ fn follow_up(r: &RunResults, p: &ReplanSummary) -> Markup {
             }
         }
         (gaps_by_element(r, p))
+        (team_plan(p))
         table {
             tr {
+                @if team { th { "drone" } }
                 th { "sortie" } th.n { "waypoints" } th.n { "gap voxels" }
                 th.n { "length" } th.n { "time" }
             }
             @for (i, s) in p.sorties.iter().enumerate() {
                 tr {
+                    @if team { td { (s.drone + 1) } }
                     td { (i + 1) }
                     td.n { (s.waypoints.len()) }
                     td.n { (s.waypoints.iter().map(|w| w.gap_voxels.len()).sum::<usize>()) }
                     td.n { (format!("{:.0} m", s.length_m)) }
                     td.n { (format!("{:.1} min", s.time_s / 60.0)) }
+                }
+            }
+        }
+    }
+}
+
+/// A team's plan, drone by drone: its share of the flight and its files.
+/// Nothing for one drone.
+fn team_plan(p: &ReplanSummary) -> Markup {
+    if p.drones.len() < 2 {
+        return html! {};
+    }
+    let files_of = |drone: usize| -> Vec<String> {
+        let prefix = format!("replan-drone-{}", drone + 1);
+        let own = p.ground_station_files.iter().filter(|f| {
+            f.strip_prefix(&prefix)
+                .is_some_and(|rest| rest.starts_with('.') || rest.starts_with('-'))
+        });
+        std::iter::once(replan_files::drone_path_csv(drone))
+            .chain(own.cloned())
+            .collect()
+    };
+    html! {
+        h3 { "Team plan" }
+        p {
+            (p.drones.len()) " drones take off from home together; each flies its share of the tour in its own battery sorties. "
+            (format!("The mission takes about {:.1} min, its slowest drone's time; one drone would fly the sorties one after another.", p.mission_time_s / 60.0))
+        }
+        table {
+            tr {
+                th { "drone" } th.n { "sorties" } th.n { "waypoints" } th.n { "length" }
+                th.n { "time" } th { "files" }
+            }
+            @for d in &p.drones {
+                tr {
+                    td { (d.drone + 1) }
+                    td.n { (d.sorties) }
+                    td.n { (d.waypoints) }
+                    td.n { (format!("{:.0} m", d.length_m)) }
+                    td.n { (format!("{:.1} min", d.time_s / 60.0)) }
+                    td {
+                        @for (i, f) in files_of(d.drone as usize).iter().enumerate() {
+                            @if i > 0 { ", " }
+                            code { (f) }
+                        }
+                    }
                 }
             }
         }

@@ -31,6 +31,26 @@ pub mod files {
         }
     }
 
+    /// A team drone's sortie's mission: `replan-drone-2.plan` when the
+    /// drone flies one sortie, else `replan-drone-2-1.plan`, ...
+    pub fn drone_mission(drone: usize, sortie: usize, sorties: usize) -> String {
+        if sorties == 1 {
+            format!("replan-drone-{}.plan", drone + 1)
+        } else {
+            format!("replan-drone-{}-{}.plan", drone + 1, sortie + 1)
+        }
+    }
+
+    /// A team drone's path, as `replan.csv` holds the team's.
+    pub fn drone_path_csv(drone: usize) -> String {
+        format!("replan-drone-{}.csv", drone + 1)
+    }
+
+    /// Whether a file in the run directory is a team drone's path.
+    pub fn is_drone_path_csv(name: &str) -> bool {
+        name.starts_with("replan-drone-") && name.ends_with(".csv")
+    }
+
     /// Whether a file in the run directory is a sortie's mission.
     pub fn is_mission(name: &str) -> bool {
         name.starts_with("replan") && name.ends_with(".plan")
@@ -54,11 +74,26 @@ pub struct Waypoint {
 /// One flight from home and back.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Sortie {
+    /// The drone of the team that flies it, from 0 (0 for one drone).
+    #[serde(default)]
+    pub drone: u32,
     pub waypoints: Vec<Waypoint>,
     /// The collision-free path flown, home to home.
     pub path: Vec<[f64; 3]>,
     pub length_m: f64,
     /// Flying at the given speed plus hovering at each waypoint.
+    pub time_s: f64,
+}
+
+/// One drone's share of a team's follow-up flight.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DronePlan {
+    /// From 0, as its sorties' `drone`.
+    pub drone: u32,
+    pub sorties: usize,
+    pub waypoints: usize,
+    pub length_m: f64,
+    /// Its sorties one after the other, seconds.
     pub time_s: f64,
 }
 
@@ -152,10 +187,19 @@ pub struct ReplanSummary {
     /// Of `time_s`: hovering at waypoints, and flying, seconds.
     pub hover_time_s: f64,
     pub travel_time_s: f64,
+    /// Drone by drone, each drone's in flying order.
     pub sorties: Vec<Sortie>,
     pub waypoints: usize,
     pub length_m: f64,
+    /// Every sortie's time added up, seconds.
     pub time_s: f64,
+    /// The team: each drone's share (one entry for one drone).
+    #[serde(default)]
+    pub drones: Vec<DronePlan>,
+    /// The mission's duration: its slowest drone's time (each drone flying
+    /// its sorties one after the other), seconds.
+    #[serde(default)]
+    pub mission_time_s: f64,
     pub solver: Option<ReplanSolverStats>,
     /// Where the stage's time went.
     #[serde(default)]
