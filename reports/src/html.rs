@@ -700,7 +700,8 @@ fn follow_up(r: &RunResults, p: &ReplanSummary) -> Markup {
             @for (i, s) in p.sorties.iter().enumerate() {
                 tr {
                     @if team { td { (s.drone + 1) } }
-                    td { (i + 1) }
+                    // A team's sorties are numbered within their drone.
+                    td { (p.sorties[..i].iter().filter(|o| o.drone == s.drone).count() + 1) }
                     td.n { (s.waypoints.len()) }
                     td.n { (s.waypoints.iter().map(|w| w.gap_voxels.len()).sum::<usize>()) }
                     td.n { (format!("{:.0} m", s.length_m)) }
@@ -731,7 +732,7 @@ fn team_plan(p: &ReplanSummary) -> Markup {
         h3 { "Team plan" }
         p {
             (p.drones.len()) " drones take off from home together; each flies its share of the tour in its own battery sorties. "
-            (format!("The mission takes about {:.1} min, its slowest drone's time; one drone would fly the sorties one after another.", p.mission_time_s / 60.0))
+            (format!("The mission takes about {:.1} min: its slowest drone's time, each drone flying its own sorties one after another.", p.mission_time_s / 60.0))
         }
         table {
             tr {
