@@ -1378,19 +1378,6 @@ fn half_open_idle_and_surplus_connections_are_bounded() {
 
 // ---- localisation re-run ---------------------------------------------------
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for entry in std::fs::read_dir(from).unwrap() {
-        let entry = entry.unwrap();
-        let target = to.join(entry.file_name());
-        if entry.file_type().unwrap().is_dir() {
-            copy_dir(&entry.path(), &target);
-        } else {
-            std::fs::copy(entry.path(), target).unwrap();
-        }
-    }
-}
-
 #[test]
 fn decisions_stay_with_their_candidates_when_localisation_reruns() {
     let fixture = reviewed_run();

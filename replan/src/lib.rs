@@ -10,7 +10,8 @@
 //! [`tour`] solves the GTSP from home with the `gtsp` crate and, as GATSBI
 //! does, re-solves with lazy collision checks while a flown leg is much
 //! longer than its cost. [`stage`] ties these together, splits the tour into
-//! sorties for the battery and writes `replan.json` (also an inspection plan
+//! sorties for the battery (for a team, first into a stretch per drone:
+//! [`team`]) and writes `replan.json` (also an inspection plan
 //! `postflight coverage --viewpoints` can check) and `replan.csv` (GATSBI's
 //! `X,Y,Z,Yaw` path); with a geo origin, [`ground_station`] also writes a
 //! QGroundControl mission per sortie, KML and GeoJSON.

@@ -315,11 +315,16 @@ fn made_once<K: Hash>(kind: &str, generation: u64, key: &K, make: impl FnOnce(&P
     done
 }
 
-/// Copy the files of directory `from` into a new directory `to`.
-fn copy_dir(from: &Path, to: &Path) {
+/// Copy directory `from`, with its folders, into a new directory `to`.
+pub fn copy_dir(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).unwrap();
     for entry in std::fs::read_dir(from).unwrap().flatten() {
-        std::fs::copy(entry.path(), to.join(entry.file_name())).unwrap();
+        let (path, into) = (entry.path(), to.join(entry.file_name()));
+        if path.is_dir() {
+            copy_dir(&path, &into);
+        } else {
+            std::fs::copy(&path, &into).unwrap();
+        }
     }
 }
 
