@@ -10,8 +10,8 @@ stage took in all. Both missions are costed alike: straight legs at the
 plan's speed plus its hover at each waypoint, each drone's sorties flown
 one after the other.
 
-Run: compare.py REPLAN_JSON [--name NAME] [--limit-s S]; prints one JSON
-line.
+Run: compare.py REPLAN_JSON [--name NAME] [--limit-s S] [--coverage
+COVERAGE_VIEWPOINTS_JSON]; prints one JSON line.
 """
 
 import argparse
@@ -85,6 +85,7 @@ def main():
     parser.add_argument("replan")
     parser.add_argument("--name", default="")
     parser.add_argument("--limit-s", type=float, default=None)
+    parser.add_argument("--coverage", help="coverage-viewpoints.json of the plan's routes, targets the plan's")
     args = parser.parse_args()
     plan = json.load(open(args.replan))
     if len(plan.get("drones", [])) < 2:
@@ -97,8 +98,12 @@ def main():
     theirs = ortools_routes(home, points, len(ours), speed, hover, limit)
     one = mission_of([[points]], home, speed, hover)
     a, b = mission_of(ours, home, speed, hover), mission_of(theirs, home, speed, hover)
+    judged = json.load(open(args.coverage)) if args.coverage else {}
     print(json.dumps({
-        "instance": args.name, "waypoints": len(points), "drones": len(ours),
+        "instance": args.name, "gap_voxels": plan["gap_voxels"],
+        "planned_gap_voxels": plan["planned_gap_voxels"],
+        "planned_inspected_by_the_team": judged.get("inspected_voxels"),
+        "waypoints": len(points), "drones": len(ours),
         "time_limit_s": round(limit, 2),
         "postflight_mission_s": round(a, 1), "ortools_mission_s": round(b, 1),
         "postflight_over_ortools": round(a / b, 3),
