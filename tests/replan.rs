@@ -408,6 +408,12 @@ fn team_shares_the_flight(
     let drones = team["drones"].as_array().unwrap();
     assert_eq!(drones.len(), 3, "{}", team["drones"]);
     let (mission, alone) = (f(&team["mission_time_s"]), f(&one_drone["time_s"]));
+    // Take-offs staggered until no two drones come within the clearance.
+    let closest = f(&team["closest_drones_m"]);
+    assert!(
+        closest >= f(&team["clearance_m"]),
+        "drones {closest:.2} m apart"
+    );
     eprintln!("3 drones: the mission takes {mission:.0} s, one drone {alone:.0} s");
     assert!(
         mission <= 0.4 * alone,
@@ -422,7 +428,7 @@ fn team_shares_the_flight(
             .collect();
         let time: f64 = own.iter().map(|s| f(&s["time_s"])).sum();
         assert_close(time, f(&drone["time_s"]), 1e-6, "a drone's time");
-        assert!(time <= mission + 1e-6);
+        assert!(f(&drone["takeoff_s"]) + time <= mission + 1e-6);
         // Its own path file: its waypoints, home to home.
         let csv = std::fs::read_to_string(run.join(format!("replan-drone-{}.csv", d + 1))).unwrap();
         let waypoints = csv.lines().filter(|l| l.ends_with(",waypoint")).count();

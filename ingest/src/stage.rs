@@ -127,12 +127,31 @@ pub fn ingest(
         "a positive number of seconds",
     )?;
     let mut recordings = open_all(&options.flights)?;
+    let mut ingested = ingest_each(&recordings, options, progress)?;
+    check_topic_flags(options, &every_topic(&ingested))?;
+    if ingested.iter().all(|i| i.frames.is_empty()) {
+        return Err(IngestError::NoImages {
+            path: options.flights[0].clone(),
+        });
+    }
+    let warnings = place_recordings(&mut ingested, &mut recordings)?;
+    let (summary, flight) = combine(ingested, options, warnings);
+    write_outputs(&options.out, &flight, &summary)?;
+    Ok(summary)
+}
+
+/// Each recording ingested, or read back from the run directory when it
+/// was ingested before with the same settings ([`reuse`]).
+fn ingest_each(
+    recordings: &[Recording],
+    options: &IngestOptions,
+    progress: &mut dyn Progress,
+) -> Result<Vec<Ingested>, IngestError> {
     let total: u64 = recordings.iter().map(Recording::len).sum();
     let mut done = 0;
     let mut ingested = Vec::new();
     let mut kept = Vec::new();
-    for (index, recording) in (0u16..).zip(&recordings) {
-        // A recording ingested before with the same settings is not read again.
+    for (index, recording) in (0u16..).zip(recordings) {
         let place = reuse::place_of(recording.path(), options);
         let one = match reuse::load(&place, index) {
             Some(one) => one,
@@ -149,23 +168,17 @@ pub fn ingest(
         kept.push(place);
     }
     reuse::forget_all_but(&options.out, &kept)?;
-    let messages = ingested.iter().map(|i| &i.summary.messages);
-    check_topic_flags(
-        options,
-        &messages.fold(BTreeMap::new(), |mut all, m| {
-            all.extend(m.iter().map(|(t, s)| (t.clone(), s.clone())));
-            all
-        }),
-    )?;
-    if ingested.iter().all(|i| i.frames.is_empty()) {
-        return Err(IngestError::NoImages {
-            path: options.flights[0].clone(),
-        });
+    Ok(ingested)
+}
+
+/// Messages per topic, over every recording.
+fn every_topic(ingested: &[Ingested]) -> BTreeMap<String, TopicSummary> {
+    let mut all = BTreeMap::new();
+    for one in ingested {
+        let topics = one.summary.messages.iter();
+        all.extend(topics.map(|(t, s)| (t.clone(), s.clone())));
     }
-    let warnings = place_recordings(&mut ingested, &mut recordings)?;
-    let (summary, flight) = combine(ingested, options, warnings);
-    write_outputs(&options.out, &flight, &summary)?;
-    Ok(summary)
+    all
 }
 
 /// The recordings, opened.

@@ -337,6 +337,7 @@ fn empty_plan(
         time_s: 0.0,
         drones: Vec::new(),
         mission_time_s: 0.0,
+        closest_drones_m: None,
         solver: None,
         phases: Default::default(),
         geo_origin: None,
@@ -609,7 +610,18 @@ fn summarise(summary: &mut ReplanSummary, tour: Tour) {
     summary.length_m = summary.sorties.iter().map(|s| s.length_m).sum();
     summary.time_s = summary.sorties.iter().map(|s| s.time_s).sum();
     summary.drones = drone_plans(&summary.sorties);
-    summary.mission_time_s = summary.drones.iter().map(|d| d.time_s).fold(0.0, f64::max);
+    let stagger = crate::team::stagger(
+        &summary.sorties,
+        summary.speed_m_s,
+        summary.hover_s,
+        summary.clearance_m,
+    );
+    for (d, takeoff) in summary.drones.iter_mut().zip(stagger.takeoff_s) {
+        d.takeoff_s = takeoff;
+    }
+    summary.closest_drones_m = stagger.closest_m;
+    let ends = summary.drones.iter().map(|d| d.takeoff_s + d.time_s);
+    summary.mission_time_s = ends.fold(0.0, f64::max);
     summary.hover_time_s = summary.hover_s * summary.waypoints as f64;
     summary.travel_time_s = summary.length_m / summary.speed_m_s;
     summary.solver = Some(tour.stats);
@@ -627,6 +639,7 @@ fn drone_plans(sorties: &[Sortie]) -> Vec<DronePlan> {
                 waypoints: 0,
                 length_m: 0.0,
                 time_s: 0.0,
+                takeoff_s: 0.0,
             });
         }
         let d = &mut drones[at];

@@ -2,7 +2,11 @@
 //! the tour cut into one stretch per drone so that the slowest drone is
 //! done soonest (route first, split second, after Beasley's split of a
 //! giant tour), each stretch flown in battery sorties from home. Stretches
-//! of one tour keep the drones' areas apart: they meet only near home.
+//! of one tour keep the drones' areas apart: they meet only near home,
+//! where [`stagger`] spaces their take-offs.
+
+use nalgebra::Point3;
+use postflight_core::outputs::replan::{Sortie, Waypoint};
 
 use crate::tour::{Budget, Cutter, Tour};
 
@@ -67,4 +71,166 @@ fn stretches(
         out.push(current.finish());
     }
     Ok(out)
+}
+
+/// When each drone of a team takes off, seconds after the first, and how
+/// close any two then come while flying: take-offs are staggered by the
+/// shortest whole second that keeps every two drones at least `clearance_m`
+/// apart at every moment (checked every [`STEP_S`]); all share one home.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stagger {
+    pub takeoff_s: Vec<f64>,
+    /// The closest two drones come, metres; `None` for one drone.
+    pub closest_m: Option<f64>,
+}
+
+/// How often drones' positions are compared, seconds.
+const STEP_S: f64 = 0.25;
+/// The longest stagger tried between two take-offs, seconds.
+const MAX_STAGGER_S: u32 = 300;
+
+/// Take-offs for `sorties` (each naming its drone), flown at `speed_m_s`
+/// with `hover_s` at each waypoint, each drone's sorties one after the
+/// other.
+pub fn stagger(sorties: &[Sortie], speed_m_s: f64, hover_s: f64, clearance_m: f64) -> Stagger {
+    let drones = sorties
+        .iter()
+        .map(|s| s.drone as usize + 1)
+        .max()
+        .unwrap_or(0);
+    let timelines: Vec<Timeline> = (0..drones)
+        .map(|d| {
+            let own = sorties.iter().filter(|s| s.drone as usize == d);
+            Timeline::of(own, speed_m_s, hover_s)
+        })
+        .collect();
+    if drones < 2 {
+        return Stagger {
+            takeoff_s: vec![0.0; drones],
+            closest_m: None,
+        };
+    }
+    let closest = |gap: f64| {
+        let takeoff: Vec<f64> = (0..drones).map(|d| d as f64 * gap).collect();
+        (closest_approach(&timelines, &takeoff), takeoff)
+    };
+    let mut best = closest(0.0);
+    for gap in 1..=MAX_STAGGER_S {
+        if best.0 >= clearance_m {
+            break;
+        }
+        best = closest(f64::from(gap));
+    }
+    Stagger {
+        takeoff_s: best.1,
+        closest_m: Some(best.0),
+    }
+}
+
+/// A drone's position over time: knots of time and place, moving straight
+/// between them.
+struct Timeline {
+    knots: Vec<(f64, Point3<f64>)>,
+}
+
+impl Timeline {
+    fn of<'a>(sorties: impl Iterator<Item = &'a Sortie>, speed_m_s: f64, hover_s: f64) -> Self {
+        let mut knots: Vec<(f64, Point3<f64>)> = Vec::new();
+        for sortie in sorties {
+            let mut next = 0;
+            for p in &sortie.path {
+                let p = Point3::from(*p);
+                let t = match knots.last() {
+                    None => 0.0,
+                    Some((t, q)) => t + (p - q).norm() / speed_m_s,
+                };
+                knots.push((t, p));
+                let at = |w: &Waypoint| Point3::new(w.x, w.y, w.z) == p;
+                while sortie.waypoints.get(next).is_some_and(at) {
+                    knots.push((t + hover_s, p));
+                    next += 1;
+                }
+            }
+        }
+        Self { knots }
+    }
+
+    fn end_s(&self) -> f64 {
+        self.knots.last().map_or(0.0, |k| k.0)
+    }
+
+    /// Where it is `t` seconds into its flight; `None` before or after.
+    fn at(&self, t: f64) -> Option<Point3<f64>> {
+        if t < 0.0 || t > self.end_s() {
+            return None;
+        }
+        let i = self.knots.partition_point(|k| k.0 <= t).max(1);
+        let (t0, a) = self.knots[i - 1];
+        let Some(&(t1, b)) = self.knots.get(i) else {
+            return Some(a);
+        };
+        let share = if t1 > t0 { (t - t0) / (t1 - t0) } else { 0.0 };
+        Some(a + (b - a) * share)
+    }
+}
+
+/// The closest any two drones come while both fly, taking off at `takeoff`.
+fn closest_approach(timelines: &[Timeline], takeoff: &[f64]) -> f64 {
+    let end = timelines
+        .iter()
+        .zip(takeoff)
+        .map(|(t, s)| s + t.end_s())
+        .fold(0.0, f64::max);
+    let mut closest = f64::INFINITY;
+    let mut t = 0.0;
+    while t <= end {
+        let here: Vec<Point3<f64>> = timelines
+            .iter()
+            .zip(takeoff)
+            .filter_map(|(line, s)| line.at(t - s))
+            .collect();
+        for (i, a) in here.iter().enumerate() {
+            for b in &here[i + 1..] {
+                closest = closest.min((a - b).norm());
+            }
+        }
+        t += STEP_S;
+    }
+    closest
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sortie(drone: u32, path: &[[f64; 3]]) -> Sortie {
+        Sortie {
+            drone,
+            waypoints: Vec::new(),
+            path: path.to_vec(),
+            length_m: 0.0,
+            time_s: 0.0,
+        }
+    }
+
+    #[test]
+    fn drones_leaving_one_home_together_are_staggered_until_they_keep_the_clearance() {
+        // Two drones fly out from home 10 m apart and back, one east, one
+        // north: together at home at the start and the end.
+        let east = sortie(0, &[[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 0.0, 0.0]]);
+        let north = sortie(1, &[[0.0, 0.0, 0.0], [0.0, 10.0, 0.0], [0.0, 0.0, 0.0]]);
+        let s = stagger(&[east, north], 1.0, 0.0, 2.0);
+        // Taking off together they meet at home; 2 s apart they are 2 m
+        // apart when the second takes off and when the first lands.
+        assert_eq!(s.takeoff_s, vec![0.0, 2.0]);
+        let closest = s.closest_m.unwrap();
+        assert!(closest >= 2.0 && closest < 2.1, "{closest}");
+        // Apart already: no stagger.
+        let far = sortie(1, &[[50.0, 0.0, 0.0], [60.0, 0.0, 0.0]]);
+        let near = sortie(0, &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]);
+        assert_eq!(
+            stagger(&[near, far], 1.0, 0.0, 2.0).takeoff_s,
+            vec![0.0, 0.0]
+        );
+    }
 }

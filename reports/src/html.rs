@@ -586,7 +586,7 @@ pub fn follow_up_text(p: &ReplanSummary) -> String {
     let team = match p.drones.len() {
         0 | 1 => String::new(),
         n => format!(
-            ", shared by {n} drones: the mission takes about {:.1} min (its slowest drone), the sorties {:.1} min in all",
+            ", shared by {n} drones: the mission takes about {:.1} min (first take-off to last landing), the sorties {:.1} min in all",
             p.mission_time_s / 60.0,
             p.time_s / 60.0
         ),
@@ -731,17 +731,22 @@ fn team_plan(p: &ReplanSummary) -> Markup {
     html! {
         h3 { "Team plan" }
         p {
-            (p.drones.len()) " drones take off from home together; each flies its share of the tour in its own battery sorties. "
-            (format!("The mission takes about {:.1} min: its slowest drone's time, each drone flying its own sorties one after another.", p.mission_time_s / 60.0))
+            (p.drones.len()) " drones take off from home one after another, each flying its share of the tour in its own battery sorties. "
+            (format!("The mission takes about {:.1} min from the first take-off to the last landing", p.mission_time_s / 60.0))
+            @if let Some(m) = p.closest_drones_m {
+                (format!("; the take-offs are spaced so that no two drones come closer than {m:.1} m (clearance {:.1} m)", p.clearance_m))
+            }
+            "."
         }
         table {
             tr {
-                th { "drone" } th.n { "sorties" } th.n { "waypoints" } th.n { "length" }
+                th { "drone" } th.n { "takes off" } th.n { "sorties" } th.n { "waypoints" } th.n { "length" }
                 th.n { "time" } th { "files" }
             }
             @for d in &p.drones {
                 tr {
                     td { (d.drone + 1) }
+                    td.n { (format!("+{:.0} s", d.takeoff_s)) }
                     td.n { (d.sorties) }
                     td.n { (d.waypoints) }
                     td.n { (format!("{:.0} m", d.length_m)) }

@@ -95,6 +95,10 @@ pub struct DronePlan {
     pub length_m: f64,
     /// Its sorties one after the other, seconds.
     pub time_s: f64,
+    /// When it takes off, seconds after the team's first drone: staggered
+    /// so that no two drones come closer than the clearance.
+    #[serde(default)]
+    pub takeoff_s: f64,
 }
 
 /// A gap voxel the follow-up flight cannot inspect, and why.
@@ -196,10 +200,14 @@ pub struct ReplanSummary {
     /// The team: each drone's share (one entry for one drone).
     #[serde(default)]
     pub drones: Vec<DronePlan>,
-    /// The mission's duration: its slowest drone's time (each drone flying
-    /// its sorties one after the other), seconds.
+    /// The mission's duration: from the first take-off to the last
+    /// landing (each drone flying its sorties one after the other), seconds.
     #[serde(default)]
     pub mission_time_s: f64,
+    /// The closest two drones of a team come while flying, metres (`None`
+    /// for one drone).
+    #[serde(default)]
+    pub closest_drones_m: Option<f64>,
     pub solver: Option<ReplanSolverStats>,
     /// Where the stage's time went.
     #[serde(default)]
