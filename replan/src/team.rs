@@ -224,7 +224,7 @@ mod tests {
         // apart when the second takes off and when the first lands.
         assert_eq!(s.takeoff_s, vec![0.0, 2.0]);
         let closest = s.closest_m.unwrap();
-        assert!(closest >= 2.0 && closest < 2.1, "{closest}");
+        assert!((2.0..2.1).contains(&closest), "{closest}");
         // Apart already: no stagger.
         let far = sortie(1, &[[50.0, 0.0, 0.0], [60.0, 0.0, 0.0]]);
         let near = sortie(0, &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]);
