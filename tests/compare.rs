@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::common::*;
-use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Point3, Vector3};
 use serde_json::Value;
 
 const REPEAT: [&str; 7] = [
@@ -20,16 +20,6 @@ const REPEAT: [&str; 7] = [
     "5",
     "--frame-offset=0.5,0,0,10",
 ];
-
-fn pose(v: &Value) -> Isometry3<f64> {
-    let t = vec3(&v["translation"]);
-    let q = v["rotation_xyzw"].as_array().unwrap();
-    let q = Quaternion::new(f(&q[3]), f(&q[0]), f(&q[1]), f(&q[2]));
-    Isometry3::from_parts(
-        Translation3::new(t[0], t[1], t[2]),
-        UnitQuaternion::from_quaternion(q),
-    )
-}
 
 /// `postflight compare --before a --after b`.
 fn compare(a: &Path, b: &Path) -> std::process::Output {
@@ -177,11 +167,7 @@ fn a_repeat_inspection_is_registered_and_its_changes_classified_against_truth() 
     // Registration against the frame change the simulator applied.
     let estimated = pose(&changes["registration"]["transform"]);
     let truth = pose(&truth_b["repeat"]["earlier_to_this"]);
-    let error = estimated.inverse() * truth;
-    let (shift, turn) = (
-        error.translation.vector.norm(),
-        error.rotation.angle().to_degrees(),
-    );
+    let (shift, turn) = pose_error(&estimated, &truth);
     eprintln!(
         "registration error: {:.1} mm, {:.3} deg",
         shift * 1000.0,

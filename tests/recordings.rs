@@ -13,7 +13,6 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use crate::common::*;
-use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use polars::prelude::*;
 
 const WHOLE: [&str; 2] = ["--frames", "60"];
@@ -207,17 +206,6 @@ fn a_recording_given_twice_or_a_directory_without_any_is_refused_in_one_line() {
     assert!(!out_dir.exists(), "a refused run made its directory");
 }
 
-/// A `{translation, rotation_xyzw}` object as a pose.
-fn pose(v: &serde_json::Value) -> Isometry3<f64> {
-    let t = vec3(&v["translation"]);
-    let q = v["rotation_xyzw"].as_array().unwrap();
-    let q = Quaternion::new(f(&q[3]), f(&q[0]), f(&q[1]), f(&q[2]));
-    Isometry3::from_parts(
-        Translation3::new(t[0], t[1], t[2]),
-        UnitQuaternion::from_quaternion(q),
-    )
-}
-
 #[test]
 fn sorties_in_slam_frames_of_their_own_are_registered_onto_the_first() {
     let dir = tempfile::tempdir().unwrap();
@@ -241,11 +229,7 @@ fn sorties_in_slam_frames_of_their_own_are_registered_onto_the_first() {
         let placement = &r["placement"];
         let expected = first * pose(&told[k]["slam_from_world"]).inverse();
         let found = pose(&placement["transform"]);
-        let error = expected.inverse() * found;
-        let (metres, degrees) = (
-            error.translation.vector.norm(),
-            error.rotation.angle().to_degrees(),
-        );
+        let (metres, degrees) = pose_error(&expected, &found);
         eprintln!(
             "sortie {}: {placement}, off by {metres:.4} m, {degrees:.3} deg",
             k + 1

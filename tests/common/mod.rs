@@ -104,6 +104,30 @@ pub fn vec3(v: &Value) -> [f64; 3] {
     [f(&v[0]), f(&v[1]), f(&v[2])]
 }
 
+/// A `{translation, rotation_xyzw}` object (truth.json, ingest.json,
+/// changes.json) as a pose.
+pub fn pose(v: &Value) -> nalgebra::Isometry3<f64> {
+    let t = vec3(&v["translation"]);
+    let q = v["rotation_xyzw"].as_array().unwrap();
+    let q = nalgebra::Quaternion::new(f(&q[3]), f(&q[0]), f(&q[1]), f(&q[2]));
+    nalgebra::Isometry3::from_parts(
+        nalgebra::Translation3::new(t[0], t[1], t[2]),
+        nalgebra::UnitQuaternion::from_quaternion(q),
+    )
+}
+
+/// How far `found` is from `expected`: metres, and degrees of rotation.
+pub fn pose_error(
+    expected: &nalgebra::Isometry3<f64>,
+    found: &nalgebra::Isometry3<f64>,
+) -> (f64, f64) {
+    let error = expected.inverse() * found;
+    (
+        error.translation.vector.norm(),
+        error.rotation.angle().to_degrees(),
+    )
+}
+
 pub fn assert_close(a: f64, b: f64, tol: f64, what: &str) {
     assert!(
         (a - b).abs() <= tol,
