@@ -264,6 +264,12 @@ solver_time_limit_s = 5.0
 drones = 2
 seed = 7
 geo_origin = [47.397742, 8.545594, 488.0, 23.5]
+keep_out_file = "zones.geojson"
+ceiling_m = 40.0
+[[replan.keep_out]]
+name = "carriageway"
+outline = [[0.0, -4.5], [16.0, -4.5], [16.0, 4.5], [0.0, 4.5]]
+bottom_m = 6.5
 "#;
 
 #[cfg(test)]

@@ -87,6 +87,172 @@ fn segment_clearance(map: &VoxelMap, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
     nearest
 }
 
+/// A rectangle of the map frame, `[x0, y0, x1, y1]`, between two heights.
+struct Zone {
+    corners: [f64; 4],
+    bottom: f64,
+    top: f64,
+}
+
+impl Zone {
+    fn contains(&self, p: &Point3<f64>) -> bool {
+        let [x0, y0, x1, y1] = self.corners;
+        (x0..=x1).contains(&p.x)
+            && (y0..=y1).contains(&p.y)
+            && (self.bottom..=self.top).contains(&p.z)
+    }
+
+    fn outline(&self) -> [[f64; 2]; 4] {
+        let [x0, y0, x1, y1] = self.corners;
+        [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
+    }
+}
+
+/// Keep-out zones over the girder bridge's deck (x -15 to 15 m, y -3.5 to
+/// 3.5 m, top at 6.5 m): over its west half a column, given as GeoJSON on
+/// the Earth (written by PROJ), and over its east half the air above the
+/// deck, given in the settings; and a ceiling 3 m above the take-off, below
+/// parts of `open_plan` (planned without them). No
+/// waypoint and no point of the flown path (every 2 cm) is in a zone or
+/// above the ceiling; the column is every mission's geofence, as PROJ
+/// places it; every gap is planned or listed with a reason.
+fn keep_out_zones_hold(run: &Path, gaps: &BTreeSet<Voxel>, open_plan: &Value) {
+    let west = Zone {
+        corners: [-16.0, -4.5, 0.0, 4.5],
+        bottom: f64::NEG_INFINITY,
+        top: f64::INFINITY,
+    };
+    let east = Zone {
+        corners: [0.0, -4.5, 16.0, 4.5],
+        bottom: 6.5,
+        top: f64::INFINITY,
+    };
+    let zones_file = run.join("zones.geojson");
+    let mut args = vec!["zone".to_string(), zones_file.to_str().unwrap().into()];
+    args.extend(ZURICH.map(String::from));
+    args.push("west carriageway".into());
+    args.extend(west.outline().map(|[x, y]| format!("{x},{y}")));
+    python_fixture("check_geo.py", &args);
+    let config = run.join("airspace.toml");
+    std::fs::write(
+        &config,
+        "[[replan.keep_out]]\nname = \"east carriageway\"\noutline = [[0.0, -4.5], [16.0, -4.5], [16.0, 4.5], [0.0, 4.5]]\nbottom_m = 6.5\n",
+    )
+    .unwrap();
+    let zurich = ZURICH.join(",");
+    let out = replan(
+        run,
+        &[
+            &EVERY_GAP_ONE_BATTERY[..],
+            &[
+                "--solver-time-limit",
+                "3",
+                "--geo-origin",
+                &zurich,
+                "--ceiling",
+                "3",
+            ],
+            &["--keep-out", zones_file.to_str().unwrap()],
+            &["--config", config.to_str().unwrap()],
+        ]
+        .concat(),
+    );
+    assert!(out.status.success(), "replan: {}", stderr(&out));
+    let plan = read_json(&run.join("replan.json"));
+    assert_eq!(
+        plan["keep_out"].as_array().unwrap().len(),
+        2,
+        "{}",
+        plan["keep_out"]
+    );
+    let ceiling = f(&plan["ceiling_z_m"]);
+    let highest = |plan: &Value| {
+        plan["sorties"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .flat_map(|s| s["path"].as_array().unwrap().iter().map(|p| f(&p[2])))
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    assert!(
+        highest(open_plan) > ceiling + 0.5,
+        "the ceiling binds: the open plan reaches {:.1} m, the ceiling is at {ceiling:.1} m",
+        highest(open_plan)
+    );
+    let warnings = plan["warnings"].to_string();
+    assert!(
+        warnings.contains("'east carriageway' has an altitude band"),
+        "{warnings}"
+    );
+
+    let mut points = 0;
+    for sortie in plan["sorties"].as_array().unwrap() {
+        for w in sortie["waypoints"].as_array().unwrap() {
+            let p = Point3::new(f(&w["x"]), f(&w["y"]), f(&w["z"]));
+            assert!(
+                !west.contains(&p) && !east.contains(&p) && p.z <= ceiling,
+                "waypoint {p}"
+            );
+        }
+        let path: Vec<Point3<f64>> = sortie["path"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(point)
+            .collect();
+        for s in path.windows(2) {
+            let steps = ((s[1] - s[0]).norm() / 0.02).ceil().max(1.0) as usize;
+            for i in 0..=steps {
+                let p = s[0] + (s[1] - s[0]) * (i as f64 / steps as f64);
+                assert!(
+                    !west.contains(&p) && !east.contains(&p) && p.z <= ceiling + 1e-9,
+                    "path point {p}"
+                );
+                points += 1;
+            }
+        }
+    }
+    let geo = ground_station_files(run, ZURICH);
+    let fence = geo["fence"].as_array().unwrap();
+    assert_eq!(fence.len(), 1, "the column alone is fenced: {geo}");
+    let corners: Vec<Point3<f64>> = fence[0]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| Point3::new(f(&c[0]), f(&c[1]), 0.0))
+        .collect();
+    for (got, [x, y]) in corners.iter().zip(west.outline()) {
+        assert!(
+            (got - Point3::new(x, y, 0.0)).norm() < 0.01,
+            "fence corner {got}, zone corner ({x}, {y})"
+        );
+    }
+
+    let planned: BTreeSet<Voxel> = plan["sorties"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|s| s["waypoints"].as_array().unwrap().iter())
+        .flat_map(|w| w["gap_voxels"].as_array().unwrap().iter().map(voxel))
+        .collect();
+    let unplanned: BTreeSet<Voxel> = plan["uninspectable_gaps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|u| voxel(&u["voxel"]))
+        .collect();
+    assert_eq!(
+        &planned.union(&unplanned).copied().collect::<BTreeSet<_>>(),
+        gaps
+    );
+    eprintln!(
+        "keep-out: {} of {} gaps planned, {} waypoints, {points} path points checked, ceiling z {ceiling:.1}",
+        planned.len(),
+        gaps.len(),
+        plan["waypoints"]
+    );
+}
+
 /// Every gap, planned or not, with a battery that never splits the flight.
 const EVERY_GAP_ONE_BATTERY: [&str; 4] = ["--gaps", "all", "--battery-minutes", "600"];
 
@@ -293,6 +459,7 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
     assert!((number(first, 4) + f(&waypoints[0]["gimbal_pitch"]).to_degrees()).abs() < 0.06);
 
     team_shares_the_flight(&run, &plan_file, &planned_set, &plan);
+    keep_out_zones_hold(&run, &gaps, &plan);
 
     // Battery: sorties no longer than the limit, each from home and back,
     // planning the same gaps.
@@ -516,4 +683,49 @@ fn no_gaps_give_an_empty_plan_and_bad_runs_say_what_to_do() {
     );
     let out = replan(&run, &["--home", "1,2"]);
     assert!(stderr(&out).contains("X,Y,Z"), "{}", stderr(&out));
+    let out = replan(&run, &["--ceiling", "0"]);
+    assert!(
+        stderr(&out).contains("--ceiling must be a positive number"),
+        "{}",
+        stderr(&out)
+    );
+
+    // Keep-out zones that cannot be used, each refused in one line that
+    // says why, with replan.json gone rather than stale.
+    let refused = |config: &str, args: &[&str], why: &str| {
+        let file = dir.path().join("zones.toml");
+        std::fs::write(&file, config).unwrap();
+        let mut all = vec!["--config", file.to_str().unwrap(), "--home", "0,-20,3"];
+        all.extend_from_slice(args);
+        let out = replan(&run, &all);
+        assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+        assert!(stderr(&out).contains(why), "{}", stderr(&out));
+        assert_eq!(stderr(&out).trim().lines().count(), 1, "{}", stderr(&out));
+        assert!(!run.join("replan.json").exists());
+    };
+    let zone =
+        |outline: &str| format!("[[replan.keep_out]]\nname = \"pad\"\noutline = {outline}\n");
+    refused(
+        &zone("[[0, 0], [1, 1]]"),
+        &[],
+        "zone 'pad' has 2 corners; an outline needs at least 3",
+    );
+    refused(
+        &zone("[[-1, -21], [1, -21], [1, -19], [-1, -19]]"),
+        &[],
+        "the take-off point (0.0, -20.0, 3.0) is inside keep-out zone 'pad'",
+    );
+    let geojson = dir.path().join("zones.geojson");
+    std::fs::write(&geojson, r#"{"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {"name": "rail", "upperLimit": 30, "upperVerticalReference": "AMSL"}, "geometry": {"type": "Polygon", "coordinates": [[[8.5, 47.4], [8.6, 47.4], [8.6, 47.5], [8.5, 47.4]]]}}]}"#).unwrap();
+    let zones = geojson.to_str().unwrap();
+    refused(
+        "",
+        &["--keep-out", zones],
+        "places keep-out zones on the Earth, but the map frame's place on it is unknown; give --geo-origin",
+    );
+    refused(
+        "",
+        &["--keep-out", zones, "--geo-origin", "47.3,8.4,400"],
+        "rail: upperVerticalReference is AMSL, which needs a geoid model",
+    );
 }

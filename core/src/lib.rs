@@ -18,6 +18,8 @@
 //!   `postflight run` ([`RunLog`]), and the file contract ([`outputs`]):
 //!   for every stage its files, its summary and one typed writer and reader
 //!   per table.
+//! - Regions of the map frame, as keep-out zones and focus regions are
+//!   given ([`region`]).
 //! - The structure as inspectors name it: elements and places on them
 //!   ([`structure`]).
 //! - Settings named by their key in `postflight.toml` ([`setting`]), and
@@ -39,6 +41,7 @@ pub mod motion;
 pub mod outputs;
 pub mod plan;
 pub mod pose;
+pub mod region;
 pub mod run_dir;
 pub mod run_log;
 pub mod runs;

@@ -1,6 +1,8 @@
 //! Errors of the replan stage, each naming the problem and the fix.
 
-use postflight_core::InvalidSetting;
+use std::path::PathBuf;
+
+use postflight_core::{InvalidSetting, Key};
 
 use crate::settings::keys;
 
@@ -22,6 +24,27 @@ pub enum ReplanError {
         ingest::settings::keys::camera_info_file
     )]
     NoIntrinsics,
+    #[error("{key}: zone '{name}' {problem}")]
+    Region {
+        key: Key,
+        name: String,
+        problem: String,
+    },
+    #[error(
+        "cannot read keep-out zones from {}: {why}; give a GeoJSON FeatureCollection of Polygon features (RFC 7946)",
+        path.display()
+    )]
+    KeepOutFile { path: PathBuf, why: String },
+    #[error(
+        "{} places keep-out zones on the Earth, but the map frame's place on it is unknown; give {}",
+        path.display(), keys::geo_origin
+    )]
+    KeepOutWithoutGeoOrigin { path: PathBuf },
+    #[error(
+        "the take-off point ({:.1}, {:.1}, {:.1}) is inside keep-out zone '{zone}'; give a take-off point outside it with {}",
+        home[0], home[1], home[2], keys::home
+    )]
+    HomeInKeepOut { home: [f64; 3], zone: String },
     #[error(
         "home ({:.1}, {:.1}, {:.1}) and the 20 m above it are within {clearance_m} m of the map; give a clear take-off point with {} or a smaller {}",
         home[0], home[1], home[2], keys::home, keys::clearance_m

@@ -1,6 +1,7 @@
 //! Where the vehicle may fly: voxel centres at least a clearance away from
 //! every occupied voxel (as a box, not its centre), with mapped ground
-//! below, and collision-free paths between them (A* over the 26-connected
+//! below, outside the keep-out zones and below the ceiling
+//! ([`Airspace`]), and collision-free paths between them (A* over the 26-connected
 //! free voxels, then shortened by line of sight, as theta* paths are).
 
 use std::cmp::Reverse;
@@ -8,6 +9,8 @@ use std::collections::{BinaryHeap, HashMap};
 
 use nalgebra::{Point3, Vector3};
 use postflight_core::map::{VoxelIndex, VoxelMap};
+
+use crate::airspace::Airspace;
 
 /// Free space around a voxel map, with a required clearance.
 pub struct FreeSpace<'a> {
@@ -28,13 +31,19 @@ pub struct FreeSpace<'a> {
     centre_distance: Vec<f32>,
     /// Lowest occupied voxel of each (x, y) column (`i32::MAX`: none).
     floor: Vec<i32>,
+    airspace: Airspace,
 }
 
 /// Room kept above the map for paths that go over the structure, metres.
 const HEADROOM_M: f64 = 10.0;
 
 impl<'a> FreeSpace<'a> {
-    pub fn new(map: &'a VoxelMap, clearance_m: f64, also_inside: &[Point3<f64>]) -> Self {
+    pub fn new(
+        map: &'a VoxelMap,
+        clearance_m: f64,
+        also_inside: &[Point3<f64>],
+        airspace: Airspace,
+    ) -> Self {
         let res = map.grid.resolution;
         let (mut lo, mut hi) = ([i32::MAX; 3], [i32::MIN; 3]);
         let all = map
@@ -60,6 +69,7 @@ impl<'a> FreeSpace<'a> {
             occupied: vec![false; dims[0] * dims[1] * dims[2]],
             centre_distance: Vec::new(),
             floor: vec![i32::MAX; dims[0] * dims[1]],
+            airspace,
         };
         let horizon = space.horizon();
         let mut distance = vec![horizon as f32; space.occupied.len()];
@@ -141,9 +151,15 @@ impl<'a> FreeSpace<'a> {
 
     /// Whether a point is inside the flying volume and keeps the clearance
     /// (with the margin for checking segments at points), with mapped
-    /// ground below it.
+    /// ground below it, in open airspace.
     pub fn point_is_clear(&self, p: &Point3<f64>) -> bool {
-        self.keeps(p, self.clearance_m + self.step_m / 2.0) && self.mapped_below(p)
+        self.keeps(p, self.clearance_m + self.step_m / 2.0)
+            && self.mapped_below(p)
+            && self.airspace.allows(p)
+    }
+
+    pub fn airspace(&self) -> &Airspace {
+        &self.airspace
     }
 
     /// Whether the map has something below `p`, within a voxel sideways
@@ -168,29 +184,35 @@ impl<'a> FreeSpace<'a> {
     fn voxel_is_clear(&self, v: VoxelIndex) -> bool {
         self.slot(v).is_some_and(|i| {
             f64::from(self.centre_distance[i]) >= self.clearance_m + self.step_m / 2.0
+                && self.airspace.allows(&self.map.grid.center(v))
         })
     }
 
-    /// Whether the straight segment keeps the clearance everywhere and stays
-    /// in the flying volume.
+    /// Whether the straight segment keeps the clearance everywhere, stays
+    /// in the flying volume and in open airspace.
     pub fn segment_is_clear(&self, a: &Point3<f64>, b: &Point3<f64>) -> bool {
         let length = (b - a).norm();
         let steps = (length / self.step_m).ceil().max(1.0) as usize;
         let required = self.clearance_m + self.step_m / 2.0;
         (0..=steps).all(|i| self.keeps(&(a + (b - a) * (i as f64 / steps as f64)), required))
+            && self.airspace.allows_segment(a, b)
     }
 
     /// Whether the step between two neighbouring voxel centres is clear: at
     /// once when both centres are further from the map than the clearance
-    /// plus half the step (every point of the step is within half of it of
-    /// an end), else point by point.
+    /// plus half the step, and from the airspace's limits than half the
+    /// step (every point of the step is within half of it of an end), else
+    /// point by point.
     fn step_is_clear(&self, a: VoxelIndex, b: VoxelIndex, length: f64) -> bool {
         let (Some(i), Some(j)) = (self.slot(a), self.slot(b)) else {
             return false;
         };
+        let (ca, cb) = (self.map.grid.center(a), self.map.grid.center(b));
         let nearest = f64::from(self.centre_distance[i].min(self.centre_distance[j]));
-        nearest - length / 2.0 >= self.clearance_m
-            || self.segment_is_clear(&self.map.grid.center(a), &self.map.grid.center(b))
+        (nearest - length / 2.0 >= self.clearance_m
+            && self.airspace.clear_around(&ca, length / 2.0)
+            && self.airspace.clear_around(&cb, length / 2.0))
+            || self.segment_is_clear(&ca, &cb)
     }
 
     /// A collision-free path from `a` to `b` (both included), or `None`
@@ -379,7 +401,7 @@ mod tests {
     #[test]
     fn a_path_round_a_wall_keeps_the_clearance_and_is_near_shortest() {
         let map = wall();
-        let space = FreeSpace::new(&map, 1.0, &[]);
+        let space = FreeSpace::new(&map, 1.0, &[], Airspace::default());
         let (a, b) = (Point3::new(-3.0, 0.0, 3.0), Point3::new(3.5, 0.0, 3.0));
         assert!(!space.segment_is_clear(&a, &b));
         let path = space.path(&a, &b).expect("round the wall");
@@ -426,7 +448,7 @@ mod tests {
             }
         }
         let map = VoxelMap::from_points(VoxelGrid::new(0.5, Point3::origin()), &points, 1);
-        let space = FreeSpace::new(&map, 1.0, &[]);
+        let space = FreeSpace::new(&map, 1.0, &[], Airspace::default());
         let inside = Point3::new(10.25, 10.25, 3.25);
         assert!(space.point_is_clear(&inside));
         let outside = Point3::new(-5.0, -5.0, 3.0);

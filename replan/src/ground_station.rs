@@ -8,11 +8,14 @@
 //! takes one photo; it ends back at home and lands. Mission altitudes are
 //! relative to the take-off point (MAVLink's relative frame), so they do
 //! not depend on the altitude datum; KML and GeoJSON carry absolute
-//! altitudes in the datum of the origin's altitude.
+//! altitudes in the datum of the origin's altitude. A mission's geofence
+//! holds the keep-out zones that are columns (a geofence polygon keeps out
+//! at every altitude).
 
 use nalgebra::Point3;
 use postflight_core::geo::{GeoOrigin, Geodetic};
 use postflight_core::outputs::replan::{Sortie, Waypoint};
+use postflight_core::region::Region;
 use serde_json::{Value, json};
 
 /// MAVLink commands (`MAV_CMD`) and frames the missions use.
@@ -44,6 +47,9 @@ pub struct Placement {
     pub speed_m_s: f64,
     /// The least climb of the take-off (the clearance), metres.
     pub min_takeoff_m: f64,
+    /// Keep-out zones the missions' geofence holds (columns, as
+    /// geofences keep out of a polygon at every altitude).
+    pub fence: Vec<Region>,
 }
 
 impl Placement {
@@ -100,9 +106,28 @@ impl Placement {
                 "plannedHomePosition": [home.latitude_deg, home.longitude_deg, home.altitude_m],
                 "items": items.items,
             },
-            "geoFence": {"circles": [], "polygons": [], "version": 2},
+            "geoFence": {"circles": [], "polygons": self.fence_polygons(), "version": 2},
             "rallyPoints": {"points": [], "version": 2},
         })
+    }
+
+    /// The keep-out zones as the geofence's exclusion polygons, corners as
+    /// `[latitude, longitude]`.
+    fn fence_polygons(&self) -> Vec<Value> {
+        self.fence
+            .iter()
+            .map(|zone| {
+                let corners: Vec<[f64; 2]> = zone
+                    .outline
+                    .iter()
+                    .map(|[x, y]| {
+                        let g = self.geodetic(&[*x, *y, self.launch.z]);
+                        [g.latitude_deg, g.longitude_deg]
+                    })
+                    .collect();
+                json!({"inclusion": false, "polygon": corners, "version": 1})
+            })
+            .collect()
     }
 
     /// GeoJSON (RFC 7946): each sortie's path as a LineString and each

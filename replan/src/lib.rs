@@ -5,7 +5,8 @@
 //! viewpoints around each gap face and asks the View model (`coverage`'s
 //! rules, the same code that judged the flight) which gap voxels each
 //! inspects; clusters are per gap voxel. [`free_space`] inflates the map by
-//! the clearance once, so a check in open air costs one look-up, and finds
+//! the clearance once, so a check in open air costs one look-up, keeps out
+//! of the [`airspace`]'s keep-out zones and below its ceiling, and finds
 //! paths (A* over the clear voxel lattice, shortened by line of sight).
 //! [`tour`] solves the GTSP from home with the `gtsp` crate and, as GATSBI
 //! does, re-solves with lazy collision checks while a flown leg is much
@@ -14,8 +15,10 @@
 //! [`team`]) and writes `replan.json` (also an inspection plan
 //! `postflight coverage --viewpoints` can check) and `replan.csv` (GATSBI's
 //! `X,Y,Z,Yaw` path); with a geo origin, [`ground_station`] also writes a
-//! QGroundControl mission per sortie, KML and GeoJSON.
+//! QGroundControl mission per sortie (its geofence holding the keep-out
+//! columns), KML and GeoJSON.
 
+pub mod airspace;
 pub mod error;
 pub mod free_space;
 pub mod ground_station;

@@ -2,7 +2,10 @@
 //! `postflight.toml` and the flags of `postflight replan`.
 
 use postflight_core::geo::{GeoOrigin, geo_origin_values};
+use std::path::PathBuf;
+
 use postflight_core::outputs::replan::GapChoice;
+use postflight_core::region::Region;
 use postflight_core::setting::point3;
 
 postflight_core::settings! {
@@ -47,6 +50,21 @@ postflight_core::settings! {
         /// drone's share flown in battery sorties.
         #[arg(long, value_name = "N")]
         drones: u32 = 1,
+        /// Keep-out zones in the map frame, each a region (`name`,
+        /// `outline` of `[x, y]` corners, optional `bottom_m` and `top_m`,
+        /// map z): no viewpoint or path point of the follow-up is inside
+        /// one. `[[replan.keep_out]]` tables, or the flag once per zone as
+        /// a TOML inline table.
+        #[arg(long = "keep-out-zone", value_name = "REGION")]
+        keep_out: Vec<Region> = Vec::new(),
+        /// More keep-out zones, as GeoJSON polygons on the Earth with their
+        /// altitude bands (EUROCAE ED-269 properties), placed by the geo
+        /// origin.
+        #[arg(long = "keep-out", value_name = "ZONES.geojson")]
+        keep_out_file: PathBuf,
+        /// Highest the drones may fly, metres above the take-off point.
+        #[arg(long = "ceiling", value_name = "M")]
+        ceiling_m: f64,
         /// Solver seed.
         #[arg(long, value_name = "N")]
         seed: u64 = gtsp::SolveOptions::default().seed,

@@ -21,6 +21,7 @@ use postflight_core::outputs::replan::{
 };
 use postflight_core::{Flight, InvalidSetting, Key, RunDir, Stage, Viewpoint};
 
+use crate::airspace::{Airspace, read_zones};
 use crate::error::ReplanError;
 use crate::free_space::{FreeSpace, length};
 use crate::ground_station::{self, Placement};
@@ -114,6 +115,14 @@ impl ReplanOptions {
                 "a latitude within ±90 and a longitude within ±180 degrees, all finite",
             )?;
         }
+        if let Some(c) = s.ceiling_m {
+            InvalidSetting::check(
+                c > 0.0,
+                keys::ceiling_m,
+                c,
+                "a positive number of metres above the take-off point",
+            )?;
+        }
         self.solver().map(|_| ())
     }
 }
@@ -136,13 +145,25 @@ pub fn replan(
     let launch = take_off(options, &flight)?;
     let mut summary = empty_plan(options, &coverage, launch, &chosen);
     (summary.geo_origin, summary.geo_origin_from) = geo_origin(options, &flight);
+    let airspace = airspace(options, summary.geo_origin.as_ref(), launch)?;
+    summary.keep_out = airspace.zones().to_vec();
+    summary.ceiling_z_m = airspace.ceiling_z();
     let placement = summary.geo_origin.map(|origin| Placement {
         origin,
         launch,
         hover_s: options.settings.hover_s,
         speed_m_s: options.settings.speed_m_s,
         min_takeoff_m: options.settings.clearance_m,
+        fence: airspace
+            .zones()
+            .iter()
+            .filter(|z| z.is_column())
+            .cloned()
+            .collect(),
     });
+    if placement.is_some() {
+        summary.warnings.extend(unfenced(&airspace));
+    }
     if gaps.is_empty() {
         return write(&run, summary, placement.as_ref(), started);
     }
@@ -151,7 +172,12 @@ pub fn replan(
     let (map, _) = ingest::load_map(&flight, given.map(PathBuf::as_path), Some(grid))?;
     summary.frame_id = map.cloud.frame_id.clone();
     let phase = Instant::now();
-    let space = FreeSpace::new(&map.voxels, options.settings.clearance_m, &[launch]);
+    let space = FreeSpace::new(
+        &map.voxels,
+        options.settings.clearance_m,
+        &[launch],
+        airspace,
+    );
     let home = clear_home(&space, &map, launch, &mut summary)?;
     summary.phases.clearance_s = phase.elapsed().as_secs_f64();
 
@@ -233,6 +259,79 @@ fn geo_origin(options: &ReplanOptions, flight: &Flight) -> (Option<GeoOrigin>, O
         ),
         None => (None, None),
     }
+}
+
+/// The keep-out zones of the settings and the zones file (placed by the
+/// geo origin), and the ceiling above the take-off point; refused when a
+/// zone cannot be used or holds the take-off point.
+fn airspace(
+    options: &ReplanOptions,
+    origin: Option<&GeoOrigin>,
+    launch: Point3<f64>,
+) -> Result<Airspace, ReplanError> {
+    let s = &options.settings;
+    let mut zones = Vec::new();
+    for zone in &s.keep_out {
+        if let Some(problem) = zone.problem() {
+            return Err(ReplanError::Region {
+                key: keys::keep_out,
+                name: zone.name.clone(),
+                problem,
+            });
+        }
+        zones.push(zone.clone());
+    }
+    if let Some(path) = &s.keep_out_file {
+        let origin =
+            origin.ok_or_else(|| ReplanError::KeepOutWithoutGeoOrigin { path: path.clone() })?;
+        let from_file =
+            read_zones(path, origin, &launch).map_err(|why| ReplanError::KeepOutFile {
+                path: path.clone(),
+                why,
+            })?;
+        for zone in from_file {
+            if let Some(problem) = zone.problem() {
+                return Err(ReplanError::Region {
+                    key: keys::keep_out_file,
+                    name: zone.name,
+                    problem,
+                });
+            }
+            zones.push(zone);
+        }
+    }
+    let airspace = Airspace::new(zones, s.ceiling_m.map(|c| launch.z + c));
+    if let Some(zone) = airspace.zone_at(&launch) {
+        return Err(ReplanError::HomeInKeepOut {
+            home: launch.coords.into(),
+            zone: zone.name.clone(),
+        });
+    }
+    Ok(airspace)
+}
+
+/// What the ground station's geofence cannot hold: a zone with heights
+/// (fences are polygons at every altitude; writing it as one would bar the
+/// flight from passing over or under it), and the ceiling (the vehicle's
+/// own setting, PX4's `GF_MAX_VER_DIST` or ArduPilot's `FENCE_ALT_MAX`).
+fn unfenced(airspace: &Airspace) -> Vec<String> {
+    let mut warnings: Vec<String> = airspace
+        .zones()
+        .iter()
+        .filter(|z| !z.is_column())
+        .map(|z| {
+            format!(
+                "keep-out zone '{}' has an altitude band, which a QGroundControl geofence (polygons at every altitude) cannot hold: the plan keeps out of it, the missions' geofence does not",
+                z.name
+            )
+        })
+        .collect();
+    if let Some(z) = airspace.ceiling_z() {
+        warnings.push(format!(
+            "the ceiling (map z {z:.1} m) is kept by the plan; set it on the vehicle too (PX4 GF_MAX_VER_DIST, ArduPilot FENCE_ALT_MAX): a QGroundControl plan file cannot hold it"
+        ));
+    }
+    warnings
 }
 
 /// The voxels a follow-up flight goes back for.
@@ -322,6 +421,8 @@ fn empty_plan(
         max_sortie_length_m: options.settings.max_sortie_length_m,
         battery_minutes: options.settings.battery_minutes,
         gaps: options.settings.gaps,
+        keep_out: Vec::new(),
+        ceiling_z_m: None,
         coverage_gap_voxels: chosen.coverage_gaps,
         gap_voxels: chosen.voxels.len(),
         reshoot_spots: chosen.reshoot.clone(),

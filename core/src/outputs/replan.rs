@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use crate::geo::GeoOrigin;
 use crate::map::VoxelIndex;
 use crate::plan::Viewpoint;
+use crate::region::Region;
 use crate::view::ViewModel;
 
 /// Files of the replan stage.
@@ -174,6 +175,13 @@ pub struct ReplanSummary {
     pub battery_minutes: f64,
     /// Which gaps were chosen.
     pub gaps: GapChoice,
+    /// The keep-out zones every viewpoint and path point is outside, in the
+    /// map frame (from the settings and the zones file).
+    #[serde(default)]
+    pub keep_out: Vec<Region>,
+    /// The ceiling every point is below, map z (metres).
+    #[serde(default)]
+    pub ceiling_z_m: Option<f64>,
     /// Gap voxels coverage found (not inspected, not uninspectable).
     pub coverage_gap_voxels: usize,
     /// The voxels chosen to fly for: gaps as `gaps` chose them, and the
