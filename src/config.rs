@@ -252,6 +252,9 @@ wide_above_mm = 1.0
 views_near_defects = 3
 defect_radius_m = 1.5
 exposure_s = 0.002
+[[coverage.focus]]
+region = { name = "east bearing", outline = [[7.2, -2.7], [8.8, -2.7], [8.8, 2.7], [7.2, 2.7]], top_m = 5.0 }
+view = { max_gsd_mm = 3.0, views_required = 2 }
 [replan]
 home = [0.0, 0.0, 0.0]
 clearance_m = 1.2

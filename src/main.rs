@@ -620,7 +620,7 @@ fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
 fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
     let flags = RunConfig {
         view: args.view,
-        coverage: args.settings,
+        coverage: args.settings.clone(),
         ..RunConfig::default()
     };
     let config = args.config.under(flags)?;

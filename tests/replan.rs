@@ -545,6 +545,113 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
     assert_eq!(missed["gaps"], "missed");
     assert_eq!(missed["gap_voxels"].as_u64(), Some(planned_missed as u64));
     assert!(planned_missed < gaps.len());
+
+    focus_is_judged_and_planned_under_its_view_model(&run, &plan_file, &before);
+}
+
+/// A focus region around the east pier (x 7.4 to 8.6 m, y -2.5 to 2.5 m,
+/// 5 m high) with a stricter View model: a GSD of 3 mm (so within 2.88 m
+/// of the 960 px lens, against 5 m) and two views. Coverage judges its
+/// voxels under that model (fewer inspected than under the run's); the
+/// follow-up plans each of its gaps from two waypoints; and coverage,
+/// judging the follow-up's viewpoints under the same settings, finds every
+/// planned gap inspected.
+fn focus_is_judged_and_planned_under_its_view_model(
+    run: &Path,
+    plan_file: &Path,
+    base: &HashMap<Voxel, (bool, bool)>,
+) {
+    let config = run.join("focus.toml");
+    std::fs::write(
+        &config,
+        "[[coverage.focus]]\nregion = { name = \"east pier\", outline = [[7.2, -2.7], [8.8, -2.7], [8.8, 2.7], [7.2, 2.7]], top_m = 5.0 }\nview = { max_gsd_mm = 3.0, views_required = 2 }\n",
+    )
+    .unwrap();
+    let (plan_arg, config_arg) = (plan_file.to_str().unwrap(), config.to_str().unwrap());
+    coverage(run, &["--plan", plan_arg, "--config", config_arg]);
+    let summary = read_json(&run.join("coverage.json"));
+    let focus = &summary["focus"][0];
+    assert_eq!(focus["region"]["name"], "east pier");
+    assert_eq!(f(&focus["view"]["max_gsd_mm"]), 3.0);
+    let in_pier = |v: &Voxel| {
+        let c = v.map(|i| i as f64 * 0.5 + 0.25);
+        (7.2..=8.8).contains(&c[0]) && (-2.7..=2.7).contains(&c[1]) && c[2] <= 5.0
+    };
+    let strict = coverage_rows(&run.join("coverage.parquet"));
+    let pier: Vec<&Voxel> = strict.keys().filter(|v| in_pier(v)).collect();
+    assert_eq!(focus["target_voxels"].as_u64(), Some(pier.len() as u64));
+    let inspected =
+        |rows: &HashMap<Voxel, (bool, bool)>| pier.iter().filter(|v| rows[**v].0).count();
+    assert!(
+        inspected(&strict) < inspected(base),
+        "the stricter model inspects fewer: {} against {}",
+        inspected(&strict),
+        inspected(base)
+    );
+    let focus_gaps: BTreeSet<Voxel> = pier
+        .iter()
+        .filter(|v| !strict[**v].0 && !strict[**v].1)
+        .map(|v| **v)
+        .collect();
+    assert!(!focus_gaps.is_empty());
+
+    let out = replan(
+        run,
+        &[&EVERY_GAP_ONE_BATTERY[..], &["--solver-time-limit", "3"]].concat(),
+    );
+    assert!(out.status.success(), "replan: {}", stderr(&out));
+    let plan = read_json(&run.join("replan.json"));
+    let mut at_waypoints: HashMap<Voxel, usize> = HashMap::new();
+    for sortie in plan["sorties"].as_array().unwrap() {
+        for w in sortie["waypoints"].as_array().unwrap() {
+            for v in w["gap_voxels"].as_array().unwrap().iter().map(voxel) {
+                *at_waypoints.entry(v).or_default() += 1;
+            }
+        }
+    }
+    let planned: Vec<&Voxel> = focus_gaps
+        .iter()
+        .filter(|v| at_waypoints.contains_key(*v))
+        .collect();
+    assert!(
+        planned.len() * 2 >= focus_gaps.len(),
+        "{} of {} focus gaps planned",
+        planned.len(),
+        focus_gaps.len()
+    );
+    for v in &planned {
+        assert_eq!(at_waypoints[*v], 2, "focus gap {v:?} at two waypoints");
+    }
+    for u in plan["uninspectable_gaps"].as_array().unwrap() {
+        assert!(!at_waypoints.contains_key(&voxel(&u["voxel"])));
+    }
+
+    coverage(
+        run,
+        &[
+            "--plan",
+            plan_arg,
+            "--config",
+            config_arg,
+            "--viewpoints",
+            run.join("replan.json").to_str().unwrap(),
+        ],
+    );
+    let judged = coverage_rows(&run.join("coverage-viewpoints.parquet"));
+    let missed: Vec<&&Voxel> = planned.iter().filter(|v| !judged[**v].0).collect();
+    assert!(
+        missed.is_empty(),
+        "{} planned focus gaps not inspected: {missed:?}",
+        missed.len()
+    );
+    eprintln!(
+        "focus: {} pier voxels, {} inspected under the run's model, {} under the focus model; {} gaps, {} planned from two waypoints",
+        pier.len(),
+        inspected(base),
+        inspected(&strict),
+        focus_gaps.len(),
+        planned.len()
+    );
 }
 
 /// Three drones share the same follow-up: together they inspect every gap

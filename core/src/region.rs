@@ -1,9 +1,113 @@
 //! Regions of the map frame: a polygon in the horizontal plane between two
 //! heights (a vertical prism), as keep-out zones of the airspace and focus
-//! regions of an inspection are given.
+//! regions of an inspection (where a stricter View model applies) are
+//! given.
 
 use nalgebra::Point3;
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
+
+use crate::setting::Key;
+use crate::view::{ViewModel, ViewSettings};
+
+/// A region that cannot be used, named as the user gave it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{key}: '{name}' {problem}")]
+pub struct RegionError {
+    /// The setting that gave it.
+    pub key: Key,
+    pub name: String,
+    /// What is wrong: `has 2 corners; an outline needs at least 3`.
+    pub problem: String,
+}
+
+impl Region {
+    /// `Err` naming the region and `key` unless it can be used.
+    pub fn check(&self, key: Key) -> Result<(), RegionError> {
+        match self.problem() {
+            None => Ok(()),
+            Some(problem) => Err(RegionError {
+                key,
+                name: self.name.clone(),
+                problem,
+            }),
+        }
+    }
+}
+
+impl FocusModel {
+    /// `Err` naming the region and `key` unless its region and View model
+    /// can be used.
+    pub fn check(&self, key: Key) -> Result<(), RegionError> {
+        self.region.check(key)?;
+        self.view.check().map_err(|e| RegionError {
+            key,
+            name: self.region.name.clone(),
+            problem: format!("has a View model that cannot work: {e}"),
+        })
+    }
+}
+
+/// A place to look harder (a bearing, a girder end, a known defect): the
+/// target voxels whose centres are in `region` are judged, and planned
+/// for, under `view` over the run's View model (a finer GSD, more views).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Focus {
+    pub region: Region,
+    /// The settings of `[view]` that differ here.
+    pub view: ViewSettings,
+}
+
+impl std::str::FromStr for Focus {
+    type Err = String;
+
+    /// As a TOML inline table: `{region = {name = "bearing", outline =
+    /// [...]}, view = {max_gsd_mm = 1.5}}`.
+    fn from_str(text: &str) -> Result<Self, String> {
+        inline_table(
+            text,
+            "a focus region {region = {name = \"...\", outline = [[x, y], ...]}, view = {max_gsd_mm = ...}}",
+        )
+    }
+}
+
+/// Each focus region with the View model it makes of `base`, first listed
+/// first: where regions overlap, the first holds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FocusModel {
+    pub region: Region,
+    pub view: ViewModel,
+}
+
+impl FocusModel {
+    pub fn of(focus: &[Focus], base: ViewModel) -> Vec<Self> {
+        focus
+            .iter()
+            .map(|f| Self {
+                region: f.region.clone(),
+                view: f.view.apply(base),
+            })
+            .collect()
+    }
+
+    /// Which of `models` holds `p` (its index), if any.
+    pub fn holding(models: &[Self], p: &Point3<f64>) -> Option<usize> {
+        models.iter().position(|m| m.region.contains(p))
+    }
+}
+
+/// A value given as a TOML inline table (a flag's), read as `T`; `what`
+/// says what was expected.
+fn inline_table<T: DeserializeOwned>(text: &str, what: &str) -> Result<T, String> {
+    #[derive(Deserialize)]
+    struct One<T> {
+        value: T,
+    }
+    toml::from_str::<One<T>>(&format!("value = {text}"))
+        .map(|one| one.value)
+        .map_err(|e| format!("expected {what}: {}", e.message()))
+}
 
 /// A vertical prism in the map frame: the points above `outline` (x, y)
 /// between `bottom_m` and `top_m` (map z). A missing height leaves that
@@ -30,18 +134,10 @@ impl std::str::FromStr for Region {
     /// A region as a TOML inline table, as a flag gives it: `{name = "deck",
     /// outline = [[0, -4], [16, -4], [16, 4], [0, 4]], bottom_m = 6.5}`.
     fn from_str(text: &str) -> Result<Self, String> {
-        #[derive(Deserialize)]
-        struct One {
-            region: Region,
-        }
-        toml::from_str::<One>(&format!("region = {text}"))
-            .map(|one| one.region)
-            .map_err(|e| {
-                format!(
-                    "expected a region {{name = \"...\", outline = [[x, y], ...], bottom_m = ..., top_m = ...}}: {}",
-                    e.message()
-                )
-            })
+        inline_table(
+            text,
+            "a region {name = \"...\", outline = [[x, y], ...], bottom_m = ..., top_m = ...}",
+        )
     }
 }
 
@@ -236,6 +332,31 @@ mod tests {
             .parse::<Region>()
             .unwrap_err();
         assert!(e.contains("unknown field `outlines`"), "{e}");
+    }
+
+    #[test]
+    fn a_focus_region_makes_its_view_model_over_the_base() {
+        let f: Focus =
+            "{region = {name = \"L\", outline = [[0, 0], [4, 0], [4, 1], [1, 1], [1, 4], [0, 4]], bottom_m = 1, top_m = 3}, view = {max_gsd_mm = 1.5, views_required = 2}}"
+                .parse()
+                .unwrap();
+        let base = ViewModel::default();
+        let models = FocusModel::of(&[f], base);
+        assert_eq!(models[0].view.max_gsd_mm, 1.5);
+        assert_eq!(models[0].view.views_required, 2);
+        assert_eq!(models[0].view.max_distance_m, base.max_distance_m);
+        assert_eq!(
+            FocusModel::holding(&models, &Point3::new(0.5, 3.0, 2.0)),
+            Some(0)
+        );
+        assert_eq!(
+            FocusModel::holding(&models, &Point3::new(2.0, 2.0, 2.0)),
+            None
+        );
+        let e = "{region = {name = \"L\", outline = []}, view = {max_gsd = 1}}"
+            .parse::<Focus>()
+            .unwrap_err();
+        assert!(e.contains("unknown field `max_gsd`"), "{e}");
     }
 
     #[test]

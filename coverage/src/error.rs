@@ -7,6 +7,8 @@ pub enum CoverageError {
     #[error(transparent)]
     Setting(#[from] postflight_core::InvalidSetting),
     #[error(transparent)]
+    Region(#[from] postflight_core::region::RegionError),
+    #[error(transparent)]
     Flight(#[from] ingest::IngestError),
     #[error(transparent)]
     Structure(#[from] structure::StructureError),

@@ -23,6 +23,7 @@
 pub mod cover;
 pub mod error;
 pub mod face;
+pub mod focus;
 pub mod reach;
 pub mod records;
 pub mod settings;

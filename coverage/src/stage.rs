@@ -11,9 +11,10 @@ use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use postflight_core::map::{SlamMap, VoxelGrid, VoxelIndex};
 use postflight_core::motion::frame_blur_px;
 use postflight_core::outputs::coverage::{
-    self as outputs, CoverageSummary, ReasonCounts, VoxelRecord, files,
+    self as outputs, CoverageSummary, FocusCoverage, ReasonCounts, VoxelRecord, files,
 };
 use postflight_core::outputs::localise::read_defects;
+use postflight_core::region::FocusModel;
 use postflight_core::structure::Place;
 use postflight_core::{
     Flight, FlownPlan, Intrinsics, PlanFile, RunDir, Stage, ViewModel, Viewpoint,
@@ -23,9 +24,10 @@ pub use structure::plan_targets;
 use structure::targets::span;
 use structure::{Found, Segmentation, TargetVoxels, Targets};
 
-use crate::cover::{FaceCover, Shot, cover};
+use crate::cover::{FaceCover, Shot};
 use crate::error::CoverageError;
 use crate::face::{Face, exposed_faces};
+use crate::focus::{self, FaceModels};
 use crate::reach::inspectable;
 use crate::records::voxel_records;
 use crate::settings::{CoverageConfig, keys};
@@ -125,17 +127,20 @@ pub fn coverage(
         .view
         .apply(plan.as_ref().and_then(FlownPlan::view).unwrap_or_default());
     view.check()?;
+    let focus = FocusModel::of(&options.settings.focus, view);
+    focus::check(&focus)?;
     let scene = Scene::load(options, &flight, plan.as_ref())?;
+    let models = FaceModels::new(view, &focus, &scene.faces, &scene.grid);
     let extrinsic = camera_mount(&flight);
     let shots = shots(options, &flight, &scene, &extrinsic)?;
-    let need = views_needed(&scene.faces, &view, &options.settings, &flight.run)?;
+    let need = views_needed(&scene.faces, &models, &options.settings, &flight.run)?;
     let plan_shots: Option<Vec<Shot>> = plan.as_ref().map(|p| viewpoint_shots(p, &extrinsic));
     let judged = judge(
         &scene,
         &need,
         &shots.shots,
         plan_shots.as_deref(),
-        &view,
+        &models,
         progress,
     );
     cameras_in_reach(&scene, &shots.shots, &judged.flown, &view)?;
@@ -152,7 +157,8 @@ pub fn coverage(
     );
     let counts = Counts::of(&records, &judged.flown, plan_shots.is_some());
     let seconds = start.elapsed().as_secs_f64();
-    let summary = summarise(options, view, &scene, counts, &shots, &need, seconds);
+    let mut summary = summarise(options, view, &scene, counts, &shots, &need, seconds);
+    summary.focus = focus_coverage(focus, &records);
     outputs::write_coverage(&flight.run, table_name, &records, scene.grid.resolution)?;
     flight.run.write_json(summary_name, &summary)?;
     Ok(summary)
@@ -317,6 +323,7 @@ fn summarise(
             .iter()
             .filter(|n| **n > view.views_required.max(1))
             .count(),
+        focus: Vec::new(),
         seconds,
         warnings: shot_warnings(shots),
     }
@@ -335,10 +342,11 @@ pub fn lenses(flight: &Flight) -> Result<Vec<Intrinsics>, CoverageError> {
         .ok_or(CoverageError::NoIntrinsics)
 }
 
-/// Views each face needs: more around defect candidates, if asked.
+/// Views each face needs: its View model's, and more around defect
+/// candidates, if asked.
 fn views_needed(
     faces: &[Face],
-    view: &ViewModel,
+    models: &FaceModels,
     settings: &CoverageConfig,
     run: &RunDir,
 ) -> Result<Vec<u32>, CoverageError> {
@@ -356,10 +364,12 @@ fn views_needed(
     let radius = settings.defect_radius_m;
     Ok(faces
         .iter()
-        .map(|f| {
+        .enumerate()
+        .map(|(i, f)| {
+            let own = models.of(i).views_required;
             match settings.views_near_defects {
-                Some(n) if defects.iter().any(|d| (d - f.centre).norm() <= radius) => n,
-                _ => view.views_required,
+                Some(n) if defects.iter().any(|d| (d - f.centre).norm() <= radius) => n.max(own),
+                _ => own,
             }
             .max(1)
         })
@@ -381,7 +391,7 @@ fn judge(
     need: &[u32],
     shots: &[Shot],
     plan_shots: Option<&[Shot]>,
-    view: &ViewModel,
+    models: &FaceModels,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Judged {
     let Scene {
@@ -394,25 +404,55 @@ fn judge(
         planned: Vec::new(),
         reachable: Vec::with_capacity(faces.len()),
     };
-    let max_gsd_distance = view.max_gsd_mm / 1000.0 * lenses[0].fx.min(lenses[0].fy);
-    for (chunk, need) in faces.chunks(CHUNK).zip(need.chunks(CHUNK)) {
-        let got = cover(chunk, need, shots, lenses, map, view);
+    let max_gsd_distance =
+        |view: &ViewModel| view.max_gsd_mm / 1000.0 * lenses[0].fx.min(lenses[0].fy);
+    for (start, (chunk, need)) in (0..)
+        .step_by(CHUNK)
+        .zip(faces.chunks(CHUNK).zip(need.chunks(CHUNK)))
+    {
+        let range = start..start + chunk.len();
+        let got = models.cover(range.clone(), chunk, need, shots, lenses, map);
         judged.reachable.extend(
             chunk
                 .par_iter()
+                .zip(range.clone())
                 .zip(&got)
-                .map(|(f, c)| c.miss.is_none() || inspectable(f, map, view, max_gsd_distance))
+                .map(|((f, i), c)| {
+                    let view = models.of(i);
+                    c.miss.is_none() || inspectable(f, map, view, max_gsd_distance(view))
+                })
                 .collect::<Vec<bool>>(),
         );
         judged.flown.extend(got);
         if let Some(ps) = plan_shots {
             judged
                 .planned
-                .extend(cover(chunk, need, ps, lenses, map, view));
+                .extend(models.cover(range, chunk, need, ps, lenses, map));
         }
         progress(judged.flown.len() as u64, total);
     }
     judged
+}
+
+/// Each focus region with its target voxels and how many were inspected
+/// (under its View model).
+fn focus_coverage(focus: Vec<FocusModel>, records: &[VoxelRecord]) -> Vec<FocusCoverage> {
+    let mut counts = vec![(0, 0); focus.len()];
+    for r in records {
+        if let Some(k) = FocusModel::holding(&focus, &Point3::from(r.centre)) {
+            counts[k].0 += 1;
+            counts[k].1 += usize::from(r.inspected);
+        }
+    }
+    focus
+        .into_iter()
+        .zip(counts)
+        .map(|(model, (target_voxels, inspected_voxels))| FocusCoverage {
+            model,
+            target_voxels,
+            inspected_voxels,
+        })
+        .collect()
 }
 
 /// Voxel and face counts of the judged targets.

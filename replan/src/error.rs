@@ -2,7 +2,8 @@
 
 use std::path::PathBuf;
 
-use postflight_core::{InvalidSetting, Key};
+use postflight_core::InvalidSetting;
+use postflight_core::region::RegionError;
 
 use crate::settings::keys;
 
@@ -24,12 +25,8 @@ pub enum ReplanError {
         ingest::settings::keys::camera_info_file
     )]
     NoIntrinsics,
-    #[error("{key}: zone '{name}' {problem}")]
-    Region {
-        key: Key,
-        name: String,
-        problem: String,
-    },
+    #[error(transparent)]
+    Region(#[from] RegionError),
     #[error(
         "cannot read keep-out zones from {}: {why}; give a GeoJSON FeatureCollection of Polygon features (RFC 7946)",
         path.display()

@@ -2,12 +2,13 @@
 //! coverage stage to a follow-up flight, phase by phase (see the crate
 //! docs), into `replan.json` and `replan.csv`.
 
-use std::collections::{BTreeMap, HashMap, HashSet};
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use coverage::face::exposed_faces;
+use coverage::focus::FaceModels;
 use coverage::stage::camera_mount;
 use gtsp::SolveOptions;
 use nalgebra::{Point3, Vector3};
@@ -19,6 +20,7 @@ use postflight_core::outputs::replan::{
     DronePlan, GapChoice, ReplanSummary, ReshootSpot, Sortie, Uninspectable, Unplannable, Waypoint,
     files,
 };
+use postflight_core::region::FocusModel;
 use postflight_core::{Flight, InvalidSetting, Key, RunDir, Stage, Viewpoint};
 
 use crate::airspace::{Airspace, read_zones};
@@ -27,7 +29,9 @@ use crate::free_space::{FreeSpace, length};
 use crate::ground_station::{self, Placement};
 use crate::settings::{ReplanConfig, keys};
 use crate::tour::{Budget, Stops, Tour, TourError, plan_tour};
-use crate::viewpoints::{Camera, Candidate, candidates, clusters, set_cover};
+use crate::viewpoints::{
+    Camera, Candidate, Clusters, candidates, clusters, one_face_for_several_views, set_cover,
+};
 
 /// What replan plans for and how. Serialised, it is what the stage's
 /// result depends on besides its input files (`postflight run`'s
@@ -182,13 +186,14 @@ pub fn replan(
     summary.phases.clearance_s = phase.elapsed().as_secs_f64();
 
     let phase = Instant::now();
-    let found = viewpoints(&flight, &coverage, &map, &space, targets, gaps, progress)?;
+    let mut found = viewpoints(&flight, &coverage, &map, &space, targets, gaps, progress)?;
+    one_face_for_several_views(&mut found, &chosen.views);
     summary.candidate_viewpoints = found.len();
     // One viewpoint serves every gap it inspects: the clusters hold only a
     // greedy set cover's viewpoints, so the tour needs no more of them.
-    let cover = set_cover(&found, gaps.len());
+    let cover = set_cover(&found, &chosen.views);
     summary.set_cover_viewpoints = cover.len();
-    let mut by_gap = clusters(gaps, &found, &cover, |v| grid.center(v));
+    let mut clusters = clusters(gaps, &found, &cover, &chosen.views, |v| grid.center(v));
     summary.phases.viewpoints_s = phase.elapsed().as_secs_f64();
     // Stops: home, then the candidates.
     let points: Vec<Point3<f64>> = std::iter::once(home)
@@ -197,8 +202,13 @@ pub fn replan(
     // One search from home: which candidates a path reaches, and how far
     // home is from each stop when sorties are split.
     let from_home = space.distances_from(&home);
-    let Solved { tour, left_out } =
-        solve(&points, &mut by_gap, &space, &from_home, &options.solver()?);
+    let Solved { tour, left_out } = solve(
+        &points,
+        &mut clusters,
+        &space,
+        &from_home,
+        &options.solver()?,
+    );
     summary.uninspectable_gaps = left_out
         .iter()
         .map(|(&g, &reason)| Uninspectable {
@@ -219,8 +229,10 @@ pub fn replan(
     let drones = split_sorties(options, &tour, &points, &space, &map, &from_home)?;
     let waypoint = |i: usize| {
         let v = &found[tour.stops[i] - 1].viewpoint;
-        let mut gap_voxels: Vec<VoxelIndex> =
-            tour.serves[i].iter().map(|&k| gaps[served[k]]).collect();
+        let mut gap_voxels: Vec<VoxelIndex> = tour.serves[i]
+            .iter()
+            .map(|&k| gaps[clusters.gap[served[k]]])
+            .collect();
         gap_voxels.sort_unstable();
         Waypoint {
             x: v.position[0],
@@ -272,13 +284,7 @@ fn airspace(
     let s = &options.settings;
     let mut zones = Vec::new();
     for zone in &s.keep_out {
-        if let Some(problem) = zone.problem() {
-            return Err(ReplanError::Region {
-                key: keys::keep_out,
-                name: zone.name.clone(),
-                problem,
-            });
-        }
+        zone.check(keys::keep_out)?;
         zones.push(zone.clone());
     }
     if let Some(path) = &s.keep_out_file {
@@ -290,13 +296,7 @@ fn airspace(
                 why,
             })?;
         for zone in from_file {
-            if let Some(problem) = zone.problem() {
-                return Err(ReplanError::Region {
-                    key: keys::keep_out_file,
-                    name: zone.name,
-                    problem,
-                });
-            }
+            zone.check(keys::keep_out_file)?;
             zones.push(zone);
         }
     }
@@ -342,6 +342,9 @@ struct ChosenGaps {
     coverage_gaps: usize,
     /// The chosen gaps and the re-shoot spots' voxels, sorted, once each.
     voxels: Vec<VoxelIndex>,
+    /// The views each of them needs (coverage's `views_required`: its View
+    /// model's, or its focus region's, or more near a defect).
+    views: Vec<u32>,
     reshoot: Vec<ReshootSpot>,
 }
 
@@ -376,10 +379,19 @@ fn choose_gaps(run: &RunDir, choice: GapChoice) -> Result<ChosenGaps, ReplanErro
     voxels.extend(reshoot.iter().map(|r| r.voxel));
     voxels.sort_unstable();
     voxels.dedup();
+    let required: HashMap<VoxelIndex, u32> = records
+        .iter()
+        .map(|r| (r.voxel, r.views_required))
+        .collect();
+    let views = voxels
+        .iter()
+        .map(|v| required.get(v).copied().unwrap_or(1).max(1))
+        .collect();
     Ok(ChosenGaps {
         targets,
         coverage_gaps,
         voxels,
+        views,
         reshoot,
     })
 }
@@ -478,7 +490,8 @@ fn clear_home(
     })
 }
 
-/// Candidate viewpoints around the gap faces (clear of the map).
+/// Candidate viewpoints around the gap faces (clear of the map), each face
+/// under its View model: the run's, or its focus region's.
 fn viewpoints(
     flight: &Flight,
     coverage: &CoverageSummary,
@@ -494,65 +507,84 @@ fn viewpoints(
         .and_then(|c| c.intrinsics.as_ref())
         .ok_or(ReplanError::NoIntrinsics)?;
     let extrinsic = camera_mount(flight);
-    let view = &coverage.view;
-    let camera = Camera {
-        lens,
-        extrinsic: &extrinsic,
-        view,
-        max_distance_m: view
-            .max_distance_m
-            .min(view.max_gsd_mm / 1000.0 * lens.fx.min(lens.fy)),
-    };
     let grid = map.voxels.grid;
     let target_set: HashSet<VoxelIndex> = targets.iter().copied().collect();
     let faces = exposed_faces(&grid, gaps, &target_set);
+    let focus: Vec<FocusModel> = coverage.focus.iter().map(|f| f.model.clone()).collect();
+    let models = FaceModels::new(coverage.view, &focus, &faces, &grid);
     let total = faces.len() as u64;
     progress(0, total);
     let done = AtomicU64::new(0);
-    let found = candidates(gaps, &faces, map, space, &camera, &|k| {
-        done.fetch_max(k as u64, Ordering::Relaxed);
-    });
+    let mut found = Vec::new();
+    for (view, mine) in models.groups() {
+        let camera = Camera {
+            lens,
+            extrinsic: &extrinsic,
+            view,
+            max_distance_m: view
+                .max_distance_m
+                .min(view.max_gsd_mm / 1000.0 * lens.fx.min(lens.fy)),
+        };
+        let before = done.load(Ordering::Relaxed);
+        let faces: Vec<_> = mine.iter().map(|&i| faces[i]).collect();
+        found.extend(candidates(gaps, &faces, map, space, &camera, &|k| {
+            done.fetch_max(before + k as u64, Ordering::Relaxed);
+        }));
+    }
     progress(done.load(Ordering::Relaxed), total);
     Ok(found)
 }
 
 /// The tour, and the gap voxels it leaves out.
 struct Solved {
-    /// The tour, and the gap voxels (indices) its clusters stand for;
+    /// The tour, and the clusters (indices) its stop clusters stand for;
     /// `None` when no gap voxel can be served.
     tour: Option<(Tour, Vec<usize>)>,
     left_out: BTreeMap<usize, Unplannable>,
 }
 
-/// The tour over the gap voxels that have candidates, solved again without
-/// the candidates no collision-free path reaches; and the gap voxels left
-/// out, with why. `by_gap` loses the unreachable candidates. `from_home`:
-/// [`FreeSpace::distances_from`] home, `points[0]`.
+/// The tour over the gap voxels that have candidates (for each of the
+/// views they need), solved again without the candidates no
+/// collision-free path reaches; and the gap voxels left out, with why.
+/// `clusters` lose the unreachable candidates, and every cluster of a gap
+/// left out. `from_home`: [`FreeSpace::distances_from`] home, `points[0]`.
 fn solve(
     points: &[Point3<f64>],
-    by_gap: &mut [Vec<usize>],
+    clusters: &mut Clusters,
     space: &FreeSpace,
     from_home: &HashMap<VoxelIndex, f64>,
     solver: &SolveOptions,
 ) -> Solved {
     let mut left_out: BTreeMap<usize, Unplannable> = BTreeMap::new();
-    for (g, members) in by_gap.iter().enumerate() {
-        if members.is_empty() {
+    let gaps: BTreeSet<usize> = clusters.gap.iter().copied().collect();
+    for g in gaps {
+        let sizes = clusters
+            .members
+            .iter()
+            .zip(&clusters.gap)
+            .filter(|(_, of)| **of == g)
+            .map(|(m, _)| m.len());
+        let (empty, all) = sizes.fold((0, 0), |(e, a), n| (e + usize::from(n == 0), a + 1));
+        if empty == all {
             left_out.insert(g, Unplannable::NoClearViewpoint);
+        } else if empty > 0 {
+            left_out.insert(g, Unplannable::TooFewViewpoints);
         }
     }
+    leave_out(clusters, &left_out);
     // The candidates no path reaches, found by one search from home rather
     // than by the tour's failed legs (each a search of all reachable space).
-    let lost: HashSet<usize> = by_gap
+    let lost: HashSet<usize> = clusters
+        .members
         .iter()
         .flatten()
         .copied()
         .filter(|&k| !space.reaches(from_home, &points[0], &points[k + 1]))
         .collect();
-    drop_candidates(by_gap, &lost, &mut left_out);
+    drop_candidates(clusters, &lost, &mut left_out);
     loop {
-        let served: Vec<usize> = (0..by_gap.len())
-            .filter(|g| !by_gap[*g].is_empty())
+        let served: Vec<usize> = (0..clusters.members.len())
+            .filter(|c| !clusters.members[*c].is_empty())
             .collect();
         if served.is_empty() {
             return Solved {
@@ -562,7 +594,7 @@ fn solve(
         }
         let stop_clusters: Vec<Vec<usize>> = served
             .iter()
-            .map(|&g| by_gap[g].iter().map(|k| k + 1).collect())
+            .map(|&c| clusters.members[c].iter().map(|k| k + 1).collect())
             .collect();
         let stops = Stops {
             points,
@@ -577,24 +609,35 @@ fn solve(
             }
             Err(TourError::Unreachable(lost)) => {
                 let lost: HashSet<usize> = lost.into_iter().map(|s| s - 1).collect();
-                drop_candidates(by_gap, &lost, &mut left_out);
+                drop_candidates(clusters, &lost, &mut left_out);
             }
         }
     }
 }
 
-/// Removes the `lost` candidates from every gap's cluster; a gap left with
-/// none is unreachable.
+/// Removes the `lost` candidates from every cluster; a gap with a cluster
+/// left with none is unreachable, and leaves the tour.
 fn drop_candidates(
-    by_gap: &mut [Vec<usize>],
+    clusters: &mut Clusters,
     lost: &HashSet<usize>,
     left_out: &mut BTreeMap<usize, Unplannable>,
 ) {
-    for (g, members) in by_gap.iter_mut().enumerate() {
+    for (members, &g) in clusters.members.iter_mut().zip(&clusters.gap) {
         let before = members.len();
         members.retain(|k| !lost.contains(k));
         if before > 0 && members.is_empty() {
             left_out.insert(g, Unplannable::Unreachable);
+        }
+    }
+    leave_out(clusters, left_out);
+}
+
+/// Empties every cluster of the gaps left out: a gap short of a view is
+/// not flown for at all.
+fn leave_out(clusters: &mut Clusters, left_out: &BTreeMap<usize, Unplannable>) {
+    for (members, g) in clusters.members.iter_mut().zip(&clusters.gap) {
+        if left_out.contains_key(g) {
+            members.clear();
         }
     }
 }
@@ -706,6 +749,8 @@ fn summarise(summary: &mut ReplanSummary, tour: Tour) {
         }
     }
     summary.target_voxels.sort_unstable();
+    // A gap needing several views is at as many waypoints.
+    summary.target_voxels.dedup();
     summary.planned_gap_voxels = summary.target_voxels.len();
     summary.waypoints = summary.viewpoints.len();
     summary.length_m = summary.sorties.iter().map(|s| s.length_m).sum();

@@ -8,7 +8,7 @@
 //! inspect it.
 
 use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashSet};
+use std::collections::{BinaryHeap, HashMap, HashSet};
 
 use coverage::cover::{Shot, judge};
 use coverage::face::Face;
@@ -16,6 +16,7 @@ use coverage::reach::standpoints;
 use coverage::stage::viewpoint_camera;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::{Isometry3, Point3};
+use postflight_core::FaceSide;
 use postflight_core::map::{SlamMap, VoxelIndex};
 use postflight_core::{Intrinsics, ViewModel, Viewpoint};
 use rayon::prelude::*;
@@ -28,6 +29,8 @@ pub struct Candidate {
     pub viewpoint: Viewpoint,
     /// Gap voxels it inspects (indices into the gap list), ascending.
     pub inspects: Vec<usize>,
+    /// The faces it inspects them through: (gap, side), ascending.
+    pub faces: Vec<(usize, FaceSide)>,
 }
 
 /// Largest cluster kept per gap voxel: the viewpoints inspecting the most
@@ -115,7 +118,7 @@ pub fn candidates(
                 blur_px: Some(0.0),
             };
             let c = shot.camera.translation.vector;
-            let mut inspects = Vec::new();
+            let mut faces_seen = Vec::new();
             tree.query(&[c.x, c.y, c.z])
                 .within::<SquaredEuclidean<f64>>(r2)
                 .unsorted()
@@ -123,14 +126,16 @@ pub fn candidates(
                     let face = &faces[hit.item as usize];
                     let lenses = std::slice::from_ref(camera.lens);
                     if judge(face, &shot, lenses, map, camera.view).is_ok() {
-                        inspects.push(gap_index(face.voxel));
+                        faces_seen.push((gap_index(face.voxel), face.side));
                     }
                 });
-            inspects.sort_unstable();
+            faces_seen.sort_unstable();
+            let mut inspects: Vec<usize> = faces_seen.iter().map(|(g, _)| *g).collect();
             inspects.dedup();
             (!inspects.is_empty()).then_some(Candidate {
                 viewpoint,
                 inspects,
+                faces: faces_seen,
             })
         })
         .collect();
@@ -139,15 +144,45 @@ pub fn candidates(
     found
 }
 
-/// A greedy set cover of the gaps (`gaps` of them) by the candidates:
-/// repeatedly the candidate inspecting the most gaps not yet inspected
-/// (ties to the lower index). Returns the chosen candidates' indices.
+/// Views of a gap count only on one face (coverage counts views face by
+/// face), so a gap needing several is seen through one face: the one
+/// most candidates inspect. Other candidates no longer count for it.
+pub fn one_face_for_several_views(candidates: &mut [Candidate], views: &[u32]) {
+    let mut seen: HashMap<(usize, FaceSide), usize> = HashMap::new();
+    for c in candidates.iter() {
+        for &(g, side) in &c.faces {
+            if views[g] > 1 {
+                *seen.entry((g, side)).or_default() += 1;
+            }
+        }
+    }
+    let mut best: HashMap<usize, (usize, FaceSide)> = HashMap::new();
+    for (&(g, side), &n) in &seen {
+        let e = best.entry(g).or_insert((n, side));
+        if (n, side) > *e {
+            *e = (n, side);
+        }
+    }
+    for c in candidates.iter_mut() {
+        c.inspects.retain(|g| match best.get(g) {
+            Some(&(_, side)) => c.faces.binary_search(&(*g, side)).is_ok(),
+            None => true,
+        });
+    }
+}
+
+/// A greedy multi-cover of the gaps by the candidates: repeatedly the
+/// candidate inspecting the most gaps that still need a view (ties to the
+/// lower index), until each gap `g` has `views[g]` chosen candidates
+/// inspecting it, or no candidate is left for it. Returns the chosen
+/// candidates' indices.
 ///
-/// Lazily: a candidate's count only falls as gaps are covered, so counts
-/// are kept in a heap and recounted only when they come to the top.
-pub fn set_cover(candidates: &[Candidate], gaps: usize) -> Vec<usize> {
-    let mut open = vec![true; gaps];
-    let open_count = |c: &Candidate, open: &[bool]| c.inspects.iter().filter(|g| open[**g]).count();
+/// Lazily: a candidate's count only falls as gaps get their views, so
+/// counts are kept in a heap and recounted only when they come to the top.
+pub fn set_cover(candidates: &[Candidate], views: &[u32]) -> Vec<usize> {
+    let mut open: Vec<u32> = views.to_vec();
+    let open_count =
+        |c: &Candidate, open: &[u32]| c.inspects.iter().filter(|g| open[**g] > 0).count();
     let mut heap: BinaryHeap<(usize, Reverse<usize>)> = candidates
         .iter()
         .enumerate()
@@ -164,44 +199,78 @@ pub fn set_cover(candidates: &[Candidate], gaps: usize) -> Vec<usize> {
             continue;
         }
         for g in &candidates[k].inspects {
-            open[*g] = false;
+            open[*g] = open[*g].saturating_sub(1);
         }
         chosen.push(k);
     }
     chosen
 }
 
-/// The cluster of each gap voxel among the candidates `allowed` (indices):
-/// up to [`MAX_CLUSTER`] of them (fewer for many gaps) that inspect it,
-/// those inspecting most gap voxels first, then the nearest.
+/// The tour's clusters: for each gap voxel, as many as the views it needs,
+/// of which the tour visits one each.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Clusters {
+    /// Each cluster's candidates (indices).
+    pub members: Vec<Vec<usize>>,
+    /// Each cluster's gap voxel (an index into the gap list).
+    pub gap: Vec<usize>,
+}
+
+/// The clusters of each gap voxel among the candidates `allowed`
+/// (indices): of those that inspect it, up to [`MAX_CLUSTER`] a view
+/// (fewer for many gaps), those inspecting most gap voxels first, then the
+/// nearest. A gap needing `views[g]` views gets that many clusters, none
+/// sharing a candidate, so the tour takes as many distinct viewpoints;
+/// the candidates are dealt to them in turn around the gap (by bearing),
+/// so that each cluster has views from every side. A cluster may be empty:
+/// fewer candidates than views.
 pub fn clusters(
     gaps: &[VoxelIndex],
     candidates: &[Candidate],
     allowed: &[usize],
+    views: &[u32],
     centre: impl Fn(VoxelIndex) -> Point3<f64>,
-) -> Vec<Vec<usize>> {
+) -> Clusters {
     let mut by_gap: Vec<Vec<usize>> = vec![Vec::new(); gaps.len()];
     for &k in allowed {
         for &g in &candidates[k].inspects {
             by_gap[g].push(k);
         }
     }
-    let keep = (VERTEX_BUDGET / gaps.len().max(1)).clamp(MIN_CLUSTER, MAX_CLUSTER);
-    for (g, members) in by_gap.iter_mut().enumerate() {
+    let wanted: usize = views.iter().map(|&v| v.max(1) as usize).sum();
+    let keep = (VERTEX_BUDGET / wanted.max(1)).clamp(MIN_CLUSTER, MAX_CLUSTER);
+    let mut out = Clusters::default();
+    for (g, mut members) in by_gap.into_iter().enumerate() {
         let at = centre(gaps[g]);
+        let position = |k: usize| Point3::from(candidates[k].viewpoint.position);
         members.sort_by(|&a, &b| {
-            let (ca, cb) = (&candidates[a], &candidates[b]);
-            let da = (Point3::from(ca.viewpoint.position) - at).norm();
-            let db = (Point3::from(cb.viewpoint.position) - at).norm();
-            cb.inspects
+            let (da, db) = ((position(a) - at).norm(), (position(b) - at).norm());
+            candidates[b]
+                .inspects
                 .len()
-                .cmp(&ca.inspects.len())
+                .cmp(&candidates[a].inspects.len())
                 .then(da.total_cmp(&db))
                 .then(a.cmp(&b))
         });
-        members.truncate(keep);
+        let n = views[g].max(1) as usize;
+        members.truncate(keep * n);
+        if n > 1 {
+            let bearing = |k: usize| {
+                let d = position(k) - at;
+                d.y.atan2(d.x)
+            };
+            members.sort_by(|&a, &b| bearing(a).total_cmp(&bearing(b)).then(a.cmp(&b)));
+        }
+        let mut dealt = vec![Vec::new(); n];
+        for (i, k) in members.into_iter().enumerate() {
+            dealt[i % n].push(k);
+        }
+        for cluster in dealt {
+            out.members.push(cluster);
+            out.gap.push(g);
+        }
     }
-    by_gap
+    out
 }
 
 #[cfg(test)]
@@ -209,19 +278,20 @@ mod tests {
     use super::*;
 
     /// The plain greedy: recount every candidate each time.
-    fn eager_set_cover(candidates: &[Candidate], gaps: usize) -> Vec<usize> {
-        let mut open = vec![true; gaps];
+    fn eager_set_cover(candidates: &[Candidate], views: &[u32]) -> Vec<usize> {
+        let mut open = views.to_vec();
         let mut chosen = Vec::new();
         loop {
             let best = candidates
                 .iter()
                 .enumerate()
-                .map(|(k, c)| (c.inspects.iter().filter(|g| open[**g]).count(), k))
+                .filter(|(k, _)| !chosen.contains(k))
+                .map(|(k, c)| (c.inspects.iter().filter(|g| open[**g] > 0).count(), k))
                 .max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)));
             match best {
                 Some((n, k)) if n > 0 => {
                     for g in &candidates[k].inspects {
-                        open[*g] = false;
+                        open[*g] = open[*g].saturating_sub(1);
                     }
                     chosen.push(k);
                 }
@@ -252,12 +322,69 @@ mod tests {
                         yaw: 0.0,
                         gimbal_pitch: 0.0,
                     },
+                    faces: inspects.iter().map(|&g| (g, FaceSide::PosX)).collect(),
                     inspects,
                 }
             })
             .collect();
-        let lazy = set_cover(&candidates, 500);
-        assert_eq!(lazy, eager_set_cover(&candidates, 500));
+        let one = vec![1; 500];
+        let lazy = set_cover(&candidates, &one);
+        assert_eq!(lazy, eager_set_cover(&candidates, &one));
         assert!(lazy.len() > 50, "{}", lazy.len());
+        // Some gaps needing two or three views: more candidates, each
+        // chosen once, and every gap with its views where candidates allow.
+        let views: Vec<u32> = (0..500).map(|g| 1 + (g % 3) as u32).collect();
+        let multi = set_cover(&candidates, &views);
+        assert_eq!(multi, eager_set_cover(&candidates, &views));
+        assert!(multi.len() > lazy.len());
+        let mut seen = vec![0u32; 500];
+        let mut able = vec![0u32; 500];
+        for c in &candidates {
+            c.inspects.iter().for_each(|g| able[*g] += 1);
+        }
+        for k in &multi {
+            candidates[*k].inspects.iter().for_each(|g| seen[*g] += 1);
+        }
+        for g in 0..500 {
+            assert!(seen[g] >= views[g].min(able[g]), "gap {g}");
+        }
+    }
+
+    #[test]
+    fn a_gap_needing_two_views_gets_two_clusters_sharing_no_candidate() {
+        // Eight candidates around one gap at the origin, and one gap beside.
+        let around: Vec<Candidate> = (0..8)
+            .map(|i| {
+                let a = f64::from(i) * std::f64::consts::FRAC_PI_4;
+                Candidate {
+                    viewpoint: Viewpoint {
+                        position: [3.0 * a.cos(), 3.0 * a.sin(), 0.0],
+                        yaw: 0.0,
+                        gimbal_pitch: 0.0,
+                    },
+                    inspects: if i == 0 { vec![0, 1] } else { vec![0] },
+                    faces: Vec::new(),
+                }
+            })
+            .collect();
+        let gaps = [VoxelIndex([0, 0, 0]), VoxelIndex([1, 0, 0])];
+        let all: Vec<usize> = (0..8).collect();
+        let c = clusters(&gaps, &around, &all, &[2, 1], |_| Point3::origin());
+        assert_eq!(c.gap, vec![0, 0, 1]);
+        assert_eq!(c.members[2], vec![0]);
+        let (a, b) = (&c.members[0], &c.members[1]);
+        assert_eq!(a.len() + b.len(), 8);
+        assert!(a.iter().all(|k| !b.contains(k)));
+        // Dealt by bearing: each cluster has candidates on both sides.
+        for side in [a, b] {
+            let ys: Vec<f64> = side
+                .iter()
+                .map(|&k| around[k].viewpoint.position[1])
+                .collect();
+            assert!(
+                ys.iter().any(|y| *y > 0.1) && ys.iter().any(|y| *y < -0.1),
+                "{side:?}"
+            );
+        }
     }
 }

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::Error;
 use crate::map::{VoxelGrid, VoxelIndex};
+use crate::region::FocusModel;
 use crate::run_dir::RunDir;
 use crate::structure::{ElementMap, Structure};
 use crate::table::Named;
@@ -101,8 +102,21 @@ pub struct CoverageSummary {
     pub frames_without_pose: usize,
     pub frames_without_exposure: usize,
     pub faces_needing_more_views: usize,
+    /// The focus regions, each with its View model and its target voxels
+    /// (those with their centre inside, judged under that model).
+    #[serde(default)]
+    pub focus: Vec<FocusCoverage>,
     pub seconds: f64,
     pub warnings: Vec<String>,
+}
+
+/// A focus region's View model, and its target voxels judged under it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FocusCoverage {
+    #[serde(flatten)]
+    pub model: FocusModel,
+    pub target_voxels: usize,
+    pub inspected_voxels: usize,
 }
 
 /// Everything judged about one target voxel.

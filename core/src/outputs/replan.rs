@@ -117,6 +117,8 @@ pub enum Unplannable {
     NoClearViewpoint,
     /// Such viewpoints exist, but no collision-free path leads to them from home.
     Unreachable,
+    /// Fewer such viewpoints than the views it needs.
+    TooFewViewpoints,
 }
 
 /// Which gaps a follow-up flight goes back for.
