@@ -269,6 +269,14 @@ seed = 7
 geo_origin = [47.397742, 8.545594, 488.0, 23.5]
 keep_out_file = "zones.geojson"
 ceiling_m = 40.0
+[[replan.drone]]
+name = "zoom"
+[[replan.drone]]
+name = "wide"
+home = [12.0, -12.0, 1.0]
+speed_m_s = 3.0
+battery_minutes = 30.0
+camera_info_file = "wide.yaml"
 [[replan.keep_out]]
 name = "carriageway"
 outline = [[0.0, -4.5], [16.0, -4.5], [16.0, 4.5], [0.0, 4.5]]

@@ -265,6 +265,9 @@ struct CoverageArgs {
     /// Judge this plan's viewpoints instead of the flight's frames (check a plan before flying it).
     #[arg(long, value_name = "plan.json|path.csv")]
     viewpoints: Option<PathBuf>,
+    /// Judge the viewpoints as shots of this camera (a ROS camera_info YAML: a team drone's) instead of the flight's.
+    #[arg(long, value_name = "camera.yaml", requires = "viewpoints")]
+    viewpoint_camera: Option<PathBuf>,
     /// SLAM map (PLY, PCD, or OctoMap .bt/.ot; world frame, metres) instead of the one recorded in the flight.
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
@@ -626,6 +629,7 @@ fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
     let config = args.config.under(flags)?;
     let options = coverage::CoverageOptions {
         viewpoints: args.plan.file(args.viewpoints.as_ref()),
+        viewpoint_camera: args.viewpoint_camera.clone(),
         ..config.coverage_options(
             &args.run,
             args.map.as_deref(),

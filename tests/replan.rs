@@ -87,6 +87,110 @@ fn segment_clearance(map: &VoxelMap, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
     nearest
 }
 
+/// A ROS camera_info calibration YAML (as camera_calibration writes it)
+/// for a pinhole camera.
+fn calibration_yaml(path: &Path, name: &str, width: u32, height: u32, f: f64) {
+    let (cx, cy) = (f64::from(width) / 2.0, f64::from(height) / 2.0);
+    let text = format!(
+        "image_width: {width}\nimage_height: {height}\ncamera_name: {name}\ncamera_matrix:\n  rows: 3\n  cols: 3\n  data: [{f}, 0, {cx}, 0, {f}, {cy}, 0, 0, 1]\ndistortion_model: plumb_bob\ndistortion_coefficients:\n  rows: 1\n  cols: 5\n  data: [0, 0, 0, 0, 0]\nrectification_matrix:\n  rows: 3\n  cols: 3\n  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\nprojection_matrix:\n  rows: 3\n  cols: 4\n  data: [{f}, 0, {cx}, 0, 0, {f}, {cy}, 0, 0, 0, 1, 0]\n"
+    );
+    std::fs::write(path, text).unwrap();
+}
+
+/// A team of two cameras: the flight's (640 x 480, 960 px focal length),
+/// and a wide one (1280 x 960, 700 px: its 6 mm GSD is reached at 4.2 m,
+/// not 5) on a drone taking off elsewhere and flying faster. Each drone's
+/// waypoints, judged by coverage as shots of its own camera, inspect every
+/// gap voxel the plan gives them; judged as the other camera's, the first
+/// drone's do not.
+fn two_cameras_each_plan_for_their_own(run: &Path, plan_file: &Path) {
+    let wide = run.join("wide.yaml");
+    calibration_yaml(&wide, "wide", 1280, 960, 700.0);
+    let config = run.join("team.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "[[replan.drone]]\nname = \"zoom\"\n[[replan.drone]]\nname = \"wide\"\nhome = [12.0, -12.0, 1.0]\nspeed_m_s = 3.0\ncamera_info_file = \"{}\"\n",
+            wide.display()
+        ),
+    )
+    .unwrap();
+    let args = [
+        &EVERY_GAP_ONE_BATTERY[..],
+        &[
+            "--solver-time-limit",
+            "3",
+            "--config",
+            config.to_str().unwrap(),
+        ],
+    ];
+    let out = replan(run, &args.concat());
+    assert!(out.status.success(), "replan: {}", stderr(&out));
+    let team = read_json(&run.join("replan.json"));
+    let drones = team["drones"].as_array().unwrap();
+    assert_eq!(drones.len(), 2, "{}", team["drones"]);
+    assert_eq!(
+        (drones[0]["name"].as_str(), drones[1]["name"].as_str()),
+        (Some("zoom"), Some("wide"))
+    );
+    assert_eq!(drones[1]["image_size"], serde_json::json!([1280, 960]));
+    assert_eq!(f(&drones[1]["focal_px"]), 700.0);
+    let home = point(&drones[1]["home"]);
+    for sortie in team["sorties"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|s| s["drone"] == 1)
+    {
+        let path = sortie["path"].as_array().unwrap();
+        let (start, end) = (point(&path[0]), point(path.last().unwrap()));
+        // From its own home (lifted clear of the ground if need be).
+        assert!(
+            (start.xy() - home.xy()).norm() < 1e-9 && start == end,
+            "{start} {home}"
+        );
+    }
+
+    let judged = |drone: usize, camera: Option<&Path>| {
+        let csv = run.join(format!("replan-drone-{}.csv", drone + 1));
+        let mut args = vec![
+            "--plan".to_string(),
+            plan_file.to_str().unwrap().into(),
+            "--viewpoints".into(),
+            csv.to_str().unwrap().into(),
+        ];
+        if let Some(c) = camera {
+            args.extend(["--viewpoint-camera".into(), c.to_str().unwrap().into()]);
+        }
+        coverage(run, &args.iter().map(String::as_str).collect::<Vec<_>>());
+        let rows = coverage_rows(&run.join("coverage-viewpoints.parquet"));
+        let own: BTreeSet<Voxel> = team["sorties"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|s| s["drone"] == drone)
+            .flat_map(|s| s["waypoints"].as_array().unwrap().iter())
+            .flat_map(|w| w["gap_voxels"].as_array().unwrap().iter().map(voxel))
+            .collect();
+        let missed = own.iter().filter(|v| !rows[*v].0).count();
+        (own.len(), missed)
+    };
+    let zoom = judged(0, None);
+    let wide_own = judged(1, Some(&wide));
+    let zoom_as_wide = judged(0, Some(&wide));
+    eprintln!(
+        "two cameras: zoom {} gaps ({} missed), wide {} gaps ({} missed); zoom's waypoints with the wide camera miss {}",
+        zoom.0, zoom.1, wide_own.0, wide_own.1, zoom_as_wide.1
+    );
+    assert!(zoom.0 > 0 && wide_own.0 > 0, "both drones fly");
+    assert_eq!(
+        (zoom.1, wide_own.1),
+        (0, 0),
+        "each camera's waypoints inspect its gaps"
+    );
+    assert!(zoom_as_wide.1 > 0, "the cameras' View models differ");
+}
+
 /// A rectangle of the map frame, `[x0, y0, x1, y1]`, between two heights.
 struct Zone {
     corners: [f64; 4],
@@ -460,6 +564,7 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
 
     team_shares_the_flight(&run, &plan_file, &planned_set, &plan);
     keep_out_zones_hold(&run, &gaps, &plan);
+    two_cameras_each_plan_for_their_own(&run, &plan_file);
 
     // Battery: sorties no longer than the limit, each from home and back,
     // planning the same gaps.
@@ -790,6 +895,18 @@ fn no_gaps_give_an_empty_plan_and_bad_runs_say_what_to_do() {
     );
     let out = replan(&run, &["--home", "1,2"]);
     assert!(stderr(&out).contains("X,Y,Z"), "{}", stderr(&out));
+    let out = replan(&run, &["--drones", "3", "--drone", "{name = \"a\"}"]);
+    assert!(
+        stderr(&out).contains("--drones must be 1 or the number of --drone entries (1)"),
+        "{}",
+        stderr(&out)
+    );
+    let out = replan(&run, &["--drone", "{name = \"a\", speed_m_s = 0}"]);
+    assert!(
+        stderr(&out).contains("--drone must be positive (it is a's speed_m_s 0)"),
+        "{}",
+        stderr(&out)
+    );
     let out = replan(&run, &["--ceiling", "0"]);
     assert!(
         stderr(&out).contains("--ceiling must be a positive number"),
@@ -815,7 +932,7 @@ fn no_gaps_give_an_empty_plan_and_bad_runs_say_what_to_do() {
     refused(
         &zone("[[0, 0], [1, 1]]"),
         &[],
-        "zone 'pad' has 2 corners; an outline needs at least 3",
+        "'pad' has 2 corners; an outline needs at least 3",
     );
     refused(
         &zone("[[-1, -21], [1, -21], [1, -19], [-1, -19]]"),

@@ -4,10 +4,9 @@
 //! given.
 
 use nalgebra::Point3;
-use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
-use crate::setting::Key;
+use crate::setting::{Key, inline_table};
 use crate::view::{ViewModel, ViewSettings};
 
 /// A region that cannot be used, named as the user gave it.
@@ -95,18 +94,6 @@ impl FocusModel {
     pub fn holding(models: &[Self], p: &Point3<f64>) -> Option<usize> {
         models.iter().position(|m| m.region.contains(p))
     }
-}
-
-/// A value given as a TOML inline table (a flag's), read as `T`; `what`
-/// says what was expected.
-fn inline_table<T: DeserializeOwned>(text: &str, what: &str) -> Result<T, String> {
-    #[derive(Deserialize)]
-    struct One<T> {
-        value: T,
-    }
-    toml::from_str::<One<T>>(&format!("value = {text}"))
-        .map(|one| one.value)
-        .map_err(|e| format!("expected {what}: {}", e.message()))
 }
 
 /// A vertical prism in the map frame: the points above `outline` (x, y)

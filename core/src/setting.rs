@@ -218,6 +218,18 @@ macro_rules! settings {
     (@given $value:expr, $default:expr) => { Some($value) };
 }
 
+/// A value given as a TOML inline table (a flag's: `--keep-out-zone
+/// '{name = "deck", ...}'`), read as `T`; `what` says what was expected.
+pub fn inline_table<T: serde::de::DeserializeOwned>(text: &str, what: &str) -> Result<T, String> {
+    #[derive(serde::Deserialize)]
+    struct One<T> {
+        value: T,
+    }
+    toml::from_str::<One<T>>(&format!("value = {text}"))
+        .map(|one| one.value)
+        .map_err(|e| format!("expected {what}: {}", e.message()))
+}
+
 /// A point given as `X,Y,Z` in metres (`--home`).
 pub fn point3(text: &str) -> Result<[f64; 3], String> {
     match comma_numbers(text).as_deref() {

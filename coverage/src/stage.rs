@@ -46,6 +46,8 @@ pub struct CoverageOptions {
     pub plan: Option<PlanFile>,
     /// Judge this plan's viewpoints instead of the flight's frames.
     pub viewpoints: Option<PlanFile>,
+    /// The viewpoints' camera (a calibration file) instead of the flight's.
+    pub viewpoint_camera: Option<PathBuf>,
     #[serde(skip)]
     pub map: Option<PathBuf>,
     pub targets: Targets,
@@ -61,6 +63,7 @@ impl CoverageOptions {
             run,
             plan: None,
             viewpoints: None,
+            viewpoint_camera: None,
             map: None,
             targets: Targets::Plan,
             view: ViewSettings::default(),
@@ -211,7 +214,12 @@ impl Scene {
             elements,
             places,
             faces,
-            lenses: lenses(flight)?,
+            lenses: match (&options.viewpoints, &options.viewpoint_camera) {
+                (Some(_), Some(camera)) => {
+                    vec![ingest::calibration::from_calibration_file(camera)?]
+                }
+                _ => lenses(flight)?,
+            },
         })
     }
 }

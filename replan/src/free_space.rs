@@ -158,6 +158,10 @@ impl<'a> FreeSpace<'a> {
             && self.airspace.allows(p)
     }
 
+    pub fn grid(&self) -> postflight_core::map::VoxelGrid {
+        self.map.grid
+    }
+
     pub fn airspace(&self) -> &Airspace {
         &self.airspace
     }

@@ -40,7 +40,7 @@ mod mavlink {
 /// What the ground-station files need besides the sorties.
 pub struct Placement {
     pub origin: GeoOrigin,
-    /// Where the vehicle takes off (missions' altitudes are above it).
+    /// Where the team's first drone takes off: the geofence's altitude.
     pub launch: Point3<f64>,
     /// Hover at each inspection waypoint, seconds.
     pub hover_s: f64,
@@ -57,11 +57,12 @@ impl Placement {
         self.origin.to_geodetic(&Point3::from(*p))
     }
 
-    /// A QGroundControl plan file (format version 1) for one sortie.
-    pub fn mission(&self, sortie: &Sortie) -> Value {
-        let home = self.origin.to_geodetic(&self.launch);
+    /// A QGroundControl plan file (format version 1) for one sortie of a
+    /// drone taking off from `launch` (its altitudes are above it).
+    pub fn mission(&self, sortie: &Sortie, launch: Point3<f64>) -> Value {
+        let home = self.origin.to_geodetic(&launch);
         let mut items = Items::new(home.altitude_m);
-        let first = sortie.path.first().copied().unwrap_or(self.launch.into());
+        let first = sortie.path.first().copied().unwrap_or(launch.into());
         let climb = self.geodetic(&first).altitude_m - home.altitude_m;
         items.takeoff(&home, climb.max(self.min_takeoff_m));
         // The path starts at home, where the take-off ends.
@@ -273,7 +274,7 @@ pub fn path_csv(sorties: &[Sortie], frame_id: &str) -> String {
             };
             let [x, y, z] = step.point;
             text += &format!(
-                "{x:.3},{y:.3},{z:.3},{:.4},{:.1},{},{kind}\n",
+                "{x},{y},{z},{},{},{},{kind}\n",
                 step.yaw,
                 -step.gimbal_pitch.to_degrees(),
                 n + 1

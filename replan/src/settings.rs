@@ -6,7 +6,43 @@ use std::path::PathBuf;
 
 use postflight_core::outputs::replan::GapChoice;
 use postflight_core::region::Region;
-use postflight_core::setting::point3;
+use postflight_core::setting::{inline_table, point3};
+
+/// One drone of a team, as `[[replan.drone]]` gives it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Drone {
+    /// As the plan and the report name it.
+    pub name: String,
+    /// Take-off and landing point, metres in the map frame [default:
+    /// `[replan] home`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub home: Option<[f64; 3]>,
+    /// Cruise speed, m/s [default: `[replan] speed_m_s`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_m_s: Option<f64>,
+    /// One battery's flight time, minutes [default: `[replan]
+    /// battery_minutes`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub battery_minutes: Option<f64>,
+    /// Its camera's calibration, a ROS camera_info YAML (as
+    /// `camera_calibration` writes it) [default: the flight's camera].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera_info_file: Option<PathBuf>,
+}
+
+impl std::str::FromStr for Drone {
+    type Err = String;
+
+    /// As a TOML inline table: `{name = "M3E", camera_info_file =
+    /// "m3e.yaml", speed_m_s = 5}`.
+    fn from_str(text: &str) -> Result<Self, String> {
+        inline_table(
+            text,
+            "a drone {name = \"...\", home = [x, y, z], speed_m_s = ..., battery_minutes = ..., camera_info_file = \"...\"}",
+        )
+    }
+}
 
 postflight_core::settings! {
     table = "replan", keys = keys;
@@ -50,6 +86,15 @@ postflight_core::settings! {
         /// drone's share flown in battery sorties.
         #[arg(long, value_name = "N")]
         drones: u32 = 1,
+        /// The team drone by drone, when they differ: each a `name` and,
+        /// where it is not the `[replan]` one, its `home`, `speed_m_s`,
+        /// `battery_minutes` and camera (`camera_info_file`, a ROS
+        /// calibration YAML; default: the flight's camera). Its share of
+        /// the gaps is planned from its home with its camera.
+        /// `[[replan.drone]]` tables, or the flag once per drone as a TOML
+        /// inline table; replaces `drones`.
+        #[arg(long = "drone", value_name = "DRONE")]
+        drone: Vec<Drone> = Vec::new(),
         /// Keep-out zones in the map frame, each a region (`name`,
         /// `outline` of `[x, y]` corners, optional `bottom_m` and `top_m`,
         /// map z): no viewpoint or path point of the follow-up is inside

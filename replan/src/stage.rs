@@ -2,13 +2,10 @@
 //! coverage stage to a follow-up flight, phase by phase (see the crate
 //! docs), into `replan.json` and `replan.csv`.
 
-use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
+use std::collections::HashMap;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use coverage::face::exposed_faces;
-use coverage::focus::FaceModels;
 use coverage::stage::camera_mount;
 use gtsp::SolveOptions;
 use nalgebra::{Point3, Vector3};
@@ -17,21 +14,18 @@ use postflight_core::map::{SlamMap, VoxelGrid, VoxelIndex};
 use postflight_core::outputs::coverage::{self as coverage_outputs, CoverageSummary};
 use postflight_core::outputs::localise::{self as localise_outputs, read_defects};
 use postflight_core::outputs::replan::{
-    DronePlan, GapChoice, ReplanSummary, ReshootSpot, Sortie, Uninspectable, Unplannable, Waypoint,
-    files,
+    DronePlan, GapChoice, ReplanSummary, ReshootSpot, Sortie, Uninspectable, Waypoint, files,
 };
-use postflight_core::region::FocusModel;
-use postflight_core::{Flight, InvalidSetting, Key, RunDir, Stage, Viewpoint};
+use postflight_core::{Flight, Intrinsics, InvalidSetting, Key, RunDir, Stage, Viewpoint};
 
 use crate::airspace::{Airspace, read_zones};
 use crate::error::ReplanError;
 use crate::free_space::{FreeSpace, length};
 use crate::ground_station::{self, Placement};
+use crate::route::{Route, Scene};
 use crate::settings::{ReplanConfig, keys};
-use crate::tour::{Budget, Stops, Tour, TourError, plan_tour};
-use crate::viewpoints::{
-    Camera, Candidate, Clusters, candidates, clusters, one_face_for_several_views, set_cover,
-};
+use crate::team::Member;
+use crate::tour::Budget;
 
 /// What replan plans for and how. Serialised, it is what the stage's
 /// result depends on besides its input files (`postflight run`'s
@@ -119,6 +113,28 @@ impl ReplanOptions {
                 "a latitude within ±90 and a longitude within ±180 degrees, all finite",
             )?;
         }
+        if !s.drone.is_empty() {
+            InvalidSetting::check(
+                s.drones == 1 || s.drones as usize == s.drone.len(),
+                keys::drones,
+                s.drones,
+                &format!(
+                    "1 or the number of {} entries ({}), which give the team",
+                    keys::drone,
+                    s.drone.len()
+                ),
+            )?;
+        }
+        for d in &s.drone {
+            let positive = |v: Option<f64>| v.is_none_or(|v| v.is_finite() && v > 0.0);
+            for (what, v) in [
+                ("speed_m_s", d.speed_m_s),
+                ("battery_minutes", d.battery_minutes),
+            ] {
+                let value = format!("{}'s {what} {}", d.name, v.unwrap_or_default());
+                InvalidSetting::check(positive(v), keys::drone, value, "positive")?;
+            }
+        }
         if let Some(c) = s.ceiling_m {
             InvalidSetting::check(
                 c > 0.0,
@@ -185,74 +201,169 @@ pub fn replan(
     let home = clear_home(&space, &map, launch, &mut summary)?;
     summary.phases.clearance_s = phase.elapsed().as_secs_f64();
 
+    let lens = flight_lens(&flight)?;
+    let team = team(options, launch, &lens)?;
+    let extrinsic = camera_mount(&flight);
+    let scene = Scene {
+        coverage: &coverage,
+        map: &map,
+        space: &space,
+        targets: targets.iter().copied().collect(),
+        focus: coverage.focus.iter().map(|f| f.model.clone()).collect(),
+        extrinsic: &extrinsic,
+        solver: options.solver()?,
+    };
     let phase = Instant::now();
-    let mut found = viewpoints(&flight, &coverage, &map, &space, targets, gaps, progress)?;
-    one_face_for_several_views(&mut found, &chosen.views);
-    summary.candidate_viewpoints = found.len();
-    // One viewpoint serves every gap it inspects: the clusters hold only a
-    // greedy set cover's viewpoints, so the tour needs no more of them.
-    let cover = set_cover(&found, &chosen.views);
-    summary.set_cover_viewpoints = cover.len();
-    let mut clusters = clusters(gaps, &found, &cover, &chosen.views, |v| grid.center(v));
+    let route = Route::plan(&scene, gaps.clone(), &chosen.views, &lens, home, progress);
+    summary.candidate_viewpoints = route.found.len();
+    summary.set_cover_viewpoints = route.set_cover;
     summary.phases.viewpoints_s = phase.elapsed().as_secs_f64();
-    // Stops: home, then the candidates.
-    let points: Vec<Point3<f64>> = std::iter::once(home)
-        .chain(found.iter().map(|c| Point3::from(c.viewpoint.position)))
-        .collect();
-    // One search from home: which candidates a path reaches, and how far
-    // home is from each stop when sorties are split.
-    let from_home = space.distances_from(&home);
-    let Solved { tour, left_out } = solve(
-        &points,
-        &mut clusters,
-        &space,
-        &from_home,
-        &options.solver()?,
-    );
-    summary.uninspectable_gaps = left_out
-        .iter()
-        .map(|(&g, &reason)| Uninspectable {
-            voxel: gaps[g],
-            reason,
-        })
-        .collect();
-    let Some((tour, served)) = tour else {
+    summary.uninspectable_gaps = left_out(&route);
+    let Some((tour, _)) = &route.tour else {
         summary
             .warnings
             .push("no gap voxel can be inspected from a clear, reachable viewpoint".into());
         return write(&run, summary, placement.as_ref(), started);
     };
-
     summary.phases.solve_s = tour.stats.solve_seconds - tour.stats.paths_seconds;
     summary.phases.rounds = tour.stats.rounds;
+    summary.solver = Some(tour.stats.clone());
+
     let phase = Instant::now();
-    let drones = split_sorties(options, &tour, &points, &space, &map, &from_home)?;
-    let waypoint = |i: usize| {
-        let v = &found[tour.stops[i] - 1].viewpoint;
-        let mut gap_voxels: Vec<VoxelIndex> = tour.serves[i]
-            .iter()
-            .map(|&k| gaps[clusters.gap[served[k]]])
-            .collect();
-        gap_voxels.sort_unstable();
-        Waypoint {
-            x: v.position[0],
-            y: v.position[1],
-            z: v.position[2],
-            yaw: v.yaw,
-            gimbal_pitch: v.gimbal_pitch,
-            gap_voxels,
+    let shares = split_sorties(&team, &route, &space)?;
+    if team.iter().all(|m| m.shares(&home, &lens)) {
+        for (drone, (member, sorties)) in (0u32..).zip(team.iter().zip(&shares)) {
+            for indices in sorties {
+                summary
+                    .sorties
+                    .push(fly(member, drone, &route, &space, indices));
+            }
         }
-    };
-    for (drone, sorties) in (0u32..).zip(&drones) {
-        for indices in sorties {
-            let mut sortie = fly(options, &tour, &points, &space, indices, &waypoint);
-            sortie.drone = drone;
-            summary.sorties.push(sortie);
+    } else {
+        // Each drone flies its stretch's gaps on a route of its own, from
+        // its home with its camera.
+        for (drone, (member, share)) in (0u32..).zip(team.iter().zip(&shares)) {
+            let own = own_route(&scene, &route, share, &chosen, member, &mut summary)?;
+            summary.uninspectable_gaps.extend(left_out(&own));
+            if own.tour.is_none() {
+                continue;
+            }
+            let sorties = crate::tour::sorties(
+                &own.tour.as_ref().expect("a tour").0,
+                &member.budget,
+                &|stop| own.home_m(&space, stop),
+            )
+            .map_err(|e| sortie_too_long(member, &own.points, e))?;
+            for indices in &sorties {
+                summary
+                    .sorties
+                    .push(fly(member, drone, &own, &space, indices));
+            }
         }
+        summary.uninspectable_gaps.sort_by_key(|u| u.voxel);
     }
     summary.phases.paths_s = tour.stats.paths_seconds + phase.elapsed().as_secs_f64();
-    summarise(&mut summary, tour);
+    summarise(&mut summary, &team);
     write(&run, summary, placement.as_ref(), started)
+}
+
+/// The flight's (first) camera's lens.
+fn flight_lens(flight: &Flight) -> Result<Intrinsics, ReplanError> {
+    flight
+        .cameras
+        .first()
+        .and_then(|c| c.intrinsics.clone())
+        .ok_or(ReplanError::NoIntrinsics)
+}
+
+/// The team: the `[[replan.drone]]` entries, each resolved over the
+/// `[replan]` settings, or `drones` drones alike.
+fn team(
+    options: &ReplanOptions,
+    launch: Point3<f64>,
+    lens: &Intrinsics,
+) -> Result<Vec<Member>, ReplanError> {
+    let s = &options.settings;
+    let budget = options.budget();
+    if s.drone.is_empty() {
+        return Ok((1..=s.drones)
+            .map(|k| Member {
+                name: format!("drone {k}"),
+                home: launch,
+                budget,
+                battery_minutes: s.battery_minutes,
+                lens: lens.clone(),
+                camera: None,
+            })
+            .collect());
+    }
+    s.drone
+        .iter()
+        .map(|d| {
+            let speed = d.speed_m_s.unwrap_or(s.speed_m_s);
+            let minutes = d.battery_minutes.unwrap_or(s.battery_minutes);
+            let lens = match &d.camera_info_file {
+                Some(path) => ingest::calibration::from_calibration_file(path)?,
+                None => lens.clone(),
+            };
+            Ok(Member {
+                name: d.name.clone(),
+                home: d.home.map_or(launch, Point3::from),
+                budget: Budget {
+                    max_time_s: minutes * 60.0,
+                    speed_m_s: speed,
+                    ..budget
+                },
+                battery_minutes: minutes,
+                lens,
+                camera: d.camera_info_file.clone(),
+            })
+        })
+        .collect()
+}
+
+/// The gaps a route leaves out, as replan.json lists them.
+fn left_out(route: &Route) -> Vec<Uninspectable> {
+    route
+        .left_out
+        .iter()
+        .map(|(&g, &reason)| Uninspectable {
+            voxel: route.gaps[g],
+            reason,
+        })
+        .collect()
+}
+
+/// A drone's own route over the gaps its share of the team's route serves,
+/// from its home (lifted clear as the team's is) with its camera.
+fn own_route(
+    scene: &Scene,
+    team_route: &Route,
+    share: &[Vec<usize>],
+    chosen: &ChosenGaps,
+    member: &Member,
+    summary: &mut ReplanSummary,
+) -> Result<Route, ReplanError> {
+    let mut gaps: Vec<VoxelIndex> = share
+        .iter()
+        .flatten()
+        .flat_map(|&i| team_route.waypoint(i).gap_voxels)
+        .collect();
+    gaps.sort_unstable();
+    gaps.dedup();
+    let views: Vec<u32> = gaps
+        .iter()
+        .map(|v| chosen.views[chosen.voxels.binary_search(v).expect("a chosen gap")])
+        .collect();
+    let home = clear_home(scene.space, scene.map, member.home, summary)?;
+    Ok(Route::plan(
+        scene,
+        gaps,
+        &views,
+        &member.lens,
+        home,
+        &mut |_, _| {},
+    ))
 }
 
 /// The map frame on the Earth: as set, else from the flight's GPS fixes;
@@ -490,212 +601,48 @@ fn clear_home(
     })
 }
 
-/// Candidate viewpoints around the gap faces (clear of the map), each face
-/// under its View model: the run's, or its focus region's.
-fn viewpoints(
-    flight: &Flight,
-    coverage: &CoverageSummary,
-    map: &SlamMap,
-    space: &FreeSpace,
-    targets: &[VoxelIndex],
-    gaps: &[VoxelIndex],
-    progress: &mut dyn FnMut(u64, u64),
-) -> Result<Vec<Candidate>, ReplanError> {
-    let lens = flight
-        .cameras
-        .first()
-        .and_then(|c| c.intrinsics.as_ref())
-        .ok_or(ReplanError::NoIntrinsics)?;
-    let extrinsic = camera_mount(flight);
-    let grid = map.voxels.grid;
-    let target_set: HashSet<VoxelIndex> = targets.iter().copied().collect();
-    let faces = exposed_faces(&grid, gaps, &target_set);
-    let focus: Vec<FocusModel> = coverage.focus.iter().map(|f| f.model.clone()).collect();
-    let models = FaceModels::new(coverage.view, &focus, &faces, &grid);
-    let total = faces.len() as u64;
-    progress(0, total);
-    let done = AtomicU64::new(0);
-    let mut found = Vec::new();
-    for (view, mine) in models.groups() {
-        let camera = Camera {
-            lens,
-            extrinsic: &extrinsic,
-            view,
-            max_distance_m: view
-                .max_distance_m
-                .min(view.max_gsd_mm / 1000.0 * lens.fx.min(lens.fy)),
-        };
-        let before = done.load(Ordering::Relaxed);
-        let faces: Vec<_> = mine.iter().map(|&i| faces[i]).collect();
-        found.extend(candidates(gaps, &faces, map, space, &camera, &|k| {
-            done.fetch_max(before + k as u64, Ordering::Relaxed);
-        }));
-    }
-    progress(done.load(Ordering::Relaxed), total);
-    Ok(found)
-}
-
-/// The tour, and the gap voxels it leaves out.
-struct Solved {
-    /// The tour, and the clusters (indices) its stop clusters stand for;
-    /// `None` when no gap voxel can be served.
-    tour: Option<(Tour, Vec<usize>)>,
-    left_out: BTreeMap<usize, Unplannable>,
-}
-
-/// The tour over the gap voxels that have candidates (for each of the
-/// views they need), solved again without the candidates no
-/// collision-free path reaches; and the gap voxels left out, with why.
-/// `clusters` lose the unreachable candidates, and every cluster of a gap
-/// left out. `from_home`: [`FreeSpace::distances_from`] home, `points[0]`.
-fn solve(
-    points: &[Point3<f64>],
-    clusters: &mut Clusters,
-    space: &FreeSpace,
-    from_home: &HashMap<VoxelIndex, f64>,
-    solver: &SolveOptions,
-) -> Solved {
-    let mut left_out: BTreeMap<usize, Unplannable> = BTreeMap::new();
-    let gaps: BTreeSet<usize> = clusters.gap.iter().copied().collect();
-    for g in gaps {
-        let sizes = clusters
-            .members
-            .iter()
-            .zip(&clusters.gap)
-            .filter(|(_, of)| **of == g)
-            .map(|(m, _)| m.len());
-        let (empty, all) = sizes.fold((0, 0), |(e, a), n| (e + usize::from(n == 0), a + 1));
-        if empty == all {
-            left_out.insert(g, Unplannable::NoClearViewpoint);
-        } else if empty > 0 {
-            left_out.insert(g, Unplannable::TooFewViewpoints);
-        }
-    }
-    leave_out(clusters, &left_out);
-    // The candidates no path reaches, found by one search from home rather
-    // than by the tour's failed legs (each a search of all reachable space).
-    let lost: HashSet<usize> = clusters
-        .members
-        .iter()
-        .flatten()
-        .copied()
-        .filter(|&k| !space.reaches(from_home, &points[0], &points[k + 1]))
-        .collect();
-    drop_candidates(clusters, &lost, &mut left_out);
-    loop {
-        let served: Vec<usize> = (0..clusters.members.len())
-            .filter(|c| !clusters.members[*c].is_empty())
-            .collect();
-        if served.is_empty() {
-            return Solved {
-                tour: None,
-                left_out,
-            };
-        }
-        let stop_clusters: Vec<Vec<usize>> = served
-            .iter()
-            .map(|&c| clusters.members[c].iter().map(|k| k + 1).collect())
-            .collect();
-        let stops = Stops {
-            points,
-            clusters: &stop_clusters,
-        };
-        match plan_tour(&stops, space, solver) {
-            Ok(tour) => {
-                return Solved {
-                    tour: Some((tour, served)),
-                    left_out,
-                };
-            }
-            Err(TourError::Unreachable(lost)) => {
-                let lost: HashSet<usize> = lost.into_iter().map(|s| s - 1).collect();
-                drop_candidates(clusters, &lost, &mut left_out);
-            }
-        }
-    }
-}
-
-/// Removes the `lost` candidates from every cluster; a gap with a cluster
-/// left with none is unreachable, and leaves the tour.
-fn drop_candidates(
-    clusters: &mut Clusters,
-    lost: &HashSet<usize>,
-    left_out: &mut BTreeMap<usize, Unplannable>,
-) {
-    for (members, &g) in clusters.members.iter_mut().zip(&clusters.gap) {
-        let before = members.len();
-        members.retain(|k| !lost.contains(k));
-        if before > 0 && members.is_empty() {
-            left_out.insert(g, Unplannable::Unreachable);
-        }
-    }
-    leave_out(clusters, left_out);
-}
-
-/// Empties every cluster of the gaps left out: a gap short of a view is
-/// not flown for at all.
-fn leave_out(clusters: &mut Clusters, left_out: &BTreeMap<usize, Unplannable>) {
-    for (members, g) in clusters.members.iter_mut().zip(&clusters.gap) {
-        if left_out.contains_key(g) {
-            members.clear();
-        }
-    }
-}
-
-/// The tour's stops (indices into it, from 1) per sortie, split so each
-/// fits one battery (and the longest sortie, if set). Splitting bounds each
-/// way home by the lattice distance (one search from home), then flies the
-/// legs home it chose.
-/// The tour's stops as each drone's sorties (one drone: the tour's
-/// sorties; a team: [`crate::team::split`]).
+/// The team's route's stops (indices into its tour, from 1) as each
+/// drone's sorties, each within the drone's battery (and the longest
+/// sortie, if set): one drone's, the tour's sorties; a team's,
+/// [`crate::team::split`]. Splitting bounds each way home by the lattice
+/// distance (one search from home), then flies the legs home it chose.
 fn split_sorties(
-    options: &ReplanOptions,
-    tour: &Tour,
-    points: &[Point3<f64>],
+    team: &[Member],
+    route: &Route,
     space: &FreeSpace,
-    map: &SlamMap,
-    from_home: &HashMap<VoxelIndex, f64>,
 ) -> Result<Vec<Vec<Vec<usize>>>, ReplanError> {
-    let budget = options.budget();
-    let home = points[0];
-    let grid = map.voxels.grid;
-    let home_m = |stop: usize| {
-        let p = points[stop];
-        if space.segment_is_clear(&home, &p) {
-            return (p - home).norm();
+    let (tour, _) = route.tour.as_ref().expect("a route with a tour");
+    let home_m = |stop: usize| route.home_m(space, stop);
+    let split = match team {
+        [one] => crate::tour::sorties(tour, &one.budget, &home_m).map(|one| vec![one]),
+        _ => {
+            let budgets: Vec<Budget> = team.iter().map(|m| m.budget).collect();
+            crate::team::split(tour, &budgets, &home_m)
         }
-        // Rounding to millimetres per step: a little headroom.
-        from_home
-            .get(&grid.voxel_of(&p))
-            .map_or(f64::INFINITY, |d| {
-                (d + (p - grid.center(grid.voxel_of(&p))).norm()) * 1.001 + 0.01
-            })
     };
-    let drones = options.settings.drones as usize;
-    let split = match drones {
-        1 => crate::tour::sorties(tour, &budget, &home_m).map(|one| vec![one]),
-        n => crate::team::split(tour, n, &budget, &home_m),
-    };
-    split.map_err(|(stop, round_trip_m)| ReplanError::SortieTooLong {
+    split.map_err(|e| sortie_too_long(&team[0], &route.points, e))
+}
+
+/// A stop whose round trip alone does not fit `member`'s battery.
+fn sortie_too_long(
+    member: &Member,
+    points: &[Point3<f64>],
+    (stop, round_trip_m): (usize, f64),
+) -> ReplanError {
+    ReplanError::SortieTooLong {
         point: points[stop].coords.into(),
         round_trip_m,
-        round_trip_s: budget.time_s(round_trip_m, 1),
-        max_m: budget.max_length_m,
-        battery_minutes: options.settings.battery_minutes,
-    })
+        round_trip_s: member.budget.time_s(round_trip_m, 1),
+        max_m: member.budget.max_length_m,
+        battery_minutes: member.battery_minutes,
+    }
 }
 
-/// One sortie over the tour's stops `indices`: home, the waypoints, home,
-/// on collision-free legs.
-fn fly(
-    options: &ReplanOptions,
-    tour: &Tour,
-    points: &[Point3<f64>],
-    space: &FreeSpace,
-    indices: &[usize],
-    waypoint: &dyn Fn(usize) -> Waypoint,
-) -> Sortie {
-    let home = points[0];
+/// One sortie of drone `drone` over `route`'s tour stops `indices`: home,
+/// the waypoints, home, on collision-free legs.
+fn fly(member: &Member, drone: u32, route: &Route, space: &FreeSpace, indices: &[usize]) -> Sortie {
+    let (tour, _) = route.tour.as_ref().expect("a route with a tour");
+    let (home, points) = (route.home(), &route.points);
     let home_leg = |stop: usize| {
         space
             .path(&home, &points[stop])
@@ -717,7 +664,7 @@ fn fly(
     } else {
         home_leg(tour.stops[last]).into_iter().rev().collect()
     });
-    let waypoints: Vec<Waypoint> = indices.iter().map(|&i| waypoint(i)).collect();
+    let waypoints: Vec<Waypoint> = indices.iter().map(|&i| route.waypoint(i)).collect();
     let mut path: Vec<Point3<f64>> = Vec::new();
     for leg in &legs {
         for p in leg {
@@ -728,8 +675,8 @@ fn fly(
     }
     let length_m = length(&path);
     Sortie {
-        drone: 0,
-        time_s: options.budget().time_s(length_m, waypoints.len()),
+        drone,
+        time_s: member.budget.time_s(length_m, waypoints.len()),
         waypoints,
         path: path.iter().map(|p| p.coords.into()).collect(),
         length_m,
@@ -737,7 +684,7 @@ fn fly(
 }
 
 /// The plan's totals, and its waypoints as an inspection plan's viewpoints.
-fn summarise(summary: &mut ReplanSummary, tour: Tour) {
+fn summarise(summary: &mut ReplanSummary, team: &[Member]) {
     for s in &summary.sorties {
         for w in &s.waypoints {
             summary.viewpoints.push(Viewpoint {
@@ -755,10 +702,11 @@ fn summarise(summary: &mut ReplanSummary, tour: Tour) {
     summary.waypoints = summary.viewpoints.len();
     summary.length_m = summary.sorties.iter().map(|s| s.length_m).sum();
     summary.time_s = summary.sorties.iter().map(|s| s.time_s).sum();
-    summary.drones = drone_plans(&summary.sorties);
+    summary.drones = drone_plans(&summary.sorties, team);
+    let speeds: Vec<f64> = team.iter().map(|m| m.budget.speed_m_s).collect();
     let stagger = crate::team::stagger(
         &summary.sorties,
-        summary.speed_m_s,
+        &speeds,
         summary.hover_s,
         summary.clearance_m,
     );
@@ -769,26 +717,36 @@ fn summarise(summary: &mut ReplanSummary, tour: Tour) {
     let ends = summary.drones.iter().map(|d| d.takeoff_s + d.time_s);
     summary.mission_time_s = ends.fold(0.0, f64::max);
     summary.hover_time_s = summary.hover_s * summary.waypoints as f64;
-    summary.travel_time_s = summary.length_m / summary.speed_m_s;
-    summary.solver = Some(tour.stats);
+    summary.travel_time_s = summary
+        .drones
+        .iter()
+        .map(|d| d.length_m / d.speed_m_s)
+        .sum();
 }
 
-/// Each drone's share of the sorties.
-fn drone_plans(sorties: &[Sortie]) -> Vec<DronePlan> {
-    let mut drones: Vec<DronePlan> = Vec::new();
+/// Each drone's share of the sorties: a plan per member of the team, the
+/// unused ones with none.
+fn drone_plans(sorties: &[Sortie], team: &[Member]) -> Vec<DronePlan> {
+    let mut drones: Vec<DronePlan> = (0u32..)
+        .zip(team)
+        .map(|(drone, m)| DronePlan {
+            drone,
+            name: m.name.clone(),
+            home: m.home.coords.into(),
+            speed_m_s: m.budget.speed_m_s,
+            battery_minutes: m.battery_minutes,
+            camera: m.camera.clone(),
+            image_size: [m.lens.width, m.lens.height],
+            focal_px: m.lens.fx,
+            sorties: 0,
+            waypoints: 0,
+            length_m: 0.0,
+            time_s: 0.0,
+            takeoff_s: 0.0,
+        })
+        .collect();
     for s in sorties {
-        let at = s.drone as usize;
-        while drones.len() <= at {
-            drones.push(DronePlan {
-                drone: drones.len() as u32,
-                sorties: 0,
-                waypoints: 0,
-                length_m: 0.0,
-                time_s: 0.0,
-                takeoff_s: 0.0,
-            });
-        }
-        let d = &mut drones[at];
+        let d = &mut drones[s.drone as usize];
         d.sorties += 1;
         d.waypoints += s.waypoints.len();
         d.length_m += s.length_m;
@@ -840,7 +798,8 @@ fn write(
                     files::drone_mission(drone, in_drone, summary.drones[drone].sorties)
                 }
             };
-            run.write_json(&name, &placement.mission(sortie))?;
+            let launch = Point3::from(summary.drones[drone].home);
+            run.write_json(&name, &placement.mission(sortie, launch))?;
             summary.ground_station_files.push(name);
         }
         run.write_text(files::KML, &placement.kml(&summary.sorties))?;

@@ -1,44 +1,80 @@
-//! A follow-up flight shared by a team of drones taking off from one home:
-//! the tour cut into one stretch per drone so that the slowest drone is
-//! done soonest (route first, split second, after Beasley's split of a
-//! giant tour), each stretch flown in battery sorties from home. Stretches
-//! of one tour keep the drones' areas apart: they meet only near home,
-//! where [`stagger`] spaces their take-offs.
+//! A follow-up flight shared by a team of drones: the tour cut into one
+//! stretch per drone so that the slowest drone is done soonest (route
+//! first, split second, after Beasley's split of a giant tour), each
+//! stretch flown in battery sorties from home. Stretches of one tour keep
+//! the drones' areas apart: they meet only near home, where [`stagger`]
+//! spaces their take-offs. A drone with its own camera or home then flies
+//! its stretch's gaps on a route of its own ([`Member`]).
+
+use std::path::PathBuf;
 
 use nalgebra::Point3;
+use postflight_core::Intrinsics;
 use postflight_core::outputs::replan::{Sortie, Waypoint};
 
 use crate::tour::{Budget, Cutter, Tour};
 
-/// Each drone's sorties (indices into `tour.stops`), drone by drone; fewer
-/// drones than `drones` when that is as quick. An error (the stop and its
-/// round trip) when a stop's round trip alone does not fit a battery.
+/// A drone of the team, as its route and sorties are planned.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Member {
+    pub name: String,
+    /// Where it takes off and lands.
+    pub home: Point3<f64>,
+    pub budget: Budget,
+    pub battery_minutes: f64,
+    /// Its camera's lens, from `camera` (`None`: the flight's camera).
+    pub lens: Intrinsics,
+    pub camera: Option<PathBuf>,
+}
+
+impl Member {
+    /// Whether it can fly a stretch of a tour planned from `home` with the
+    /// flight's camera as it is: same home, same camera.
+    pub fn shares(&self, home: &Point3<f64>, lens: &Intrinsics) -> bool {
+        self.home == *home && self.lens == *lens
+    }
+}
+
+/// Each drone's sorties (indices into `tour.stops`), drone by drone, the
+/// first stretch of the tour to the first drone; each drone flies within
+/// its own budget. Fewer drones than `budgets` when that is as quick. An
+/// error (the stop and its round trip) when a stop's round trip alone does
+/// not fit a battery.
 pub fn split(
     tour: &Tour,
-    drones: usize,
-    budget: &Budget,
+    budgets: &[Budget],
     home_m: &dyn Fn(usize) -> f64,
 ) -> Result<Vec<Vec<Vec<usize>>>, (usize, f64)> {
-    let stops = 1..tour.stops.len();
     // The mission can take no less than the longest single stop's round
-    // trip, nor more than one drone flying everything.
-    let mut whole = Cutter::new(tour, budget, home_m);
-    let mut longest_stop: f64 = 0.0;
-    for i in stops {
-        longest_stop = longest_stop.max(Cutter::new(tour, budget, home_m).time_with(i)?);
-        whole.push(i)?;
+    // trip (for the quickest drone), nor more than the slowest drone
+    // flying everything.
+    let (mut lo, mut hi) = (0.0f64, 0.0f64);
+    for budget in budgets {
+        let mut whole = Cutter::new(tour, budget, home_m);
+        for i in 1..tour.stops.len() {
+            whole.push(i)?;
+        }
+        hi = hi.max(whole.time_s());
     }
-    let (mut lo, mut hi) = (longest_stop, whole.time_s());
-    let mut best = stretches(tour, budget, home_m, hi)?;
+    for i in 1..tour.stops.len() {
+        let quickest = budgets
+            .iter()
+            .map(|b| Cutter::new(tour, b, home_m).time_with(i))
+            .collect::<Result<Vec<f64>, _>>()?
+            .into_iter()
+            .fold(f64::INFINITY, f64::min);
+        lo = lo.max(quickest);
+    }
+    let mut best = stretches(tour, budgets, home_m, hi)?;
     // Bisect the mission's time: the shortest whose greedy cut needs at
-    // most `drones` stretches.
+    // most a stretch per drone.
     for _ in 0..60 {
         if hi - lo <= 1e-3 * hi.max(1.0) {
             break;
         }
         let mid = 0.5 * (lo + hi);
-        let cut = stretches(tour, budget, home_m, mid)?;
-        if cut.len() <= drones {
+        let cut = stretches(tour, budgets, home_m, mid)?;
+        if cut.len() <= budgets.len() {
             (best, hi) = (cut, mid);
         } else {
             lo = mid;
@@ -47,21 +83,23 @@ pub fn split(
     Ok(best)
 }
 
-/// The tour cut greedily into stretches each flown within `limit_s`
-/// (a stop that alone takes longer gets a stretch of its own), each cut
-/// into its sorties.
+/// The tour cut greedily into stretches, the k-th flown within `limit_s`
+/// by drone k (the last drone's budget for any beyond), a stop that alone
+/// takes longer getting a stretch of its own; each cut into its sorties.
 fn stretches(
     tour: &Tour,
-    budget: &Budget,
+    budgets: &[Budget],
     home_m: &dyn Fn(usize) -> f64,
     limit_s: f64,
 ) -> Result<Vec<Vec<Vec<usize>>>, (usize, f64)> {
+    let budget = |k: usize| &budgets[k.min(budgets.len() - 1)];
     let mut out = Vec::new();
-    let mut current = Cutter::new(tour, budget, home_m);
+    let mut current = Cutter::new(tour, budget(0), home_m);
     let mut empty = true;
     for i in 1..tour.stops.len() {
         if !empty && current.time_with(i)? > limit_s {
-            let full = std::mem::replace(&mut current, Cutter::new(tour, budget, home_m));
+            let next = Cutter::new(tour, budget(out.len() + 1), home_m);
+            let full = std::mem::replace(&mut current, next);
             out.push(full.finish());
         }
         current.push(i)?;
@@ -76,7 +114,8 @@ fn stretches(
 /// When each drone of a team takes off, seconds after the first, and how
 /// close any two then come while flying: take-offs are staggered by the
 /// shortest whole second that keeps every two drones at least `clearance_m`
-/// apart at every moment (checked every [`STEP_S`]); all share one home.
+/// apart at every moment (checked every [`STEP_S`]); drones already apart
+/// take off together.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Stagger {
     pub takeoff_s: Vec<f64>,
@@ -89,10 +128,10 @@ const STEP_S: f64 = 0.25;
 /// The longest stagger tried between two take-offs, seconds.
 const MAX_STAGGER_S: u32 = 300;
 
-/// Take-offs for `sorties` (each naming its drone), flown at `speed_m_s`
-/// with `hover_s` at each waypoint, each drone's sorties one after the
-/// other.
-pub fn stagger(sorties: &[Sortie], speed_m_s: f64, hover_s: f64, clearance_m: f64) -> Stagger {
+/// Take-offs for `sorties` (each naming its drone), drone `d` flying at
+/// `speeds_m_s[d]` with `hover_s` at each waypoint, each drone's sorties
+/// one after the other.
+pub fn stagger(sorties: &[Sortie], speeds_m_s: &[f64], hover_s: f64, clearance_m: f64) -> Stagger {
     let drones = sorties
         .iter()
         .map(|s| s.drone as usize + 1)
@@ -101,7 +140,7 @@ pub fn stagger(sorties: &[Sortie], speed_m_s: f64, hover_s: f64, clearance_m: f6
     let timelines: Vec<Timeline> = (0..drones)
         .map(|d| {
             let own = sorties.iter().filter(|s| s.drone as usize == d);
-            Timeline::of(own, speed_m_s, hover_s)
+            Timeline::of(own, speeds_m_s[d], hover_s)
         })
         .collect();
     if drones < 2 {
@@ -219,7 +258,7 @@ mod tests {
         // north: together at home at the start and the end.
         let east = sortie(0, &[[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 0.0, 0.0]]);
         let north = sortie(1, &[[0.0, 0.0, 0.0], [0.0, 10.0, 0.0], [0.0, 0.0, 0.0]]);
-        let s = stagger(&[east, north], 1.0, 0.0, 2.0);
+        let s = stagger(&[east, north], &[1.0, 1.0], 0.0, 2.0);
         // Taking off together they meet at home; 2 s apart they are 2 m
         // apart when the second takes off and when the first lands.
         assert_eq!(s.takeoff_s, vec![0.0, 2.0]);
@@ -229,7 +268,7 @@ mod tests {
         let far = sortie(1, &[[50.0, 0.0, 0.0], [60.0, 0.0, 0.0]]);
         let near = sortie(0, &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]);
         assert_eq!(
-            stagger(&[near, far], 1.0, 0.0, 2.0).takeoff_s,
+            stagger(&[near, far], &[1.0, 1.0], 0.0, 2.0).takeoff_s,
             vec![0.0, 0.0]
         );
     }

@@ -731,7 +731,7 @@ fn team_plan(p: &ReplanSummary) -> Markup {
     html! {
         h3 { "Team plan" }
         p {
-            (p.drones.len()) " drones take off from home one after another, each flying its share of the tour in its own battery sorties. "
+            (p.drones.len()) " drones take off one after another, each flying its share of the gaps in its own battery sorties from its home. "
             (format!("The mission takes about {:.1} min from the first take-off to the last landing", p.mission_time_s / 60.0))
             @if let Some(m) = p.closest_drones_m {
                 (format!("; the take-offs are spaced so that no two drones come closer than {m:.1} m (clearance {:.1} m)", p.clearance_m))
@@ -740,12 +740,21 @@ fn team_plan(p: &ReplanSummary) -> Markup {
         }
         table {
             tr {
-                th { "drone" } th.n { "takes off" } th.n { "sorties" } th.n { "waypoints" } th.n { "length" }
-                th.n { "time" } th { "files" }
+                th { "drone" } th { "camera" } th { "home" } th.n { "speed" } th.n { "takes off" } th.n { "sorties" }
+                th.n { "waypoints" } th.n { "length" } th.n { "time" } th { "files" }
             }
             @for d in &p.drones {
                 tr {
-                    td { (d.drone + 1) }
+                    td { (d.drone + 1) @if !d.name.is_empty() { " " (d.name) } }
+                    td {
+                        (format!("{} x {} px, f {:.0} px", d.image_size[0], d.image_size[1], d.focal_px))
+                        @match &d.camera {
+                            Some(file) => { ", " code { (file.file_name().map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into_owned())) } }
+                            None => { ", the flight's" }
+                        }
+                    }
+                    td { (format!("{:.1}, {:.1}, {:.1}", d.home[0], d.home[1], d.home[2])) }
+                    td.n { (format!("{:.1} m/s", d.speed_m_s)) }
                     td.n { (format!("+{:.0} s", d.takeoff_s)) }
                     td.n { (d.sorties) }
                     td.n { (d.waypoints) }

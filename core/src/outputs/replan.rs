@@ -91,6 +91,24 @@ pub struct Sortie {
 pub struct DronePlan {
     /// From 0, as its sorties' `drone`.
     pub drone: u32,
+    /// As `[[replan.drone]]` names it (`drone K` for drones alike).
+    #[serde(default)]
+    pub name: String,
+    /// Where it takes off and lands, map frame.
+    #[serde(default)]
+    pub home: [f64; 3],
+    #[serde(default)]
+    pub speed_m_s: f64,
+    #[serde(default)]
+    pub battery_minutes: f64,
+    /// Its camera's calibration file; `None`: the flight's camera.
+    #[serde(default)]
+    pub camera: Option<PathBuf>,
+    /// Its camera's image width and height and focal length, pixels.
+    #[serde(default)]
+    pub image_size: [u32; 2],
+    #[serde(default)]
+    pub focal_px: f64,
     pub sorties: usize,
     pub waypoints: usize,
     pub length_m: f64,
