@@ -219,6 +219,9 @@ body_frame = "base_link"
 world_frame = "map"
 max_pose_gap_s = 0.5
 strict = true
+[[ingest.recording_frame]]
+recording = "drone-2.mcap"
+origin = [12.0, -3.0, 0.0, 90.0]
 [detect]
 prompts = ["crack", "spalling"]
 embeddings = "embeddings.json"

@@ -423,6 +423,14 @@ struct SimulateArgs {
     /// each with its own map.
     #[arg(long, value_name = "X,Y,Z,YAW_DEG", value_parser = sim::repeat::FrameOffset::parse, allow_hyphen_values = true)]
     sortie_offset: Option<sim::repeat::FrameOffset>,
+    /// With --sortie-offset: the later sorties record no map, as a drone
+    /// with a camera and odometry only (the map is the first sortie's).
+    #[arg(long, requires = "sortie_offset")]
+    camera_only: bool,
+    /// Record GPS fixes (sensor_msgs/NavSatFix, 5 Hz, 0.3 m noise across
+    /// and 0.5 m up) on /gps/fix, the world frame's origin here.
+    #[arg(long, value_name = "LAT,LON,ALT[,YAW_DEG]", allow_hyphen_values = true)]
+    gps: Option<postflight_core::geo::GeoOrigin>,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -580,7 +588,9 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
         sorties: sim::sortie::SortieOptions {
             count: args.sorties,
             offset: args.sortie_offset,
+            camera_only: args.camera_only,
         },
+        gps: args.gps,
         ..sim::SimOptions::new(args.out.clone())
     };
     stages::simulate(&options, quiet)

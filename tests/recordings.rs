@@ -262,3 +262,108 @@ fn sorties_in_slam_frames_of_their_own_are_registered_onto_the_first() {
         );
     }
 }
+
+#[test]
+fn camera_only_sorties_are_placed_by_their_gps_or_by_the_settings() {
+    let dir = tempfile::tempdir().unwrap();
+    // The later two sorties flown by a drone with a camera and odometry
+    // only, 7 m and 40 degrees off; every sortie with GPS.
+    let gps = "--gps=47.397742,8.545594,488.0,23.5";
+    let flags = [
+        &SORTIES[..],
+        &["--sortie-offset=6,-4,0.2,40", "--camera-only", gps],
+    ]
+    .concat();
+    let sorties = simulated(&flags);
+    let whole = simulated(&WHOLE);
+    let (one, three) = (dir.path().join("whole"), dir.path().join("sorties"));
+    let plan = whole.join("plan.json");
+    let out = run(&[&whole.join("flight.mcap")], &plan, &one);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = run(&[&sorties], &plan, &three);
+    assert!(out.status.success(), "{}", stderr(&out));
+
+    // By GPS: each later sortie's frame near where the truth puts it.
+    let truth = read_json(&sorties.join("truth.json"));
+    let told = truth["sorties"].as_array().unwrap();
+    let expected =
+        |k: usize| pose(&told[0]["slam_from_world"]) * pose(&told[k]["slam_from_world"]).inverse();
+    let summary = read_json(&three.join("ingest.json"));
+    for (k, r) in summary["recordings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .skip(1)
+    {
+        let placement = &r["placement"];
+        assert_eq!(placement["by"]["kind"], "gps", "{placement}");
+        let (metres, degrees) = pose_error(&expected(k), &pose(&placement["transform"]));
+        eprintln!(
+            "sortie {} by GPS: off by {metres:.3} m, {degrees:.3} deg",
+            k + 1
+        );
+        assert!(metres < 0.1 && degrees < 0.2, "sortie {}", k + 1);
+    }
+    let inspected = |run: &Path| f(&read_json(&run.join("coverage.json"))["inspected_voxels"]);
+    let (a, b) = (inspected(&one), inspected(&three));
+    let (ca, cb) = (candidates(&one).len(), candidates(&three).len());
+    eprintln!(
+        "placed by GPS: inspected voxels {a} recorded once, {b} as sorties; candidates {ca} and {cb}"
+    );
+    assert!((a - b).abs() <= 0.01 * a, "{a} against {b}");
+    assert!(ca.abs_diff(cb) <= 1, "{ca} against {cb}");
+
+    // Given in the settings (the truth's frames): exactly there.
+    let mut args = Vec::new();
+    for k in 1..told.len() {
+        let t = expected(k);
+        let yaw = t.rotation.euler_angles().2.to_degrees();
+        let v = t.translation.vector;
+        args.push("--recording-frame".to_string());
+        args.push(format!(
+            "{{recording = \"sortie-{}.mcap\", origin = [{}, {}, {}, {yaw}]}}",
+            k + 1,
+            v.x,
+            v.y,
+            v.z
+        ));
+    }
+    let given_run = dir.path().join("given");
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let summary = ingest_ok(&sorties, &given_run, &args);
+    for (k, r) in summary["recordings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .skip(1)
+    {
+        assert_eq!(r["placement"]["by"]["kind"], "given");
+        let (metres, degrees) = pose_error(&expected(k), &pose(&r["placement"]["transform"]));
+        assert!(
+            metres < 1e-9 && degrees < 1e-9,
+            "sortie {}: {metres} m, {degrees} deg",
+            k + 1
+        );
+    }
+    // A frame for a recording the flight does not have is refused.
+    let out = postflight(
+        &[
+            "ingest",
+            "--flight",
+            sorties.to_str().unwrap(),
+            "--out",
+            dir.path().join("typo").to_str().unwrap(),
+            "--recording-frame",
+            "{recording = \"sortie-9.mcap\", origin = [0, 0, 0, 0]}",
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stderr(&out).contains("--recording-frame must be a recording of the flight (sortie-1.mcap, sortie-2.mcap, sortie-3.mcap) (it is sortie-9.mcap)"),
+        "{}",
+        stderr(&out)
+    );
+}

@@ -38,11 +38,16 @@ pub(crate) fn place_of(path: &Path, options: &IngestOptions) -> PathBuf {
         .and_then(|m| m.modified().ok())
         .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
         .map_or(0, |d| d.as_nanos());
+    // Where recordings are placed is not how one is read.
+    let settings = crate::IngestConfig {
+        recording_frame: Vec::new(),
+        ..options.settings.clone()
+    };
     let key = serde_json::json!({
         "path": absolute,
         "size_bytes": meta.map_or(0, |m| m.len()),
         "modified_ns": modified_ns.to_string(),
-        "settings": options.settings,
+        "settings": settings,
         "postflight": env!("CARGO_PKG_VERSION"),
     });
     let key = sha256(key.to_string().as_bytes());

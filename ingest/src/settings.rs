@@ -3,6 +3,45 @@
 
 use std::path::PathBuf;
 
+use postflight_core::setting::inline_table;
+
+/// Where a recording's own frame (its SLAM or odometry frame) is in the
+/// run's map frame, as the settings give it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RecordingFrame {
+    /// The recording's file name (`drone-2.mcap`).
+    pub recording: String,
+    /// Its frame's origin in the map frame (x, y, z, metres) and the yaw of
+    /// its x axis from the map's (degrees, counter-clockwise).
+    pub origin: [f64; 4],
+}
+
+impl std::str::FromStr for RecordingFrame {
+    type Err = String;
+
+    /// As a TOML inline table: `{recording = "drone-2.mcap", origin = [12,
+    /// -3, 0, 90]}`.
+    fn from_str(text: &str) -> Result<Self, String> {
+        inline_table(
+            text,
+            "a recording's frame {recording = \"FILE\", origin = [x, y, z, yaw_deg]}",
+        )
+    }
+}
+
+impl RecordingFrame {
+    /// The frame as a rigid motion: a point of the recording's frame to the
+    /// map frame.
+    pub fn isometry(&self) -> nalgebra::Isometry3<f64> {
+        let [x, y, z, yaw] = self.origin;
+        nalgebra::Isometry3::new(
+            nalgebra::Vector3::new(x, y, z),
+            nalgebra::Vector3::z() * yaw.to_radians(),
+        )
+    }
+}
+
 postflight_core::settings! {
     table = "ingest", keys = keys;
     /// `[ingest]`: which topics and frames of the recording to read.
@@ -35,6 +74,14 @@ postflight_core::settings! {
         /// Largest gap between poses that frames are interpolated across, seconds.
         #[arg(long = "max-pose-gap", value_name = "SECONDS")]
         max_pose_gap_s: f64 = 0.25,
+        /// Where recordings without a map of their own are in the map frame
+        /// (a camera-only drone's odometry frame), each by its file name;
+        /// otherwise such a recording is placed by its GPS fixes when they
+        /// put it away from the first recording's frame, or taken to share
+        /// it. `[[ingest.recording_frame]]` tables, or the flag once per
+        /// recording as a TOML inline table.
+        #[arg(long = "recording-frame", value_name = "FRAME")]
+        recording_frame: Vec<RecordingFrame> = Vec::new(),
         /// Fail on a truncated recording instead of salvaging it.
         #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]
         strict: bool = false,

@@ -3,10 +3,13 @@
 //! landing (or each drone of a team) has a frame of its own, and its map
 //! says where: the first recording with a map is the reference, and every
 //! other map is registered onto it (`postflight_core::map::register`). A
-//! recording without a map of its own is taken to be in the reference's
-//! frame.
+//! recording without a map of its own (a camera-only drone) is where the
+//! settings put it; else where its GPS fixes put it against the
+//! reference's, when that is away from the reference's frame; else it is
+//! taken to be in the reference's frame.
 
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Point3, Vector3};
+use postflight_core::geo::GeoAlignment;
 use postflight_core::map::register::{RegisterOptions, register};
 use postflight_core::map::{PointCloud, SlamMap, VoxelGrid};
 use postflight_core::outputs::ingest::{PlacedBy, Placement};
@@ -17,10 +20,17 @@ use crate::error::IngestError;
 /// (one session's map at two times): metres, and degrees.
 const SAME_FRAME: (f64, f64) = (0.02, 0.2);
 
-/// One recording as placing it needs: its name and its map, if it has one.
+/// A GPS placement this close to the reference's frame (metres, degrees)
+/// is taken to be that frame: within what GPS can tell.
+const GPS_SAME_FRAME: (f64, f64) = (1.0, 3.0);
+
+/// One recording as placing it needs: its name, its map, if it has one,
+/// where the settings put it, and its frame on the Earth by its GPS fixes.
 pub(crate) struct RecordedFrame<'a> {
     pub(crate) name: String,
     pub(crate) map: Option<&'a PointCloud>,
+    pub(crate) given: Option<Isometry3<f64>>,
+    pub(crate) on_earth: Option<GeoAlignment>,
 }
 
 /// Where each recording's SLAM frame is in the run's map frame, and
@@ -34,13 +44,26 @@ pub(crate) fn place(
         by: PlacedBy::SharedFrame,
     };
     let mut placements = vec![shared; recordings.len()];
-    let Some(reference) = recordings.iter().position(|r| r.map.is_some()) else {
-        placements[0].by = PlacedBy::Reference;
-        return Ok((placements, Vec::new()));
-    };
+    let reference = recordings.iter().position(|r| r.map.is_some()).unwrap_or(0);
     placements[reference].by = PlacedBy::Reference;
+    for (i, r) in recordings
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != reference)
+    {
+        if let Some(given) = r.given {
+            placements[i] = Placement {
+                transform: given,
+                by: PlacedBy::Given,
+            };
+        } else if r.map.is_none()
+            && let Some(by_gps) = by_gps(r, &recordings[reference])
+        {
+            placements[i] = by_gps;
+        }
+    }
     let to_register: Vec<usize> = (0..recordings.len())
-        .filter(|i| *i != reference && recordings[*i].map.is_some())
+        .filter(|&i| i != reference && recordings[i].map.is_some() && recordings[i].given.is_none())
         .collect();
     if to_register.is_empty() {
         return Ok((placements, Vec::new()));
@@ -75,8 +98,9 @@ pub(crate) fn place(
         .any(|p| matches!(p.by, PlacedBy::Registered { .. }));
     let warnings = recordings
         .iter()
-        .filter(|r| registered && r.map.is_none())
-        .map(|r| {
+        .zip(&placements)
+        .filter(|(r, p)| registered && r.map.is_none() && p.by == PlacedBy::SharedFrame)
+        .map(|(r, _)| {
             format!(
                 "{} has no map of its own: it is taken to be in {}'s SLAM frame, though other recordings are in frames of their own",
                 r.name, recordings[reference].name
@@ -84,6 +108,27 @@ pub(crate) fn place(
         })
         .collect();
     Ok((placements, warnings))
+}
+
+/// `recording` placed by its GPS fixes against `reference`'s: `None`
+/// without a fit of both, or when the two frames are the same within what
+/// GPS tells.
+fn by_gps(recording: &RecordedFrame, reference: &RecordedFrame) -> Option<Placement> {
+    let (own, onto) = (recording.on_earth.as_ref()?, reference.on_earth.as_ref()?);
+    // A point of the recording's frame, on the Earth, in the reference's.
+    let to_reference = |p: Point3<f64>| onto.origin.to_local(&own.origin.to_geodetic(&p));
+    let origin = to_reference(Point3::origin());
+    let x = to_reference(Point3::new(1.0, 0.0, 0.0)) - origin;
+    let yaw = x.y.atan2(x.x);
+    let transform = Isometry3::new(origin.coords, Vector3::z() * yaw);
+    let same = origin.coords.norm() < GPS_SAME_FRAME.0 && yaw.abs().to_degrees() < GPS_SAME_FRAME.1;
+    (!same).then_some(Placement {
+        transform,
+        by: PlacedBy::Gps {
+            rms_m: own.rms_m + onto.rms_m,
+            fixes: own.fixes,
+        },
+    })
 }
 
 /// A recording's map as a map to register, on the default grid; `None`

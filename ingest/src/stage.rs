@@ -26,8 +26,9 @@ use crate::reopen::recorded_map_of;
 use crate::reuse;
 use crate::ros::{msg, pointcloud2, schema};
 use crate::scan::Scan;
-use crate::settings::{IngestConfig, keys};
+use crate::settings::{IngestConfig, RecordingFrame, keys};
 use crate::slam_frames::{self, RecordedFrame};
+use postflight_core::map::PointCloud;
 
 /// What to ingest and how. Serialised, it is what the stage's result
 /// depends on besides its input files (`postflight run`'s fingerprint): the
@@ -134,7 +135,7 @@ pub fn ingest(
             path: options.flights[0].clone(),
         });
     }
-    let warnings = place_recordings(&mut ingested, &mut recordings)?;
+    let warnings = place_recordings(&mut ingested, &mut recordings, options)?;
     let (summary, flight) = combine(ingested, options, warnings);
     write_outputs(&options.out, &flight, &summary)?;
     Ok(summary)
@@ -309,17 +310,25 @@ fn ingest_one(
 fn place_recordings(
     ingested: &mut [Ingested],
     recordings: &mut [Recording],
+    options: &IngestOptions,
 ) -> Result<Vec<String>, IngestError> {
     let mut maps = Vec::new();
     for (one, recording) in ingested.iter().zip(recordings) {
         maps.push(recorded_map_of(recording, &one.summary)?);
     }
+    let names: Vec<String> = ingested.iter().map(|i| i.summary.name()).collect();
+    let given = given_frames(&options.settings.recording_frame, &names, &maps)?;
+    let max_gap_ns = (options.settings.max_pose_gap_s * 1e9) as i64;
     let frames: Vec<RecordedFrame> = ingested
         .iter()
         .zip(&maps)
-        .map(|(i, map)| RecordedFrame {
+        .zip(given)
+        .map(|((i, map), given)| RecordedFrame {
             name: i.summary.name(),
             map: map.as_ref().filter(|c| !c.is_empty()),
+            given,
+            on_earth: fixes_on(&i.fixes, |_| Some(&i.trajectory), max_gap_ns)
+                .and_then(|(local, geodetic)| GeoAlignment::fit(&local, &geodetic).ok()),
         })
         .collect();
     let (placements, warnings) = slam_frames::place(&frames)?;
@@ -327,6 +336,36 @@ fn place_recordings(
         one.place(placement);
     }
     Ok(warnings)
+}
+
+/// Each recording's frame as the settings give it (by file name); refused
+/// when one names no recording of the flight, or the reference recording
+/// (the first with a map), whose frame is the map frame.
+fn given_frames(
+    given: &[RecordingFrame],
+    names: &[String],
+    maps: &[Option<PointCloud>],
+) -> Result<Vec<Option<Isometry3<f64>>>, IngestError> {
+    let reference = maps
+        .iter()
+        .position(|m| m.as_ref().is_some_and(|c| !c.is_empty()))
+        .unwrap_or(0);
+    let mut out = vec![None; names.len()];
+    for frame in given {
+        let expected = match names.iter().position(|n| *n == frame.recording) {
+            None => format!("a recording of the flight ({})", names.join(", ")),
+            Some(i) if i == reference => format!(
+                "a recording other than {}, the reference, whose frame is the map frame",
+                names[i]
+            ),
+            Some(i) => {
+                out[i] = Some(frame.isometry());
+                continue;
+            }
+        };
+        return Err(InvalidSetting::new(keys::recording_frame, &frame.recording, expected).into());
+    }
+    Ok(out)
 }
 
 /// What ingest writes, the recordings' together.
@@ -422,22 +461,11 @@ fn geo_origin(
     max_gap_ns: i64,
     warnings: &mut Vec<String>,
 ) -> Option<GeoAlignment> {
-    if fixes.is_empty() {
-        return None;
-    }
-    let (local, geodetic): (Vec<Point3<f64>>, Vec<Geodetic>) = fixes
-        .iter()
-        .filter(|f| f.status >= 0)
-        .filter_map(|f| {
-            match trajectories
-                .get(usize::from(f.recording))?
-                .at(f.time_ns, max_gap_ns)
-            {
-                PoseAt::Pose(pose) => Some((Point3::from(pose.translation.vector), f.position)),
-                _ => None,
-            }
-        })
-        .unzip();
+    let (local, geodetic) = fixes_on(
+        fixes,
+        |f| trajectories.get(usize::from(f.recording)),
+        max_gap_ns,
+    )?;
     GeoAlignment::fit(&local, &geodetic)
         .map_err(|why| {
             warnings.push(format!(
@@ -445,6 +473,29 @@ fn geo_origin(
             ));
         })
         .ok()
+}
+
+/// The fixes with a fix status and a pose at their time (on the trajectory
+/// `trajectory_of` gives each): the pose's position and the fix's; `None`
+/// without fixes.
+fn fixes_on<'a>(
+    fixes: &[GnssFix],
+    trajectory_of: impl Fn(&GnssFix) -> Option<&'a Trajectory>,
+    max_gap_ns: i64,
+) -> Option<(Vec<Point3<f64>>, Vec<Geodetic>)> {
+    if fixes.is_empty() {
+        return None;
+    }
+    Some(
+        fixes
+            .iter()
+            .filter(|f| f.status >= 0)
+            .filter_map(|f| match trajectory_of(f)?.at(f.time_ns, max_gap_ns) {
+                PoseAt::Pose(pose) => Some((Point3::from(pose.translation.vector), f.position)),
+                _ => None,
+            })
+            .unzip(),
+    )
 }
 
 /// Frames per `pose_status`.

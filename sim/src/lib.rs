@@ -16,6 +16,7 @@ pub mod crack;
 pub mod distractor;
 mod error;
 pub mod flight;
+pub mod gps;
 mod obj;
 pub mod planner;
 pub mod record;
@@ -87,6 +88,8 @@ pub struct SimOptions {
     pub gimbal: bool,
     /// Record the flight as sorties, one recording per battery.
     pub sorties: sortie::SortieOptions,
+    /// Record GPS fixes, the world frame placed on the Earth here.
+    pub gps: Option<postflight_core::geo::GeoOrigin>,
 }
 
 /// Compression of recorded camera frames (`sensor_msgs/CompressedImage` format).
@@ -127,6 +130,7 @@ impl SimOptions {
             distractors: false,
             gimbal: false,
             sorties: sortie::SortieOptions::default(),
+            gps: None,
         }
     }
 }
@@ -204,7 +208,7 @@ pub fn simulate(
         &options.sorties,
         &frame_times,
         duration,
-        options.gimbal,
+        (options.gimbal, options.gps.is_some()),
     )?;
     for (rec, sortie) in sorties.each() {
         write_mounting(rec, &world, ns(sortie.start_s()))?;
@@ -245,6 +249,7 @@ pub fn simulate(
             .zip(world.changes.clone())
             .map(|(r, changes)| repeat::truth(r, changes)),
         sorties: sortie_truth,
+        gps: options.gps.map(gps::GpsTruth::new),
     };
     write_json(&options.out.join("plan.json"), &world.plan)?;
     write_json(&options.out.join("truth.json"), &truth)?;
@@ -476,6 +481,8 @@ fn record_frames(
         noise: Rng::stream(options.seed, "pose noise"),
         sigma: options.pose_noise,
     };
+    let mut fixes = options.gps.map(|o| gps::GpsWriter::new(o, options.seed));
+    let position = |t: f64| Point3::from(flight.body_pose(t).translation.vector);
     let mut drops = Rng::stream(options.seed, "dropped frames");
     let mut recorded = Recorded {
         frames: Vec::new(),
@@ -487,6 +494,9 @@ fn record_frames(
         let i = i as u32;
         // Poses stamped up to this frame go first, as a recorder would receive them.
         poses.write_until(t, sorties)?;
+        if let Some(f) = &mut fixes {
+            f.write_until(t, duration, position, sorties)?;
+        }
         let camera = world.camera_at(t);
         let is_dropped = i > 0 && i + 1 < n && drops.uniform() < DROP_RATE;
         let blur = blur_vector(world, t);
@@ -526,6 +536,9 @@ fn record_frames(
         progress(u64::from(i) + 1, u64::from(n));
     }
     poses.write_until(duration, sorties)?;
+    if let Some(f) = &mut fixes {
+        f.write_until(duration, duration, position, sorties)?;
+    }
     Ok(recorded)
 }
 

@@ -20,6 +20,8 @@ pub const POSE_TOPIC: &str = "/slam/pose";
 pub const MAP_TOPIC: &str = "/map";
 /// Transforms that move (a gimbal's camera link), beside `/tf_static`.
 pub const TF_TOPIC: &str = "/tf";
+/// GPS fixes, as a GNSS receiver driver publishes them.
+pub const GPS_TOPIC: &str = "/gps/fix";
 
 pub struct Recorder {
     path: PathBuf,
@@ -57,8 +59,9 @@ pub fn ros_pose(p: &Isometry3<f64>) -> msg::Pose {
 }
 
 impl Recorder {
-    /// A recording at `path`; with `moving_tf`, a `/tf` channel too.
-    pub fn create(path: &Path, moving_tf: bool) -> Result<Self, SimError> {
+    /// A recording at `path`; with `moving_tf`, a `/tf` channel too, and
+    /// with `gps`, a GPS fix channel.
+    pub fn create(path: &Path, moving_tf: bool, gps: bool) -> Result<Self, SimError> {
         let file = File::create(path).map_err(SimError::write(path))?;
         let failed = |cause| SimError::Record {
             path: path.to_owned(),
@@ -113,7 +116,13 @@ impl Recorder {
         ]
         .into_iter()
         .chain(moving)
-        {
+        .chain(gps.then(|| {
+            (
+                GPS_TOPIC,
+                "sensor_msgs/msg/NavSatFix",
+                definitions::nav_sat_fix(),
+            )
+        })) {
             let schema_id = writer
                 .add_schema(schema, "ros2msg", text.as_bytes())
                 .map_err(failed)?;

@@ -25,6 +25,9 @@ pub struct SortieOptions {
     /// The later sorties' SLAM frame against the first's; `None`: the
     /// first's.
     pub offset: Option<FrameOffset>,
+    /// With an offset: the later sorties record no map (a drone with a
+    /// camera and odometry only).
+    pub camera_only: bool,
 }
 
 impl Default for SortieOptions {
@@ -32,6 +35,7 @@ impl Default for SortieOptions {
         Self {
             count: 1,
             offset: None,
+            camera_only: false,
         }
     }
 }
@@ -99,15 +103,16 @@ pub struct Sorties {
 impl Sorties {
     /// The recordings in `out` for a flight of `frame_times` (seconds,
     /// `duration_s` long): `flight.mcap` when whole, else `sortie-1.mcap`
-    /// and on; with `moving_tf`, each with a `/tf` channel. The map goes
-    /// with the last, or, where the later sorties have a frame of their
-    /// own, with each.
+    /// and on; with `moving_tf`, each with a `/tf` channel, and with
+    /// `gps`, a GPS channel. The map goes with the last, or, where the later
+    /// sorties have a frame of their own, with each (but for camera-only
+    /// ones: then with the first).
     pub fn create(
         out: &Path,
         options: &SortieOptions,
         frame_times: &[f64],
         duration_s: f64,
-        moving_tf: bool,
+        (moving_tf, gps): (bool, bool),
     ) -> Result<Self, SimError> {
         // `count` is 1 to the frames (checked before anything is written).
         let count = options.count as usize;
@@ -122,12 +127,16 @@ impl Sorties {
                 },
                 stretch,
                 slam: later.filter(|_| i > 0).unwrap_or_else(Isometry3::identity),
-                with_map: i + 1 == count || later.is_some(),
+                with_map: match (later.is_some(), options.camera_only) {
+                    (true, true) => i == 0,
+                    (true, false) => true,
+                    (false, _) => i + 1 == count,
+                },
             })
             .collect();
         let recorders = sorties
             .iter()
-            .map(|s| Recorder::create(&out.join(&s.name), moving_tf))
+            .map(|s| Recorder::create(&out.join(&s.name), moving_tf, gps))
             .collect::<Result<_, _>>()?;
         Ok(Self { sorties, recorders })
     }

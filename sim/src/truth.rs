@@ -267,6 +267,10 @@ pub struct Truth {
     /// The recordings a flight cut into sorties was written as.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sorties: Option<Vec<crate::sortie::SortieTruth>>,
+    /// Where the world frame is on the Earth and the GPS fixes' noise,
+    /// when the flight records GPS.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gps: Option<crate::gps::GpsTruth>,
 }
 
 /// White noise added to each recorded pose, 1 sigma.

@@ -132,6 +132,17 @@ pub enum PlacedBy {
         /// Share of its map on the reference's.
         overlap: f64,
     },
+    /// Where the settings put it (`[ingest] recording_frame`).
+    Given,
+    /// By its GPS fixes and the reference's: each recording's frame fitted
+    /// to the Earth, one placed on the other (a drone with a camera and
+    /// odometry but no map).
+    Gps {
+        /// The two fits' RMS distances from their fixes, metres, added.
+        rms_m: f64,
+        /// Its fixes used.
+        fixes: usize,
+    },
 }
 
 impl RecordingSummary {

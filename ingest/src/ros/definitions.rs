@@ -37,6 +37,11 @@ const POINT_FIELD: (&str, &str) = (
     "uint8 INT8=1\nuint8 UINT8=2\nuint8 INT16=3\nuint8 UINT16=4\nuint8 INT32=5\nuint8 UINT32=6\nuint8 FLOAT32=7\nuint8 FLOAT64=8\nstring name\nuint32 offset\nuint8 datatype\nuint32 count\n",
 );
 
+const NAV_SAT_STATUS: (&str, &str) = (
+    "sensor_msgs/NavSatStatus",
+    "int8 STATUS_NO_FIX=-1\nint8 STATUS_FIX=0\nint8 STATUS_SBAS_FIX=1\nint8 STATUS_GBAS_FIX=2\nint8 status\nuint16 SERVICE_GPS=1\nuint16 SERVICE_GLONASS=2\nuint16 SERVICE_COMPASS=4\nuint16 SERVICE_GALILEO=8\nuint16 service\n",
+);
+
 fn with_dependencies(main: &str, deps: &[(&str, &str)]) -> String {
     let mut text = main.to_string();
     for (name, def) in deps {
@@ -88,5 +93,12 @@ pub fn point_cloud2() -> String {
     with_dependencies(
         "std_msgs/Header header\nuint32 height\nuint32 width\nsensor_msgs/PointField[] fields\nbool is_bigendian\nuint32 point_step\nuint32 row_step\nuint8[] data\nbool is_dense\n",
         &[HEADER, TIME, POINT_FIELD],
+    )
+}
+
+pub fn nav_sat_fix() -> String {
+    with_dependencies(
+        "std_msgs/Header header\nsensor_msgs/NavSatStatus status\nfloat64 latitude\nfloat64 longitude\nfloat64 altitude\nfloat64[9] position_covariance\nuint8 COVARIANCE_TYPE_UNKNOWN=0\nuint8 COVARIANCE_TYPE_APPROXIMATED=1\nuint8 COVARIANCE_TYPE_DIAGONAL_KNOWN=2\nuint8 COVARIANCE_TYPE_KNOWN=3\nuint8 position_covariance_type\n",
+        &[HEADER, TIME, NAV_SAT_STATUS],
     )
 }
