@@ -418,13 +418,21 @@ struct SimulateArgs {
     /// last; truth.json says which frames each holds.
     #[arg(long, default_value_t = 1, value_name = "K")]
     sorties: u32,
+    /// Fly the flight as a team of this many drones at once, a stretch of
+    /// the plan each (drone-1.mcap and on, each recording's clock from the
+    /// same start): with --sortie-offset each drone in a SLAM frame of its
+    /// own (the offset once more for each), and with --camera-only the
+    /// first drone alone mapping.
+    #[arg(long, value_name = "N", conflicts_with = "sorties")]
+    drones: Option<u32>,
     /// With --sorties: the later sorties record in another SLAM frame,
     /// this far from the first's (a shift in metres and a yaw in degrees),
     /// each with its own map.
     #[arg(long, value_name = "X,Y,Z,YAW_DEG", value_parser = sim::repeat::FrameOffset::parse, allow_hyphen_values = true)]
     sortie_offset: Option<sim::repeat::FrameOffset>,
-    /// With --sortie-offset: the later sorties record no map, as a drone
-    /// with a camera and odometry only (the map is the first sortie's).
+    /// With --sortie-offset: the later sorties (or drones) record no map,
+    /// as a drone with a camera and odometry only (the map is the first
+    /// sortie's).
     #[arg(long, requires = "sortie_offset")]
     camera_only: bool,
     /// Record GPS fixes (sensor_msgs/NavSatFix, 5 Hz, 0.3 m noise across
@@ -586,9 +594,10 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
             frame_offset: args.frame_offset,
         }),
         sorties: sim::sortie::SortieOptions {
-            count: args.sorties,
+            count: args.drones.unwrap_or(args.sorties),
             offset: args.sortie_offset,
             camera_only: args.camera_only,
+            drones: args.drones.is_some(),
         },
         gps: args.gps,
         ..sim::SimOptions::new(args.out.clone())

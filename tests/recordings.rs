@@ -367,3 +367,68 @@ fn camera_only_sorties_are_placed_by_their_gps_or_by_the_settings() {
         stderr(&out)
     );
 }
+
+#[test]
+fn a_team_flying_at_once_in_slam_frames_of_their_own_is_one_inspection() {
+    let dir = tempfile::tempdir().unwrap();
+    // Three drones, each a stretch of the plan, all from the same start;
+    // the second 0.73 m and 12 degrees from the first's frame, the third
+    // twice that, each with its own map.
+    let flags = [
+        "--frames",
+        "60",
+        "--drones",
+        "3",
+        "--sortie-offset=0.6,-0.4,0.1,12",
+    ];
+    let team = simulated(&flags);
+    let whole = simulated(&WHOLE);
+    let (one, three) = (dir.path().join("whole"), dir.path().join("team"));
+    let plan = whole.join("plan.json");
+    let out = run(&[&whole.join("flight.mcap")], &plan, &one);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = run(&[&team], &plan, &three);
+    assert!(out.status.success(), "{}", stderr(&out));
+
+    let truth = read_json(&team.join("truth.json"));
+    let told = truth["sorties"].as_array().unwrap();
+    let summary = read_json(&three.join("ingest.json"));
+    let recordings = summary["recordings"].as_array().unwrap();
+    assert_eq!(recordings.len(), 3);
+    // At once: every recording starts within a second of the others.
+    let starts: Vec<i64> = recordings
+        .iter()
+        .map(|r| r["start_time_ns"].as_i64().unwrap())
+        .collect();
+    assert!(starts.iter().max().unwrap() - starts.iter().min().unwrap() < 1_000_000_000);
+    for (k, r) in recordings.iter().enumerate().skip(1) {
+        assert_eq!(
+            r["path"].as_str().unwrap().rsplit('/').next(),
+            Some(format!("drone-{}.mcap", k + 1).as_str())
+        );
+        let expected =
+            pose(&told[0]["slam_from_world"]) * pose(&told[k]["slam_from_world"]).inverse();
+        let (metres, degrees) = pose_error(&expected, &pose(&r["placement"]["transform"]));
+        eprintln!(
+            "drone {}: registered, off by {metres:.4} m, {degrees:.3} deg",
+            k + 1
+        );
+        assert_eq!(r["placement"]["by"]["kind"], "registered");
+        assert!(metres < 0.05 && degrees < 0.5, "drone {}", k + 1);
+    }
+    // Frames of the three interleaved in time, each on its own trajectory.
+    let recording = column(&three, "frames.parquet", "recording");
+    assert!(
+        recording.windows(2).any(|w| w[0] != w[1] && w[1] < w[0]),
+        "interleaved"
+    );
+
+    let inspected = |run: &Path| f(&read_json(&run.join("coverage.json"))["inspected_voxels"]);
+    let (a, b) = (inspected(&one), inspected(&three));
+    let (ca, cb) = (candidates(&one).len(), candidates(&three).len());
+    eprintln!(
+        "a team at once: inspected voxels {a} recorded once, {b} by three drones; candidates {ca} and {cb}"
+    );
+    assert!((a - b).abs() <= 0.01 * a, "{a} against {b}");
+    assert!(ca.abs_diff(cb) <= 1, "{ca} against {cb}");
+}

@@ -2,7 +2,7 @@
 //! coverage stage to a follow-up flight, phase by phase (see the crate
 //! docs), into `replan.json` and `replan.csv`.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -14,7 +14,8 @@ use postflight_core::map::{SlamMap, VoxelGrid, VoxelIndex};
 use postflight_core::outputs::coverage::{self as coverage_outputs, CoverageSummary};
 use postflight_core::outputs::localise::{self as localise_outputs, read_defects};
 use postflight_core::outputs::replan::{
-    DronePlan, GapChoice, ReplanSummary, ReshootSpot, Sortie, Uninspectable, Waypoint, files,
+    DronePlan, GapChoice, ReplanSummary, ReshootSpot, Sortie, Uninspectable, Unplannable, Waypoint,
+    files,
 };
 use postflight_core::{Flight, Intrinsics, InvalidSetting, Key, RunDir, Stage, Viewpoint};
 
@@ -230,8 +231,8 @@ pub fn replan(
     summary.solver = Some(tour.stats.clone());
 
     let phase = Instant::now();
-    let shares = split_sorties(&team, &route, &space)?;
     if team.iter().all(|m| m.shares(&home, &lens)) {
+        let shares = split_sorties(&team, &route, &space)?;
         for (drone, (member, sorties)) in (0u32..).zip(team.iter().zip(&shares)) {
             for indices in sorties {
                 summary
@@ -240,27 +241,19 @@ pub fn replan(
             }
         }
     } else {
-        // Each drone flies its stretch's gaps on a route of its own, from
-        // its home with its camera.
-        for (drone, (member, share)) in (0u32..).zip(team.iter().zip(&shares)) {
-            let own = own_route(&scene, &route, share, &chosen, member, &mut summary)?;
-            summary.uninspectable_gaps.extend(left_out(&own));
-            if own.tour.is_none() {
-                continue;
-            }
-            let sorties = crate::tour::sorties(
-                &own.tour.as_ref().expect("a tour").0,
-                &member.budget,
-                &|stop| own.home_m(&space, stop),
-            )
-            .map_err(|e| sortie_too_long(member, &own.points, e))?;
-            for indices in &sorties {
-                summary
-                    .sorties
-                    .push(fly(member, drone, &own, &space, indices));
+        let (sorties, left) = own_routes(&scene, &route, &team, &chosen)?;
+        summary.sorties = sorties;
+        summary.uninspectable_gaps.extend(left);
+        summary.uninspectable_gaps.sort_by_key(|u| u.voxel);
+        for member in &team {
+            let (_, by) = lift_home(&space, &map, member.home)?;
+            if by > 0.0 {
+                summary.warnings.push(format!(
+                    "{}'s home is within {} m of the map; its sorties start and end {by:.1} m above it",
+                    member.name, space.clearance_m
+                ));
             }
         }
-        summary.uninspectable_gaps.sort_by_key(|u| u.voxel);
     }
     summary.phases.paths_s = tour.stats.paths_seconds + phase.elapsed().as_secs_f64();
     summarise(&mut summary, &team);
@@ -334,16 +327,85 @@ fn left_out(route: &Route) -> Vec<Uninspectable> {
         .collect()
 }
 
-/// A drone's own route over the gaps its share of the team's route serves,
-/// from its home (lifted clear as the team's is) with its camera.
-fn own_route(
+/// Rounds of [`own_routes`]' rebalancing.
+const REBALANCE_ROUNDS: usize = 3;
+
+/// Each drone's stretch of the team's route flown as a route of its own,
+/// from its home with its camera: the sorties, and the gaps the drones'
+/// routes leave out. The stretches were cut by times estimated on the
+/// team's route (the flight's camera, the shared home), which a drone's
+/// own route beats or misses; so the route is cut again with each drone's
+/// estimates scaled by how far its own route's time was from the team's
+/// mean, and the quickest mission of [`REBALANCE_ROUNDS`] is kept.
+fn own_routes(
     scene: &Scene,
-    team_route: &Route,
-    share: &[Vec<usize>],
+    route: &Route,
+    team: &[Member],
     chosen: &ChosenGaps,
-    member: &Member,
-    summary: &mut ReplanSummary,
-) -> Result<Route, ReplanError> {
+) -> Result<(Vec<Sortie>, Vec<Uninspectable>), ReplanError> {
+    let (tour, _) = route.tour.as_ref().expect("a route with a tour");
+    let home_m = |stop: usize| route.home_m(scene.space, stop);
+    let mut scale = vec![1.0f64; team.len()];
+    let mut best: Option<(f64, Vec<Sortie>, Vec<Uninspectable>)> = None;
+    for _ in 0..REBALANCE_ROUNDS {
+        let budgets: Vec<Budget> = team
+            .iter()
+            .zip(&scale)
+            .map(|(m, s)| Budget {
+                speed_m_s: m.budget.speed_m_s / s,
+                hover_s: m.budget.hover_s * s,
+                ..m.budget
+            })
+            .collect();
+        let shares = crate::team::split(tour, &budgets, &home_m)
+            .map_err(|e| sortie_too_long(&team[0], &route.points, e))?;
+        let mut own: Vec<(Vec<VoxelIndex>, Route)> = Vec::new();
+        for (member, share) in team.iter().zip(&shares) {
+            let gaps = share_gaps(route, share);
+            own.push((gaps.clone(), own_route(scene, gaps, chosen, member)?));
+        }
+        second_chance(scene, team, chosen, &mut own)?;
+        let (mut sorties, mut left) = (Vec::new(), Vec::new());
+        let mut times = vec![0.0; team.len()];
+        for (drone, (member, (_, own))) in (0u32..).zip(team.iter().zip(&own)) {
+            left.extend(left_out(own));
+            let Some((own_tour, _)) = &own.tour else {
+                continue;
+            };
+            let cut = crate::tour::sorties(own_tour, &member.budget, &|stop| {
+                own.home_m(scene.space, stop)
+            })
+            .map_err(|e| sortie_too_long(member, &own.points, e))?;
+            for indices in &cut {
+                let sortie = fly(member, drone, own, scene.space, indices);
+                times[drone as usize] += sortie.time_s;
+                sorties.push(sortie);
+            }
+        }
+        left.sort_by_key(|u| u.voxel);
+        left.dedup_by_key(|u| u.voxel);
+        let mission = times.iter().copied().fold(0.0, f64::max);
+        // Fewest gaps left out first, then the quickest.
+        if best
+            .as_ref()
+            .is_none_or(|(m, _, l)| (left.len(), mission) < (l.len(), *m))
+        {
+            best = Some((mission, sorties, left));
+        }
+        let used: Vec<f64> = times.iter().copied().filter(|t| *t > 0.0).collect();
+        let mean = used.iter().sum::<f64>() / used.len().max(1) as f64;
+        for (s, t) in scale.iter_mut().zip(&times) {
+            if *t > 0.0 && mean > 0.0 {
+                *s *= t / mean;
+            }
+        }
+    }
+    let (_, sorties, left) = best.expect("at least one round");
+    Ok((sorties, left))
+}
+
+/// The gap voxels the stops of `share` of the team's route serve.
+fn share_gaps(team_route: &Route, share: &[Vec<usize>]) -> Vec<VoxelIndex> {
     let mut gaps: Vec<VoxelIndex> = share
         .iter()
         .flatten()
@@ -351,11 +413,22 @@ fn own_route(
         .collect();
     gaps.sort_unstable();
     gaps.dedup();
+    gaps
+}
+
+/// A drone's own route over `gaps` (sorted), from its home (lifted clear
+/// as the team's is) with its camera.
+fn own_route(
+    scene: &Scene,
+    gaps: Vec<VoxelIndex>,
+    chosen: &ChosenGaps,
+    member: &Member,
+) -> Result<Route, ReplanError> {
     let views: Vec<u32> = gaps
         .iter()
         .map(|v| chosen.views[chosen.voxels.binary_search(v).expect("a chosen gap")])
         .collect();
-    let home = clear_home(scene.space, scene.map, member.home, summary)?;
+    let (home, _) = lift_home(scene.space, scene.map, member.home)?;
     Ok(Route::plan(
         scene,
         gaps,
@@ -364,6 +437,52 @@ fn own_route(
         home,
         &mut |_, _| {},
     ))
+}
+
+/// Gaps a drone's camera cannot inspect (no clear viewpoint, or too few)
+/// given to a drone with another camera: it plans its route again with
+/// them, and keeps the new route when it inspects some.
+fn second_chance(
+    scene: &Scene,
+    team: &[Member],
+    chosen: &ChosenGaps,
+    own: &mut [(Vec<VoxelIndex>, Route)],
+) -> Result<(), ReplanError> {
+    for d in 0..own.len() {
+        let route = &own[d].1;
+        let mut orphans: Vec<VoxelIndex> = route
+            .left_out
+            .iter()
+            .filter(|(_, reason)| **reason != Unplannable::Unreachable)
+            .map(|(&g, _)| route.gaps[g])
+            .collect();
+        for e in (0..own.len()).filter(|&e| team[e].lens != team[d].lens) {
+            if orphans.is_empty() {
+                break;
+            }
+            let mut gaps = own[e].0.clone();
+            gaps.extend(&orphans);
+            gaps.sort_unstable();
+            gaps.dedup();
+            let wider = own_route(scene, gaps.clone(), chosen, &team[e])?;
+            let missed: HashSet<VoxelIndex> =
+                wider.left_out.keys().map(|&g| wider.gaps[g]).collect();
+            let taken: HashSet<VoxelIndex> = orphans
+                .iter()
+                .copied()
+                .filter(|g| !missed.contains(g))
+                .collect();
+            if taken.is_empty() {
+                continue;
+            }
+            orphans.retain(|g| !taken.contains(g));
+            let gave = &mut own[d].1;
+            let gave_gaps = gave.gaps.clone();
+            gave.left_out.retain(|&g, _| !taken.contains(&gave_gaps[g]));
+            own[e] = (gaps, wider);
+        }
+    }
+    Ok(())
 }
 
 /// The map frame on the Earth: as set, else from the flight's GPS fixes;
@@ -580,25 +699,32 @@ fn clear_home(
     home: Point3<f64>,
     summary: &mut ReplanSummary,
 ) -> Result<Point3<f64>, ReplanError> {
-    if space.point_is_clear(&home) {
-        return Ok(home);
+    let (lifted, by) = lift_home(space, map, home)?;
+    if by > 0.0 {
+        summary.warnings.push(format!(
+            "home ({:.1}, {:.1}, {:.1}) is within {} m of the map; sorties start and end {by:.1} m above it",
+            home.x, home.y, home.z, space.clearance_m
+        ));
+        summary.home = lifted.coords.into();
     }
+    Ok(lifted)
+}
+
+/// `home`, or the first clear point straight above it, and how far above.
+fn lift_home(
+    space: &FreeSpace,
+    map: &SlamMap,
+    home: Point3<f64>,
+) -> Result<(Point3<f64>, f64), ReplanError> {
     let step = map.voxels.grid.resolution / 2.0;
-    for k in 1..=(20.0 / step) as usize {
-        let lifted = home + Vector3::z() * (k as f64 * step);
-        if space.point_is_clear(&lifted) {
-            summary.warnings.push(format!(
-                "home ({:.1}, {:.1}, {:.1}) is within {} m of the map; sorties start and end {:.1} m above it",
-                home.x, home.y, home.z, space.clearance_m, k as f64 * step
-            ));
-            summary.home = lifted.coords.into();
-            return Ok(lifted);
-        }
-    }
-    Err(ReplanError::HomeBlocked {
-        home: home.coords.into(),
-        clearance_m: space.clearance_m,
-    })
+    (0..=(20.0 / step) as usize)
+        .map(|k| k as f64 * step)
+        .find(|by| space.point_is_clear(&(home + Vector3::z() * *by)))
+        .map(|by| (home + Vector3::z() * by, by))
+        .ok_or(ReplanError::HomeBlocked {
+            home: home.coords.into(),
+            clearance_m: space.clearance_m,
+        })
 }
 
 /// The team's route's stops (indices into its tour, from 1) as each

@@ -9,8 +9,10 @@ use std::collections::BTreeMap;
 
 use base64::Engine;
 use maud::{Markup, PreEscaped, html};
+use postflight_core::ViewModel;
 use postflight_core::outputs::changes::{ChangeKind, ChangeRecord, files as changes_files};
 use postflight_core::outputs::coverage::CoverageSummary;
+use postflight_core::outputs::ingest::{PlacedBy, Placement};
 use postflight_core::outputs::localise::DefectRecord;
 use postflight_core::outputs::replan::{
     GapChoice, ReplanSummary, Unplannable, files as replan_files,
@@ -128,23 +130,41 @@ fn coverage_section(r: &RunResults) -> Markup {
 }
 
 fn view_model(c: &CoverageSummary) -> Markup {
-    let v = &c.view;
     html! {
         p {
-            (format!(
-                "Under the View model: cone apex {:.0}\u{b0}, distance {:.1}\u{2013}{:.1} m, incidence up to {:.0}\u{b0}, blur up to {:.1} px, GSD up to {:.1} mm/px, {} view(s) per face; {:.2} m voxels, targets from ",
-                v.cone_apex_deg,
-                v.min_distance_m,
-                v.max_distance_m,
-                v.max_incidence_deg,
-                v.max_blur_px,
-                v.max_gsd_mm,
-                v.views_required,
-                c.resolution_m,
-            ))
+            "Under the View model: " (view_rules(&c.view))
+            (format!("; {:.2} m voxels, targets from ", c.resolution_m))
             (c.targets) "."
         }
+        @if !c.focus.is_empty() {
+            p { "Focus regions, judged under a stricter View model:" }
+            ul {
+                @for f in &c.focus {
+                    li {
+                        b { (f.model.region.name) } ": " (view_rules(&f.model.view))
+                        (format!(
+                            "; {} of its {} target voxels inspected.",
+                            f.inspected_voxels, f.target_voxels
+                        ))
+                    }
+                }
+            }
+        }
     }
+}
+
+/// A View model's rules in a line.
+fn view_rules(v: &ViewModel) -> String {
+    format!(
+        "cone apex {:.0}\u{b0}, distance {:.1}\u{2013}{:.1} m, incidence up to {:.0}\u{b0}, blur up to {:.1} px, GSD up to {:.1} mm/px, {} view(s) per face",
+        v.cone_apex_deg,
+        v.min_distance_m,
+        v.max_distance_m,
+        v.max_incidence_deg,
+        v.max_blur_px,
+        v.max_gsd_mm,
+        v.views_required,
+    )
 }
 
 fn coverage_table(c: &CoverageSummary) -> Markup {
@@ -538,7 +558,7 @@ fn recordings_section(r: &RunResults) -> Markup {
         table {
             tr {
                 th { "#" } th { "recording" } th { "start" } th.n { "flown" } th.n { "frames" }
-                th.n { "poses" } th { "map" } th.n { "candidates seen" }
+                th.n { "poses" } th { "map" } th { "frame" } th.n { "candidates seen" }
             }
             @for (i, rec) in recordings.iter().enumerate() {
                 tr {
@@ -549,9 +569,34 @@ fn recordings_section(r: &RunResults) -> Markup {
                     td.n { (rec.frames) br; span.sub { (frames_with_pose[i]) " with pose" } }
                     td.n { (rec.poses) }
                     td { @match &rec.map { Some(m) => { (m.points) " points on " code { (m.topic) } }, None => "\u{2013}" } }
+                    td { (placed_by(&rec.placement)) }
                     td.n { (candidates[i]) }
                 }
             }
+        }
+    }
+}
+
+/// How a recording's frame was put into the run's, in a few words, with
+/// how far it was moved.
+fn placed_by(placement: &Placement) -> String {
+    let t = &placement.transform;
+    let moved = format!(
+        "{:.2} m, {:.1}\u{b0}",
+        t.translation.vector.norm(),
+        t.rotation.angle().to_degrees()
+    );
+    match placement.by {
+        PlacedBy::Reference => "the run's".into(),
+        PlacedBy::SharedFrame => "shared with the first".into(),
+        PlacedBy::Registered { rms_m, overlap } => format!(
+            "map registered ({moved}; {:.1} cm rms, {:.0}% overlap)",
+            rms_m * 100.0,
+            overlap * 100.0
+        ),
+        PlacedBy::Given => format!("as the settings give it ({moved})"),
+        PlacedBy::Gps { rms_m, fixes } => {
+            format!("by {fixes} GPS fixes ({moved}; fits {rms_m:.1} m rms)")
         }
     }
 }
@@ -608,6 +653,38 @@ pub fn follow_up_text(p: &ReplanSummary) -> String {
         p.speed_m_s,
         p.clearance_m,
     )
+}
+
+/// The airspace the follow-up keeps to, in a sentence.
+fn airspace_text(p: &ReplanSummary) -> String {
+    let zones: Vec<String> = p
+        .keep_out
+        .iter()
+        .map(|z| {
+            let band = match (z.bottom_m, z.top_m) {
+                (None, None) => "from the ground up".to_string(),
+                (Some(b), None) => format!("above {b:.1} m"),
+                (None, Some(t)) => format!("below {t:.1} m"),
+                (Some(b), Some(t)) => format!("{b:.1}\u{2013}{t:.1} m"),
+            };
+            format!("{} ({band})", z.name)
+        })
+        .collect();
+    let mut text = String::new();
+    if !zones.is_empty() {
+        text += &format!(
+            "No waypoint and no point of the path is in the keep-out zones: {}",
+            zones.join(", ")
+        );
+        if p.keep_out.iter().any(|z| z.is_column()) && !p.ground_station_files.is_empty() {
+            text += "; the missions' geofence holds those from the ground up";
+        }
+        text += ". ";
+    }
+    if let Some(c) = p.ceiling_z_m {
+        text += &format!("Every point is below the ceiling at {c:.1} m (map z).");
+    }
+    text.trim_end().to_string()
 }
 
 fn replan_section(r: &RunResults) -> Markup {
@@ -667,12 +744,17 @@ fn follow_up(r: &RunResults, p: &ReplanSummary) -> Markup {
                 ", or GPS fixes in the flight), replan also writes QGroundControl missions, KML and GeoJSON."
             }
         }
+        @if !p.keep_out.is_empty() || p.ceiling_z_m.is_some() {
+            p { (airspace_text(p)) }
+        }
         @if !p.uninspectable_gaps.is_empty() {
             p.warn {
                 (format!(
-                    "{} gap voxels cannot be planned: {} with no viewpoint that keeps the clearance, {} unreachable from home.",
+                    "{} gap voxels cannot be planned: {} with no viewpoint that keeps the clearance{}, {} with fewer such viewpoints than the views they need, {} unreachable from home.",
                     p.uninspectable_gaps.len(),
                     count(Unplannable::NoClearViewpoint),
+                    if p.keep_out.is_empty() && p.ceiling_z_m.is_none() { "" } else { " and the airspace" },
+                    count(Unplannable::TooFewViewpoints),
                     count(Unplannable::Unreachable)
                 ))
             }

@@ -80,7 +80,7 @@ impl GpsWriter {
                 self.noise.normal() * v,
             );
             let g = self.origin.to_geodetic(&(position(ft) + noise));
-            let stamp = crate::ns(ft);
+            let (rec, _, stamp) = sorties.at(ft);
             let fix = msg::NavSatFix {
                 header: header(stamp, "gps"),
                 status: msg::NavSatStatus {
@@ -94,10 +94,7 @@ impl GpsWriter {
                 // COVARIANCE_TYPE_DIAGONAL_KNOWN.
                 position_covariance_type: 2,
             };
-            sorties
-                .at(ft)
-                .0
-                .write(record::GPS_TOPIC, stamp + 2_000_000, &fix)?;
+            rec.write(record::GPS_TOPIC, stamp + 2_000_000, &fix)?;
             self.next += 1;
         }
     }

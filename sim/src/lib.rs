@@ -211,7 +211,7 @@ pub fn simulate(
         (options.gimbal, options.gps.is_some()),
     )?;
     for (rec, sortie) in sorties.each() {
-        write_mounting(rec, &world, ns(sortie.start_s()))?;
+        write_mounting(rec, &world, sortie.stamp(sortie.start_s()))?;
     }
     let recorded = record_frames(&mut sorties, &world, &frame_times, options, progress)?;
     let map = map_points(&world.scene, &mut Rng::stream(options.seed, "map"));
@@ -428,7 +428,7 @@ fn write_mounting(rec: &mut Recorder, world: &World, stamp: i64) -> Result<(), S
 fn write_maps(sorties: &mut Sorties, map: &[Point3<f64>]) -> Result<(), SimError> {
     for (rec, sortie) in sorties.each().filter(|(_, s)| s.with_map) {
         let points: Vec<Point3<f64>> = map.iter().map(|p| sortie.slam * p).collect();
-        let end = ns(sortie.end_s());
+        let end = sortie.stamp(sortie.end_s());
         rec.write(
             record::MAP_TOPIC,
             end + 500_000_000,
@@ -518,7 +518,8 @@ fn record_frames(
                 blur.0,
                 blur.1,
             );
-            write_frame(sorties.at(t).0, &img, options.image_format, &world.k, ns(t))?;
+            let (rec, _, stamp) = sorties.at(t);
+            write_frame(rec, &img, options.image_format, &world.k, stamp)?;
         }
         recorded.views.push(coverage::View {
             camera,
@@ -526,7 +527,7 @@ fn record_frames(
         });
         recorded.frames.push(FrameTruth {
             index: i,
-            time_ns: ns(t),
+            time_ns: sorties.stamp(t),
             dropped: is_dropped,
             camera_pose: PoseJson::from(&camera),
             fast: flight.is_fast(t),
@@ -621,21 +622,21 @@ impl PoseWriter<'_> {
     fn write_until(&mut self, t: f64, sorties: &mut Sorties) -> Result<(), SimError> {
         while let Some(&pt) = self.times.get(self.next).filter(|pt| **pt <= t) {
             let flight = &self.world.flight;
-            let (rec, slam) = sorties.at(pt);
+            let (rec, slam, stamp) = sorties.at(pt);
             let pose = slam * flight::noisy(&flight.body_pose(pt), &self.sigma, &mut self.noise);
             let msg = msg::PoseStamped {
-                header: header(ns(pt), "map"),
+                header: header(stamp, "map"),
                 pose: ros_pose(&pose),
             };
-            rec.write(record::POSE_TOPIC, ns(pt) + 4_000_000, &msg)?;
+            rec.write(record::POSE_TOPIC, stamp + 4_000_000, &msg)?;
             if self.world.gimbal {
                 // The gimbal's encoders: its true pitch.
                 let (link, _) = body_to_camera_pitched(flight.camera_pitch(pt));
-                let link = transform(ns(pt), "base_link", "camera_link", &link);
+                let link = transform(stamp, "base_link", "camera_link", &link);
                 let msg = msg::TfMessage {
                     transforms: vec![link],
                 };
-                rec.write(record::TF_TOPIC, ns(pt) + 4_000_000, &msg)?;
+                rec.write(record::TF_TOPIC, stamp + 4_000_000, &msg)?;
             }
             self.next += 1;
         }

@@ -5,7 +5,8 @@
 //! frame is the first sortie's throughout (the map then comes with the
 //! last), or, with an offset, the later sorties record in another frame
 //! (as a SLAM system started afresh after a landing does), each with its
-//! own map.
+//! own map. A team's drones fly the stretches at once, each recording
+//! from the same start.
 
 use std::path::{Path, PathBuf};
 
@@ -28,6 +29,11 @@ pub struct SortieOptions {
     /// With an offset: the later sorties record no map (a drone with a
     /// camera and odometry only).
     pub camera_only: bool,
+    /// The stretches are flown at once by a team, a drone each, each
+    /// recording's clock from the same start; with an offset each drone
+    /// after the first has a SLAM frame of its own (the offset once more
+    /// for each).
+    pub drones: bool,
 }
 
 impl Default for SortieOptions {
@@ -36,6 +42,7 @@ impl Default for SortieOptions {
             count: 1,
             offset: None,
             camera_only: false,
+            drones: false,
         }
     }
 }
@@ -81,9 +88,17 @@ pub struct Sortie {
     /// Its SLAM frame: a world point `p` is recorded at `slam * p`.
     pub slam: Isometry3<f64>,
     pub with_map: bool,
+    /// What its recording's clock is behind the flight's: a team's drones
+    /// all start at the flight's start.
+    shift_s: f64,
 }
 
 impl Sortie {
+    /// The stamp its recording gives the flight's time `t` (seconds).
+    pub fn stamp(&self, t: f64) -> i64 {
+        crate::ns(t - self.shift_s)
+    }
+
     /// Its start and end, seconds into the flight.
     pub fn start_s(&self) -> f64 {
         self.stretch.start_s
@@ -117,16 +132,24 @@ impl Sorties {
         // `count` is 1 to the frames (checked before anything is written).
         let count = options.count as usize;
         let later = options.offset.map(|o| o.isometry());
+        // A team's drone k is offset k times; sorties after the first, once.
+        let slam = |i: usize| match (later, options.drones) {
+            (Some(o), true) => (0..i).fold(Isometry3::identity(), |t, _| o * t),
+            (Some(o), false) if i > 0 => o,
+            _ => Isometry3::identity(),
+        };
         let sorties: Vec<Sortie> = stretches(frame_times, duration_s, options.count)
             .into_iter()
             .enumerate()
             .map(|(i, stretch)| Sortie {
-                name: match count {
-                    1 => "flight.mcap".to_string(),
-                    _ => format!("sortie-{}.mcap", i + 1),
+                name: match (count, options.drones) {
+                    (1, _) => "flight.mcap".to_string(),
+                    (_, true) => format!("drone-{}.mcap", i + 1),
+                    (_, false) => format!("sortie-{}.mcap", i + 1),
                 },
+                shift_s: if options.drones { stretch.start_s } else { 0.0 },
                 stretch,
-                slam: later.filter(|_| i > 0).unwrap_or_else(Isometry3::identity),
+                slam: slam(i),
                 with_map: match (later.is_some(), options.camera_only) {
                     (true, true) => i == 0,
                     (true, false) => true,
@@ -141,14 +164,24 @@ impl Sorties {
         Ok(Self { sorties, recorders })
     }
 
-    /// The recording of the sortie flying at `t` seconds, and its SLAM frame.
-    pub fn at(&mut self, t: f64) -> (&mut Recorder, Isometry3<f64>) {
-        let s = self
-            .sorties
+    /// The recording of the sortie flying at `t` seconds, its SLAM frame,
+    /// and the stamp its clock gives `t`.
+    pub fn at(&mut self, t: f64) -> (&mut Recorder, Isometry3<f64>, i64) {
+        let s = self.index_at(t);
+        let stamp = self.sorties[s].stamp(t);
+        (&mut self.recorders[s], self.sorties[s].slam, stamp)
+    }
+
+    /// The stamp the recording flying at `t` gives it.
+    pub fn stamp(&self, t: f64) -> i64 {
+        self.sorties[self.index_at(t)].stamp(t)
+    }
+
+    fn index_at(&self, t: f64) -> usize {
+        self.sorties
             .iter()
             .rposition(|s| s.start_s() <= t)
-            .unwrap_or(0);
-        (&mut self.recorders[s], self.sorties[s].slam)
+            .unwrap_or(0)
     }
 
     /// Each sortie's recording, to write what each holds once.
@@ -175,6 +208,7 @@ impl Sorties {
                     frames: s.stretch.frames.1 - s.stretch.frames.0,
                     start_ns: stamp(s.start_s()),
                     end_ns: stamp(s.end_s()),
+                    clock_behind_ns: stamp(s.shift_s) - stamp(0.0),
                     slam_from_world: PoseJson::from(&s.slam),
                     map: s.with_map,
                 })
@@ -194,6 +228,10 @@ pub struct SortieTruth {
     pub frames: u32,
     pub start_ns: i64,
     pub end_ns: i64,
+    /// How far its recording's clock is behind the flight's (a team's
+    /// drones all start together): its stamps are the flight's times less
+    /// this.
+    pub clock_behind_ns: i64,
     /// Its SLAM frame: a world point `p` is recorded at `slam_from_world * p`.
     pub slam_from_world: PoseJson,
     /// Whether its recording holds the map.
