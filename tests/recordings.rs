@@ -10,7 +10,7 @@
 //! written.
 
 use std::collections::BTreeSet;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::common::*;
 use polars::prelude::*;
@@ -48,6 +48,60 @@ fn candidates(run: &Path) -> Vec<[f64; 3]> {
     };
     let (x, y, z) = (get("x"), get("y"), get("z"));
     (0..x.len()).map(|i| [x[i], y[i], z[i]]).collect()
+}
+
+/// The simulated flight `flags` and the same flight recorded once, each
+/// run into `dir` against the whole flight's plan: (whole, recordings).
+fn run_against_whole(dir: &Path, flags: &[&str]) -> (PathBuf, PathBuf, PathBuf) {
+    let recorded = simulated(flags);
+    let whole = simulated(&WHOLE);
+    let (one, several) = (dir.join("whole"), dir.join("several"));
+    let plan = whole.join("plan.json");
+    let out = run(&[&whole.join("flight.mcap")], &plan, &one);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = run(&[&recorded], &plan, &several);
+    assert!(out.status.success(), "{}", stderr(&out));
+    (recorded, one, several)
+}
+
+/// Where the simulator put recording `k`'s frame in the first's: T_first_k
+/// = slam_1 * slam_k^-1 (a point of k's frame in the first's).
+fn true_frame(simulated: &Path, k: usize) -> nalgebra::Isometry3<f64> {
+    let truth = read_json(&simulated.join("truth.json"));
+    let told = &truth["sorties"];
+    pose(&told[0]["slam_from_world"]) * pose(&told[k]["slam_from_world"]).inverse()
+}
+
+/// Each later recording's placement `kind` in `run`, checked against the
+/// truth within `metres` and `degrees`.
+fn placed_as_truth(run: &Path, simulated: &Path, kind: &str, (metres, degrees): (f64, f64)) {
+    let summary = read_json(&run.join("ingest.json"));
+    for (k, r) in summary["recordings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .skip(1)
+    {
+        let placement = &r["placement"];
+        let (m, d) = pose_error(&true_frame(simulated, k), &pose(&placement["transform"]));
+        eprintln!("{} {kind}: off by {m:.4} m, {d:.3} deg", r["path"]);
+        assert_eq!(placement["by"]["kind"], kind, "{placement}");
+        assert!(m < metres && d < degrees, "{}: {m} m, {d} deg", r["path"]);
+    }
+}
+
+/// Inspected voxels within 1% of the whole flight's, and candidates
+/// within one.
+fn same_results(one: &Path, several: &Path, what: &str) {
+    let inspected = |run: &Path| f(&read_json(&run.join("coverage.json"))["inspected_voxels"]);
+    let (a, b) = (inspected(one), inspected(several));
+    let (ca, cb) = (candidates(one).len(), candidates(several).len());
+    eprintln!(
+        "{what}: inspected voxels {a} recorded once, {b} as recorded; candidates {ca} and {cb}"
+    );
+    assert!((a - b).abs() <= 0.01 * a, "{a} against {b}");
+    assert!(ca.abs_diff(cb) <= 1, "{ca} against {cb}");
 }
 
 #[test]
@@ -210,40 +264,12 @@ fn a_recording_given_twice_or_a_directory_without_any_is_refused_in_one_line() {
 fn sorties_in_slam_frames_of_their_own_are_registered_onto_the_first() {
     let dir = tempfile::tempdir().unwrap();
     let offset = [&SORTIES[..], &["--sortie-offset=0.6,-0.4,0.1,12"]].concat();
-    let sorties = simulated(&offset);
-    let whole = simulated(&WHOLE);
-    let (one, three) = (dir.path().join("whole"), dir.path().join("sorties"));
-    let plan = whole.join("plan.json");
-    let out = run(&[&whole.join("flight.mcap")], &plan, &one);
-    assert!(out.status.success(), "{}", stderr(&out));
-    let out = run(&[&sorties], &plan, &three);
-    assert!(out.status.success(), "{}", stderr(&out));
+    let (sorties, one, three) = run_against_whole(dir.path(), &offset);
+    placed_as_truth(&three, &sorties, "registered", (0.05, 0.5));
 
-    // Each later sortie's frame where the truth puts it: T_first_k =
-    // slam_1 * slam_k^-1 (a point of sortie k's frame in the first's).
-    let summary = read_json(&three.join("ingest.json"));
-    let truth = read_json(&sorties.join("truth.json"));
-    let told = truth["sorties"].as_array().unwrap();
-    let first = pose(&told[0]["slam_from_world"]);
-    for (k, r) in summary["recordings"].as_array().unwrap().iter().enumerate() {
-        let placement = &r["placement"];
-        let expected = first * pose(&told[k]["slam_from_world"]).inverse();
-        let found = pose(&placement["transform"]);
-        let (metres, degrees) = pose_error(&expected, &found);
-        eprintln!(
-            "sortie {}: {placement}, off by {metres:.4} m, {degrees:.3} deg",
-            k + 1
-        );
-        let kind = placement["by"]["kind"].as_str().unwrap();
-        assert_eq!(kind, if k == 0 { "reference" } else { "registered" });
-        assert!(metres < 0.05 && degrees < 0.5, "sortie {}", k + 1);
-    }
-
-    // The same results as the flight recorded once, within 1%.
-    let inspected = |run: &Path| f(&read_json(&run.join("coverage.json"))["inspected_voxels"]);
-    let (a, b) = (inspected(&one), inspected(&three));
-    eprintln!("inspected voxels: {a} recorded once, {b} as three sorties in three frames");
-    assert!((a - b).abs() <= 0.01 * a, "{a} against {b}");
+    // The same results as the flight recorded once, the candidates at the
+    // same places.
+    same_results(&one, &three, "three sorties in three frames");
     let (a, b) = (candidates(&one), candidates(&three));
     eprintln!(
         "candidates: {} recorded once, {} as three sorties in three frames",
@@ -274,50 +300,15 @@ fn camera_only_sorties_are_placed_by_their_gps_or_by_the_settings() {
         &["--sortie-offset=6,-4,0.2,40", "--camera-only", gps],
     ]
     .concat();
-    let sorties = simulated(&flags);
-    let whole = simulated(&WHOLE);
-    let (one, three) = (dir.path().join("whole"), dir.path().join("sorties"));
-    let plan = whole.join("plan.json");
-    let out = run(&[&whole.join("flight.mcap")], &plan, &one);
-    assert!(out.status.success(), "{}", stderr(&out));
-    let out = run(&[&sorties], &plan, &three);
-    assert!(out.status.success(), "{}", stderr(&out));
-
+    let (sorties, one, three) = run_against_whole(dir.path(), &flags);
     // By GPS: each later sortie's frame near where the truth puts it.
-    let truth = read_json(&sorties.join("truth.json"));
-    let told = truth["sorties"].as_array().unwrap();
-    let expected =
-        |k: usize| pose(&told[0]["slam_from_world"]) * pose(&told[k]["slam_from_world"]).inverse();
-    let summary = read_json(&three.join("ingest.json"));
-    for (k, r) in summary["recordings"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .enumerate()
-        .skip(1)
-    {
-        let placement = &r["placement"];
-        assert_eq!(placement["by"]["kind"], "gps", "{placement}");
-        let (metres, degrees) = pose_error(&expected(k), &pose(&placement["transform"]));
-        eprintln!(
-            "sortie {} by GPS: off by {metres:.3} m, {degrees:.3} deg",
-            k + 1
-        );
-        assert!(metres < 0.1 && degrees < 0.2, "sortie {}", k + 1);
-    }
-    let inspected = |run: &Path| f(&read_json(&run.join("coverage.json"))["inspected_voxels"]);
-    let (a, b) = (inspected(&one), inspected(&three));
-    let (ca, cb) = (candidates(&one).len(), candidates(&three).len());
-    eprintln!(
-        "placed by GPS: inspected voxels {a} recorded once, {b} as sorties; candidates {ca} and {cb}"
-    );
-    assert!((a - b).abs() <= 0.01 * a, "{a} against {b}");
-    assert!(ca.abs_diff(cb) <= 1, "{ca} against {cb}");
+    placed_as_truth(&three, &sorties, "gps", (0.1, 0.2));
+    same_results(&one, &three, "placed by GPS");
 
     // Given in the settings (the truth's frames): exactly there.
     let mut args = Vec::new();
-    for k in 1..told.len() {
-        let t = expected(k);
+    for k in 1..3 {
+        let t = true_frame(&sorties, k);
         let yaw = t.rotation.euler_angles().2.to_degrees();
         let v = t.translation.vector;
         args.push("--recording-frame".to_string());
@@ -340,7 +331,10 @@ fn camera_only_sorties_are_placed_by_their_gps_or_by_the_settings() {
         .skip(1)
     {
         assert_eq!(r["placement"]["by"]["kind"], "given");
-        let (metres, degrees) = pose_error(&expected(k), &pose(&r["placement"]["transform"]));
+        let (metres, degrees) = pose_error(
+            &true_frame(&sorties, k),
+            &pose(&r["placement"]["transform"]),
+        );
         assert!(
             metres < 1e-9 && degrees < 1e-9,
             "sortie {}: {metres} m, {degrees} deg",
@@ -381,41 +375,21 @@ fn a_team_flying_at_once_in_slam_frames_of_their_own_is_one_inspection() {
         "3",
         "--sortie-offset=0.6,-0.4,0.1,12",
     ];
-    let team = simulated(&flags);
-    let whole = simulated(&WHOLE);
-    let (one, three) = (dir.path().join("whole"), dir.path().join("team"));
-    let plan = whole.join("plan.json");
-    let out = run(&[&whole.join("flight.mcap")], &plan, &one);
-    assert!(out.status.success(), "{}", stderr(&out));
-    let out = run(&[&team], &plan, &three);
-    assert!(out.status.success(), "{}", stderr(&out));
-
-    let truth = read_json(&team.join("truth.json"));
-    let told = truth["sorties"].as_array().unwrap();
+    let (team, one, three) = run_against_whole(dir.path(), &flags);
     let summary = read_json(&three.join("ingest.json"));
     let recordings = summary["recordings"].as_array().unwrap();
-    assert_eq!(recordings.len(), 3);
+    let names: Vec<&str> = recordings
+        .iter()
+        .map(|r| r["path"].as_str().unwrap().rsplit('/').next().unwrap())
+        .collect();
+    assert_eq!(names, ["drone-1.mcap", "drone-2.mcap", "drone-3.mcap"]);
     // At once: every recording starts within a second of the others.
     let starts: Vec<i64> = recordings
         .iter()
         .map(|r| r["start_time_ns"].as_i64().unwrap())
         .collect();
     assert!(starts.iter().max().unwrap() - starts.iter().min().unwrap() < 1_000_000_000);
-    for (k, r) in recordings.iter().enumerate().skip(1) {
-        assert_eq!(
-            r["path"].as_str().unwrap().rsplit('/').next(),
-            Some(format!("drone-{}.mcap", k + 1).as_str())
-        );
-        let expected =
-            pose(&told[0]["slam_from_world"]) * pose(&told[k]["slam_from_world"]).inverse();
-        let (metres, degrees) = pose_error(&expected, &pose(&r["placement"]["transform"]));
-        eprintln!(
-            "drone {}: registered, off by {metres:.4} m, {degrees:.3} deg",
-            k + 1
-        );
-        assert_eq!(r["placement"]["by"]["kind"], "registered");
-        assert!(metres < 0.05 && degrees < 0.5, "drone {}", k + 1);
-    }
+    placed_as_truth(&three, &team, "registered", (0.05, 0.5));
     // Frames of the three interleaved in time, each on its own trajectory.
     let recording = column(&three, "frames.parquet", "recording");
     assert!(
@@ -423,12 +397,5 @@ fn a_team_flying_at_once_in_slam_frames_of_their_own_is_one_inspection() {
         "interleaved"
     );
 
-    let inspected = |run: &Path| f(&read_json(&run.join("coverage.json"))["inspected_voxels"]);
-    let (a, b) = (inspected(&one), inspected(&three));
-    let (ca, cb) = (candidates(&one).len(), candidates(&three).len());
-    eprintln!(
-        "a team at once: inspected voxels {a} recorded once, {b} by three drones; candidates {ca} and {cb}"
-    );
-    assert!((a - b).abs() <= 0.01 * a, "{a} against {b}");
-    assert!(ca.abs_diff(cb) <= 1, "{ca} against {cb}");
+    same_results(&one, &three, "a team at once");
 }
