@@ -55,6 +55,16 @@ fn point(v: &Value) -> Point3<f64> {
     Point3::from(vec3(v))
 }
 
+/// A sortie's flown path.
+fn path_of(sortie: &Value) -> Vec<Point3<f64>> {
+    sortie["path"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(point)
+        .collect()
+}
+
 /// Occupied voxels of the simulator's map, on the replan's grid.
 fn occupied(sim: &Path, plan: &Value) -> VoxelMap {
     let cloud = PointCloud::load(&sim.join("map.ply")).unwrap();
@@ -298,12 +308,7 @@ fn keep_out_zones_hold(run: &Path, gaps: &BTreeSet<Voxel>, open_plan: &Value) {
                 "waypoint {p}"
             );
         }
-        let path: Vec<Point3<f64>> = sortie["path"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(point)
-            .collect();
+        let path = path_of(sortie);
         for s in path.windows(2) {
             let steps = ((s[1] - s[0]).norm() / 0.02).ceil().max(1.0) as usize;
             for i in 0..=steps {
@@ -499,12 +504,7 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
     let home = point(&plan["home"]);
     let mut nearest = f64::INFINITY;
     for sortie in plan["sorties"].as_array().unwrap() {
-        let path: Vec<Point3<f64>> = sortie["path"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(point)
-            .collect();
+        let path = path_of(sortie);
         assert_eq!(path.first(), Some(&home));
         assert_eq!(path.last(), Some(&home));
         let mut at = 0;
