@@ -231,7 +231,7 @@ pub fn replan(
     summary.solver = Some(tour.stats.clone());
 
     let phase = Instant::now();
-    if team.iter().all(|m| m.shares(&home, &lens)) {
+    if team.iter().all(|m| m.shares(&launch, &lens)) {
         let shares = split_sorties(&team, &route, &space)?;
         for (drone, (member, sorties)) in (0u32..).zip(team.iter().zip(&shares)) {
             for indices in sorties {
@@ -245,7 +245,8 @@ pub fn replan(
         summary.sorties = sorties;
         summary.uninspectable_gaps.extend(left);
         summary.uninspectable_gaps.sort_by_key(|u| u.voxel);
-        for member in &team {
+        summary.uninspectable_gaps.dedup_by_key(|u| u.voxel);
+        for member in team.iter().filter(|m| m.home != launch) {
             let (_, by) = lift_home(&space, &map, member.home)?;
             if by > 0.0 {
                 summary.warnings.push(format!(

@@ -28,8 +28,9 @@ pub struct Member {
 }
 
 impl Member {
-    /// Whether it can fly a stretch of a tour planned from `home` with the
-    /// flight's camera as it is: same home, same camera.
+    /// Whether it can fly a stretch of a tour planned from `home` (the
+    /// take-off point, before any lift) with the flight's camera as it is:
+    /// same home, same camera.
     pub fn shares(&self, home: &Point3<f64>, lens: &Intrinsics) -> bool {
         self.home == *home && self.lens == *lens
     }
