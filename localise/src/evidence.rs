@@ -93,6 +93,7 @@ mod tests {
     fn a_missing_length_or_a_broken_rule_asks_for_a_reshoot() {
         let centre = Point3::new(3.0, 0.0, 1.0);
         let sharp = Placement {
+            sight: Default::default(),
             hit: SurfaceHit {
                 point: centre,
                 normal: Vector3::x(),
@@ -119,6 +120,7 @@ mod tests {
         assert!(!evidence(&sharp, LengthStatus::Partial).reshoot);
         assert!(evidence(&sharp, LengthStatus::TooOblique).reshoot);
         let far = Placement {
+            sight: Default::default(),
             view_faults: vec![ViewFault::TooFar],
             width: None,
             ..sharp

@@ -66,6 +66,41 @@ pub struct DefectCandidate {
 const EDGE_MIN_COS: f64 = -0.17;
 /// A crack's extent larger than this is an error, metres (caps the search).
 const MAX_RADIUS: f64 = 3.0;
+/// How far behind a lone view's hit another candidate must be for the
+/// view to be taken as that candidate's, metres: another surface.
+const BEHIND_M: f64 = 0.3;
+
+/// A view alone in its group whose line of sight passes close by an edge
+/// can be placed on the edge's faces, in front of the crack it shows (a
+/// millimetre of pose decides it). When its box holds the centre of a group
+/// of several views farther along the line of sight (by more than
+/// [`BEHIND_M`]), the view joins that group (the nearest such).
+fn rejoin_lone_views(observations: &[Observation], placed: &[usize], groups: &mut UnionFind) {
+    let placement = |a: usize| observations[placed[a]].placement.as_ref().expect("placed");
+    let mut members: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for a in 0..placed.len() {
+        members.entry(groups.root(a)).or_default().push(a);
+    }
+    let centres: Vec<(usize, Point3<f64>)> = members
+        .iter()
+        .filter(|(_, m)| m.len() >= 2)
+        .map(|(&root, m)| {
+            let sum: Vector3<f64> = m.iter().map(|&a| placement(a).centre.coords).sum();
+            (root, Point3::from(sum / m.len() as f64))
+        })
+        .collect();
+    for m in members.values().filter(|m| m.len() == 1) {
+        let p = placement(m[0]);
+        let along = |c: &Point3<f64>| (c - p.sight.origin).norm();
+        let behind = centres
+            .iter()
+            .filter(|(_, c)| p.sight.holds(c) && along(c) > p.hit.range + BEHIND_M)
+            .min_by(|x, y| along(&x.1).total_cmp(&along(&y.1)));
+        if let Some(&(root, _)) = behind {
+            groups.join(m[0], root);
+        }
+    }
+}
 
 /// Fuse the placed observations into candidates, in order of priority
 /// (confidence, then length).
@@ -118,6 +153,7 @@ pub fn fuse(observations: &[Observation], options: &LocaliseConfig) -> Vec<Defec
             }
         }
     }
+    rejoin_lone_views(observations, &placed, &mut groups);
     let mut members: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for (a, &i) in placed.iter().enumerate() {
         members.entry(groups.root(a)).or_default().push(i);
@@ -369,7 +405,7 @@ fn name(candidates: &mut [DefectCandidate]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::observation::Placement;
+    use crate::observation::{Placement, Sight};
     use crate::surface::SurfaceHit;
     use postflight_core::detection::FrameDetection;
     use postflight_core::detection::{BoxXyxy, Detection};
@@ -402,6 +438,7 @@ mod tests {
             },
             outcome: Outcome::Placed,
             placement: Some(Placement {
+                sight: Default::default(),
                 hit: SurfaceHit {
                     point: centre,
                     normal,
@@ -468,6 +505,38 @@ mod tests {
         let mut ids: Vec<&str> = c.iter().map(|c| c.id.as_str()).collect();
         ids.sort();
         assert_eq!(ids, ["0_0_0+x", "0_0_0-x", "0_0_0-x.2"]);
+    }
+
+    #[test]
+    fn a_lone_view_placed_on_an_edge_in_front_of_a_crack_it_shows_joins_it() {
+        // A crack on a wall (x = 3) seen twice; a third view's rays graze an
+        // edge 1.1 m in front of it and land there, on a face at 45 degrees.
+        let mut obs = vec![
+            observation(0, [3.0, 1.0, 2.0], [-1.0, 0.0, 0.0], 0.3),
+            observation(1, [3.0, 1.05, 2.03], [-1.0, 0.0, 0.0], 0.3),
+            observation(2, [1.9, 1.0, 2.0], [-1.0, 0.0, -1.0], 0.2),
+        ];
+        // Its camera at x = 0, its box a narrow cone about the line to the
+        // crack.
+        let sight = |toward: Point3<f64>| Sight {
+            origin: Point3::origin(),
+            corners: [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]]
+                .map(|[u, v]| toward.coords.normalize() + Vector3::new(0.0, u * 0.02, v * 0.02)),
+        };
+        let lone = obs[2].placement.as_mut().unwrap();
+        lone.sight = sight(Point3::new(3.0, 1.0, 2.0));
+        lone.hit.range = 1.9;
+        let c = fuse(&obs, &LocaliseConfig::default());
+        assert_eq!(
+            c.len(),
+            1,
+            "{:?}",
+            c.iter().map(|c| &c.id).collect::<Vec<_>>()
+        );
+        assert_eq!(c[0].frames, 3);
+        // A box that looks elsewhere keeps its own candidate.
+        obs[2].placement.as_mut().unwrap().sight = sight(Point3::new(3.0, -1.0, 2.0));
+        assert_eq!(fuse(&obs, &LocaliseConfig::default()).len(), 2);
     }
 
     #[test]

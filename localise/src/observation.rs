@@ -38,6 +38,8 @@ pub struct Observation {
 /// A detection's crack on the surface.
 #[derive(Debug, Clone)]
 pub struct Placement {
+    /// The lines of sight through the detection's box.
+    pub sight: Sight,
     /// The surface the crack lies on, hit at the crack's centre.
     pub hit: SurfaceHit,
     /// Centroid of the crack's centre line on the surface.
@@ -147,6 +149,29 @@ const CUT_PX: f32 = 6.0;
 const MAX_MEASURED_INCIDENCE_DEG: f64 = 70.0;
 /// Steepest view a width is measured from, degrees from face-on.
 const MAX_WIDTH_INCIDENCE_DEG: f64 = 75.0;
+/// The lines of sight through a detection's box: the camera centre and the
+/// rays through the box's corners, in the world frame. The default holds
+/// nothing.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Sight {
+    pub origin: Point3<f64>,
+    /// Rays through the box's corners, in order around it.
+    pub corners: [Vector3<f64>; 4],
+}
+
+impl Sight {
+    /// Whether `p` is in front of the camera within the box's lines of sight.
+    pub fn holds(&self, p: &Point3<f64>) -> bool {
+        let d = p - self.origin;
+        let c = &self.corners;
+        let sides: Vec<f64> = (0..4)
+            .map(|i| c[i].cross(&c[(i + 1) % 4]).dot(&d))
+            .collect();
+        let axis: Vector3<f64> = c.iter().sum();
+        axis.dot(&d) > 0.0 && (sides.iter().all(|s| *s >= 0.0) || sides.iter().all(|s| *s <= 0.0))
+    }
+}
+
 /// Rays cast per detection, spread along the crack.
 const RAYS: usize = 7;
 /// Rays whose hit lies this far off the crack's surface met something else
@@ -292,7 +317,13 @@ impl Scene<'_> {
                 .filter_map(|(_, p)| *p)
                 .collect()
         });
+        let sight = Sight {
+            origin,
+            corners: [(b.x0, b.y0), (b.x1, b.y0), (b.x1, b.y1), (b.x0, b.y1)]
+                .map(|(x, y)| ray(&Point2::new(f64::from(x), f64::from(y)))),
+        };
         observation.placement = Some(Placement {
+            sight,
             oblique_gsd_mm,
             view_gsd_mm,
             blur_px,
