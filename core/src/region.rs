@@ -6,7 +6,7 @@
 use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 
-use crate::setting::{Key, inline_table};
+use crate::setting::Key;
 use crate::view::{ViewModel, ViewSettings};
 
 /// A region that cannot be used, named as the user gave it.
@@ -58,18 +58,10 @@ pub struct Focus {
     pub view: ViewSettings,
 }
 
-impl std::str::FromStr for Focus {
-    type Err = String;
-
-    /// As a TOML inline table: `{region = {name = "bearing", outline =
-    /// [...]}, view = {max_gsd_mm = 1.5}}`.
-    fn from_str(text: &str) -> Result<Self, String> {
-        inline_table(
-            text,
-            "a focus region {region = {name = \"...\", outline = [[x, y], ...]}, view = {max_gsd_mm = ...}}",
-        )
-    }
-}
+crate::inline_table_setting!(
+    Focus,
+    "a focus region {region = {name = \"...\", outline = [[x, y], ...]}, view = {max_gsd_mm = ...}}"
+);
 
 /// Each focus region with the View model it makes of `base`, first listed
 /// first: where regions overlap, the first holds.
@@ -115,18 +107,10 @@ pub struct Region {
     pub top_m: Option<f64>,
 }
 
-impl std::str::FromStr for Region {
-    type Err = String;
-
-    /// A region as a TOML inline table, as a flag gives it: `{name = "deck",
-    /// outline = [[0, -4], [16, -4], [16, 4], [0, 4]], bottom_m = 6.5}`.
-    fn from_str(text: &str) -> Result<Self, String> {
-        inline_table(
-            text,
-            "a region {name = \"...\", outline = [[x, y], ...], bottom_m = ..., top_m = ...}",
-        )
-    }
-}
+crate::inline_table_setting!(
+    Region,
+    "a region {name = \"...\", outline = [[x, y], ...], bottom_m = ..., top_m = ...}"
+);
 
 impl Region {
     /// Why the region cannot be used, if it cannot.

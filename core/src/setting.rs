@@ -230,6 +230,23 @@ pub fn inline_table<T: serde::de::DeserializeOwned>(text: &str, what: &str) -> R
         .map_err(|e| format!("expected {what}: {}", e.message()))
 }
 
+/// A setting whose value is a table (`[[replan.keep_out]]` entries) also
+/// read from its flag as a TOML inline table (`--keep-out-zone '{name =
+/// "deck", ...}'`): `FromStr` through [`inline_table`], `what` saying what
+/// the value looks like when it cannot be read.
+#[macro_export]
+macro_rules! inline_table_setting {
+    ($ty:ty, $what:literal) => {
+        impl ::std::str::FromStr for $ty {
+            type Err = String;
+
+            fn from_str(text: &str) -> Result<Self, String> {
+                $crate::setting::inline_table(text, $what)
+            }
+        }
+    };
+}
+
 /// A point given as `X,Y,Z` in metres (`--home`).
 pub fn point3(text: &str) -> Result<[f64; 3], String> {
     match comma_numbers(text).as_deref() {

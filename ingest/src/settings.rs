@@ -3,8 +3,6 @@
 
 use std::path::PathBuf;
 
-use postflight_core::setting::inline_table;
-
 /// Where a recording's own frame (its SLAM or odometry frame) is in the
 /// run's map frame, as the settings give it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -17,18 +15,10 @@ pub struct RecordingFrame {
     pub origin: [f64; 4],
 }
 
-impl std::str::FromStr for RecordingFrame {
-    type Err = String;
-
-    /// As a TOML inline table: `{recording = "drone-2.mcap", origin = [12,
-    /// -3, 0, 90]}`.
-    fn from_str(text: &str) -> Result<Self, String> {
-        inline_table(
-            text,
-            "a recording's frame {recording = \"FILE\", origin = [x, y, z, yaw_deg]}",
-        )
-    }
-}
+postflight_core::inline_table_setting!(
+    RecordingFrame,
+    "a recording's frame {recording = \"FILE\", origin = [x, y, z, yaw_deg]}"
+);
 
 impl RecordingFrame {
     /// The frame as a rigid motion: a point of the recording's frame to the

@@ -47,11 +47,6 @@ impl Airspace {
         self.ceiling_z
     }
 
-    /// Whether nothing is barred.
-    pub fn is_open(&self) -> bool {
-        self.zones.is_empty() && self.ceiling_z.is_none()
-    }
-
     /// The zone holding `p`, if one does.
     pub fn zone_at(&self, p: &Point3<f64>) -> Option<&Region> {
         self.zones
@@ -263,7 +258,12 @@ mod tests {
             !air.clear_around(&p(-5.0, 1.0, 9.8), 0.5),
             "near the ceiling"
         );
-        assert!(Airspace::default().is_open());
+        // Nothing barred by default.
+        let open = Airspace::default();
+        assert!(
+            open.allows(&p(1.0, 1.0, 2.0))
+                && open.allows_segment(&p(-1.0, 1.0, 2.0), &p(3.0, 1.0, 99.0))
+        );
     }
 
     #[test]

@@ -162,10 +162,6 @@ impl<'a> FreeSpace<'a> {
         self.map.grid
     }
 
-    pub fn airspace(&self) -> &Airspace {
-        &self.airspace
-    }
-
     /// Whether the map has something below `p`, within a voxel sideways
     /// (a sparse map has holes a plumb line can fall through): the vehicle
     /// stays over mapped ground, not out in unmapped space.

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use postflight_core::outputs::replan::GapChoice;
 use postflight_core::region::Region;
-use postflight_core::setting::{inline_table, point3};
+use postflight_core::setting::point3;
 
 /// One drone of a team, as `[[replan.drone]]` gives it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -31,18 +31,10 @@ pub struct Drone {
     pub camera_info_file: Option<PathBuf>,
 }
 
-impl std::str::FromStr for Drone {
-    type Err = String;
-
-    /// As a TOML inline table: `{name = "M3E", camera_info_file =
-    /// "m3e.yaml", speed_m_s = 5}`.
-    fn from_str(text: &str) -> Result<Self, String> {
-        inline_table(
-            text,
-            "a drone {name = \"...\", home = [x, y, z], speed_m_s = ..., battery_minutes = ..., camera_info_file = \"...\"}",
-        )
-    }
-}
+postflight_core::inline_table_setting!(
+    Drone,
+    "a drone {name = \"...\", home = [x, y, z], speed_m_s = ..., battery_minutes = ..., camera_info_file = \"...\"}"
+);
 
 postflight_core::settings! {
     table = "replan", keys = keys;

@@ -189,6 +189,8 @@ pub fn replan(
         return write(&run, summary, placement.as_ref(), started);
     }
 
+    let lens = flight_lens(&flight)?;
+    let team = team(options, launch, &lens)?;
     let given = options.map.as_ref().or(coverage.map.as_ref());
     let (map, _) = ingest::load_map(&flight, given.map(PathBuf::as_path), Some(grid))?;
     summary.frame_id = map.cloud.frame_id.clone();
@@ -202,8 +204,6 @@ pub fn replan(
     let home = clear_home(&space, &map, launch, &mut summary)?;
     summary.phases.clearance_s = phase.elapsed().as_secs_f64();
 
-    let lens = flight_lens(&flight)?;
-    let team = team(options, launch, &lens)?;
     let extrinsic = camera_mount(&flight);
     let scene = Scene {
         coverage: &coverage,
