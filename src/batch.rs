@@ -178,7 +178,7 @@ fn run_flight(
     };
     let inputs = RunInputs {
         // A directory holds the flight's sorties.
-        flights: ingest::stage::recordings_in(&entry.flight)?,
+        flights: ingest::sources_in(&entry.flight)?,
         map: entry.map.clone(),
         plan: entry.plan.clone().map(|path| PlanFile { path, yaw }),
         targets,

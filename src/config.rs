@@ -218,6 +218,7 @@ map_topic = "/lio_sam/mapping/map_global"
 body_frame = "base_link"
 world_frame = "map"
 max_pose_gap_s = 0.5
+photo_origin = [47.397742, 8.545594, 488.0]
 strict = true
 [[ingest.recording_frame]]
 recording = "drone-2.mcap"
@@ -270,6 +271,8 @@ solver_time_limit_s = 5.0
 drones = 2
 seed = 7
 geo_origin = [47.397742, 8.545594, 488.0, 23.5]
+max_gimbal_up_deg = 35.0
+dji_aircraft = "m350-h20t"
 keep_out_file = "zones.geojson"
 ceiling_m = 40.0
 [[replan.drone]]

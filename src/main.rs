@@ -103,23 +103,36 @@ struct FleetDirArgs {
     fleet_dir: PathBuf,
 }
 
-/// The flight's recordings.
+/// The flight's recordings and photo folders.
 #[derive(Args)]
 struct FlightArgs {
     /// A flight recording: MCAP (ROS 2 or ROS 1 messages) or a ROS 1 bag
     /// (.bag). Repeat it for a flight recorded in several sorties or by
     /// several drones (--flight A.mcap --flight B.mcap), or give a
-    /// directory: its .mcap and .bag files in name order.
-    #[arg(long = "flight", required = true, value_name = "RECORDING")]
+    /// directory: its .mcap and .bag files in name order, else its photos
+    /// (a photo folder), else its folders of photos (one per sortie).
+    #[arg(
+        long = "flight",
+        required_unless_present = "photos",
+        value_name = "RECORDING"
+    )]
     flights: Vec<PathBuf>,
+    /// A folder of geotagged photos (JPEG with EXIF GPS; DJI's XMP gimbal
+    /// angles, lens and RTK tags), one per sortie; repeatable.
+    #[arg(long = "photos", value_name = "DIR")]
+    photos: Vec<PathBuf>,
 }
 
 impl FlightArgs {
-    /// Every recording given, directories listed.
+    /// Every recording and photo folder given, directories listed.
     fn recordings(&self) -> anyhow::Result<Vec<PathBuf>> {
         let mut all = Vec::new();
         for path in &self.flights {
-            all.extend(ingest::stage::recordings_in(path)?);
+            all.extend(ingest::sources_in(path)?);
+        }
+        for folder in &self.photos {
+            ingest::PhotoFolder::open(folder)?;
+            all.push(folder.clone());
         }
         Ok(all)
     }
@@ -369,6 +382,12 @@ struct SimulateArgs {
     /// stains, rust streaks and shadow edges (listed in truth.json).
     #[arg(long)]
     distractors: bool,
+    /// Give the concrete the texture real concrete shows at centimetre
+    /// scale (aggregate, formwork board grain, weathering streaks), which
+    /// structure-from-motion matches from frame to frame; without it the
+    /// surfaces are as the default flights have always been.
+    #[arg(long)]
+    textured: bool,
     /// Carry the camera on a gimbal (its pitch on /tf) and also plan a
     /// viewpoint looking straight down over each patch of faces pointing
     /// up, such as a deck's top (a fixed camera sees those only grazing).
@@ -577,6 +596,10 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
         standoff_m: args.standoff,
         crack_widths: args.crack_widths,
         distractors: args.distractors,
+        surface: match args.textured {
+            true => sim::render::Surface::Textured,
+            false => sim::render::Surface::Smooth,
+        },
         gimbal: args.gimbal,
         pose_noise: sim::truth::PoseNoise {
             position_m: args.pose_noise,

@@ -105,9 +105,11 @@ fn processed(dir: &RunDir, seconds: f64) -> anyhow::Result<String> {
 /// before anything is written.
 fn check_inputs(inputs: &RunInputs) -> anyhow::Result<()> {
     ingest::stage::check_recordings(&inputs.flights)?;
+    // A directory among the flights is a photo folder, listed already.
     let flights = inputs
         .flights
         .iter()
+        .filter(|f| !f.is_dir())
         .map(|f| ("--flight", Some(f.as_path())));
     let given = flights.chain([
         ("--model", inputs.model.as_deref()),
@@ -119,6 +121,9 @@ fn check_inputs(inputs: &RunInputs) -> anyhow::Result<()> {
         if let Some(p) = path.filter(|p| !p.is_file()) {
             anyhow::bail!("{what} {} is not a file; check the path", p.display());
         }
+    }
+    if let Some(map) = &inputs.map {
+        postflight_core::map::PointCloud::check_placeable(map)?;
     }
     // A plan that cannot be read, or a path without targets, would fail
     // coverage only after ingest and detection.

@@ -16,6 +16,7 @@ mod ingest;
 mod localise;
 mod octomap;
 mod parsers;
+mod photos;
 mod pipeline;
 mod recordings;
 mod replan;

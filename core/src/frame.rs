@@ -16,6 +16,14 @@ pub struct MessageLocation {
     pub record_offset: u64,
 }
 
+/// Where a frame's pixels are: a message of a recording, or a photo file.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ImageLocation {
+    Message(MessageLocation),
+    /// A photo of a photo folder, by its file name there.
+    Photo(String),
+}
+
 /// Whether and why a frame has a camera pose.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum PoseStatus {
@@ -108,9 +116,13 @@ pub struct Frame {
     pub camera_pose: Option<Isometry3<f64>>,
     pub pose_status: PoseStatus,
     pub image_status: ImageStatus,
-    pub location: MessageLocation,
-    /// Exposure time, seconds, when the recording has it (see [`EXPOSURE_TOPIC`]).
+    pub location: ImageLocation,
+    /// Exposure time, seconds, when the recording has it (see
+    /// [`EXPOSURE_TOPIC`]) or the photo's tags give it.
     pub exposure_s: Option<f64>,
+    /// How far off the camera's position may be, metres (one standard
+    /// deviation, 3-D), where the source says: a photo's RTK accuracy.
+    pub position_std_m: Option<f64>,
 }
 
 /// Name (last path element) of a `std_msgs/msg/Float64` topic carrying each

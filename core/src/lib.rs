@@ -30,6 +30,7 @@
 
 pub mod camera;
 pub mod condition;
+pub mod crs;
 pub mod detection;
 pub mod error;
 pub mod flight;
@@ -47,6 +48,7 @@ pub mod run_log;
 pub mod runs;
 pub mod serde_pose;
 pub mod setting;
+pub mod similarity;
 pub mod structure;
 pub mod table;
 pub mod time;
@@ -57,7 +59,7 @@ pub mod view;
 pub use camera::{Camera, Distortion, Intrinsics};
 pub use error::Error;
 pub use flight::Flight;
-pub use frame::{Frame, ImageStatus, MessageLocation, PoseStatus};
+pub use frame::{Frame, ImageLocation, ImageStatus, MessageLocation, PoseStatus};
 pub use map::FaceSide;
 pub use outputs::Stage;
 pub use plan::{FlownPlan, InspectionPlan, PathPoint, PlanFile, Viewpoint, YawUnit};

@@ -55,34 +55,71 @@ impl InputFile {
     /// The file at `path` as it is now. Its SHA-256 is taken from a `known`
     /// file with the same path, size and modification time, so a resumed
     /// run does not read a flight of many gigabytes again; else it is read.
+    /// A directory (a folder of photos) is its files together: their
+    /// sizes added, the latest modification, and the SHA-256 of their
+    /// names and SHA-256s.
     pub fn describe(path: &Path, known: &[InputFile]) -> Result<Self, Error> {
         let path = std::path::absolute(path).unwrap_or_else(|_| path.to_owned());
-        let meta = std::fs::metadata(&path).map_err(|cause| Error::Open {
-            path: path.clone(),
-            cause,
-        })?;
-        let modified_ns = meta
-            .modified()
-            .ok()
-            .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
-            .map_or(0, |d| d.as_nanos() as i64);
+        let files = files_of(&path)?;
+        let mut size_bytes = 0;
+        let mut modified_ns = 0;
+        for (_, meta) in &files {
+            size_bytes += meta.len();
+            let modified = meta
+                .modified()
+                .ok()
+                .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+                .map_or(0, |d| d.as_nanos() as i64);
+            modified_ns = modified_ns.max(modified);
+        }
         let same = known.iter().find(|k| {
             k.path == path
-                && k.size_bytes == meta.len()
+                && k.size_bytes == size_bytes
                 && k.modified_ns == modified_ns
                 && modified_ns != 0
         });
-        let sha256 = match same {
-            Some(k) => k.sha256.clone(),
-            None => sha256_file(&path)?,
+        let sha256 = match (same, path.is_dir()) {
+            (Some(k), _) => k.sha256.clone(),
+            (None, false) => sha256_file(&path)?,
+            (None, true) => {
+                let mut listing = String::new();
+                for (file, _) in &files {
+                    let name = file.file_name().unwrap_or_default().to_string_lossy();
+                    listing.push_str(&format!("{}  {name}\n", sha256_file(file)?));
+                }
+                sha256(listing.as_bytes())
+            }
         };
         Ok(Self {
             path,
             sha256,
-            size_bytes: meta.len(),
+            size_bytes,
             modified_ns,
         })
     }
+}
+
+/// The file at `path`, or a directory's files in name order, with their
+/// metadata.
+fn files_of(path: &Path) -> Result<Vec<(PathBuf, std::fs::Metadata)>, Error> {
+    let open = |cause| Error::Open {
+        path: path.to_owned(),
+        cause,
+    };
+    let meta = std::fs::metadata(path).map_err(open)?;
+    if !meta.is_dir() {
+        return Ok(vec![(path.to_owned(), meta)]);
+    }
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(path).map_err(open)? {
+        let entry = entry.map_err(open)?;
+        let meta = entry.metadata().map_err(open)?;
+        if meta.is_file() {
+            files.push((entry.path(), meta));
+        }
+    }
+    files.sort_by(|a, b| a.0.cmp(&b.0));
+    Ok(files)
 }
 
 impl RunLog {

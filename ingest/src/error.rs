@@ -39,10 +39,36 @@ pub enum IngestError {
     GivenTwice { path: PathBuf },
 
     #[error(
-        "no flight recordings in {:?}: found no .mcap or .bag file; pass a recording, several (--flight A --flight B), or a directory of them",
+        "no flight recordings in {:?}: found no .mcap, .bag or .jpg file; pass a recording, several (--flight A --flight B), a directory of them, or a folder of photos",
         path.display().to_string()
     )]
     NoRecordingsIn { path: PathBuf },
+
+    #[error(
+        "{} cannot be used: {why}; fix or remove the photo, or drop {strict} to skip it",
+        path.display(),
+        strict = keys::strict
+    )]
+    UnusablePhoto { path: PathBuf, why: String },
+
+    #[error(
+        "no photo in {} can be posed{}; photos need EXIF GPS, a capture time, DJI's gimbal angles and a focal length",
+        path.display(),
+        first.as_ref().map(|f| format!(" (first: {f})")).unwrap_or_default()
+    )]
+    NoPosedPhotos {
+        path: PathBuf,
+        first: Option<String>,
+    },
+
+    #[error(
+        "the reconstruction {} cannot pose the photos: {why}",
+        path.display()
+    )]
+    Reconstruction { path: PathBuf, why: String },
+
+    #[error("cannot read the photo {}: {why}; was it changed after ingest?", path.display())]
+    PhotoUnreadable { path: PathBuf, why: String },
 
     #[error(
         "{recording} is in a SLAM frame of its own, and its map cannot be put on {reference}'s: {why}; record the sorties in one SLAM session (or relocalise in the first sortie's map), or process them as separate runs"

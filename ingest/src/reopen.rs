@@ -10,21 +10,24 @@ use std::path::Path;
 use image::DynamicImage;
 use postflight_core::map::{PointCloud, SlamMap, VoxelGrid, merged};
 use postflight_core::outputs::ingest::RecordingSummary;
-use postflight_core::{Flight, Frame};
+use postflight_core::{Flight, Frame, ImageLocation, MessageLocation};
 
 use crate::error::IngestError;
 use crate::image::{decode_compressed, decode_raw};
+use crate::photos::PhotoFolder;
+use crate::reconstruction::Reconstruction;
 use crate::recording::Recording;
 use crate::ros::{Wire, msg, pointcloud2};
+use crate::source::Source;
 
 /// Two recordings' map points closer than this are of one surface, metres
 /// (a registration's inlier distance).
 const SAME_SURFACE_M: f64 = 0.1;
 
-/// Every recording of a flight, reopened.
+/// Every recording (or photo folder) of a flight, reopened.
 pub struct Recordings {
     /// In the order of `ingest.json`'s `recordings`, as frames name them.
-    recordings: Vec<Recording>,
+    recordings: Vec<Source>,
 }
 
 impl Recordings {
@@ -33,13 +36,16 @@ impl Recordings {
     pub fn reopen(flight: &Flight) -> Result<Self, IngestError> {
         let recordings = flight.summary.recordings.iter();
         let recordings = recordings
-            .map(|r| Recording::reopen(flight, r))
+            .map(|r| match r.photos {
+                Some(_) => PhotoFolder::open(&r.path).map(Source::Photos),
+                None => Recording::reopen(flight, r).map(Source::Recording),
+            })
             .collect::<Result<_, _>>()?;
         Ok(Self { recordings })
     }
 
-    /// The recording holding a frame.
-    fn of(&self, frame: &Frame) -> Result<&Recording, IngestError> {
+    /// The recording (or photo folder) holding a frame.
+    fn of(&self, frame: &Frame) -> Result<&Source, IngestError> {
         let index = usize::from(frame.recording);
         self.recordings.get(index).ok_or_else(|| {
             postflight_core::Error::RunDir {
@@ -56,13 +62,21 @@ impl Recordings {
 
     /// Decode a frame's image.
     pub fn image(&self, frame: &Frame) -> Result<DynamicImage, IngestError> {
-        self.of(frame)?.image(frame)
+        match (self.of(frame)?, &frame.location) {
+            (Source::Recording(r), ImageLocation::Message(m)) => r.image(frame, *m),
+            (Source::Photos(folder), ImageLocation::Photo(name)) => folder.image(name),
+            _ => Err(mismatched(frame)),
+        }
     }
 
     /// A frame's image as recorded, still compressed (JPEG or PNG bytes), for
     /// passing on without decoding; `None` for raw images.
     pub fn compressed_image(&self, frame: &Frame) -> Result<Option<Vec<u8>>, IngestError> {
-        self.of(frame)?.compressed_image(frame)
+        match (self.of(frame)?, &frame.location) {
+            (Source::Recording(r), ImageLocation::Message(m)) => r.compressed_image(frame, *m),
+            (Source::Photos(folder), ImageLocation::Photo(name)) => folder.photo(name).map(Some),
+            _ => Err(mismatched(frame)),
+        }
     }
 
     /// The SLAM maps recorded in the flight's recordings, in the run's map
@@ -74,7 +88,10 @@ impl Recordings {
     ) -> Result<Option<(PointCloud, String)>, IngestError> {
         let mut clouds = Vec::new();
         let mut sources = Vec::new();
-        for (recording, summary) in self.recordings.iter().zip(&flight.summary.recordings) {
+        for (source, summary) in self.recordings.iter().zip(&flight.summary.recordings) {
+            let Source::Recording(recording) = source else {
+                continue;
+            };
             let Some(mut cloud) = recording.recorded_map(summary)? else {
                 continue;
             };
@@ -134,10 +151,10 @@ impl Recording {
         self.wires.get(topic).cloned().unwrap_or(Wire::Cdr)
     }
 
-    /// Decode a frame's image.
-    fn image(&self, frame: &Frame) -> Result<DynamicImage, IngestError> {
-        let payload = self.read_message(frame.location)?;
-        let bad = |why: String| self.bad_frame(frame, why);
+    /// Decode a frame's image, the message at `location`.
+    fn image(&self, frame: &Frame, location: MessageLocation) -> Result<DynamicImage, IngestError> {
+        let payload = self.read_message(location)?;
+        let bad = |why: String| self.bad_frame(location, why);
         let wire = self.wire(&frame.topic);
         if is_compressed(frame) {
             let (_, data) = wire
@@ -158,16 +175,21 @@ impl Recording {
         }
     }
 
-    /// A frame's image still compressed; `None` for raw images.
-    fn compressed_image(&self, frame: &Frame) -> Result<Option<Vec<u8>>, IngestError> {
+    /// A frame's image (the message at `location`) still compressed;
+    /// `None` for raw images.
+    fn compressed_image(
+        &self,
+        frame: &Frame,
+        location: MessageLocation,
+    ) -> Result<Option<Vec<u8>>, IngestError> {
         if !is_compressed(frame) {
             return Ok(None);
         }
-        let payload = self.read_message(frame.location)?;
+        let payload = self.read_message(location)?;
         let (_, data) = self
             .wire(&frame.topic)
             .compressed_image(&payload)
-            .map_err(|e| self.bad_frame(frame, e.to_string()))?;
+            .map_err(|e| self.bad_frame(location, e.to_string()))?;
         Ok(Some(data.to_vec()))
     }
 
@@ -188,26 +210,48 @@ impl Recording {
         Ok(Some(pointcloud2::decode(&msg).map_err(bad)?))
     }
 
-    fn bad_frame(&self, frame: &Frame, why: String) -> IngestError {
+    fn bad_frame(&self, location: MessageLocation, why: String) -> IngestError {
         IngestError::BadLocation {
             path: self.path().to_owned(),
-            location: frame.location,
+            location,
             why,
         }
     }
 }
 
 /// The map's points: the file given, else the ones recorded in the
-/// flight's recordings (`None` without either); and which it is (the path,
-/// or `recorded TOPIC`).
+/// flight's recordings, else the points of the reconstruction that posed
+/// its photos (`None` without any); and which it is (the path, `recorded
+/// TOPIC`, or `reconstruction PATH`).
 pub fn map_cloud(
     flight: &Flight,
     given: Option<&Path>,
 ) -> Result<Option<(PointCloud, String)>, IngestError> {
     if let Some(path) = given {
-        return Ok(Some((PointCloud::load(path)?, path.display().to_string())));
+        let origin = flight.summary.geo_origin.as_ref().map(|g| &g.origin);
+        let cloud = PointCloud::load_placed(path, origin)?;
+        return Ok(Some((cloud, path.display().to_string())));
     }
-    Recordings::reopen(flight)?.recorded_map(flight)
+    if let Some(recorded) = Recordings::reopen(flight)?.recorded_map(flight)? {
+        return Ok(Some(recorded));
+    }
+    let Some(r) = &flight.summary.reconstruction else {
+        return Ok(None);
+    };
+    let unusable = |why: String| IngestError::Reconstruction {
+        path: r.path.clone(),
+        why,
+    };
+    let points = Reconstruction::load(&r.path).map_err(unusable)?.points;
+    let cloud = PointCloud {
+        frame_id: String::new(),
+        points: points.iter().map(|p| r.similarity.apply(p)).collect(),
+        grid: None,
+    };
+    Ok(Some((
+        cloud,
+        format!("reconstruction {}", r.path.display()),
+    )))
 }
 
 /// The map a stage works on ([`map_cloud`]), voxelised on `grid` (without
@@ -228,6 +272,19 @@ pub fn load_map(
         ),
     })?;
     Ok((map, name))
+}
+
+/// A frame said to be in a photo folder that ingest found a recording, or
+/// the other way round: the run directory is stale.
+fn mismatched(frame: &Frame) -> IngestError {
+    postflight_core::Error::RunDir {
+        path: Default::default(),
+        why: format!(
+            "frame {} is not where ingest.json says its recording is; rerun `postflight ingest`",
+            frame.index
+        ),
+    }
+    .into()
 }
 
 fn is_compressed(frame: &Frame) -> bool {

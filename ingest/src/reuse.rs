@@ -9,6 +9,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use postflight_core::RunDir;
+use postflight_core::geo::GeoOrigin;
 use postflight_core::outputs::ingest::{self as outputs, RecordingSummary};
 use postflight_core::run_log::sha256;
 use serde::{Deserialize, Serialize};
@@ -18,6 +19,34 @@ use crate::stage::{IngestOptions, Ingested};
 
 /// The run directory's folder of recordings ingested before.
 pub(crate) const DIR: &str = "recordings";
+/// Size and modification time of a recording, or of each photo of a
+/// folder, by name: what says the source changed.
+fn stamps(path: &Path) -> Vec<(String, u64, String)> {
+    let stamp = |p: &Path| {
+        let meta = std::fs::metadata(p).ok();
+        let modified_ns = meta
+            .as_ref()
+            .and_then(|m| m.modified().ok())
+            .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+            .map_or(0, |d| d.as_nanos());
+        let name = p.file_name().map(|n| n.to_string_lossy().into_owned());
+        (
+            name.unwrap_or_default(),
+            meta.map_or(0, |m| m.len()),
+            modified_ns.to_string(),
+        )
+    };
+    if !path.is_dir() {
+        return vec![stamp(path)];
+    }
+    let mut photos: Vec<PathBuf> = std::fs::read_dir(path)
+        .map(|entries| entries.flatten().map(|e| e.path()).collect())
+        .unwrap_or_default();
+    photos.retain(|p| crate::PhotoFolder::is_photo_name(p));
+    photos.sort();
+    photos.iter().map(|p| stamp(p)).collect()
+}
+
 /// What a kept recording holds besides its tables.
 const RECORD: &str = "recording.json";
 
@@ -29,15 +58,14 @@ struct Kept {
     warnings: Vec<String>,
 }
 
-/// Where the recording at `path`, ingested with `options`, is kept.
-pub(crate) fn place_of(path: &Path, options: &IngestOptions) -> PathBuf {
+/// Where the source at `path` (a recording or a photo folder), ingested
+/// with `options` (photos posed at `photo_origin`), is kept.
+pub(crate) fn place_of(
+    path: &Path,
+    photo_origin: Option<&GeoOrigin>,
+    options: &IngestOptions,
+) -> PathBuf {
     let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_owned());
-    let meta = std::fs::metadata(path).ok();
-    let modified_ns = meta
-        .as_ref()
-        .and_then(|m| m.modified().ok())
-        .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
-        .map_or(0, |d| d.as_nanos());
     // Where recordings are placed is not how one is read.
     let settings = crate::IngestConfig {
         recording_frame: Vec::new(),
@@ -45,9 +73,9 @@ pub(crate) fn place_of(path: &Path, options: &IngestOptions) -> PathBuf {
     };
     let key = serde_json::json!({
         "path": absolute,
-        "size_bytes": meta.map_or(0, |m| m.len()),
-        "modified_ns": modified_ns.to_string(),
+        "files": stamps(path),
         "settings": settings,
+        "photo_origin": photo_origin,
         "postflight": env!("CARGO_PKG_VERSION"),
     });
     let key = sha256(key.to_string().as_bytes());

@@ -11,7 +11,7 @@ use postflight_core::frame::{EXPOSURE_TOPIC, camera_namespace};
 use postflight_core::geo::Geodetic;
 use postflight_core::outputs::ingest::{GnssFix, TopicSummary};
 use postflight_core::pose::StampedPose;
-use postflight_core::{Frame, ImageStatus, MessageLocation, PoseStatus};
+use postflight_core::{Frame, ImageLocation, ImageStatus, MessageLocation, PoseStatus};
 
 use crate::image::{Compression, RAW_ENCODINGS, compressed_size};
 use crate::recording::{Channel, RecordedMessage};
@@ -245,8 +245,9 @@ impl Scan {
                 camera_pose: None,
                 pose_status: PoseStatus::Ok,
                 image_status,
-                location: m.location,
+                location: ImageLocation::Message(m.location),
                 exposure_s: None,
+                position_std_m: None,
             };
         match kind {
             Kind::CompressedImage => {

@@ -72,7 +72,24 @@ postflight_core::settings! {
         /// recording as a TOML inline table.
         #[arg(long = "recording-frame", value_name = "FRAME")]
         recording_frame: Vec<RecordingFrame> = Vec::new(),
-        /// Fail on a truncated recording instead of salvaging it.
+        /// Where photo folders are posed: the origin (latitude, longitude in
+        /// degrees, altitude in metres above the WGS 84 ellipsoid) of the
+        /// east-north-up map frame, and the heading of its x axis from
+        /// east, counter-clockwise (degrees, default 0) [default: the
+        /// first photo's position, the frame east-north-up].
+        #[arg(long, value_name = "LAT,LON,ALT[,YAW_DEG]", allow_hyphen_values = true)]
+        #[serde(with = "postflight_core::geo::geo_origin_values")]
+        photo_origin: postflight_core::geo::GeoOrigin,
+        /// A photogrammetry reconstruction of the photos: a COLMAP sparse
+        /// model's folder (cameras, images, points3D; binary or text) or
+        /// OpenSfM's / OpenDroneMap's `reconstruction.json`. Its refined
+        /// poses and lenses replace the photos' tags, matched by file name;
+        /// without a reference on the Earth it is fitted to the photos'
+        /// GPS; its points are the map where none is given.
+        #[arg(long, value_name = "MODEL")]
+        reconstruction: PathBuf,
+        /// Fail on a truncated recording, or a photo that cannot be posed,
+        /// instead of salvaging or skipping it.
         #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]
         strict: bool = false,
     }

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry3, Point3};
 use postflight_core::frame::camera_namespace;
-use postflight_core::geo::{GeoAlignment, Geodetic};
+use postflight_core::geo::{GeoAlignment, GeoOrigin, Geodetic};
 use postflight_core::outputs::ingest::{
     self as outputs, GnssFix, IngestSummary, Placement, PoseSource, RecordedMap, RecordingSummary,
     TopicSummary, files,
@@ -21,6 +21,7 @@ use postflight_core::{
 use crate::cameras::cameras;
 use crate::error::IngestError;
 use crate::placement::{choose_trajectory, place_frames};
+use crate::reconstruction::{Placed, Reconstruction};
 use crate::recording::{Recording, ScanEvent, ScanReport};
 use crate::reopen::recorded_map_of;
 use crate::reuse;
@@ -28,6 +29,7 @@ use crate::ros::{msg, pointcloud2, schema};
 use crate::scan::Scan;
 use crate::settings::{IngestConfig, RecordingFrame, keys};
 use crate::slam_frames::{self, RecordedFrame};
+use crate::source::Source;
 use postflight_core::map::PointCloud;
 
 /// What to ingest and how. Serialised, it is what the stage's result
@@ -35,8 +37,8 @@ use postflight_core::map::PointCloud;
 /// settings, not the paths.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct IngestOptions {
-    /// The flight's recordings: one, or one per sortie or drone (see
-    /// [`recordings_in`]).
+    /// The flight's sources: recordings or photo folders, one or one per
+    /// sortie or drone (see [`crate::source::sources_in`]).
     #[serde(skip)]
     pub flights: Vec<PathBuf>,
     #[serde(skip)]
@@ -53,30 +55,6 @@ impl IngestOptions {
             settings: IngestConfig::default(),
         }
     }
-}
-
-/// The recordings a `--flight` names: the file, or a directory's MCAP and
-/// bag files in name order (sortie-1.mcap, sortie-2.mcap, ...).
-pub fn recordings_in(path: &Path) -> Result<Vec<PathBuf>, IngestError> {
-    if !path.is_dir() {
-        return Ok(vec![path.to_owned()]);
-    }
-    let listed = std::fs::read_dir(path).map_err(|e| IngestError::NotRecording {
-        path: path.to_owned(),
-        why: e.to_string(),
-    })?;
-    let mut found: Vec<PathBuf> = listed
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| p.is_file() && Recording::is_recording_name(p))
-        .collect();
-    found.sort();
-    if found.is_empty() {
-        return Err(IngestError::NoRecordingsIn {
-            path: path.to_owned(),
-        });
-    }
-    Ok(found)
 }
 
 /// Progress of an ingest, for progress bars.
@@ -127,43 +105,136 @@ pub fn ingest(
         options.settings.max_pose_gap_s,
         "a positive number of seconds",
     )?;
-    let mut recordings = open_all(&options.flights)?;
-    let mut ingested = ingest_each(&recordings, options, progress)?;
+    let mut sources = open_all(&options.flights)?;
+    let origin = photo_origin(options, &sources)?;
+    let reconstruction = reconstruction(options, &sources, origin.as_ref(), progress)?;
+    let photos = origin.as_ref().map(|origin| PhotoFrame {
+        origin,
+        reconstruction: reconstruction.as_ref(),
+    });
+    let mut ingested = ingest_each(&sources, photos.as_ref(), options, progress)?;
     check_topic_flags(options, &every_topic(&ingested))?;
     if ingested.iter().all(|i| i.frames.is_empty()) {
         return Err(IngestError::NoImages {
             path: options.flights[0].clone(),
         });
     }
-    let warnings = place_recordings(&mut ingested, &mut recordings, options)?;
-    let (summary, flight) = combine(ingested, options, warnings);
+    let warnings = place_recordings(&mut ingested, &mut sources, options)?;
+    let (mut summary, flight) = combine(ingested, options, warnings);
+    summary.reconstruction = reconstruction.map(|r| {
+        let posed = summary.recordings.iter().filter_map(|s| s.photos.as_ref());
+        r.summary(posed.map(|p| p.reconstructed).sum())
+    });
     write_outputs(&options.out, &flight, &summary)?;
     Ok(summary)
 }
 
-/// Each recording ingested, or read back from the run directory when it
-/// was ingested before with the same settings ([`reuse`]).
+/// The east-north-up frame photo folders are posed in: as set, else at the
+/// first photo of the first photo folder; none without photo folders.
+fn photo_origin(
+    options: &IngestOptions,
+    sources: &[Source],
+) -> Result<Option<GeoOrigin>, IngestError> {
+    let mut folders = sources.iter().filter_map(|s| match s {
+        Source::Photos(folder) => Some(folder),
+        Source::Recording(_) => None,
+    });
+    let Some(first) = folders.next() else {
+        return Ok(None);
+    };
+    if let Some(origin) = options.settings.photo_origin {
+        return Ok(Some(origin));
+    }
+    let position = first
+        .first_position()
+        .ok_or_else(|| IngestError::NoPosedPhotos {
+            path: first.path().to_owned(),
+            first: Some("no photo has an EXIF GPS position".into()),
+        })?;
+    Ok(Some(GeoOrigin {
+        position,
+        yaw_deg: 0.0,
+    }))
+}
+
+/// Where the run's photo folders are posed.
+struct PhotoFrame<'a> {
+    /// The east-north-up frame's origin.
+    origin: &'a GeoOrigin,
+    reconstruction: Option<&'a Placed>,
+}
+
+/// The reconstruction the settings give, read and placed in the photos'
+/// frame (by its reference, else fitted to every photo folder's GPS).
+fn reconstruction(
+    options: &IngestOptions,
+    sources: &[Source],
+    origin: Option<&GeoOrigin>,
+    progress: &mut dyn Progress,
+) -> Result<Option<Placed>, IngestError> {
+    let Some(path) = &options.settings.reconstruction else {
+        return Ok(None);
+    };
+    let unusable = |why: String| IngestError::Reconstruction {
+        path: path.clone(),
+        why,
+    };
+    let origin = origin.ok_or_else(|| {
+        unusable(
+            "it poses photos, and the flight has no photo folder; give the photos with --photos"
+                .into(),
+        )
+    })?;
+    let reconstruction = Reconstruction::load(path).map_err(unusable)?;
+    let mut positions = BTreeMap::new();
+    for source in sources {
+        if let Source::Photos(folder) = source {
+            positions.extend(folder.positions(origin, progress));
+        }
+    }
+    reconstruction
+        .place(origin, &positions)
+        .map(Some)
+        .map_err(unusable)
+}
+
+/// Each source ingested, or read back from the run directory when it was
+/// ingested before with the same settings ([`reuse`]; photo folders posed
+/// by a reconstruction are posed afresh, as the fit takes every folder).
 fn ingest_each(
-    recordings: &[Recording],
+    sources: &[Source],
+    photos: Option<&PhotoFrame>,
     options: &IngestOptions,
     progress: &mut dyn Progress,
 ) -> Result<Vec<Ingested>, IngestError> {
-    let total: u64 = recordings.iter().map(Recording::len).sum();
+    let total: u64 = sources.iter().map(Source::len).sum();
     let mut done = 0;
     let mut ingested = Vec::new();
     let mut kept = Vec::new();
-    for (index, recording) in (0u16..).zip(recordings) {
-        let place = reuse::place_of(recording.path(), options);
-        let one = match reuse::load(&place, index) {
+    for (index, source) in (0u16..).zip(sources) {
+        let place = reuse::place_of(source.path(), photos.map(|p| p.origin), options);
+        let reconstructed = photos.is_some_and(|p| p.reconstruction.is_some());
+        let earlier = match (source, reconstructed) {
+            (Source::Photos(_), true) => None,
+            _ => reuse::load(&place, index),
+        };
+        let one = match earlier {
             Some(one) => one,
             None => {
                 let mut progress = |bytes, _| progress.bytes(done + bytes, total);
-                let one = ingest_one(index, recording, options, &mut progress)?;
+                let one = match (source, photos) {
+                    (Source::Recording(r), _) => ingest_one(index, r, options, &mut progress)?,
+                    (Source::Photos(folder), Some(p)) => {
+                        let strict = options.settings.strict;
+                        folder.ingest(index, p.origin, p.reconstruction, strict, &mut progress)?
+                    }
+                    (Source::Photos(_), None) => unreachable!("photo folders have an origin"),
+                };
                 reuse::keep(&place, &one)?;
                 one
             }
         };
-        done += recording.len();
+        done += source.len();
         progress.bytes(done, total);
         ingested.push(one);
         kept.push(place);
@@ -182,10 +253,10 @@ fn every_topic(ingested: &[Ingested]) -> BTreeMap<String, TopicSummary> {
     all
 }
 
-/// The recordings, opened.
-fn open_all(paths: &[PathBuf]) -> Result<Vec<Recording>, IngestError> {
+/// The sources, opened.
+fn open_all(paths: &[PathBuf]) -> Result<Vec<Source>, IngestError> {
     check_recordings(paths)?;
-    paths.iter().map(|p| Recording::open(p)).collect()
+    paths.iter().map(|p| Source::open(p)).collect()
 }
 
 /// A flight's recordings are at least one, each given once.
@@ -294,6 +365,7 @@ fn ingest_one(
         map,
         placement: Placement::default(),
         reused: false,
+        photos: None,
     };
     Ok(Ingested {
         summary,
@@ -309,12 +381,15 @@ fn ingest_one(
 /// the maps recorded in them); the warnings that gives.
 fn place_recordings(
     ingested: &mut [Ingested],
-    recordings: &mut [Recording],
+    sources: &mut [Source],
     options: &IngestOptions,
 ) -> Result<Vec<String>, IngestError> {
     let mut maps = Vec::new();
-    for (one, recording) in ingested.iter().zip(recordings) {
-        maps.push(recorded_map_of(recording, &one.summary)?);
+    for (one, source) in ingested.iter().zip(sources) {
+        maps.push(match source {
+            Source::Recording(recording) => recorded_map_of(recording, &one.summary)?,
+            Source::Photos(_) => None,
+        });
     }
     let names: Vec<String> = ingested.iter().map(|i| i.summary.name()).collect();
     let given = given_frames(&options.settings.recording_frame, &names, &maps)?;
@@ -327,8 +402,10 @@ fn place_recordings(
             name: i.summary.name(),
             map: map.as_ref().filter(|c| !c.is_empty()),
             given,
-            on_earth: fixes_on(&i.fixes, |_| Some(&i.trajectory), max_gap_ns)
-                .and_then(|(local, geodetic)| GeoAlignment::fit(&local, &geodetic).ok()),
+            on_earth: photos_on_earth(i).or_else(|| {
+                fixes_on(&i.fixes, |_| Some(&i.trajectory), max_gap_ns)
+                    .and_then(|(local, geodetic)| GeoAlignment::fit(&local, &geodetic).ok())
+            }),
         })
         .collect();
     let (placements, warnings) = slam_frames::place(&frames)?;
@@ -336,6 +413,31 @@ fn place_recordings(
         one.place(placement);
     }
     Ok(warnings)
+}
+
+/// A photo folder's frame on the Earth: exactly its origin (its photos are
+/// posed there); `None` for a recording.
+fn photos_on_earth(ingested: &Ingested) -> Option<GeoAlignment> {
+    let photos = ingested.summary.photos.as_ref()?;
+    let local: Vec<Point3<f64>> = ingested
+        .fixes
+        .iter()
+        .map(|f| photos.origin.to_local(&f.position))
+        .collect();
+    let centre = local
+        .iter()
+        .map(|p| p.coords)
+        .sum::<nalgebra::Vector3<f64>>()
+        / local.len() as f64;
+    Some(GeoAlignment {
+        origin: photos.origin,
+        fixes: local.len(),
+        rms_m: 0.0,
+        spread_m: local
+            .iter()
+            .map(|p| (p.coords - centre).xy().norm())
+            .fold(0.0, f64::max),
+    })
 }
 
 /// Each recording's frame as the settings give it (by file name); refused
@@ -385,6 +487,12 @@ fn combine(
     mut warnings: Vec<String>,
 ) -> (IngestSummary, FlightTables) {
     let several = ingested.len() > 1;
+    // Photos alone are posed at their origin exactly; no fit needed.
+    let photos_only = ingested
+        .iter()
+        .map(photos_on_earth)
+        .collect::<Option<Vec<_>>>()
+        .and_then(|all| all.into_iter().next());
     let mut tables = FlightTables {
         frames: Vec::new(),
         trajectories: Vec::new(),
@@ -416,12 +524,15 @@ fn combine(
     warnings.extend(frame_warnings(frames, &by_status));
     tables.fixes.sort_by_key(|f| (f.time_ns, f.recording));
     let max_gap_ns = (options.settings.max_pose_gap_s * 1e9) as i64;
-    let geo_origin = geo_origin(
-        &tables.fixes,
-        &tables.trajectories,
-        max_gap_ns,
-        &mut warnings,
-    );
+    let geo_origin = match photos_only {
+        Some(origin) => Some(origin),
+        None => geo_origin(
+            &tables.fixes,
+            &tables.trajectories,
+            max_gap_ns,
+            &mut warnings,
+        ),
+    };
     let start = recordings
         .iter()
         .map(|r| r.start_time_ns)
@@ -447,6 +558,7 @@ fn combine(
         end_time_ns: end,
         max_pose_gap_s: options.settings.max_pose_gap_s,
         geo_origin,
+        reconstruction: None,
         warnings,
         recordings,
     };

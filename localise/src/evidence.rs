@@ -110,6 +110,7 @@ mod tests {
             blur_px: Some(0.5),
             view_faults: Vec::new(),
             width: None,
+            camera_std_m: None,
             trace: Trace::default(),
             cut: Vec::new(),
             line: None,
@@ -123,6 +124,7 @@ mod tests {
             sight: Default::default(),
             view_faults: vec![ViewFault::TooFar],
             width: None,
+            camera_std_m: None,
             ..sharp
         };
         assert!(evidence(&far, LengthStatus::Measured).reshoot);

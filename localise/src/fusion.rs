@@ -26,6 +26,8 @@ pub struct DefectCandidate {
     /// of a voxel holds several (`12_-3_4+x`, `12_-3_4+x.2`).
     pub id: String,
     pub position: Point3<f64>,
+    /// How far off `position` may be, metres (see [`position_uncertainty`]).
+    pub position_uncertainty_m: Option<f64>,
     /// Outward normal of the surface it is on.
     pub normal: Vector3<f64>,
     /// Corners of the axis-aligned box around its observed extent and its
@@ -199,6 +201,8 @@ fn candidate(
     let position = Point3::from(Vector3::from_fn(|a, _| {
         median(basis.iter().map(|i| placement(*i).centre[a]).collect()).expect("a member")
     }));
+    let position_uncertainty_m =
+        position_uncertainty(basis.iter().map(|i| placement(*i)), &position);
     let normal = basis
         .iter()
         .map(|i| placement(*i).hit.normal)
@@ -277,6 +281,7 @@ fn candidate(
     DefectCandidate {
         id: String::new(),
         position,
+        position_uncertainty_m,
         normal,
         extent,
         voxel,
@@ -291,6 +296,27 @@ fn candidate(
         evidence,
         width,
         observations: group,
+    }
+}
+
+/// How far off a candidate at `position` may be (one standard deviation)
+/// from the views it is the median of: their scatter about it over the
+/// square root of their number, and their cameras' accuracy (the median)
+/// in full, as RTK errors run from photo to photo; `None` from one view of
+/// a camera of unknown accuracy.
+fn position_uncertainty<'a>(
+    views: impl ExactSizeIterator<Item = &'a Placement>,
+    position: &Point3<f64>,
+) -> Option<f64> {
+    let n = views.len() as f64;
+    let (squares, cameras): (Vec<f64>, Vec<Option<f64>>) = views
+        .map(|p| ((p.centre - position).norm_squared(), p.camera_std_m))
+        .unzip();
+    let scatter = (n >= 2.0).then(|| squares.iter().sum::<f64>() / (n - 1.0) / n);
+    let camera = median(cameras.into_iter().flatten().collect()).map(|s| s * s);
+    match (scatter, camera) {
+        (None, None) => None,
+        (s, c) => Some((s.unwrap_or(0.0) + c.unwrap_or(0.0)).sqrt()),
     }
 }
 
@@ -455,6 +481,7 @@ mod tests {
                 blur_px: None,
                 view_faults: Vec::new(),
                 width: None,
+                camera_std_m: None,
                 trace: Trace(vec![vec![
                     (centre - along * radius).coords.into(),
                     (centre + along * radius).coords.into(),
@@ -505,6 +532,33 @@ mod tests {
         let mut ids: Vec<&str> = c.iter().map(|c| c.id.as_str()).collect();
         ids.sort();
         assert_eq!(ids, ["0_0_0+x", "0_0_0-x", "0_0_0-x.2"]);
+    }
+
+    #[test]
+    fn the_uncertainty_is_the_views_scatter_and_their_cameras_accuracy() {
+        let mut obs = vec![
+            observation(0, [3.0, 1.0, 2.0], [-1.0, 0.0, 0.0], 0.3),
+            observation(1, [3.0, 1.06, 2.0], [-1.0, 0.0, 0.0], 0.3),
+            observation(2, [3.0, 0.94, 2.0], [-1.0, 0.0, 0.0], 0.3),
+        ];
+        let uncertainty = |obs: &[Observation]| {
+            let c = fuse(obs, &LocaliseConfig::default());
+            assert_eq!(c.len(), 1);
+            c[0].position_uncertainty_m
+        };
+        // Scatter alone: sample variance 0.0036 m^2 over three views.
+        let scatter = (0.0072_f64 / 2.0 / 3.0).sqrt();
+        assert!((uncertainty(&obs).unwrap() - scatter).abs() < 1e-9);
+        // RTK cameras of 2, 3 and 4 cm: their median counts in full.
+        for (o, std) in obs.iter_mut().zip([0.02, 0.03, 0.04]) {
+            o.placement.as_mut().unwrap().camera_std_m = Some(std);
+        }
+        let both = (scatter * scatter + 0.03 * 0.03).sqrt();
+        assert!((uncertainty(&obs).unwrap() - both).abs() < 1e-9);
+        // One view: its camera's accuracy, or nothing known.
+        assert_eq!(uncertainty(&obs[..1]), Some(0.02));
+        obs[0].placement.as_mut().unwrap().camera_std_m = None;
+        assert_eq!(uncertainty(&obs[..1]), None);
     }
 
     #[test]

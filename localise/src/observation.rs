@@ -73,6 +73,9 @@ pub struct Placement {
     /// The crack's width on the surface as this view measures it (`None`:
     /// no centre line to measure across).
     pub width: Option<WidthRecord>,
+    /// How far off the camera's position may be, metres (its frame's
+    /// `position_std_m`: a photo's RTK accuracy).
+    pub camera_std_m: Option<f64>,
 }
 
 /// A view's width of the crack from its points measured across it, each
@@ -343,6 +346,7 @@ impl Scene<'_> {
             cut,
             line,
             width,
+            camera_std_m: None,
         });
         observation
     }

@@ -31,6 +31,7 @@ pub fn defect_record(
         place: place.map(|p| p.to_string()),
         id: c.id.clone(),
         position: c.position.coords.into(),
+        position_uncertainty_m: c.position_uncertainty_m,
         normal: c.normal.into(),
         extent_min: c.extent[0].coords.into(),
         extent_max: c.extent[1].coords.into(),

@@ -338,7 +338,13 @@ fn place_frame(
                 (Some(g), Some(t)) => widths(g, &t.pixels, &t.edges, options.crack_darkness),
                 _ => Vec::new(),
             };
-            scene.place(d.clone(), &pose, k, crack.as_ref(), &widths, blur_px)
+            let mut placed = scene.place(d.clone(), &pose, k, crack.as_ref(), &widths, blur_px);
+            // Placing does not use the camera's accuracy; its candidate's
+            // uncertainty does.
+            if let Some(p) = &mut placed.placement {
+                p.camera_std_m = frame.position_std_m;
+            }
+            placed
         })
         .collect();
     (observations, warning)

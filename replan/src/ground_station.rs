@@ -18,6 +18,8 @@ use postflight_core::outputs::replan::{Sortie, Waypoint};
 use postflight_core::region::Region;
 use serde_json::{Value, json};
 
+use crate::wpml::DjiAircraft;
+
 /// MAVLink commands (`MAV_CMD`) and frames the missions use.
 mod mavlink {
     pub const NAV_WAYPOINT: u16 = 16;
@@ -50,6 +52,8 @@ pub struct Placement {
     /// Keep-out zones the missions' geofence holds (columns, as
     /// geofences keep out of a polygon at every altitude).
     pub fence: Vec<Region>,
+    /// The aircraft the DJI missions are for.
+    pub dji_aircraft: DjiAircraft,
 }
 
 impl Placement {
@@ -207,17 +211,17 @@ impl Placement {
 
 /// A point of a sortie's path as flown: its yaw (the waypoint being flown
 /// to, as `replan.csv` gives it) and the inspection waypoint there, if any.
-struct Step<'a> {
-    point: [f64; 3],
-    yaw: f64,
+pub(crate) struct Step<'a> {
+    pub(crate) point: [f64; 3],
+    pub(crate) yaw: f64,
     /// Radians, positive looking down, as the yaw.
-    gimbal_pitch: f64,
-    waypoint: Option<&'a Waypoint>,
+    pub(crate) gimbal_pitch: f64,
+    pub(crate) waypoint: Option<&'a Waypoint>,
 }
 
 /// Every point of the path, home to home, each inspection waypoint once
 /// (waypoints sharing a point are turned to there, one step each).
-fn steps(sortie: &Sortie) -> Vec<Step<'_>> {
+pub(crate) fn steps(sortie: &Sortie) -> Vec<Step<'_>> {
     let mut steps = Vec::new();
     let mut next = 0;
     for p in &sortie.path {

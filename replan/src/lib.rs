@@ -17,7 +17,7 @@
 //! `postflight coverage --viewpoints` can check) and `replan.csv` (GATSBI's
 //! `X,Y,Z,Yaw` path); with a geo origin, [`ground_station`] also writes a
 //! QGroundControl mission per sortie (its geofence holding the keep-out
-//! columns), KML and GeoJSON.
+//! columns), KML and GeoJSON, and [`wpml`] a DJI waypoint mission (KMZ).
 
 pub mod airspace;
 pub mod error;
@@ -29,6 +29,7 @@ pub mod stage;
 pub mod team;
 pub mod tour;
 pub mod viewpoints;
+pub mod wpml;
 
 pub use error::ReplanError;
 pub use postflight_core::outputs::replan::GapChoice;

@@ -33,6 +33,8 @@ pub struct Scene<'a> {
     pub focus: Vec<FocusModel>,
     /// Body to optical frame of the camera mount (every drone's gimbal).
     pub extrinsic: &'a Isometry3<f64>,
+    /// How far above the horizon the gimbal can look, radians.
+    pub max_gimbal_up: f64,
     pub solver: SolveOptions,
 }
 
@@ -158,6 +160,7 @@ fn viewpoints(
             max_distance_m: view
                 .max_distance_m
                 .min(view.max_gsd_mm / 1000.0 * lens.fx.min(lens.fy)),
+            max_gimbal_up: scene.max_gimbal_up,
         };
         let before = done.load(Ordering::Relaxed);
         let faces: Vec<_> = mine.iter().map(|&i| faces[i]).collect();

@@ -108,10 +108,18 @@ postflight_core::settings! {
         /// The map frame on the Earth: its origin's latitude and longitude
         /// (degrees), altitude (metres) and the heading of its x axis from
         /// east, counter-clockwise (degrees, default 0); also writes the
-        /// flight as QGroundControl missions, KML and GeoJSON [default:
-        /// from the flight's GPS fixes].
+        /// flight as QGroundControl and DJI missions, KML and GeoJSON
+        /// [default: from the flight's GPS fixes or geotagged photos].
         #[arg(long, value_name = "LAT,LON,ALT[,YAW_DEG]", allow_hyphen_values = true)]
         #[serde(with = "geo_origin_values")]
         geo_origin: GeoOrigin,
+        /// How far above the horizon the gimbal can look, degrees (a Mavic
+        /// 3E's: 35): no waypoint looks up more.
+        #[arg(long = "max-gimbal-up", value_name = "DEG")]
+        max_gimbal_up_deg: f64 = 90.0,
+        /// The DJI aircraft (and camera) the DJI waypoint missions
+        /// (`replan.kmz`, WPML) are written for.
+        #[arg(long, value_enum, value_name = "AIRCRAFT")]
+        dji_aircraft: crate::wpml::DjiAircraft = crate::wpml::DjiAircraft::M3e,
     }
 }

@@ -27,6 +27,7 @@ use crate::route::{Route, Scene};
 use crate::settings::{ReplanConfig, keys};
 use crate::team::Member;
 use crate::tour::Budget;
+use crate::wpml;
 
 /// What replan plans for and how. Serialised, it is what the stage's
 /// result depends on besides its input files (`postflight run`'s
@@ -106,6 +107,12 @@ impl ReplanOptions {
                 "a positive number of metres",
             )?;
         }
+        InvalidSetting::check(
+            (0.0..=90.0).contains(&s.max_gimbal_up_deg),
+            keys::max_gimbal_up_deg,
+            s.max_gimbal_up_deg,
+            "between 0 and 90 degrees",
+        )?;
         if let Some(o) = &s.geo_origin {
             InvalidSetting::check(
                 o.check().is_ok(),
@@ -181,6 +188,7 @@ pub fn replan(
             .filter(|z| z.is_column())
             .cloned()
             .collect(),
+        dji_aircraft: options.settings.dji_aircraft,
     });
     if placement.is_some() {
         summary.warnings.extend(unfenced(&airspace));
@@ -212,6 +220,7 @@ pub fn replan(
         targets: targets.iter().copied().collect(),
         focus: coverage.focus.iter().map(|f| f.model.clone()).collect(),
         extrinsic: &extrinsic,
+        max_gimbal_up: options.settings.max_gimbal_up_deg.to_radians(),
         solver: options.solver()?,
     };
     let phase = Instant::now();
@@ -914,20 +923,29 @@ fn write(
         let mut in_drone = 0;
         for (i, sortie) in summary.sorties.iter().enumerate() {
             let drone = sortie.drone as usize;
-            let name = match team {
-                false => files::mission(i, count),
+            in_drone = match i > 0 && summary.sorties[i - 1].drone == sortie.drone {
+                true => in_drone + 1,
+                false => 0,
+            };
+            let name = |format| match team {
+                false => files::mission(i, count, format),
                 true => {
-                    in_drone = if i > 0 && summary.sorties[i - 1].drone == sortie.drone {
-                        in_drone + 1
-                    } else {
-                        0
-                    };
-                    files::drone_mission(drone, in_drone, summary.drones[drone].sorties)
+                    files::drone_mission(drone, in_drone, summary.drones[drone].sorties, format)
                 }
             };
             let launch = Point3::from(summary.drones[drone].home);
-            run.write_json(&name, &placement.mission(sortie, launch))?;
-            summary.ground_station_files.push(name);
+            let qgc = name(files::Mission::QGroundControl);
+            run.write_json(&qgc, &placement.mission(sortie, launch))?;
+            let dji = name(files::Mission::DjiWpml);
+            run.write_with(&dji, |file| {
+                wpml::write_kmz(file, placement, sortie, launch).map_err(|cause| {
+                    postflight_core::Error::Write {
+                        path: run.file(&dji),
+                        cause,
+                    }
+                })
+            })?;
+            summary.ground_station_files.extend([qgc, dji]);
         }
         run.write_text(files::KML, &placement.kml(&summary.sorties))?;
         run.write_json(files::GEOJSON, &placement.geojson(&summary.sorties))?;

@@ -49,6 +49,8 @@ pub struct Camera<'a> {
     pub view: &'a ViewModel,
     /// The band's far edge, or nearer if the GSD target asks.
     pub max_distance_m: f64,
+    /// How far above the horizon the gimbal can look, radians.
+    pub max_gimbal_up: f64,
 }
 
 /// Yaw and gimbal pitch that put `target` on the optical axis of a camera
@@ -111,6 +113,9 @@ pub fn candidates(
         .par_iter()
         .filter_map(|&(v, fi)| {
             let viewpoint = aim(&grid.center(v), &faces[fi].centre, camera.extrinsic);
+            if -viewpoint.gimbal_pitch > camera.max_gimbal_up {
+                return None;
+            }
             let shot = Shot {
                 id: 0,
                 camera: viewpoint_camera(&viewpoint, camera.extrinsic),

@@ -12,7 +12,10 @@ use maud::{Markup, PreEscaped, html};
 use postflight_core::ViewModel;
 use postflight_core::outputs::changes::{ChangeKind, ChangeRecord, files as changes_files};
 use postflight_core::outputs::coverage::CoverageSummary;
-use postflight_core::outputs::ingest::{PlacedBy, Placement};
+use postflight_core::outputs::ingest::{
+    PhotoFolderSummary, PlacedBy, Placement, ReconstructionFormat, ReconstructionPlacedBy,
+    SkippedPhoto,
+};
 use postflight_core::outputs::localise::DefectRecord;
 use postflight_core::outputs::replan::{
     GapChoice, ReplanSummary, Unplannable, files as replan_files,
@@ -57,6 +60,7 @@ pub fn page(results: &RunResults, summary: &RunSummary) -> String {
             (summary.frames) " frames (" (summary.frames_with_pose) " with pose). "
             "Files linked below are in the run directory, beside this page."
         }
+        (photos_line(results))
         @if summary.truncated {
             p.warn {
                 b { "Truncated recording." }
@@ -74,6 +78,48 @@ pub fn page(results: &RunResults, summary: &RunSummary) -> String {
         (detections_appendix(results))
     };
     document(&title, html! { style { (PreEscaped(STYLE)) } }, body)
+}
+
+/// Where a photo flight's poses came from: its photos (how many with a
+/// fixed RTK solution, which were skipped and why), the reconstruction
+/// that refined them, and the frame they are in.
+fn photos_line(r: &RunResults) -> Markup {
+    let summary = &r.flight.summary;
+    let folders: Vec<&PhotoFolderSummary> = summary
+        .recordings
+        .iter()
+        .filter_map(|rec| rec.photos.as_ref())
+        .collect();
+    let Some(first) = folders.first() else {
+        return html! {};
+    };
+    let sum = |f: fn(&PhotoFolderSummary) -> u64| folders.iter().map(|p| f(p)).sum::<u64>();
+    let skipped: Vec<&SkippedPhoto> = folders.iter().flat_map(|p| &p.skipped).collect();
+    let o = &first.origin.position;
+    html! {
+        p.sub {
+            "Posed from " (sum(|p| p.photos)) " geotagged photos"
+            @if folders.len() > 1 { " in " (folders.len()) " folders" }
+            " (" (sum(|p| p.rtk_fixed)) " with a fixed RTK solution), in the east-north-up frame at "
+            (format!("{:.6}, {:.6}, {:.1} m", o.latitude_deg, o.longitude_deg, o.altitude_m)) ". "
+            @if let Some(rec) = &summary.reconstruction {
+                (rec.posed) " refined by the reconstruction " code { (rec.path.display()) }
+                " (" (match rec.format { ReconstructionFormat::Colmap => "COLMAP", ReconstructionFormat::OpenSfm => "OpenSfM" }) ", "
+                (match rec.placed_by {
+                    ReconstructionPlacedBy::Reference => "on the Earth by its reference".to_string(),
+                    ReconstructionPlacedBy::GpsFit { photos, rms_m } => format!("fitted to {photos} photos' GPS, {:.1} cm RMS", rms_m * 100.0),
+                }) "). "
+            }
+            @if !skipped.is_empty() {
+                span.flag { (skipped.len()) " skipped" } ": "
+                @for (i, s) in skipped.iter().take(5).enumerate() {
+                    @if i > 0 { "; " } code { (s.photo) } " (" (s.why) ")"
+                }
+                @if skipped.len() > 5 { "; and " (skipped.len() - 5) " more (ingest.json)" }
+                "."
+            }
+        }
+    }
 }
 
 fn cards(s: &RunSummary) -> Markup {
@@ -506,7 +552,9 @@ fn defect_row(r: &RunResults, rank: usize, d: &DefectRecord) -> Markup {
             td {
                 b { (place_text(r.place(d).map(|p| p.to_string()).as_deref(), d)) } br;
                 span.sub {
-                    (d.id) (format!(" at ({:.2}, {:.2}, {:.2}) m", p[0], p[1], p[2])) "; "
+                    (d.id) (format!(" at ({:.2}, {:.2}, {:.2}) m", p[0], p[1], p[2]))
+                    @if let Some(u) = d.position_uncertainty_m { (format!(" \u{b1} {:.0} cm", u * 100.0)) }
+                    "; "
                     (d.frames) " supporting frames, best frame " (d.best.frame)
                     " (" a href=(format!("#boxes-{rank}")) { "boxes" } ")"
                     @if r.flight.summary.recordings.len() > 1 {

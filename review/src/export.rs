@@ -252,6 +252,7 @@ mod tests {
                 x: 1.5,
                 y: -2.25,
                 z: 3.0,
+                position_uncertainty_m: Some(0.04),
                 nx: 0.0,
                 ny: 0.0,
                 nz: 1.0,

@@ -17,7 +17,6 @@ pub mod distractor;
 mod error;
 pub mod flight;
 pub mod gps;
-mod obj;
 pub mod planner;
 pub mod record;
 pub mod render;
@@ -82,6 +81,8 @@ pub struct SimOptions {
     pub crack_widths: Option<crack::WidthRange>,
     /// Draw joints, stains, rust streaks and shadow edges on the structure.
     pub distractors: bool,
+    /// How the concrete looks at centimetre scale.
+    pub surface: render::Surface,
     /// Carry the camera on a gimbal (its pitch recorded on `/tf`), and plan
     /// a viewpoint looking straight down over each patch of faces pointing
     /// up, as an inspection of a deck's top flies.
@@ -128,6 +129,7 @@ impl SimOptions {
             standoff_m: planner::STANDOFF,
             crack_widths: None,
             distractors: false,
+            surface: render::Surface::Smooth,
             gimbal: false,
             sorties: sortie::SortieOptions::default(),
             gps: None,
@@ -514,6 +516,7 @@ fn record_frames(
                     &world.rays,
                     &camera,
                     i,
+                    options.surface,
                 ),
                 blur.0,
                 blur.1,

@@ -42,6 +42,18 @@ impl RayTable {
     }
 }
 
+/// How the structure's concrete looks at centimetre scale.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Surface {
+    /// Blotches and fine grit, as the default flights have always shown.
+    #[default]
+    Smooth,
+    /// Also aggregate, formwork board grain and weathering streaks: the
+    /// texture structure-from-motion matches from frame to frame (on the
+    /// smooth surface SIFT finds a few dozen keypoints a frame).
+    Textured,
+}
+
 /// Render the view of a camera at `camera` (`T_world_camera`, optical frame).
 pub fn render(
     scene: &Scene,
@@ -50,6 +62,7 @@ pub fn render(
     rays: &RayTable,
     camera: &Isometry3<f64>,
     frame: u32,
+    surface: Surface,
 ) -> RgbImage {
     let origin = Point3::from(camera.translation.vector);
     let mut img = RgbImage::new(rays.width, rays.height);
@@ -59,7 +72,15 @@ pub fn render(
         .for_each(|(y, row)| {
             for x in 0..rays.width as usize {
                 let dir = camera.rotation * rays.rays[y * rays.width as usize + x];
-                let rgb = shade(scene, cracks, marks, &origin, &dir, rays.pixel_angle);
+                let rgb = shade(
+                    scene,
+                    cracks,
+                    marks,
+                    &origin,
+                    &dir,
+                    rays.pixel_angle,
+                    surface,
+                );
                 // Sensor noise, fixed per pixel and frame so output is deterministic.
                 let n = (hash3(x as i64, y as i64, i64::from(frame), 17) - 0.5) * 6.0;
                 for c in 0..3 {
@@ -77,6 +98,7 @@ fn shade(
     origin: &Point3<f64>,
     dir: &Vector3<f64>,
     pixel_angle: f64,
+    surface: Surface,
 ) -> [f64; 3] {
     let Some(hit) = scene.cast(origin, dir, MAX_RANGE) else {
         // Sky: brighter towards the horizon.
@@ -88,7 +110,10 @@ fn shade(
     let p = hit.point;
     let base = match scene.class(hit.triangle) {
         Class::Infrastructure => {
-            let g = concrete(&p);
+            let g = match surface {
+                Surface::Smooth => concrete(&p),
+                Surface::Textured => concrete(&p) + texture(&p, &hit.normal),
+            };
             let cos = hit.normal.dot(&-dir).abs().max(0.2);
             let pixel = hit.distance * pixel_angle;
             let crack = cracks.coverage(&p, dir, pixel / cos, pixel);
@@ -126,6 +151,28 @@ fn concrete(p: &Point3<f64>) -> f64 {
         9,
     );
     150.0 + 60.0 * (blotch - 0.5) + 14.0 * (grit - 0.5)
+}
+
+/// What textured concrete adds to [`concrete`], grey levels: aggregate
+/// (dark and light pebbles a centimetre or two across), the grain of the
+/// formwork boards (15 cm boards, each a shade of its own, along the
+/// face), and weathering streaks running down it.
+fn texture(p: &Point3<f64>, normal: &Vector3<f64>) -> f64 {
+    let smooth = |lo: f64, hi: f64, v: f64| {
+        let t = ((v - lo) / (hi - lo)).clamp(0.0, 1.0);
+        t * t * (3.0 - 2.0 * t)
+    };
+    let pebbles = value_noise(p, 55.0, 21);
+    let aggregate = -45.0 * smooth(0.62, 0.72, pebbles) + 30.0 * smooth(0.38, 0.28, pebbles);
+    // Boards run horizontally on walls, across the span under a deck.
+    let across = if normal.z.abs() > 0.7 { p.x } else { p.z };
+    let board = (across / 0.15).floor();
+    let shade = 16.0 * (hash3(board as i64, 0, 0, 23) - 0.5);
+    let grain_at = Point3::new(p.x * 6.0, p.y * 6.0, across * 90.0);
+    let grain = 14.0 * (value_noise(&grain_at, 1.0, 24) - 0.5);
+    let streak_at = Point3::new(p.x * 9.0, p.y * 9.0, p.z * 0.8);
+    let streaks = -22.0 * smooth(0.55, 0.8, value_noise(&streak_at, 1.0, 25));
+    aggregate + shade + grain + streaks
 }
 
 /// Smooth 3D value noise in [0, 1] at `freq` cycles per metre.

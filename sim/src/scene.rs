@@ -234,7 +234,10 @@ impl Scene {
     pub fn from_obj(path: &Path) -> Result<Self, String> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| format!("{e}; check the path given to --mesh"))?;
-        let (vertices, faces) = crate::obj::parse(&text)?;
+        let postflight_core::map::mesh::Mesh {
+            vertices,
+            triangles: faces,
+        } = postflight_core::map::mesh::parse_obj(&text)?;
         let mut b = Builder::default();
         let part = b.part("structure", Class::Infrastructure);
         for f in &faces {

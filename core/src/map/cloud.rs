@@ -1,12 +1,27 @@
-//! Point clouds of the SLAM map, loaded from PLY, PCD or a recorded
-//! `sensor_msgs/msg/PointCloud2`.
+//! Point clouds of the SLAM map, loaded from PLY, PCD, OctoMap, a survey's
+//! LAS or LAZ (placed in the map frame by the flight's geo origin) or a
+//! recorded `sensor_msgs/msg/PointCloud2`.
 
 use std::path::Path;
 
 use nalgebra::Point3;
 
 use super::VoxelGrid;
+use super::mesh::{Mesh, SAMPLE_SPACING_M};
+use crate::crs::Crs;
 use crate::error::Error;
+use crate::geo::GeoOrigin;
+
+/// A mesh's surface as points, [`SAMPLE_SPACING_M`] apart.
+fn surface(mesh: &Mesh) -> Vec<Point3<f64>> {
+    mesh.surface_points(SAMPLE_SPACING_M)
+}
+
+/// Whether a file is a survey's point cloud (LAS or LAZ), by its extension.
+fn is_survey(path: &Path) -> bool {
+    let extension = path.extension().and_then(|e| e.to_str());
+    extension.is_some_and(|e| e.eq_ignore_ascii_case("las") || e.eq_ignore_ascii_case("laz"))
+}
 
 /// The points of a map in its frame (usually the SLAM `map` frame).
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -19,7 +34,8 @@ pub struct PointCloud {
 }
 
 impl PointCloud {
-    /// Load a PLY, PCD or OctoMap (`.bt`, `.ot`) file, chosen by its extension.
+    /// Load a PLY (a cloud, or a mesh sampled over its surface), OBJ mesh,
+    /// PCD or OctoMap (`.bt`, `.ot`) file, chosen by its extension.
     pub fn load(path: &Path) -> Result<Self, Error> {
         let error = |why: String| Error::Map {
             path: path.to_owned(),
@@ -34,6 +50,55 @@ impl PointCloud {
         Self::parse(&bytes, &ext).map_err(error)
     }
 
+    /// Load a map file ([`PointCloud::load`]), or a LAS or LAZ file in its
+    /// coordinate reference system, converted into the map frame placed on
+    /// the Earth by `origin`.
+    pub fn load_placed(path: &Path, origin: Option<&GeoOrigin>) -> Result<Self, Error> {
+        if !is_survey(path) {
+            return Self::load(path);
+        }
+        let error = |why: String| Error::Map {
+            path: path.to_owned(),
+            why,
+        };
+        let bytes = std::fs::read(path).map_err(|e| error(format!("{e}; check the path")))?;
+        let (points, crs) = super::las::parse(&bytes).map_err(error)?;
+        let origin = origin.ok_or_else(|| {
+            error(format!(
+                "its points are in {crs}, but the flight is not placed on the Earth (no GPS fixes or geotagged photos); give a map in the flight's map frame"
+            ))
+        })?;
+        let projection = crs.projection().map_err(error)?;
+        let points = points
+            .iter()
+            .map(|p| Ok(origin.to_local(&projection.to_geodetic(p.x, p.y, p.z)?)))
+            .collect::<Result<Vec<_>, String>>()
+            .map_err(error)?;
+        if points.is_empty() {
+            return Err(error("the map has no points".into()));
+        }
+        Ok(Self {
+            frame_id: crs.to_string(),
+            points,
+            grid: None,
+        })
+    }
+
+    /// Whether a map file can be placed (a LAS or LAZ file says its CRS),
+    /// from its header alone: checked before a run starts.
+    pub fn check_placeable(path: &Path) -> Result<(), Error> {
+        if !is_survey(path) {
+            return Ok(());
+        }
+        super::las::crs_of_file(path)
+            .and_then(Crs::projection)
+            .map(|_| ())
+            .map_err(|why| Error::Map {
+                path: path.to_owned(),
+                why,
+            })
+    }
+
     /// A map file's contents, by its extension (`ply`, `pcd`, `bt`, `ot`).
     pub fn parse(bytes: &[u8], extension: &str) -> Result<Self, String> {
         let octomap = |format| {
@@ -44,11 +109,25 @@ impl PointCloud {
             ))
         };
         let (points, grid) = match extension {
-            "ply" => super::ply::parse(bytes).map(|points| (points, None)),
+            "ply" => super::ply::parse(bytes).map(|ply| match ply.triangles.is_empty() {
+                true => (ply.points, None),
+                false => (surface(&Mesh { vertices: ply.points, triangles: ply.triangles }), None),
+            }),
+            "obj" => std::str::from_utf8(bytes)
+                .map_err(|_| "the OBJ file is not text".to_string())
+                .and_then(super::mesh::parse_obj)
+                .map(|mesh| (surface(&mesh), None)),
             "pcd" => super::pcd::parse(bytes).map(|points| (points, None)),
             "bt" => octomap(super::octomap::Format::Binary),
             "ot" => octomap(super::octomap::Format::Full),
-            _ => Err("unknown map format; give a .ply, .pcd, or OctoMap .bt or .ot file".into()),
+            "las" | "laz" => Err(
+                "a LAS or LAZ map is placed by the flight's geo origin; give it as the run's --map"
+                    .into(),
+            ),
+            _ => Err(
+                "unknown map format; give a .ply, .pcd, .obj, .las, .laz, or OctoMap .bt or .ot file"
+                    .into(),
+            ),
         }?;
         if points.is_empty() {
             return Err("the map has no points".into());

@@ -2,6 +2,8 @@
 //! nearest-point queries.
 
 pub mod cloud;
+mod las;
+pub mod mesh;
 pub mod octomap;
 mod pcd;
 pub mod plane;

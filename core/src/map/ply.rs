@@ -1,5 +1,7 @@
-//! PLY point clouds (ascii, binary little and big endian): the vertex
-//! element's `x`, `y`, `z`; other elements are skipped.
+//! PLY point clouds and meshes (ascii, binary little and big endian): the
+//! vertex element's `x`, `y`, `z`, and the face element's
+//! `vertex_indices` (or `vertex_index`), fan-triangulated; other elements
+//! and properties are skipped.
 
 use nalgebra::Point3;
 
@@ -65,7 +67,7 @@ impl Scalar {
 
 enum Property {
     Scalar(String, Scalar),
-    List(Scalar, Scalar),
+    List(String, Scalar, Scalar),
 }
 
 struct Element {
@@ -80,7 +82,21 @@ enum Format {
     Binary { big: bool },
 }
 
-pub fn parse(bytes: &[u8]) -> Result<Vec<Point3<f64>>, String> {
+/// A PLY file's vertices and its faces as triangles (none for a cloud).
+pub struct Ply {
+    pub points: Vec<Point3<f64>>,
+    pub triangles: Vec<[usize; 3]>,
+}
+
+/// Which element and property a value belongs to, as the parsers read.
+struct Layout {
+    vertex: usize,
+    xyz: [usize; 3],
+    /// The face element and its list of vertex indices.
+    faces: Option<(usize, usize)>,
+}
+
+pub fn parse(bytes: &[u8]) -> Result<Ply, String> {
     let end = find(bytes, b"end_header\n").ok_or("not a PLY file: no end_header line")?;
     let header = std::str::from_utf8(&bytes[..end]).map_err(|_| "PLY header is not text")?;
     let body = &bytes[end + b"end_header\n".len()..];
@@ -103,11 +119,15 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<Point3<f64>>, String> {
                     .map_err(|_| format!("bad element count in {line:?}"))?,
                 properties: Vec::new(),
             }),
-            ["property", "list", count, item, _] => elements
+            ["property", "list", count, item, name] => elements
                 .last_mut()
                 .ok_or("PLY property before any element")?
                 .properties
-                .push(Property::List(Scalar::parse(count)?, Scalar::parse(item)?)),
+                .push(Property::List(
+                    name.to_string(),
+                    Scalar::parse(count)?,
+                    Scalar::parse(item)?,
+                )),
             ["property", ty, name] => elements
                 .last_mut()
                 .ok_or("PLY property before any element")?
@@ -129,85 +149,128 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<Point3<f64>>, String> {
             .ok_or(format!("PLY vertex element has no {n} property"))
     };
     let xyz = [axis("x")?, axis("y")?, axis("z")?];
-    match format {
-        Format::Ascii => parse_ascii(body, &elements, vertex, xyz),
-        Format::Binary { big } => parse_binary(body, &elements, vertex, xyz, big),
+    let faces = elements.iter().position(|e| e.name == "face").and_then(|f| {
+        let list = elements[f].properties.iter().position(|p| {
+            matches!(p, Property::List(name, ..) if name == "vertex_indices" || name == "vertex_index")
+        })?;
+        Some((f, list))
+    });
+    let layout = Layout { vertex, xyz, faces };
+    let mut ply = match format {
+        Format::Ascii => parse_ascii(body, &elements, &layout)?,
+        Format::Binary { big } => parse_binary(body, &elements, &layout, big)?,
+    };
+    let n = ply.points.len();
+    if ply.triangles.iter().flatten().any(|i| *i >= n) {
+        return Err(format!("a PLY face names a vertex beyond its {n}"));
     }
+    ply.triangles.shrink_to_fit();
+    Ok(ply)
 }
 
-fn parse_ascii(
-    body: &[u8],
-    elements: &[Element],
-    vertex: usize,
-    xyz: [usize; 3],
-) -> Result<Vec<Point3<f64>>, String> {
+fn parse_ascii(body: &[u8], elements: &[Element], layout: &Layout) -> Result<Ply, String> {
     let text = std::str::from_utf8(body).map_err(|_| "PLY ascii body is not text")?;
     // One line per element instance, elements in header order.
-    let skip: usize = elements[..vertex].iter().map(|e| e.count).sum();
-    let mut lines = text.lines().filter(|l| !l.trim().is_empty()).skip(skip);
-    // The header's count is a claim; reserve no more than the body can hold.
-    let mut points = Vec::with_capacity(elements[vertex].count.min(body.len()));
-    for i in 0..elements[vertex].count {
-        let line = lines.next().ok_or(format!(
-            "PLY file ends at vertex {i} of {}",
-            elements[vertex].count
-        ))?;
-        let values: Vec<&str> = line.split_whitespace().collect();
-        let get = |k: usize| -> Result<f64, String> {
-            values
-                .get(k)
-                .and_then(|v| v.parse().ok())
-                .ok_or(format!("bad PLY vertex line {line:?}"))
-        };
-        points.push(Point3::new(get(xyz[0])?, get(xyz[1])?, get(xyz[2])?));
+    let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+    let mut ply = Ply {
+        // The header's count is a claim; reserve no more than the body can hold.
+        points: Vec::with_capacity(elements[layout.vertex].count.min(body.len())),
+        triangles: Vec::new(),
+    };
+    let last = layout
+        .faces
+        .map_or(layout.vertex, |(f, _)| f.max(layout.vertex));
+    for (e, element) in elements.iter().enumerate().take(last + 1) {
+        for i in 0..element.count {
+            let line = lines.next().ok_or(format!(
+                "PLY file ends at {} {i} of {}",
+                element.name, element.count
+            ))?;
+            let values: Vec<&str> = line.split_whitespace().collect();
+            let get = |k: usize| -> Result<f64, String> {
+                values
+                    .get(k)
+                    .and_then(|v| v.parse().ok())
+                    .ok_or(format!("bad PLY {} line {line:?}", element.name))
+            };
+            if e == layout.vertex {
+                let [x, y, z] = layout.xyz;
+                ply.points.push(Point3::new(get(x)?, get(y)?, get(z)?));
+            } else if layout.faces.is_some_and(|(f, _)| f == e) {
+                // Faces hold only their index list where postflight reads them.
+                let n = get(0)? as usize;
+                let polygon: Vec<usize> = (1..=n)
+                    .map(|k| get(k).map(|v| v as usize))
+                    .collect::<Result<_, _>>()?;
+                fan(&polygon, &mut ply.triangles);
+            }
+        }
     }
-    Ok(points)
+    Ok(ply)
+}
+
+/// A polygon's triangles, fanned from its first corner.
+fn fan(polygon: &[usize], triangles: &mut Vec<[usize; 3]>) {
+    for k in 1..polygon.len().saturating_sub(1) {
+        triangles.push([polygon[0], polygon[k], polygon[k + 1]]);
+    }
 }
 
 fn parse_binary(
     body: &[u8],
     elements: &[Element],
-    vertex: usize,
-    xyz: [usize; 3],
+    layout: &Layout,
     big: bool,
-) -> Result<Vec<Point3<f64>>, String> {
+) -> Result<Ply, String> {
     let short = || "PLY file is shorter than its header says".to_string();
     let mut pos = 0usize;
-    // The header's count is a claim; reserve no more than the body can hold.
-    let mut points = Vec::with_capacity(elements[vertex].count.min(body.len()));
-    for (e, element) in elements.iter().enumerate() {
-        if e > vertex {
-            break;
-        }
+    let mut ply = Ply {
+        // The header's count is a claim; reserve no more than the body can hold.
+        points: Vec::with_capacity(elements[layout.vertex].count.min(body.len())),
+        triangles: Vec::new(),
+    };
+    let last = layout
+        .faces
+        .map_or(layout.vertex, |(f, _)| f.max(layout.vertex));
+    let mut polygon = Vec::new();
+    for (e, element) in elements.iter().enumerate().take(last + 1) {
         for _ in 0..element.count {
             let mut values = [0.0f64; 3];
             for (k, property) in element.properties.iter().enumerate() {
                 match property {
                     Property::Scalar(_, ty) => {
                         let b = body.get(pos..pos + ty.size()).ok_or_else(short)?;
-                        if e == vertex
-                            && let Some(axis) = xyz.iter().position(|&a| a == k)
+                        if e == layout.vertex
+                            && let Some(axis) = layout.xyz.iter().position(|&a| a == k)
                         {
                             values[axis] = ty.read(b, big);
                         }
                         pos += ty.size();
                     }
-                    Property::List(count_ty, item_ty) => {
+                    Property::List(_, count_ty, item_ty) => {
                         let b = body.get(pos..pos + count_ty.size()).ok_or_else(short)?;
                         let n = count_ty.read(b, big) as usize;
-                        pos += count_ty.size() + n * item_ty.size();
+                        pos += count_ty.size();
+                        let items = body.get(pos..pos + n * item_ty.size()).ok_or_else(short)?;
+                        if layout.faces == Some((e, k)) {
+                            polygon.clear();
+                            polygon.extend(
+                                items
+                                    .chunks_exact(item_ty.size())
+                                    .map(|b| item_ty.read(b, big) as usize),
+                            );
+                            fan(&polygon, &mut ply.triangles);
+                        }
+                        pos += n * item_ty.size();
                     }
                 }
             }
-            if e == vertex {
-                points.push(Point3::from(values));
+            if e == layout.vertex {
+                ply.points.push(Point3::from(values));
             }
         }
     }
-    if pos > body.len() {
-        return Err(short());
-    }
-    Ok(points)
+    Ok(ply)
 }
 
 pub(crate) fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
@@ -221,11 +284,12 @@ mod tests {
     #[test]
     fn ascii_with_faces_before_vertices() {
         let ply = b"ply\nformat ascii 1.0\ncomment made by hand\nelement face 1\nproperty list uchar int vertex_indices\nelement vertex 2\nproperty float y\nproperty float x\nproperty float z\nproperty uchar red\nend_header\n3 0 1 1\n1.5 2.5 3.5 255\n-1 -2 -3 0\n";
-        let pts = parse(ply).unwrap();
+        let ply = parse(ply).unwrap();
         assert_eq!(
-            pts,
+            ply.points,
             vec![Point3::new(2.5, 1.5, 3.5), Point3::new(-2.0, -1.0, -3.0)]
         );
+        assert_eq!(ply.triangles, vec![[0, 1, 1]]);
     }
 
     #[test]
@@ -246,9 +310,18 @@ mod tests {
                 }
                 b.push(7);
             }
-            b.push(0);
-            let pts = parse(&b).unwrap();
-            assert_eq!(pts[1], Point3::new(4.0, 5.0, 6.25));
+            // A quad: two triangles.
+            b.push(4);
+            for i in [0i32, 1, 1, 0] {
+                b.extend_from_slice(&if big {
+                    i.to_be_bytes()
+                } else {
+                    i.to_le_bytes()
+                });
+            }
+            let ply = parse(&b).unwrap();
+            assert_eq!(ply.points[1], Point3::new(4.0, 5.0, 6.25));
+            assert_eq!(ply.triangles, vec![[0, 1, 1], [0, 1, 0]]);
             assert!(parse(&b[..b.len() - 10]).is_err());
         }
     }

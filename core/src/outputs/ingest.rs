@@ -10,10 +10,11 @@ use nalgebra::Isometry3;
 use serde::{Deserialize, Serialize};
 
 use crate::error::Error;
-use crate::frame::{Frame, ImageStatus, MessageLocation, PoseStatus};
-use crate::geo::{GeoAlignment, Geodetic};
+use crate::frame::{Frame, ImageLocation, ImageStatus, MessageLocation, PoseStatus};
+use crate::geo::{GeoAlignment, GeoOrigin, Geodetic};
 use crate::pose::{StampedPose, from_parts_xyzw, quaternion_xyzw};
 use crate::run_dir::RunDir;
+use crate::similarity::Similarity;
 use crate::trajectory::Trajectory;
 
 /// Files of the ingest stage.
@@ -90,6 +91,73 @@ pub struct RecordingSummary {
     /// file with the same settings, not from the file again.
     #[serde(default)]
     pub reused: bool,
+    /// A photo folder's photos (none for a recording).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub photos: Option<PhotoFolderSummary>,
+}
+
+/// A photo folder as a recording: its photos, those it skipped, and the
+/// frame they are posed in.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct PhotoFolderSummary {
+    /// JPEG files in the folder.
+    pub photos: u64,
+    /// Photos placed by a fixed RTK solution (DJI's `RtkFlag` 50).
+    pub rtk_fixed: u64,
+    /// Photos posed by the reconstruction (the others by their tags).
+    #[serde(default)]
+    pub reconstructed: u64,
+    /// Photos that could not be posed, each with why.
+    pub skipped: Vec<SkippedPhoto>,
+    /// The east-north-up frame the photos are posed in.
+    pub origin: GeoOrigin,
+}
+
+/// A photogrammetry reconstruction that posed the photos.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct ReconstructionSummary {
+    pub path: PathBuf,
+    pub format: ReconstructionFormat,
+    /// Its registered images.
+    pub images: u64,
+    /// The run's photos it posed (matched by file name).
+    pub posed: u64,
+    pub points: u64,
+    /// Where its frame is in the run's map frame.
+    pub similarity: Similarity,
+    pub placed_by: ReconstructionPlacedBy,
+}
+
+/// Which software wrote a reconstruction.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReconstructionFormat {
+    /// COLMAP's `cameras`, `images`, `points3D` (`.txt` or `.bin`).
+    Colmap,
+    /// OpenSfM's (and OpenDroneMap's) `reconstruction.json`.
+    OpenSfm,
+}
+
+/// How a reconstruction's frame was put into the run's map frame.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum ReconstructionPlacedBy {
+    /// Its own reference on the Earth (OpenSfM's `reference_lla`).
+    Reference,
+    /// The similarity putting its cameras on the photos' GPS positions.
+    GpsFit {
+        /// Photos fitted.
+        photos: usize,
+        /// RMS distance of its cameras from the photos' positions, metres.
+        rms_m: f64,
+    },
+}
+
+/// A photo left out of the flight.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SkippedPhoto {
+    pub photo: String,
+    pub why: String,
 }
 
 /// Where a recording's SLAM frame is in the run's map frame (the frame of
@@ -186,6 +254,9 @@ pub struct IngestSummary {
     /// trajectory (none without fixes).
     #[serde(default)]
     pub geo_origin: Option<GeoAlignment>,
+    /// The reconstruction that posed the photos, if one was given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reconstruction: Option<ReconstructionSummary>,
     pub warnings: Vec<String>,
 }
 
@@ -323,14 +394,23 @@ crate::table! {
         image_status: ImageStatus,
         pose: PoseColumns,
         exposure_s: Option<f64>,
-        /// Where its message is in the recording.
+        /// How far off the camera's position may be, metres (a photo's RTK
+        /// accuracy); null where the source does not say.
+        position_std_m: Option<f64>,
+        /// Where its message is in the recording (null for a photo).
         chunk_offset: Option<u64>,
-        record_offset: u64,
+        record_offset: Option<u64>,
+        /// The photo's file name in its folder (null for a message).
+        photo: Option<String>,
     }
 }
 
 impl FrameRow {
     fn of(f: &Frame) -> Self {
+        let (chunk_offset, record_offset, photo) = match &f.location {
+            ImageLocation::Message(m) => (m.chunk_offset, Some(m.record_offset), None),
+            ImageLocation::Photo(name) => (None, None, Some(name.clone())),
+        };
         Self {
             frame: f.index,
             recording: f.recording,
@@ -346,8 +426,10 @@ impl FrameRow {
             image_status: f.image_status,
             pose: PoseColumns::of(f.camera_pose.as_ref()),
             exposure_s: f.exposure_s,
-            chunk_offset: f.location.chunk_offset,
-            record_offset: f.location.record_offset,
+            position_std_m: f.position_std_m,
+            chunk_offset,
+            record_offset,
+            photo,
         }
     }
 
@@ -365,11 +447,15 @@ impl FrameRow {
             encoding: self.encoding,
             pose_status: self.pose_status,
             image_status: self.image_status,
-            location: MessageLocation {
-                chunk_offset: self.chunk_offset,
-                record_offset: self.record_offset,
+            location: match self.photo {
+                Some(name) => ImageLocation::Photo(name),
+                None => ImageLocation::Message(MessageLocation {
+                    chunk_offset: self.chunk_offset,
+                    record_offset: self.record_offset.unwrap_or_default(),
+                }),
             },
             exposure_s: self.exposure_s,
+            position_std_m: self.position_std_m,
         }
     }
 }

@@ -325,6 +325,13 @@ pub struct DefectRecord {
     pub place: Option<String>,
     /// World frame, metres.
     pub position: [f64; 3],
+    /// How far off `position` may be, metres (one standard deviation):
+    /// its views' scatter about it over the square root of their number,
+    /// and their cameras' position accuracy (a photo's RTK accuracy) in
+    /// full, as RTK errors run from photo to photo; none from one view of
+    /// a camera whose accuracy is unknown.
+    #[serde(default)]
+    pub position_uncertainty_m: Option<f64>,
     pub normal: [f64; 3],
     pub extent_min: [f64; 3],
     pub extent_max: [f64; 3],
@@ -581,6 +588,8 @@ crate::table! {
         x: f64,
         y: f64,
         z: f64,
+        /// See [`DefectRecord::position_uncertainty_m`].
+        position_uncertainty_m: Option<f64>,
         nx: f64,
         ny: f64,
         nz: f64,
@@ -646,6 +655,7 @@ impl DefectRow {
             x,
             y,
             z,
+            position_uncertainty_m: d.position_uncertainty_m,
             nx,
             ny,
             nz,
@@ -709,6 +719,7 @@ impl DefectRow {
             element: self.element,
             place: self.place,
             position: [self.x, self.y, self.z],
+            position_uncertainty_m: self.position_uncertainty_m,
             normal: [self.nx, self.ny, self.nz],
             extent_min: [self.min_x, self.min_y, self.min_z],
             extent_max: [self.max_x, self.max_y, self.max_z],
@@ -805,6 +816,7 @@ mod tests {
                 element: on.then(|| "pier 1".into()),
                 place: on.then(|| "pier 1, east face, 1.4 m above its base".into()),
                 position: [1.0, 2.0, 2.5],
+                position_uncertainty_m: on.then_some(0.031),
                 normal: [-1.0, 0.0, 0.0],
                 extent_min: [0.9, 1.8, 2.0],
                 extent_max: [1.1, 2.2, 3.0],

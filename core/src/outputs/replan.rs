@@ -22,23 +22,45 @@ pub mod files {
     pub const KML: &str = "replan.kml";
     pub const GEOJSON: &str = "replan.geojson";
 
-    /// A sortie's QGroundControl mission: `replan.plan` when the flight is
-    /// one sortie, else `replan-1.plan`, `replan-2.plan`, ...
-    pub fn mission(sortie: usize, sorties: usize) -> String {
+    /// The formats a sortie's mission is written in, by file extension.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub enum Mission {
+        /// A QGroundControl plan (`.plan`): PX4 and ArduPilot.
+        QGroundControl,
+        /// A DJI WPML waypoint mission (`.kmz`): DJI Pilot 2, FlightHub 2.
+        DjiWpml,
+    }
+
+    impl Mission {
+        pub const ALL: [Self; 2] = [Self::QGroundControl, Self::DjiWpml];
+
+        pub fn extension(self) -> &'static str {
+            match self {
+                Self::QGroundControl => "plan",
+                Self::DjiWpml => "kmz",
+            }
+        }
+    }
+
+    /// A sortie's mission: `replan.plan` (or `.kmz`) when the flight is one
+    /// sortie, else `replan-1.plan`, `replan-2.plan`, ...
+    pub fn mission(sortie: usize, sorties: usize, format: Mission) -> String {
+        let extension = format.extension();
         if sorties == 1 {
-            "replan.plan".into()
+            format!("replan.{extension}")
         } else {
-            format!("replan-{}.plan", sortie + 1)
+            format!("replan-{}.{extension}", sortie + 1)
         }
     }
 
     /// A team drone's sortie's mission: `replan-drone-2.plan` when the
     /// drone flies one sortie, else `replan-drone-2-1.plan`, ...
-    pub fn drone_mission(drone: usize, sortie: usize, sorties: usize) -> String {
+    pub fn drone_mission(drone: usize, sortie: usize, sorties: usize, format: Mission) -> String {
+        let extension = format.extension();
         if sorties == 1 {
-            format!("replan-drone-{}.plan", drone + 1)
+            format!("replan-drone-{}.{extension}", drone + 1)
         } else {
-            format!("replan-drone-{}-{}.plan", drone + 1, sortie + 1)
+            format!("replan-drone-{}-{}.{extension}", drone + 1, sortie + 1)
         }
     }
 
@@ -54,7 +76,11 @@ pub mod files {
 
     /// Whether a file in the run directory is a sortie's mission.
     pub fn is_mission(name: &str) -> bool {
-        name.starts_with("replan") && name.ends_with(".plan")
+        let extension = name.rsplit_once('.').map(|(_, e)| e);
+        name.starts_with("replan")
+            && Mission::ALL
+                .iter()
+                .any(|m| extension == Some(m.extension()))
     }
 }
 

@@ -1,0 +1,484 @@
+//! Photo folders as flights. The default simulated flight is written as a
+//! DJI photo folder by other hands: exiftool tags each frame's JPEG with
+//! its true camera pose put on the Earth by PROJ, with 2 cm of RTK-like
+//! noise (EXIF GPS and times; XMP drone-dji gimbal angles, speed, lens and
+//! RTK), and laspy writes the map as a LAZ in UTM. `postflight run` on the
+//! folder poses every photo, places the candidates within 10 cm of the
+//! truth cracks on the Earth (WGS 84, compared through PROJ) and finds the
+//! coverage of the same flight's MCAP run. A photo without GPS, a file
+//! that is not a JPEG and a LAZ without a CRS are each named in one line,
+//! and nothing that looks complete is written.
+
+use std::path::{Path, PathBuf};
+
+use crate::common::*;
+use nalgebra::Point3;
+use serde_json::Value;
+
+/// Where the simulator's world frame is put on the Earth (east-north-up,
+/// altitude above the ellipsoid): Zurich.
+const ORIGIN: &str = "47.3977,8.5456,488.0";
+/// The UTM zone there.
+const UTM_32N: &str = "32632";
+
+/// The simulated flight `args` as a DJI photo folder in `dir`; its photos'
+/// true positions as `dji_photos.py` lists them.
+fn photo_folder(sim: &Path, dir: &Path, extra: &[&str]) -> (PathBuf, Value) {
+    let photos = dir.join("photos");
+    let mut args = vec![sim.to_str().unwrap(), photos.to_str().unwrap(), ORIGIN];
+    args.extend(extra);
+    let listed = python_fixture("dji_photos.py", &args);
+    (photos, serde_json::from_str(&listed).unwrap())
+}
+
+/// Points of a map frame (`origin`: LAT,LON,ALT[,YAW_DEG]) in Earth-centred
+/// coordinates, by PROJ.
+fn on_earth(origin: &str, points: &[[f64; 3]]) -> Vec<Point3<f64>> {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("points.json");
+    std::fs::write(&input, serde_json::to_string(points).unwrap()).unwrap();
+    let out = python_fixture("to_ecef.py", &[origin, input.to_str().unwrap()]);
+    let out: Vec<[f64; 3]> = serde_json::from_str(&out).unwrap();
+    out.into_iter().map(Point3::from).collect()
+}
+
+/// `ingest.json`'s geo origin as `LAT,LON,ALT,YAW_DEG`.
+fn recorded_origin(run: &Path) -> String {
+    let o = &read_json(&run.join("ingest.json"))["geo_origin"]["origin"];
+    let v = |k: &str| f(&o[k]);
+    format!(
+        "{},{},{},{}",
+        v("latitude_deg"),
+        v("longitude_deg"),
+        v("altitude_m"),
+        v("yaw_deg")
+    )
+}
+
+/// Every truth crack's centre line, 5 mm apart, in the world frame.
+fn crack_samples(sim: &Path) -> Vec<[f64; 3]> {
+    let truth = read_json(&sim.join("truth.json"));
+    let mut samples = Vec::new();
+    for crack in truth["cracks"].as_array().unwrap() {
+        for line in crack["lines"].as_array().unwrap() {
+            let points: Vec<[f64; 3]> = line.as_array().unwrap().iter().map(vec3).collect();
+            for pair in points.windows(2) {
+                let (a, b) = (Point3::from(pair[0]), Point3::from(pair[1]));
+                let steps = ((b - a).norm() / 0.005).ceil().max(1.0) as usize;
+                for k in 0..=steps {
+                    let p = a + (b - a) * (k as f64 / steps as f64);
+                    samples.push([p.x, p.y, p.z]);
+                }
+            }
+        }
+    }
+    samples
+}
+
+/// Every candidate of `run` within `metres` of a truth crack of `sim`,
+/// compared on the Earth: the run's through its recorded geo origin, the
+/// truth's through the origin the photos were tagged at, each by PROJ.
+/// Returns how many there are.
+fn candidates_on_cracks(run: &Path, sim: &Path, metres: f64) -> usize {
+    let found = candidates(run);
+    let found_on_earth = on_earth(&recorded_origin(run), &found);
+    let cracks_on_earth = on_earth(ORIGIN, &crack_samples(sim));
+    let mut worst: f64 = 0.0;
+    for (c, p) in found.iter().zip(&found_on_earth) {
+        let nearest = cracks_on_earth
+            .iter()
+            .map(|s| (s - p).norm())
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            nearest <= metres,
+            "candidate at {c:?} is {nearest:.3} m from the nearest crack"
+        );
+        worst = worst.max(nearest);
+    }
+    eprintln!(
+        "{} candidates, the farthest {worst:.3} m from its crack",
+        found.len()
+    );
+    found.len()
+}
+
+fn candidates(run: &Path) -> Vec<[f64; 3]> {
+    let defects = read_json(&run.join("defects.json"));
+    let defects = defects["defects"].as_array().unwrap();
+    defects.iter().map(|d| vec3(&d["position"])).collect()
+}
+
+#[test]
+fn a_dji_photo_folder_with_a_utm_laz_runs_like_its_recording() {
+    let sim = simulated(&[]);
+    let dir = tempfile::tempdir().unwrap();
+    let (photos, listed) = photo_folder(&sim, dir.path(), &[]);
+    let laz = dir.path().join("map.laz");
+    let ply = sim.join("map.ply");
+    python_fixture(
+        "write_laz.py",
+        &[
+            ply.to_str().unwrap(),
+            laz.to_str().unwrap(),
+            ORIGIN,
+            UTM_32N,
+        ],
+    );
+    // The plan is in the simulator's frame: pose the photos there.
+    let config = dir.path().join("photos.toml");
+    let values = ORIGIN.replace(',', ", ");
+    std::fs::write(&config, format!("[ingest]\nphoto_origin = [{values}]\n")).unwrap();
+    let (by_photos, by_mcap) = (dir.path().join("photos-run"), dir.path().join("mcap-run"));
+    let out = postflight(
+        &[
+            "run",
+            "--photos",
+            photos.to_str().unwrap(),
+            "--map",
+            laz.to_str().unwrap(),
+            "--plan",
+            sim.join("plan.json").to_str().unwrap(),
+            "--config",
+            config.to_str().unwrap(),
+            "--out",
+            by_photos.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    run_simulated(&sim, &by_mcap);
+
+    // Every photo posed, within the noise of its true position.
+    let ingest = read_json(&by_photos.join("ingest.json"));
+    let photos_listed = listed.as_array().unwrap().len() as u64;
+    assert_eq!(ingest["frames_with_pose"].as_u64(), Some(photos_listed));
+    assert_eq!(
+        ingest["recordings"][0]["photos"]["rtk_fixed"].as_u64(),
+        Some(photos_listed)
+    );
+
+    // Candidates on the truth cracks, compared on the Earth: the run's
+    // through its recorded geo origin, the truth's through the origin the
+    // photos were tagged at, each by PROJ.
+    let found = candidates(&by_photos);
+    let found_on_earth = on_earth(&recorded_origin(&by_photos), &found);
+    let cracks_on_earth = on_earth(ORIGIN, &crack_samples(&sim));
+    let mut worst: f64 = 0.0;
+    for (c, p) in found.iter().zip(&found_on_earth) {
+        let nearest = cracks_on_earth
+            .iter()
+            .map(|s| (s - p).norm())
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            nearest <= 0.10,
+            "candidate at {c:?} is {nearest:.3} m from the nearest crack"
+        );
+        worst = worst.max(nearest);
+    }
+    let mcap_found = candidates(&by_mcap).len();
+    assert_eq!(found.len(), mcap_found, "candidates: photos, recording");
+    eprintln!(
+        "{} candidates, the farthest {worst:.3} m from its crack",
+        found.len()
+    );
+
+    // Coverage within 1% of the recording's.
+    let coverage = |run: &Path| f(&read_json(&run.join("coverage.json"))["inspected_voxels"]);
+    let (photo_voxels, mcap_voxels) = (coverage(&by_photos), coverage(&by_mcap));
+    assert!(
+        (photo_voxels - mcap_voxels).abs() <= 0.01 * mcap_voxels,
+        "inspected voxels: photos {photo_voxels}, recording {mcap_voxels}"
+    );
+    eprintln!("inspected voxels: photos {photo_voxels}, recording {mcap_voxels}");
+
+    dji_missions_follow_wpml_and_the_plan(&by_photos);
+}
+
+/// The follow-up flight of a photo run as DJI waypoint missions, one per
+/// sortie: each passes the WPML check written from DJI's documentation
+/// (with djikmz's aircraft and camera enumerations), holds every
+/// waypoint of its sortie with its heading, gimbal pitch and a photo, and
+/// puts it within 1 cm of where PROJ puts replan.json's waypoint.
+fn dji_missions_follow_wpml_and_the_plan(run: &Path) {
+    for (aircraft, dji) in [("m3e", "M3E"), ("m350-h20t", "M350:H20T")] {
+        let out = postflight(
+            &[
+                "replan",
+                "--run",
+                run.to_str().unwrap(),
+                "--max-gimbal-up",
+                "35",
+                "--dji-aircraft",
+                aircraft,
+                "--max-sortie-length",
+                "120",
+                "--solver-time-limit",
+                "2",
+            ],
+            run.parent().unwrap(),
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+        let plan = read_json(&run.join("replan.json"));
+        let sorties = plan["sorties"].as_array().unwrap();
+        assert!(sorties.len() > 1, "the 120 m limit splits the flight");
+        for (k, sortie) in sorties.iter().enumerate() {
+            for w in sortie["waypoints"].as_array().unwrap() {
+                let up = -f(&w["gimbal_pitch"]).to_degrees();
+                assert!(up <= 35.0 + 1e-9, "a waypoint looks {up:.1} degrees up");
+            }
+            let kmz = run.join(format!("replan-{}.kmz", k + 1));
+            let checked = python_fixture(
+                "check_wpml.py",
+                &[
+                    kmz.to_str().unwrap(),
+                    run.join("replan.json").to_str().unwrap(),
+                    &k.to_string(),
+                    dji,
+                ],
+            );
+            let checked: Value = serde_json::from_str(&checked).unwrap();
+            let waypoints = sortie["waypoints"].as_array().unwrap().len() as u64;
+            assert_eq!(checked["photos"].as_u64(), Some(waypoints), "{checked}");
+            assert!(f(&checked["worst_m"]) < 0.01, "{checked}");
+        }
+        eprintln!("{aircraft}: {} sorties as DJI missions", sorties.len());
+    }
+}
+
+/// COLMAP (pycolmap) reconstructs a textured simulated flight's photos on
+/// its own (SIFT, sequential matching, incremental mapping, in a frame and
+/// scale of its own); postflight fits it to the photos' GPS and poses the
+/// photos it registered by it, and the candidates land within 15 cm of
+/// the truth cracks on the Earth. The same model as text poses them the
+/// same.
+#[test]
+fn a_colmap_reconstruction_fitted_to_the_photos_gps_places_the_cracks() {
+    let sim = simulated(&["--textured"]);
+    let dir = tempfile::tempdir().unwrap();
+    let (photos, listed) = photo_folder(&sim, dir.path(), &[]);
+    let model = dir.path().join("sparse");
+    let text = dir.path().join("sparse-text");
+    let made = python_fixture(
+        "colmap_sfm.py",
+        &[
+            photos.to_str().unwrap(),
+            model.to_str().unwrap(),
+            "--text-copy",
+            text.to_str().unwrap(),
+        ],
+    );
+    let made: Value = serde_json::from_str(&made).unwrap();
+    let registered = made["images"].as_u64().unwrap();
+    let photos_listed = listed.as_array().unwrap().len() as u64;
+    assert!(
+        registered * 10 >= photos_listed * 9,
+        "COLMAP registered {made}"
+    );
+    let laz = dir.path().join("map.laz");
+    let ply = sim.join("map.ply");
+    python_fixture(
+        "write_laz.py",
+        &[
+            ply.to_str().unwrap(),
+            laz.to_str().unwrap(),
+            ORIGIN,
+            UTM_32N,
+        ],
+    );
+    let run_with = |model: &Path, name: &str| {
+        let config = dir.path().join(format!("{name}.toml"));
+        let values = ORIGIN.replace(',', ", ");
+        std::fs::write(
+            &config,
+            format!(
+                "[ingest]\nphoto_origin = [{values}]\nreconstruction = {:?}\n",
+                model.to_str().unwrap()
+            ),
+        )
+        .unwrap();
+        let run = dir.path().join(name);
+        let out = postflight(
+            &[
+                "run",
+                "--photos",
+                photos.to_str().unwrap(),
+                "--map",
+                laz.to_str().unwrap(),
+                "--config",
+                config.to_str().unwrap(),
+                "--out",
+                run.to_str().unwrap(),
+            ],
+            dir.path(),
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+        run
+    };
+    let run = run_with(&model, "binary");
+    let ingest = read_json(&run.join("ingest.json"));
+    let r = &ingest["reconstruction"];
+    assert_eq!(r["format"], "colmap");
+    assert_eq!(r["posed"].as_u64(), Some(registered), "{r}");
+    assert_eq!(r["placed_by"]["kind"], "gps_fit");
+    let rms = f(&r["placed_by"]["rms_m"]);
+    assert!(
+        rms < 0.1,
+        "the model's cameras sit {rms:.3} m RMS from the photos' GPS"
+    );
+    eprintln!(
+        "COLMAP registered {registered} of {photos_listed} photos; fit to GPS {rms:.3} m RMS, scale {}",
+        f(&r["similarity"]["scale"])
+    );
+    assert!(candidates_on_cracks(&run, &sim, 0.15) > 0);
+
+    // The text model: the same poses.
+    let from_text = run_with(&text, "text");
+    let poses = |run: &Path| {
+        let frames = read_parquet(&run.join("frames.parquet"));
+        let x = frames.column("x").unwrap().f64().unwrap().clone();
+        x.into_no_null_iter().collect::<Vec<f64>>()
+    };
+    let (a, b) = (poses(&run), poses(&from_text));
+    assert_eq!(a.len(), b.len());
+    assert!(a.iter().zip(&b).all(|(a, b)| (a - b).abs() < 1e-6));
+}
+
+#[test]
+fn without_a_given_origin_photos_are_posed_at_the_first_photo() {
+    let sim = simulated(&["--frames", "60"]);
+    let dir = tempfile::tempdir().unwrap();
+    let (photos, listed) = photo_folder(&sim, dir.path(), &["--noise", "0"]);
+    let run = dir.path().join("run");
+    let out = postflight(
+        &[
+            "ingest",
+            "--flight",
+            photos.to_str().unwrap(),
+            "--out",
+            run.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let origin = &read_json(&run.join("ingest.json"))["geo_origin"]["origin"];
+    let first = &listed[0];
+    assert!((f(&origin["latitude_deg"]) - f(&first["latitude"])).abs() < 1e-9);
+    assert!((f(&origin["longitude_deg"]) - f(&first["longitude"])).abs() < 1e-9);
+    // Each frame's camera, through the recorded origin, where its photo
+    // was taken (the truth, through PROJ both ways).
+    let frames = read_parquet(&run.join("frames.parquet"));
+    let column = |c: &str| -> Vec<f64> {
+        let values = frames.column(c).unwrap().f64().unwrap();
+        values.into_no_null_iter().collect()
+    };
+    let (x, y, z) = (column("x"), column("y"), column("z"));
+    let posed: Vec<[f64; 3]> = (0..x.len()).map(|i| [x[i], y[i], z[i]]).collect();
+    let truth = read_json(&sim.join("truth.json"));
+    let true_positions: Vec<[f64; 3]> = truth["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| !f["dropped"].as_bool().unwrap())
+        .map(|f| vec3(&f["camera_pose"]["translation"]))
+        .collect();
+    assert_eq!(posed.len(), true_positions.len());
+    let (a, b) = (
+        on_earth(&recorded_origin(&run), &posed),
+        on_earth(ORIGIN, &true_positions),
+    );
+    for (p, t) in a.iter().zip(&b) {
+        assert!((p - t).norm() < 0.002, "{p} against {t}");
+    }
+}
+
+#[test]
+fn bad_photos_and_a_laz_without_a_crs_are_named_in_one_line() {
+    let sim = simulated(&["--frames", "60"]);
+    let dir = tempfile::tempdir().unwrap();
+    let (photos, _) = photo_folder(
+        &sim,
+        dir.path(),
+        &["--skip-gps", "DJI_0003.JPG", "--corrupt", "DJI_0007.JPG"],
+    );
+    let ingest = |run: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "ingest",
+            "--photos",
+            photos.to_str().unwrap(),
+            "--out",
+            run.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        postflight(&args, dir.path())
+    };
+    // Skipped, a warning each.
+    let run = dir.path().join("skipped");
+    let out = ingest(&run, &[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let warnings = read_json(&run.join("ingest.json"))["warnings"].clone();
+    let warnings: Vec<&str> = warnings
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w.as_str().unwrap())
+        .collect();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.starts_with("DJI_0003.JPG: no GPS position")),
+        "{warnings:?}"
+    );
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.starts_with("DJI_0007.JPG: it is not a readable JPEG")),
+        "{warnings:?}"
+    );
+    // Refused with --strict, in one line, with nothing written.
+    let run = dir.path().join("strict");
+    let out = ingest(&run, &["--strict"]);
+    assert!(!out.status.success());
+    let error = stderr(&out);
+    assert_eq!(error.trim().lines().count(), 1, "{error}");
+    assert!(
+        error.contains("DJI_0003.JPG cannot be used: no GPS position")
+            && error.contains("--strict"),
+        "{error}"
+    );
+    assert!(!run.exists());
+
+    // A LAZ without a CRS: refused before anything is written.
+    let laz = dir.path().join("no-crs.laz");
+    let ply = sim.join("map.ply");
+    python_fixture(
+        "write_laz.py",
+        &[
+            ply.to_str().unwrap(),
+            laz.to_str().unwrap(),
+            ORIGIN,
+            UTM_32N,
+            "--no-crs",
+        ],
+    );
+    let run = dir.path().join("no-crs");
+    let out = postflight(
+        &[
+            "run",
+            "--photos",
+            photos.to_str().unwrap(),
+            "--map",
+            laz.to_str().unwrap(),
+            "--out",
+            run.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(!out.status.success());
+    let error = stderr(&out);
+    assert_eq!(error.trim().lines().count(), 1, "{error}");
+    assert!(
+        error.contains("no-crs.laz") && error.contains("no coordinate reference system"),
+        "{error}"
+    );
+    assert!(!run.exists());
+}
