@@ -154,25 +154,25 @@ fn concrete(p: &Point3<f64>) -> f64 {
 }
 
 /// What textured concrete adds to [`concrete`], grey levels: aggregate
-/// (dark and light pebbles a centimetre or two across), the grain of the
-/// formwork boards (15 cm boards, each a shade of its own, along the
-/// face), and weathering streaks running down it.
+/// (pale pebbles a centimetre or two across: paler than the paste, as
+/// limestone aggregate is, so a crack detector looking for dark lines
+/// passes them by, and distinct, so structure-from-motion matches them),
+/// each formwork board (15 cm, along
+/// the face) a shade of its own, and broad weathering down the face.
 fn texture(p: &Point3<f64>, normal: &Vector3<f64>) -> f64 {
     let smooth = |lo: f64, hi: f64, v: f64| {
         let t = ((v - lo) / (hi - lo)).clamp(0.0, 1.0);
         t * t * (3.0 - 2.0 * t)
     };
     let pebbles = value_noise(p, 55.0, 21);
-    let aggregate = -45.0 * smooth(0.62, 0.72, pebbles) + 30.0 * smooth(0.38, 0.28, pebbles);
+    let aggregate = 32.0 * smooth(0.6, 0.7, pebbles) + 16.0 * smooth(0.3, 0.2, pebbles);
     // Boards run horizontally on walls, across the span under a deck.
     let across = if normal.z.abs() > 0.7 { p.x } else { p.z };
     let board = (across / 0.15).floor();
-    let shade = 16.0 * (hash3(board as i64, 0, 0, 23) - 0.5);
-    let grain_at = Point3::new(p.x * 6.0, p.y * 6.0, across * 90.0);
-    let grain = 14.0 * (value_noise(&grain_at, 1.0, 24) - 0.5);
-    let streak_at = Point3::new(p.x * 9.0, p.y * 9.0, p.z * 0.8);
-    let streaks = -22.0 * smooth(0.55, 0.8, value_noise(&streak_at, 1.0, 25));
-    aggregate + shade + grain + streaks
+    let shade = 12.0 * (hash3(board as i64, 0, 0, 23) - 0.5);
+    let weathering_at = Point3::new(p.x * 3.0, p.y * 3.0, p.z * 0.5);
+    let weathering = -10.0 * value_noise(&weathering_at, 1.0, 25);
+    aggregate + shade + weathering
 }
 
 /// Smooth 3D value noise in [0, 1] at `freq` cycles per metre.
