@@ -252,7 +252,9 @@ fn dji_missions_follow_wpml_and_the_plan(run: &Path) {
 /// carry GPS but no orientation, so only the reconstruction can pose them:
 /// postflight fits it to their GPS, poses the photos it registered, and
 /// every candidate of a crack lands within 15 cm of it on the Earth. The
-/// same model as text poses them the same.
+/// same model as text poses them the same, and as OpenSfM's
+/// `reconstruction.json` on the Earth by its reference, within 5 cm of
+/// the truth.
 #[test]
 fn a_colmap_reconstruction_fitted_to_the_photos_gps_places_the_cracks() {
     let sim = simulated(&["--textured"]);
@@ -355,16 +357,95 @@ fn a_colmap_reconstruction_fitted_to_the_photos_gps_places_the_cracks() {
     assert!(on_cracks >= 3, "{on_cracks} candidates of cracks");
     eprintln!("{on_cracks} candidates of cracks, {off} elsewhere (the textured surface's)");
 
-    // The text model: the same poses.
-    let from_text = run_with(&text, "text");
-    let xs = |run: &Path| {
+    // The text model poses them the same; the model as OpenSfM's
+    // reconstruction.json, georeferenced (by the truth), by its reference.
+    let truth_positions: serde_json::Map<String, Value> = truth["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| !f["dropped"].as_bool().unwrap())
+        .enumerate()
+        .map(|(i, f)| {
+            (
+                format!("DJI_{:04}.JPG", i + 1),
+                f["camera_pose"]["translation"].clone(),
+            )
+        })
+        .collect();
+    let positions = dir.path().join("positions.json");
+    std::fs::write(
+        &positions,
+        Value::Object(truth_positions.clone()).to_string(),
+    )
+    .unwrap();
+    let opensfm = dir.path().join("reconstruction.json");
+    python_fixture(
+        "colmap_to_opensfm.py",
+        &[
+            model.to_str().unwrap(),
+            opensfm.to_str().unwrap(),
+            ORIGIN,
+            positions.to_str().unwrap(),
+        ],
+    );
+    let posed = |run: &Path| -> Vec<(String, [f64; 3])> {
         let frames = read_parquet(&run.join("frames.parquet"));
-        let x = frames.column("x").unwrap().f64().unwrap().clone();
-        x.into_no_null_iter().collect::<Vec<f64>>()
+        let column = |c: &str| -> Vec<f64> {
+            let values = frames.column(c).unwrap().f64().unwrap();
+            values.into_no_null_iter().collect()
+        };
+        let (x, y, z) = (column("x"), column("y"), column("z"));
+        let names = frames.column("photo").unwrap().str().unwrap().clone();
+        let names = names.iter().map(|n| n.unwrap_or_default().to_string());
+        names
+            .zip((0..x.len()).map(|i| [x[i], y[i], z[i]]))
+            .collect()
     };
-    let (a, b) = (xs(&run), xs(&from_text));
-    assert_eq!(a.len(), b.len());
-    assert!(a.iter().zip(&b).all(|(a, b)| (a - b).abs() < 1e-6));
+    let ingest_with = |model: &Path, name: &str| {
+        let run = dir.path().join(name);
+        let out = postflight(
+            &[
+                "ingest",
+                "--photos",
+                photos.to_str().unwrap(),
+                "--photo-origin",
+                ORIGIN,
+                "--reconstruction",
+                model.to_str().unwrap(),
+                "--out",
+                run.to_str().unwrap(),
+            ],
+            dir.path(),
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+        run
+    };
+    let binary = posed(&run);
+    let text = posed(&ingest_with(&text, "text"));
+    assert_eq!(binary.len(), text.len());
+    for ((a, p), (b, q)) in binary.iter().zip(&text) {
+        assert_eq!(a, b);
+        assert!((Point3::from(*p) - Point3::from(*q)).norm() < 1e-6, "{a}");
+    }
+    let by_reference = ingest_with(&opensfm, "opensfm");
+    let r = &read_json(&by_reference.join("ingest.json"))["reconstruction"];
+    assert_eq!(
+        (&r["format"], &r["placed_by"]["kind"]),
+        (&"opensfm".into(), &"reference".into())
+    );
+    let mut worst: f64 = 0.0;
+    for (name, p) in posed(&by_reference) {
+        let truth = Point3::from(vec3(&truth_positions[&name]));
+        worst = worst.max((Point3::from(p) - truth).norm());
+    }
+    assert!(
+        worst < 0.05,
+        "a photo posed by OpenSfM's model is {worst:.3} m from the truth"
+    );
+    eprintln!(
+        "posed by the OpenSfM model, the farthest photo {:.1} cm from the truth",
+        worst * 100.0
+    );
 }
 
 #[test]

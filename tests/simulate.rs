@@ -312,6 +312,47 @@ fn a_mesh_from_an_obj_file_flies_end_to_end() {
     // The footbridge's surface fits in a 13 x 2.5 x 4 m box: at most that many 0.5 m voxels.
     assert!(!plan.target_voxels.is_empty() && plan.target_voxels.len() <= 26 * 5 * 8);
 
+    // The mesh itself as the map, OBJ or PLY with faces (written by
+    // Python), sampled over its surface: the coverage the recorded map
+    // gives.
+    let ply = dir.path().join("footbridge.ply");
+    python_fixture(
+        "obj_to_ply.py",
+        &[mesh.to_str().unwrap(), ply.to_str().unwrap()],
+    );
+    let plan = sim.join("plan.json");
+    let inspected = |map: Option<&std::path::Path>| {
+        let mut args = vec![
+            "coverage",
+            "--run",
+            run.to_str().unwrap(),
+            "--plan",
+            plan.to_str().unwrap(),
+        ];
+        if let Some(m) = map {
+            args.extend(["--map", m.to_str().unwrap()]);
+        }
+        let out = postflight(&args, dir.path());
+        assert!(out.status.success(), "{}", stderr(&out));
+        read_json(&run.join("coverage.json"))["inspected_voxels"]
+            .as_u64()
+            .unwrap()
+    };
+    let recorded = inspected(None);
+    for map in [&mesh, &ply] {
+        let from_mesh = inspected(Some(map));
+        let differ = from_mesh.abs_diff(recorded) as f64;
+        eprintln!(
+            "{}: {from_mesh} inspected voxels, the recorded map {recorded}",
+            map.display()
+        );
+        assert!(
+            differ <= 0.05 * recorded as f64,
+            "{}: {from_mesh} inspected voxels, the recorded map {recorded}",
+            map.display()
+        );
+    }
+
     let missing = postflight(
         &[
             "simulate",

@@ -135,6 +135,7 @@ pub enum ReconstructionFormat {
     /// COLMAP's `cameras`, `images`, `points3D` (`.txt` or `.bin`).
     Colmap,
     /// OpenSfM's (and OpenDroneMap's) `reconstruction.json`.
+    #[serde(rename = "opensfm")]
     OpenSfm,
 }
 
