@@ -146,7 +146,7 @@ pub fn replan(options: &replan::ReplanOptions, quiet: bool) -> anyhow::Result<()
             );
             if summary.geo_origin.is_none() {
                 println!(
-                    "no geo origin (--geo-origin, or GPS fixes in the flight): no QGroundControl mission, KML or GeoJSON"
+                    "no geo origin (--geo-origin, or GPS fixes or geotagged photos in the flight): no QGroundControl or DJI mission, KML or GeoJSON"
                 );
             }
         }

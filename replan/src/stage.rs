@@ -501,7 +501,12 @@ fn geo_origin(options: &ReplanOptions, flight: &Flight) -> (Option<GeoOrigin>, O
     if let Some(origin) = options.settings.geo_origin {
         return (Some(origin), Some("settings".into()));
     }
+    let photos = flight.summary.recordings.iter().any(|r| r.photos.is_some());
     match &flight.summary.geo_origin {
+        Some(fit) if photos => (
+            Some(fit.origin),
+            Some("the geotagged photos' east-north-up frame".into()),
+        ),
         Some(fit) => (
             Some(fit.origin),
             Some(format!(

@@ -80,9 +80,9 @@ pub fn page(results: &RunResults, summary: &RunSummary) -> String {
     document(&title, html! { style { (PreEscaped(STYLE)) } }, body)
 }
 
-/// Where a photo flight's poses came from: its photos (how many with a
-/// fixed RTK solution, which were skipped and why), the reconstruction
-/// that refined them, and the frame they are in.
+/// Where a photo flight's poses came from: its photos (how many were
+/// posed, how many with a fixed RTK solution, which were skipped and why),
+/// the reconstruction that refined them, and the frame they are in.
 fn photos_line(r: &RunResults) -> Markup {
     let summary = &r.flight.summary;
     let folders: Vec<&PhotoFolderSummary> = summary
@@ -94,28 +94,41 @@ fn photos_line(r: &RunResults) -> Markup {
         return html! {};
     };
     let sum = |f: fn(&PhotoFolderSummary) -> u64| folders.iter().map(|p| f(p)).sum::<u64>();
+    let photos = sum(|p| p.photos);
     let skipped: Vec<&SkippedPhoto> = folders.iter().flat_map(|p| &p.skipped).collect();
+    let posed = photos - skipped.len() as u64;
+    // Skipped photos by why, in the order first met.
+    let mut why: Vec<(&str, Vec<&str>)> = Vec::new();
+    for s in &skipped {
+        match why.iter_mut().find(|(w, _)| *w == s.why) {
+            Some((_, names)) => names.push(&s.photo),
+            None => why.push((&s.why, vec![&s.photo])),
+        }
+    }
     let o = &first.origin.position;
     html! {
         p.sub {
-            "Posed from " (sum(|p| p.photos)) " geotagged photos"
-            @if folders.len() > 1 { " in " (folders.len()) " folders" }
+            (posed) " of " (photos) " geotagged photos posed"
+            @if folders.len() > 1 { " from " (folders.len()) " folders" }
             " (" (sum(|p| p.rtk_fixed)) " with a fixed RTK solution), in the east-north-up frame at "
-            (format!("{:.6}, {:.6}, {:.1} m", o.latitude_deg, o.longitude_deg, o.altitude_m)) ". "
-            @if let Some(rec) = &summary.reconstruction {
-                (rec.posed) " refined by the reconstruction " code { (rec.path.display()) }
-                " (" (match rec.format { ReconstructionFormat::Colmap => "COLMAP", ReconstructionFormat::OpenSfm => "OpenSfM" }) ", "
-                (match rec.placed_by {
-                    ReconstructionPlacedBy::Reference => "on the Earth by its reference".to_string(),
-                    ReconstructionPlacedBy::GpsFit { photos, rms_m } => format!("fitted to {photos} photos' GPS, {:.1} cm RMS", rms_m * 100.0),
-                }) "). "
+            (format!("{:.6}, {:.6}, {:.1} m", o.latitude_deg, o.longitude_deg, o.altitude_m)) "; "
+            @match &summary.reconstruction {
+                Some(rec) => {
+                    (rec.posed) " by the reconstruction " code { (rec.path.display()) }
+                    " (" (match rec.format { ReconstructionFormat::Colmap => "COLMAP", ReconstructionFormat::OpenSfm => "OpenSfM" }) ", "
+                    (match rec.placed_by {
+                        ReconstructionPlacedBy::Reference => "on the Earth by its reference".to_string(),
+                        ReconstructionPlacedBy::GpsFit { photos, rms_m } => format!("fitted to {photos} photos' GPS at {:.1} cm RMS", rms_m * 100.0),
+                    }) "), the others by their tags."
+                },
+                None => "each by its tags (GPS, gimbal angles, lens).",
             }
-            @if !skipped.is_empty() {
-                span.flag { (skipped.len()) " skipped" } ": "
-                @for (i, s) in skipped.iter().take(5).enumerate() {
-                    @if i > 0 { "; " } code { (s.photo) } " (" (s.why) ")"
+            @for (reason, names) in &why {
+                " " span.flag { (names.len()) " skipped" } ", " (reason) ": "
+                @for (i, name) in names.iter().take(3).enumerate() {
+                    @if i > 0 { ", " } code { (name) }
                 }
-                @if skipped.len() > 5 { "; and " (skipped.len() - 5) " more (ingest.json)" }
+                @if names.len() > 3 { " and " (names.len() - 3) " more" }
                 "."
             }
         }
@@ -789,7 +802,7 @@ fn follow_up(r: &RunResults, p: &ReplanSummary) -> Markup {
             } @else {
                 ". Given where the map is on the Earth ("
                 code { "postflight replan --geo-origin LAT,LON,ALT[,YAW_DEG]" }
-                ", or GPS fixes in the flight), replan also writes QGroundControl missions, KML and GeoJSON."
+                ", or GPS fixes or geotagged photos in the flight), replan also writes QGroundControl and DJI missions, KML and GeoJSON."
             }
         }
         @if !p.keep_out.is_empty() || p.ceiling_z_m.is_some() {
