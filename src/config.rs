@@ -219,6 +219,7 @@ body_frame = "base_link"
 world_frame = "map"
 max_pose_gap_s = 0.5
 photo_origin = [47.397742, 8.545594, 488.0]
+reconstruction = "odm/opensfm/reconstruction.json"
 strict = true
 [[ingest.recording_frame]]
 recording = "drone-2.mcap"

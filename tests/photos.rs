@@ -31,6 +31,34 @@ fn photo_folder(sim: &Path, dir: &Path, extra: &[&str]) -> (PathBuf, Value) {
     (photos, serde_json::from_str(&listed).unwrap())
 }
 
+/// `postflight COMMAND --photos PHOTOS ARGS... --out OUT`.
+fn on_photos(command: &str, photos: &Path, args: &[&str], out: &Path) -> std::process::Output {
+    let mut all = vec![command, "--photos", photos.to_str().unwrap()];
+    all.extend(args);
+    all.extend(["--out", out.to_str().unwrap()]);
+    postflight(&all, out.parent().unwrap())
+}
+
+/// The simulator's map as a UTM LAZ in `dir` (laspy, PROJ); `--no-crs`
+/// in `extra` leaves its CRS out.
+fn laz_map(sim: &Path, dir: &Path, extra: &[&str]) -> PathBuf {
+    let laz = dir.join(if extra.is_empty() {
+        "map.laz"
+    } else {
+        "no-crs.laz"
+    });
+    let ply = sim.join("map.ply");
+    let mut args = vec![
+        ply.to_str().unwrap(),
+        laz.to_str().unwrap(),
+        ORIGIN,
+        UTM_32N,
+    ];
+    args.extend(extra);
+    python_fixture("write_laz.py", &args);
+    laz
+}
+
 /// Points of a map frame (`origin`: LAT,LON,ALT[,YAW_DEG]) in Earth-centred
 /// coordinates, by PROJ.
 fn on_earth(origin: &str, points: &[[f64; 3]]) -> Vec<Point3<f64>> {
@@ -123,6 +151,21 @@ fn candidates_by_crack(run: &Path, sim: &Path, metres: f64) -> (usize, usize) {
     (of_cracks.len(), distances.len() - of_cracks.len())
 }
 
+/// Each frame's photo and camera position, in frame order.
+fn photo_positions(run: &Path) -> Vec<(String, [f64; 3])> {
+    let frames = read_parquet(&run.join("frames.parquet"));
+    let column = |c: &str| -> Vec<f64> {
+        let values = frames.column(c).unwrap().f64().unwrap();
+        values.into_no_null_iter().collect()
+    };
+    let (x, y, z) = (column("x"), column("y"), column("z"));
+    let names = frames.column("photo").unwrap().str().unwrap().clone();
+    let names = names.iter().map(|n| n.unwrap_or_default().to_string());
+    names
+        .zip((0..x.len()).map(|i| [x[i], y[i], z[i]]))
+        .collect()
+}
+
 fn candidates(run: &Path) -> Vec<[f64; 3]> {
     let defects = read_json(&run.join("defects.json"));
     let defects = defects["defects"].as_array().unwrap();
@@ -134,38 +177,22 @@ fn a_dji_photo_folder_with_a_utm_laz_runs_like_its_recording() {
     let sim = simulated(&[]);
     let dir = tempfile::tempdir().unwrap();
     let (photos, listed) = photo_folder(&sim, dir.path(), &[]);
-    let laz = dir.path().join("map.laz");
-    let ply = sim.join("map.ply");
-    python_fixture(
-        "write_laz.py",
-        &[
-            ply.to_str().unwrap(),
-            laz.to_str().unwrap(),
-            ORIGIN,
-            UTM_32N,
-        ],
-    );
+    let laz = laz_map(&sim, dir.path(), &[]);
     // The plan is in the simulator's frame: pose the photos there.
     let config = dir.path().join("photos.toml");
     let values = ORIGIN.replace(',', ", ");
     std::fs::write(&config, format!("[ingest]\nphoto_origin = [{values}]\n")).unwrap();
     let (by_photos, by_mcap) = (dir.path().join("photos-run"), dir.path().join("mcap-run"));
-    let out = postflight(
-        &[
-            "run",
-            "--photos",
-            photos.to_str().unwrap(),
-            "--map",
-            laz.to_str().unwrap(),
-            "--plan",
-            sim.join("plan.json").to_str().unwrap(),
-            "--config",
-            config.to_str().unwrap(),
-            "--out",
-            by_photos.to_str().unwrap(),
-        ],
-        dir.path(),
-    );
+    let plan = sim.join("plan.json");
+    let args = [
+        "--map",
+        laz.to_str().unwrap(),
+        "--plan",
+        plan.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+    ];
+    let out = on_photos("run", &photos, &args, &by_photos);
     assert!(out.status.success(), "{}", stderr(&out));
     run_simulated(&sim, &by_mcap);
 
@@ -295,47 +322,22 @@ fn a_colmap_reconstruction_fitted_to_the_photos_gps_places_the_cracks() {
     let made: Value = serde_json::from_str(&made).unwrap();
     let registered = made["images"].as_u64().unwrap();
     assert!(registered >= 30, "COLMAP registered {made}");
-    let laz = dir.path().join("map.laz");
-    let ply = sim.join("map.ply");
-    python_fixture(
-        "write_laz.py",
-        &[
-            ply.to_str().unwrap(),
-            laz.to_str().unwrap(),
-            ORIGIN,
-            UTM_32N,
-        ],
-    );
-    let run_with = |model: &Path, name: &str| {
-        let config = dir.path().join(format!("{name}.toml"));
-        let values = ORIGIN.replace(',', ", ");
-        std::fs::write(
-            &config,
-            format!(
-                "[ingest]\nphoto_origin = [{values}]\nreconstruction = {:?}\n",
-                model.to_str().unwrap()
-            ),
-        )
-        .unwrap();
-        let run = dir.path().join(name);
-        let out = postflight(
-            &[
-                "run",
-                "--photos",
-                photos.to_str().unwrap(),
-                "--map",
-                laz.to_str().unwrap(),
-                "--config",
-                config.to_str().unwrap(),
-                "--out",
-                run.to_str().unwrap(),
-            ],
-            dir.path(),
-        );
-        assert!(out.status.success(), "{}", stderr(&out));
-        run
-    };
-    let run = run_with(&model, "binary");
+    let laz = laz_map(&sim, dir.path(), &[]);
+    let run = dir.path().join("binary");
+    let config = dir.path().join("reconstruction.toml");
+    let values = ORIGIN.replace(',', ", ");
+    let model_path = model.to_str().unwrap();
+    let settings =
+        format!("[ingest]\nphoto_origin = [{values}]\nreconstruction = {model_path:?}\n");
+    std::fs::write(&config, settings).unwrap();
+    let args = [
+        "--map",
+        laz.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+    ];
+    let out = on_photos("run", &photos, &args, &run);
+    assert!(out.status.success(), "{}", stderr(&out));
     let ingest = read_json(&run.join("ingest.json"));
     let r = &ingest["reconstruction"];
     assert_eq!(r["format"], "colmap");
@@ -355,6 +357,17 @@ fn a_colmap_reconstruction_fitted_to_the_photos_gps_places_the_cracks() {
     );
     let (on_cracks, off) = candidates_by_crack(&run, &sim, 0.15);
     assert!(on_cracks >= 3, "{on_cracks} candidates of cracks");
+    // Without a map, the reconstruction's points are the map.
+    let out = postflight(&["localise", "--run", run.to_str().unwrap()], dir.path());
+    assert!(out.status.success(), "{}", stderr(&out));
+    let localised = read_json(&run.join("localise.json"));
+    assert_eq!(localised["map_points"], made["points"]);
+    assert!(
+        localised["map"]
+            .as_str()
+            .unwrap()
+            .starts_with("reconstruction ")
+    );
     eprintln!("{on_cracks} candidates of cracks, {off} elsewhere (the textured surface's)");
 
     // The text model poses them the same; the model as OpenSfM's
@@ -388,40 +401,16 @@ fn a_colmap_reconstruction_fitted_to_the_photos_gps_places_the_cracks() {
             positions.to_str().unwrap(),
         ],
     );
-    let posed = |run: &Path| -> Vec<(String, [f64; 3])> {
-        let frames = read_parquet(&run.join("frames.parquet"));
-        let column = |c: &str| -> Vec<f64> {
-            let values = frames.column(c).unwrap().f64().unwrap();
-            values.into_no_null_iter().collect()
-        };
-        let (x, y, z) = (column("x"), column("y"), column("z"));
-        let names = frames.column("photo").unwrap().str().unwrap().clone();
-        let names = names.iter().map(|n| n.unwrap_or_default().to_string());
-        names
-            .zip((0..x.len()).map(|i| [x[i], y[i], z[i]]))
-            .collect()
-    };
     let ingest_with = |model: &Path, name: &str| {
         let run = dir.path().join(name);
-        let out = postflight(
-            &[
-                "ingest",
-                "--photos",
-                photos.to_str().unwrap(),
-                "--photo-origin",
-                ORIGIN,
-                "--reconstruction",
-                model.to_str().unwrap(),
-                "--out",
-                run.to_str().unwrap(),
-            ],
-            dir.path(),
-        );
+        let model = model.to_str().unwrap();
+        let args = ["--photo-origin", ORIGIN, "--reconstruction", model];
+        let out = on_photos("ingest", &photos, &args, &run);
         assert!(out.status.success(), "{}", stderr(&out));
         run
     };
-    let binary = posed(&run);
-    let text = posed(&ingest_with(&text, "text"));
+    let binary = photo_positions(&run);
+    let text = photo_positions(&ingest_with(&text, "text"));
     assert_eq!(binary.len(), text.len());
     for ((a, p), (b, q)) in binary.iter().zip(&text) {
         assert_eq!(a, b);
@@ -434,7 +423,7 @@ fn a_colmap_reconstruction_fitted_to_the_photos_gps_places_the_cracks() {
         (&"opensfm".into(), &"reference".into())
     );
     let mut worst: f64 = 0.0;
-    for (name, p) in posed(&by_reference) {
+    for (name, p) in photo_positions(&by_reference) {
         let truth = Point3::from(vec3(&truth_positions[&name]));
         worst = worst.max((Point3::from(p) - truth).norm());
     }
@@ -471,13 +460,7 @@ fn without_a_given_origin_photos_are_posed_at_the_first_photo() {
     assert!((f(&origin["longitude_deg"]) - f(&first["longitude"])).abs() < 1e-9);
     // Each frame's camera, through the recorded origin, where its photo
     // was taken (the truth, through PROJ both ways).
-    let frames = read_parquet(&run.join("frames.parquet"));
-    let column = |c: &str| -> Vec<f64> {
-        let values = frames.column(c).unwrap().f64().unwrap();
-        values.into_no_null_iter().collect()
-    };
-    let (x, y, z) = (column("x"), column("y"), column("z"));
-    let posed: Vec<[f64; 3]> = (0..x.len()).map(|i| [x[i], y[i], z[i]]).collect();
+    let posed: Vec<[f64; 3]> = photo_positions(&run).into_iter().map(|(_, p)| p).collect();
     let truth = read_json(&sim.join("truth.json"));
     let true_positions: Vec<[f64; 3]> = truth["frames"]
         .as_array()
@@ -505,20 +488,9 @@ fn bad_photos_and_a_laz_without_a_crs_are_named_in_one_line() {
         dir.path(),
         &["--skip-gps", "DJI_0003.JPG", "--corrupt", "DJI_0007.JPG"],
     );
-    let ingest = |run: &Path, extra: &[&str]| {
-        let mut args = vec![
-            "ingest",
-            "--photos",
-            photos.to_str().unwrap(),
-            "--out",
-            run.to_str().unwrap(),
-        ];
-        args.extend(extra);
-        postflight(&args, dir.path())
-    };
     // Skipped, a warning each.
     let run = dir.path().join("skipped");
-    let out = ingest(&run, &[]);
+    let out = on_photos("ingest", &photos, &[], &run);
     assert!(out.status.success(), "{}", stderr(&out));
     let warnings = read_json(&run.join("ingest.json"))["warnings"].clone();
     let warnings: Vec<&str> = warnings
@@ -541,7 +513,7 @@ fn bad_photos_and_a_laz_without_a_crs_are_named_in_one_line() {
     );
     // Refused with --strict, in one line, with nothing written.
     let run = dir.path().join("strict");
-    let out = ingest(&run, &["--strict"]);
+    let out = on_photos("ingest", &photos, &["--strict"], &run);
     assert!(!out.status.success());
     let error = stderr(&out);
     assert_eq!(error.trim().lines().count(), 1, "{error}");
@@ -553,31 +525,9 @@ fn bad_photos_and_a_laz_without_a_crs_are_named_in_one_line() {
     assert!(!run.exists());
 
     // A LAZ without a CRS: refused before anything is written.
-    let laz = dir.path().join("no-crs.laz");
-    let ply = sim.join("map.ply");
-    python_fixture(
-        "write_laz.py",
-        &[
-            ply.to_str().unwrap(),
-            laz.to_str().unwrap(),
-            ORIGIN,
-            UTM_32N,
-            "--no-crs",
-        ],
-    );
+    let laz = laz_map(&sim, dir.path(), &["--no-crs"]);
     let run = dir.path().join("no-crs");
-    let out = postflight(
-        &[
-            "run",
-            "--photos",
-            photos.to_str().unwrap(),
-            "--map",
-            laz.to_str().unwrap(),
-            "--out",
-            run.to_str().unwrap(),
-        ],
-        dir.path(),
-    );
+    let out = on_photos("run", &photos, &["--map", laz.to_str().unwrap()], &run);
     assert!(!out.status.success());
     let error = stderr(&out);
     assert_eq!(error.trim().lines().count(), 1, "{error}");
