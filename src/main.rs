@@ -142,7 +142,8 @@ impl FlightArgs {
 struct RunArgs {
     #[command(flatten)]
     flight: FlightArgs,
-    /// SLAM map (PLY, PCD, or OctoMap .bt/.ot) instead of the one recorded in the flight.
+    /// Map: PLY, PCD, OctoMap .bt/.ot, an OBJ or PLY mesh (world frame, metres),
+    /// or a LAS/LAZ in its CRS; instead of the one recorded in the flight.
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
     #[command(flatten)]
@@ -204,7 +205,8 @@ struct ReplanArgs {
     /// Run directory holding a completed coverage stage.
     #[arg(long)]
     run: PathBuf,
-    /// SLAM map (PLY, PCD, or OctoMap .bt/.ot) instead of the one coverage used.
+    /// Map: PLY, PCD, OctoMap .bt/.ot, an OBJ or PLY mesh (world frame, metres),
+    /// or a LAS/LAZ in its CRS; instead of the one coverage used.
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
     #[command(flatten)]
@@ -281,7 +283,8 @@ struct CoverageArgs {
     /// Judge the viewpoints as shots of this camera (a ROS camera_info YAML: a team drone's) instead of the flight's.
     #[arg(long, value_name = "camera.yaml", requires = "viewpoints")]
     viewpoint_camera: Option<PathBuf>,
-    /// SLAM map (PLY, PCD, or OctoMap .bt/.ot; world frame, metres) instead of the one recorded in the flight.
+    /// Map: PLY, PCD, OctoMap .bt/.ot, an OBJ or PLY mesh (world frame, metres),
+    /// or a LAS/LAZ in its CRS; instead of the one recorded in the flight.
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
     #[command(flatten)]
@@ -299,7 +302,8 @@ struct LocaliseArgs {
     /// Run directory holding a completed detect.
     #[arg(long)]
     run: PathBuf,
-    /// SLAM map (PLY, PCD, or OctoMap .bt/.ot; world frame, metres) instead of the one recorded in the flight.
+    /// Map: PLY, PCD, OctoMap .bt/.ot, an OBJ or PLY mesh (world frame, metres),
+    /// or a LAS/LAZ in its CRS; instead of the one recorded in the flight.
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
     /// Inspection plan: its target voxels are the structure (hits elsewhere are obstacles).
