@@ -108,22 +108,27 @@ mod wkt {
         }
     }
 
+    type Chars<'a> = std::iter::Peekable<std::str::Chars<'a>>;
+
     pub(super) fn parse(text: &str) -> Option<Node> {
         let mut chars = text.trim().chars().peekable();
-        let node = node(&mut chars)?;
-        Some(node)
+        let keyword = taken_while(&mut chars, |c| c.is_ascii_alphanumeric() || c == '_');
+        node(keyword, &mut chars)
     }
 
-    fn node(chars: &mut std::iter::Peekable<std::str::Chars<'_>>) -> Option<Node> {
-        let mut keyword = String::new();
-        while let Some(c) = chars
-            .peek()
-            .copied()
-            .filter(|c| c.is_ascii_alphanumeric() || *c == '_')
-        {
-            keyword.push(c);
+    /// The characters from here while `keep` holds.
+    fn taken_while(chars: &mut Chars<'_>, keep: impl Fn(char) -> bool) -> String {
+        let mut taken = String::new();
+        while let Some(c) = chars.peek().copied().filter(|c| keep(*c)) {
+            taken.push(c);
             chars.next();
         }
+        taken
+    }
+
+    /// The node `keyword` opens: its bracket, its values and nodes, and its
+    /// closing bracket.
+    fn node(keyword: String, chars: &mut Chars<'_>) -> Option<Node> {
         let mut node = Node {
             keyword,
             ..Node::default()
@@ -132,9 +137,7 @@ mod wkt {
             return None;
         }
         loop {
-            while chars.peek().is_some_and(|c| c.is_whitespace() || *c == ',') {
-                chars.next();
-            }
+            taken_while(chars, |c| c.is_whitespace() || c == ',');
             match *chars.peek()? {
                 ']' | ')' => {
                     chars.next();
@@ -158,45 +161,18 @@ mod wkt {
                 }
                 c if c.is_ascii_alphabetic() => {
                     // A keyword with brackets is a node; without, a bare value.
-                    let mut word = String::new();
-                    while let Some(c) = chars
-                        .peek()
-                        .copied()
-                        .filter(|c| c.is_ascii_alphanumeric() || *c == '_')
-                    {
-                        word.push(c);
-                        chars.next();
-                    }
-                    if matches!(chars.peek(), Some('[' | '(')) {
-                        node.children.push(node_after(word, chars)?);
-                    } else {
-                        node.values.push(word);
+                    let word = taken_while(chars, |c| c.is_ascii_alphanumeric() || c == '_');
+                    match chars.peek() {
+                        Some('[' | '(') => node.children.push(self::node(word, chars)?),
+                        _ => node.values.push(word),
                     }
                 }
                 _ => {
-                    let mut value = String::new();
-                    while let Some(c) = chars
-                        .peek()
-                        .copied()
-                        .filter(|c| !matches!(c, ',' | ']' | ')'))
-                    {
-                        value.push(c);
-                        chars.next();
-                    }
+                    let value = taken_while(chars, |c| !matches!(c, ',' | ']' | ')'));
                     node.values.push(value.trim().to_string());
                 }
             }
         }
-    }
-
-    /// A node whose keyword has been read.
-    fn node_after(
-        keyword: String,
-        chars: &mut std::iter::Peekable<std::str::Chars<'_>>,
-    ) -> Option<Node> {
-        let mut rest = node(chars)?;
-        rest.keyword = keyword;
-        Some(rest)
     }
 }
 

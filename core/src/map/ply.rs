@@ -96,6 +96,23 @@ struct Layout {
     faces: Option<(usize, usize)>,
 }
 
+impl Layout {
+    /// The last element the parsers need to read to.
+    fn last(&self) -> usize {
+        self.faces.map_or(self.vertex, |(f, _)| f.max(self.vertex))
+    }
+
+    /// An empty mesh for a body of `body_len` bytes, room made for its
+    /// vertices (the header's count is a claim; no more than the body can
+    /// hold).
+    fn empty(&self, elements: &[Element], body_len: usize) -> Ply {
+        Ply {
+            points: Vec::with_capacity(elements[self.vertex].count.min(body_len)),
+            triangles: Vec::new(),
+        }
+    }
+}
+
 pub fn parse(bytes: &[u8]) -> Result<Ply, String> {
     let end = find(bytes, b"end_header\n").ok_or("not a PLY file: no end_header line")?;
     let header = std::str::from_utf8(&bytes[..end]).map_err(|_| "PLY header is not text")?;
@@ -172,15 +189,8 @@ fn parse_ascii(body: &[u8], elements: &[Element], layout: &Layout) -> Result<Ply
     let text = std::str::from_utf8(body).map_err(|_| "PLY ascii body is not text")?;
     // One line per element instance, elements in header order.
     let mut lines = text.lines().filter(|l| !l.trim().is_empty());
-    let mut ply = Ply {
-        // The header's count is a claim; reserve no more than the body can hold.
-        points: Vec::with_capacity(elements[layout.vertex].count.min(body.len())),
-        triangles: Vec::new(),
-    };
-    let last = layout
-        .faces
-        .map_or(layout.vertex, |(f, _)| f.max(layout.vertex));
-    for (e, element) in elements.iter().enumerate().take(last + 1) {
+    let mut ply = layout.empty(elements, body.len());
+    for (e, element) in elements.iter().enumerate().take(layout.last() + 1) {
         for i in 0..element.count {
             let line = lines.next().ok_or(format!(
                 "PLY file ends at {} {i} of {}",
@@ -224,16 +234,9 @@ fn parse_binary(
 ) -> Result<Ply, String> {
     let short = || "PLY file is shorter than its header says".to_string();
     let mut pos = 0usize;
-    let mut ply = Ply {
-        // The header's count is a claim; reserve no more than the body can hold.
-        points: Vec::with_capacity(elements[layout.vertex].count.min(body.len())),
-        triangles: Vec::new(),
-    };
-    let last = layout
-        .faces
-        .map_or(layout.vertex, |(f, _)| f.max(layout.vertex));
+    let mut ply = layout.empty(elements, body.len());
     let mut polygon = Vec::new();
-    for (e, element) in elements.iter().enumerate().take(last + 1) {
+    for (e, element) in elements.iter().enumerate().take(layout.last() + 1) {
         for _ in 0..element.count {
             let mut values = [0.0f64; 3];
             for (k, property) in element.properties.iter().enumerate() {
