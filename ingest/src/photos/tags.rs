@@ -18,7 +18,7 @@ use super::xmp;
 const FILM_DIAGONAL_MM: f64 = 43.266_615_305_567_87;
 
 /// Where a photo's lens model came from, best first.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum LensSource {
     /// A photogrammetry reconstruction's refined camera.
     Reconstruction,

@@ -46,12 +46,11 @@ pub struct Reconstruction {
 impl Reconstruction {
     /// Read a COLMAP model directory or an OpenSfM `reconstruction.json`.
     pub fn load(path: &Path) -> Result<Self, String> {
-        let mut r = if path.is_dir() {
+        let r = if path.is_dir() {
             colmap::read(path)?
         } else {
             opensfm::read(path)?
         };
-        r.path = path.to_owned();
         if r.images.is_empty() {
             return Err("it has no registered images".into());
         }
