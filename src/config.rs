@@ -234,6 +234,10 @@ image_size = 960
 tile = 640
 tile_overlap = 0.25
 batch = 2
+channel_order = "bgr"
+pixel_scale = 255.0
+mean = [0.485, 0.456, 0.406]
+std = [0.229, 0.224, 0.225]
 device = "cuda"
 [localise]
 max_range_m = 25.0

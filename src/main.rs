@@ -150,7 +150,9 @@ struct RunArgs {
     plan: PlanArgs,
     #[command(flatten)]
     targets: TargetArgs,
-    /// Crack detector exported to ONNX (YOLO-World) [default: the reference
+    /// Crack detector exported to ONNX: YOLO-World (either interface), a
+    /// YOLO detection or -seg model, or a semantic segmenter; its input
+    /// convention from [detect] or its metadata [default: the reference
     /// detector for simulated flights].
     #[arg(long, value_name = "M.onnx")]
     model: Option<PathBuf>,
@@ -329,7 +331,10 @@ struct DetectArgs {
     /// Run directory holding a completed ingest.
     #[arg(long)]
     run: PathBuf,
-    /// Detector exported to ONNX (YOLO-World, either interface).
+    /// Crack detector exported to ONNX: YOLO-World (either interface), a
+    /// YOLO detection or -seg model, or a semantic segmenter (one map of
+    /// crack probability or logits); see --channel-order, --pixel-scale,
+    /// --mean and --std for its input convention.
     #[arg(long)]
     model: PathBuf,
     /// ONNX Runtime library (default: ORT_DYLIB_PATH, the project .venv, python3's onnxruntime).

@@ -265,6 +265,138 @@ fn tiles_find_cracks_that_a_shrunk_frame_loses() {
     );
 }
 
+/// The semantic reference detector wrapped by tests/fixtures/wrap_model.py
+/// (the `onnx` package) with another input convention, saved in `dir`.
+fn wrapped_semantic(dir: &Path, front: &str, fixed: Option<u32>) -> PathBuf {
+    let to = dir.join(format!("semantic-{front}-{}.onnx", fixed.unwrap_or(0)));
+    let fixed = fixed.map(|n| n.to_string());
+    let mut args = vec![
+        models()
+            .join("crack-semantic.onnx")
+            .to_str()
+            .unwrap()
+            .to_string(),
+        to.to_str().unwrap().to_string(),
+        "--front".into(),
+        front.into(),
+    ];
+    if let Some(n) = fixed {
+        args.extend(["--fixed".into(), n]);
+    }
+    python_fixture("wrap_model.py", &args);
+    to
+}
+
+/// Two runs found the same regions with the same scores: the wrapped
+/// models recompute the network's input to float rounding.
+fn assert_same_detections(a: &[(i64, [f64; 5], i64)], b: &[(i64, [f64; 5], i64)], what: &str) {
+    assert!(a.len() >= 3, "{what}: too few detections to compare");
+    assert_eq!(a.len(), b.len(), "{what}");
+    for (x, y) in a.iter().zip(b) {
+        assert_eq!((x.0, x.2), (y.0, y.2), "{what}");
+        assert!(
+            x.1.iter().zip(&y.1).all(|(p, q)| (p - q).abs() < 1e-3),
+            "{what}: {x:?} vs {y:?}"
+        );
+    }
+}
+
+/// A model published with ImageNet's normalisation, or taking raw BGR on
+/// 0..255 (declared in its ONNX image metadata), detects what the
+/// reference network does when its convention is declared or read; fed
+/// postflight's default instead, the ImageNet one finds other regions.
+#[test]
+fn models_with_their_own_input_convention_detect_as_the_network_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = simulate_into(
+        dir.path(),
+        "sim",
+        &["--frames", "20", "--cracks", "80", "--seed", "4"],
+    );
+    let run = dir.path().join("run");
+    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
+    let run_model = |model: &Path, args: &[&str]| {
+        let all = [&["--model", model.to_str().unwrap()], args].concat();
+        let out = detect(&run, &all);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let mut found = detections_with_scores(&run);
+        found.sort_by(|a, b| {
+            (a.0, a.1[0], a.1[1])
+                .partial_cmp(&(b.0, b.1[0], b.1[1]))
+                .unwrap()
+        });
+        (found, read_json(&run.join("detect.json"))["input"].clone())
+    };
+    let (reference, input) = run_model(&models().join("crack-semantic.onnx"), &[]);
+    assert_eq!(input["source"], "default");
+
+    let imagenet = wrapped_semantic(dir.path(), "imagenet", None);
+    let declared = ["--mean", "0.485,0.456,0.406", "--std", "0.229,0.224,0.225"];
+    let (found, input) = run_model(&imagenet, &declared);
+    assert_same_detections(&reference, &found, "ImageNet mean and std declared");
+    assert_eq!(input["source"], "settings");
+    let (undeclared, _) = run_model(&imagenet, &[]);
+    assert_ne!(
+        undeclared, reference,
+        "fed RGB on 0..1, the normalised model should differ"
+    );
+
+    let bgr = wrapped_semantic(dir.path(), "bgr255", None);
+    let (found, input) = run_model(&bgr, &[]);
+    assert_same_detections(&reference, &found, "BGR 0..255 from the metadata");
+    assert_eq!(
+        (
+            &input["source"],
+            &input["channel_order"],
+            &input["pixel_scale"]
+        ),
+        (
+            &serde_json::json!("metadata"),
+            &serde_json::json!("bgr"),
+            &serde_json::json!(255.0)
+        )
+    );
+}
+
+/// A model with a fixed 256 x 256 input runs on 640 x 480 frames as 256 px
+/// tiles at full resolution without being told, and finds crack views the
+/// frame shrunk 2.5 times to its input loses (`--tile off`, which warns).
+#[test]
+fn a_fixed_size_model_runs_on_tiles_without_a_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = simulate_into(
+        dir.path(),
+        "sim",
+        &["--frames", "20", "--cracks", "80", "--seed", "4"],
+    );
+    let run = dir.path().join("run");
+    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
+    let truth = read_json(&sim.join("truth.json"));
+    let fixed = wrapped_semantic(dir.path(), "none", Some(256));
+    let model = fixed.to_str().unwrap();
+
+    let out = detect(&run, &["--model", model]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let summary = read_json(&run.join("detect.json"));
+    assert_eq!(summary["tile"], 256);
+    assert_eq!(summary["input_size"], serde_json::json!([256, 256]));
+    assert!(detection_rows(&run).iter().any(|d| d.tile >= 0));
+    let tiled = score(&truth, &detections(&run));
+
+    let out = detect(&run, &["--model", model, "--tile", "off"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let summary = read_json(&run.join("detect.json"));
+    assert!(summary["tile"].is_null());
+    let warning = summary["warnings"].to_string();
+    assert!(warning.contains("shrunk 2.5 times"), "{warning}");
+    let shrunk = score(&truth, &detections(&run));
+    eprintln!("fixed 256 x 256 model on 640 x 480 frames: tiles {tiled:?}, shrunk {shrunk:?}");
+    assert!(
+        tiled.found > shrunk.found && tiled.found >= 2,
+        "tiles found {tiled:?}, the shrunk frame {shrunk:?}"
+    );
+}
+
 /// Issue 4's bar: on a default flight of `scene` the reference detector
 /// finds >= 90% of the crack views at least 20 px long, with precision
 /// >= 0.8, at box IoU 0.3.

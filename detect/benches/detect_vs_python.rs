@@ -17,6 +17,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use detect::settings::{Off, Tile};
 use detect::{DetectConfig, DetectOptions};
 
 /// A simulated, ingested flight to detect on.
@@ -129,7 +130,7 @@ fn main() {
         );
         for batch in [DetectConfig::default().batch, 1] {
             let mut options = DetectOptions::new(flight.run.clone(), model.clone());
-            options.settings.tile = flight.tile;
+            options.settings.tile = flight.tile.map_or(Tile::Off(Off::Off), Tile::Pixels);
             options.settings.batch = batch;
             let speed = median(
                 (0..reps)

@@ -13,7 +13,7 @@ class per anchor, class-aware NMS (ties broken by position), then merging
 same-class boxes within --merge-gap px, boxes clipped to the frame last. A
 semantic segmentation model (one output [B, 1 or 2, H, W]) gives its
 connected crack regions (8-neighbours, probability above 0.5, at least 8
-pixels) as boxes scored by their highest probability.
+pixels) as boxes scored by their mean probability.
 
 Writes JSON: {"frames": n, "seconds": s, "run_seconds": s,
 "detections": [{"time_ns", "x0", "y0", "x1", "y1", "score", "class", "tile"}]}.
@@ -180,13 +180,13 @@ def boxes_of(out, conf, input_width):
     else:
         p = out[0]
     stride = F(input_width) / F(p.shape[1])
-    for (x0, y0, x1, y1), best in components(p > F(0.5), p, 8):
-        if best >= conf:
-            yield (F(x0) * stride, F(y0) * stride, F(x1) * stride, F(y1) * stride), best, 0
+    for (x0, y0, x1, y1), score in components(p > F(0.5), p, 8):
+        if score >= conf:
+            yield (F(x0) * stride, F(y0) * stride, F(x1) * stride, F(y1) * stride), score, 0
 
 
 def components(on, p, min_pixels):
-    """Connected regions (8-neighbours) of `on`: box (exclusive edges) and highest `p`."""
+    """Connected regions (8-neighbours) of `on`: box (exclusive edges) and mean `p`."""
     h, w = on.shape
     seen = np.zeros_like(on)
     for y0, x0 in zip(*np.nonzero(on)):
@@ -204,7 +204,8 @@ def components(on, p, min_pixels):
                         stack.append((ny, nx))
         if len(pixels) >= min_pixels:
             ys, xs = zip(*pixels)
-            yield (min(xs), min(ys), max(xs) + 1, max(ys) + 1), max(p[y, x] for y, x in pixels)
+            mean = F(np.mean(np.array([p[y, x] for y, x in pixels], dtype=np.float64)))
+            yield (min(xs), min(ys), max(xs) + 1, max(ys) + 1), mean
 
 
 def text_input(path, prompts, nc, dim):

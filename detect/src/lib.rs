@@ -5,6 +5,7 @@
 //! coverage.
 
 pub mod boxes;
+pub mod convention;
 pub mod decode;
 pub mod error;
 pub mod letterbox;

@@ -185,7 +185,9 @@ impl Prototypes {
 
 /// Connected regions (8-neighbours) of a probability plane above
 /// `threshold`, at least `min_pixels` large: each one's box (plane pixels,
-/// exclusive edges) and its highest probability.
+/// exclusive edges) and its mean probability, how sure the map is over the
+/// whole region (a map clipped at 1 gives most regions a brightest pixel
+/// of 1, which would rank nothing).
 pub fn components(plane: &Plane, threshold: f32, min_pixels: usize) -> Vec<(BoxXyxy, f32)> {
     let (w, h) = (plane.width, plane.height);
     let mut seen = vec![false; w * h];
@@ -198,12 +200,12 @@ pub fn components(plane: &Plane, threshold: f32, min_pixels: usize) -> Vec<(BoxX
         seen[start] = true;
         stack.push(start);
         let (mut x0, mut y0, mut x1, mut y1) = (w, h, 0, 0);
-        let (mut count, mut best) = (0usize, f32::MIN);
+        let (mut count, mut sum) = (0usize, 0.0f64);
         while let Some(i) = stack.pop() {
             let (x, y) = (i % w, i / w);
             (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x + 1), y1.max(y + 1));
             count += 1;
-            best = best.max(plane.values[i]);
+            sum += f64::from(plane.values[i]);
             for dy in -1i64..=1 {
                 for dx in -1i64..=1 {
                     let (nx, ny) = (x as i64 + dx, y as i64 + dy);
@@ -225,7 +227,7 @@ pub fn components(plane: &Plane, threshold: f32, min_pixels: usize) -> Vec<(BoxX
                 x1: x1 as f32,
                 y1: y1 as f32,
             };
-            out.push((b, best));
+            out.push((b, (sum / count as f64) as f32));
         }
     }
     out
@@ -293,7 +295,7 @@ mod tests {
     }
 
     #[test]
-    fn components_are_the_connected_regions_with_their_best_score() {
+    fn components_are_the_connected_regions_with_their_mean_score() {
         let mut p = line(20, 20, 3);
         p.values[10 * 20 + 12] = 0.7;
         p.values[11 * 20 + 13] = 0.6;
@@ -305,7 +307,7 @@ mod tests {
         );
         assert_eq!(
             (found[1].0.x0, found[1].0.x1, found[1].1),
-            (12.0, 14.0, 0.7)
+            (12.0, 14.0, 0.65)
         );
         assert_eq!(components(&p, 0.5, 3).len(), 1);
     }

@@ -5,6 +5,8 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
+use postflight_core::outputs::detect::ChannelOrder;
+
 use crate::runtime::Device;
 
 postflight_core::settings! {
@@ -37,9 +39,11 @@ postflight_core::settings! {
         #[arg(long = "imgsz", value_name = "PIXELS")]
         image_size: u32 = 640,
         /// Also run square tiles of this size at full resolution (for small
-        /// cracks in large frames).
-        #[arg(long, value_name = "PIXELS")]
-        tile: u32,
+        /// cracks in large frames); 'auto' tiles at a fixed-size model's
+        /// input size when the frame is larger (so the frame is not shrunk
+        /// to the model), 'off' runs the whole frame alone.
+        #[arg(long, value_name = "PIXELS|auto|off")]
+        tile: Tile = Tile::Auto(Auto::Auto),
         /// Overlap of neighbouring tiles, as a share of the tile size.
         #[arg(long, value_name = "SHARE")]
         tile_overlap: f32 = 0.2,
@@ -47,6 +51,25 @@ postflight_core::settings! {
         /// (a fixed batch size is the model's).
         #[arg(long, value_name = "N")]
         batch: usize = 4,
+        /// Colour channel order the model takes, rgb or bgr [default: the
+        /// model's metadata (ONNX's Image.BitmapPixelFormat), else rgb].
+        #[arg(long, value_enum, value_name = "ORDER")]
+        channel_order: ChannelOrder,
+        /// What a white pixel is in the model's input before the mean and
+        /// std: 1 (values 0..1) or 255 (raw 0..255) [default: the model's
+        /// metadata (Image.NominalPixelRange), else 1].
+        #[arg(long, value_name = "SCALE")]
+        pixel_scale: f32,
+        /// Mean subtracted from each channel, red, green, blue, on 0..1
+        /// (ImageNet's: 0.485,0.456,0.406) [default: from the model's
+        /// metadata, else 0,0,0].
+        #[arg(long, value_name = "R,G,B", value_parser = rgb)]
+        mean: [f32; 3],
+        /// Standard deviation each channel is divided by, red, green,
+        /// blue, on 0..1 (ImageNet's: 0.229,0.224,0.225) [default: from
+        /// the model's metadata, else 1,1,1].
+        #[arg(long, value_name = "R,G,B", value_parser = rgb)]
+        std: [f32; 3],
         /// Where inference runs; falls back to the CPU with a warning when
         /// the ONNX Runtime library lacks the provider.
         #[arg(long, value_enum, value_name = "DEVICE")]
@@ -64,7 +87,7 @@ pub enum MergeGap {
 }
 
 /// The word `off` (a unit variant serialises as its name).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Off {
     Off,
@@ -90,5 +113,61 @@ impl std::str::FromStr for MergeGap {
         s.parse()
             .map(MergeGap::Pixels)
             .map_err(|_| format!("'{s}' is neither a number of pixels nor 'off'"))
+    }
+}
+
+/// Three numbers `R,G,B` (`--mean`, `--std`).
+fn rgb(text: &str) -> Result<[f32; 3], String> {
+    match postflight_core::setting::comma_numbers(text).as_deref() {
+        Some(&[r, g, b]) => Ok([r as f32, g as f32, b as f32]),
+        _ => Err(format!("expected three numbers R,G,B, not '{text}'")),
+    }
+}
+
+/// Whether and how frames are tiled, as `--tile` and `tile` take it:
+/// pixels, `auto` or `off`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Tile {
+    Pixels(u32),
+    Auto(Auto),
+    Off(Off),
+}
+
+/// The word `auto`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Auto {
+    Auto,
+}
+
+impl Tile {
+    /// The tile size for a model whose fixed input is `fixed` (width,
+    /// height; `None` when dynamic) on a `width` x `height` frame.
+    pub fn size(self, fixed: Option<(u32, u32)>, width: u32, height: u32) -> Option<u32> {
+        match self {
+            Tile::Pixels(size) => Some(size),
+            Tile::Off(_) => None,
+            Tile::Auto(_) => {
+                let (w, h) = fixed?;
+                (width > w || height > h).then_some(w.min(h))
+            }
+        }
+    }
+}
+
+impl std::str::FromStr for Tile {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s.eq_ignore_ascii_case("off") {
+            return Ok(Tile::Off(Off::Off));
+        }
+        if s.eq_ignore_ascii_case("auto") {
+            return Ok(Tile::Auto(Auto::Auto));
+        }
+        s.parse()
+            .map(Tile::Pixels)
+            .map_err(|_| format!("'{s}' is neither a number of pixels nor 'auto' or 'off'"))
     }
 }

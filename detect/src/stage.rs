@@ -3,7 +3,7 @@
 //! into `detections.parquet`, `detections.coco.json` and `detect.json`.
 
 use std::borrow::Cow;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::PathBuf;
 use std::sync::mpsc::sync_channel;
 use std::time::Instant;
@@ -12,12 +12,15 @@ use ingest::Recordings;
 use ort::session::SessionInputValue;
 use ort::value::{Tensor, TensorRef};
 use postflight_core::detection::{BoxXyxy, Detection, FrameDetection};
-use postflight_core::outputs::detect::{DetectSummary, DetectionRow, FailedFrame, files};
+use postflight_core::outputs::detect::{
+    DetectSummary, DetectionRow, FailedFrame, InputConvention, files,
+};
 use postflight_core::run_log::sha256_file;
 use postflight_core::{Flight, Frame, ImageStatus, InvalidSetting, Key, RunDir};
 use rayon::prelude::*;
 
 use crate::boxes::{merge_touching, nms, nms_with};
+use crate::convention::{self, Declared};
 use crate::decode::decode;
 use crate::error::DetectError;
 use crate::letterbox::{InputSize, PAD, Placement, letterbox};
@@ -26,7 +29,7 @@ use crate::masks::{
 };
 use crate::prompts::Embeddings;
 use crate::runtime::{Runtime, locate};
-use crate::settings::{DetectConfig, keys};
+use crate::settings::{DetectConfig, Tile, keys};
 use crate::signature::{Head, Signature, Vocabulary};
 use crate::tiles::{Window, windows};
 
@@ -71,8 +74,39 @@ impl DetectOptions {
             self.settings.tile_overlap,
             "at least 0 and below 0.9",
         )?;
-        if let Some(tile) = self.settings.tile {
-            InvalidSetting::check(tile >= 32, keys::tile, tile, "at least 32 pixels")?;
+        if let Tile::Pixels(tile) = self.settings.tile {
+            InvalidSetting::check(
+                tile >= 32,
+                keys::tile,
+                tile,
+                "at least 32 pixels, auto or off",
+            )?;
+        }
+        for (key, values) in [
+            (keys::mean, self.settings.mean),
+            (keys::std, self.settings.std),
+        ] {
+            if let Some(v) = values {
+                InvalidSetting::check(
+                    v.iter().all(|c| c.is_finite() && c.abs() <= 1e3)
+                        && (key != keys::std || v.iter().all(|c| *c > 0.0)),
+                    key,
+                    format!("{},{},{}", v[0], v[1], v[2]),
+                    if key == keys::std {
+                        "three numbers above 0 (on 0..1, as 0.229,0.224,0.225)"
+                    } else {
+                        "three numbers (on 0..1, as 0.485,0.456,0.406)"
+                    },
+                )?;
+            }
+        }
+        if let Some(scale) = self.settings.pixel_scale {
+            InvalidSetting::check(
+                scale.is_finite() && scale > 0.0 && scale <= 65_535.0,
+                keys::pixel_scale,
+                scale,
+                "above 0 (1 for values 0..1, 255 for raw 0..255)",
+            )?;
         }
         share(keys::confidence, self.settings.confidence)?;
         share(keys::iou, self.settings.iou)?;
@@ -122,7 +156,7 @@ struct View {
 fn prepare(
     recording: &Recordings,
     frame: &Frame,
-    size: InputSize,
+    feed: Feed,
     options: &DetectOptions,
 ) -> Result<Prepared, FailedFrame> {
     let img = recording
@@ -135,20 +169,21 @@ fn prepare(
     let views = windows(
         img.width(),
         img.height(),
-        options.settings.tile,
+        feed.tile(options, img.width(), img.height()),
         options.settings.tile_overlap,
     )
     .into_iter()
     .map(|window| {
         let mut input = Vec::new();
         let (size, placement) = if window.tile < 0 {
-            letterbox(&img, size, &mut input)
+            letterbox(&img, feed.size, &mut input)
         } else {
             let crop =
                 image::imageops::crop_imm(&img, window.x, window.y, window.width, window.height)
                     .to_image();
-            letterbox(&crop, size, &mut input)
+            letterbox(&crop, feed.size, &mut input)
         };
+        convention::apply(&feed.convention, &mut input);
         View {
             window,
             input,
@@ -164,6 +199,37 @@ fn prepare(
         width: img.width(),
         height: img.height(),
     })
+}
+
+/// How each view is fed to the model: its input size and pixel convention.
+#[derive(Debug, Clone, Copy)]
+struct Feed {
+    size: InputSize,
+    convention: InputConvention,
+}
+
+impl Feed {
+    /// The tile size a `width` x `height` frame runs with: the setting's,
+    /// or with `auto` a fixed-size model's input when the frame is larger.
+    fn tile(&self, options: &DetectOptions, width: u32, height: u32) -> Option<u32> {
+        let fixed = match self.size {
+            InputSize::Fixed(w, h) => Some((w, h)),
+            InputSize::Rect { .. } => None,
+        };
+        options.settings.tile.size(fixed, width, height)
+    }
+}
+
+/// The model's custom metadata, keys as written.
+fn metadata(session: &ort::session::Session) -> HashMap<String, String> {
+    let Ok(meta) = session.metadata() else {
+        return HashMap::new();
+    };
+    meta.custom_keys()
+        .unwrap_or_default()
+        .into_iter()
+        .filter_map(|k| Some((k.clone(), meta.custom(&k)?)))
+        .collect()
 }
 
 /// The model's stride from its metadata (Ultralytics writes `stride`).
@@ -232,10 +298,21 @@ pub fn detect(
     )?;
     failed.sort_by_key(|f| f.frame);
     // What the whole frame ran as (tiles run at the tile size).
-    let (w, h) = runnable
-        .iter()
-        .find_map(|f| Some(detector.size.place(f.width?, f.height?).0))
+    let first = runnable.iter().find_map(|f| Some((f.width?, f.height?)));
+    let (w, h) = first
+        .map(|(fw, fh)| detector.feed.size.place(fw, fh).0)
         .unwrap_or((options.settings.image_size, options.settings.image_size));
+    let tile = first.and_then(|(fw, fh)| detector.feed.tile(options, fw, fh));
+    let mut warnings = warnings;
+    if let (None, InputSize::Fixed(mw, mh), Some((fw, fh))) = (tile, detector.feed.size, first) {
+        let shrink = (fw as f32 / mw as f32).max(fh as f32 / mh as f32);
+        if shrink > 1.5 {
+            warnings.push(format!(
+                "frames of {fw}x{fh} were shrunk {shrink:.1} times to the model's fixed {mw}x{mh} input; thin cracks vanish: tile them ([detect] tile = \"auto\" or --tile {})",
+                mw.min(mh)
+            ));
+        }
+    }
     if ran == 0
         && let Some(first) = failed.first()
     {
@@ -260,7 +337,8 @@ pub fn detect(
         },
         classes: classes.clone(),
         input_size: [w, h],
-        tile: options.settings.tile,
+        input: detector.feed.convention,
+        tile,
         confidence: options.settings.confidence,
         iou: options.settings.iou,
         merge_gap: options.settings.merge_gap.pixels(),
@@ -291,7 +369,7 @@ fn infer_all(
     total: u64,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<(Vec<FrameDetection>, u64), DetectError> {
-    let size = detector.size;
+    let feed = detector.feed;
     let mut found: Vec<FrameDetection> = Vec::new();
     let mut ran = 0u64;
     let mut run_error = None;
@@ -302,7 +380,7 @@ fn infer_all(
             for chunk in runnable.chunks(8) {
                 let prepared: Vec<_> = chunk
                     .par_iter()
-                    .map(|f| prepare(recording, f, size, options))
+                    .map(|f| prepare(recording, f, feed, options))
                     .collect();
                 for p in prepared {
                     if tx.send(p).is_err() {
@@ -351,8 +429,8 @@ fn infer_all(
 struct Detector {
     session: ort::session::Session,
     signature: Signature,
-    /// How large an input each view gets.
-    size: InputSize,
+    /// How large an input each view gets, and its pixels' convention.
+    feed: Feed,
     /// Classes the output scores.
     classes: usize,
     /// Views per `run`.
@@ -381,6 +459,11 @@ impl Detector {
                 size: options.settings.image_size,
                 stride: model_stride(&session).unwrap_or(DetectOptions::DEFAULT_STRIDE),
             },
+        };
+        let declared = Declared::of(&metadata(&session)).map_err(model_error)?;
+        let feed = Feed {
+            size,
+            convention: convention::resolve(&options.settings, &declared),
         };
         let (text, names) = match &signature.vocabulary {
             Vocabulary::Baked => (
@@ -414,7 +497,7 @@ impl Detector {
             .unwrap_or(names.len());
         let detector = Self {
             session,
-            size,
+            feed,
             classes,
             batch: signature.batch.unwrap_or(options.settings.batch),
             text: text.map(|(name, _, tensor)| (name, tensor)),
@@ -474,6 +557,7 @@ impl Detector {
             let inputs = Inputs {
                 images: &self.signature.images,
                 text: self.text.as_ref(),
+                padding: convention::padding(&self.feed.convention, PAD),
             };
             let started = Instant::now();
             let outputs = run_chunk(
@@ -506,6 +590,8 @@ impl Detector {
 struct Inputs<'a> {
     images: &'a str,
     text: Option<&'a (String, Tensor<f32>)>,
+    /// Each channel's value of a padding pixel, as the model is fed.
+    padding: [f32; 3],
 }
 
 /// Run one batch of views of size `(w, h)` as `images` images (a fixed
@@ -518,14 +604,21 @@ fn run_chunk<'s>(
     (w, h): (u32, u32),
     stacked: &mut Vec<f32>,
 ) -> Result<ort::session::SessionOutputs<'s>, String> {
-    let plane = 3 * (w * h) as usize;
     let input = if images == 1 {
         chunk[0].1.input.as_slice()
     } else {
         stacked.clear();
-        stacked.resize(images * plane, f32::from(PAD) / 255.0);
-        for (k, (_, view)) in chunk.iter().enumerate() {
-            stacked[k * plane..(k + 1) * plane].copy_from_slice(&view.input);
+        let channel = (w * h) as usize;
+        for k in 0..images {
+            match chunk.get(k) {
+                Some((_, view)) => stacked.extend_from_slice(&view.input),
+                // A fixed batch is filled up with padding images.
+                None => {
+                    for value in inputs.padding {
+                        stacked.extend(std::iter::repeat_n(value, channel));
+                    }
+                }
+            }
         }
         stacked.as_slice()
     };

@@ -333,15 +333,29 @@ fn covering(extent: [Point3<f64>; 2], trace: &Trace) -> [Point3<f64>; 2] {
 /// Two lines of a view within this many pixels' footprint are one stretch.
 const NEAR_PX: f64 = 3.0;
 
-/// A candidate's width from its views' measures, by resolution: the view
-/// with the fewest millimetres per pixel across the crack that measured
-/// it; with none measuring it, the finest view's "narrower than".
+/// A candidate's width from its views' measures, by resolution: of the
+/// views that measured it with about the fewest millimetres per pixel
+/// across the crack (within [`AS_FINE`]), the widest, since views of one
+/// frame (or of frames alike) each show a stretch of the crack and the
+/// crack is as wide as its widest; with none measuring it, the finest
+/// view's "narrower than".
 fn width(views: impl Iterator<Item = WidthRecord>) -> Option<WidthRecord> {
     let views: Vec<WidthRecord> = views.collect();
     let finest = |v: &&WidthRecord, w: &&WidthRecord| v.mm_per_px.total_cmp(&w.mm_per_px);
-    let measured = views.iter().filter(|v| v.max_mm.is_some()).min_by(finest);
-    measured.or_else(|| views.iter().min_by(finest)).copied()
+    let measured: Vec<&WidthRecord> = views.iter().filter(|v| v.max_mm.is_some()).collect();
+    let Some(scale) = measured.iter().copied().min_by(finest).map(|v| v.mm_per_px) else {
+        return views.iter().min_by(finest).copied();
+    };
+    measured
+        .into_iter()
+        .filter(|v| v.mm_per_px <= AS_FINE * scale)
+        .max_by(|v, w| v.max_mm.unwrap_or(0.0).total_cmp(&w.max_mm.unwrap_or(0.0)))
+        .copied()
 }
+
+/// Views whose millimetres per pixel are within this factor of the finest
+/// measure as finely.
+const AS_FINE: f64 = 1.25;
 
 /// Whether the views `measured` (the ones the length came from) make a
 /// measured length (every end of their `fused` line seen inside a view) or

@@ -82,7 +82,9 @@ pub struct Placement {
 /// with its millimetres per pixel on the surface: the widest (95th
 /// percentile) and median of the points measured, good to
 /// [`WIDTH_UNCERTAINTY_PX`] where most show both edges, else to a third of
-/// the noise limit, within a tenth of a pixel and that; with none measured,
+/// the noise limit, within a tenth of a pixel and that, and to how
+/// irregular the crack is (how far its mask and its profile disagree, half
+/// the spread of its widest stretches) besides; with none measured,
 /// narrower than the points' median limit.
 fn view_width(points: &[(Width, f64)]) -> Option<WidthRecord> {
     let mm = |keep: fn(&Width) -> bool| -> Vec<f64> {
@@ -106,14 +108,34 @@ fn view_width(points: &[(Width, f64)]) -> Option<WidthRecord> {
     }
     let resolved = points
         .iter()
-        .filter(|(w, _)| matches!(w, Width::Resolved { .. }))
+        .filter(|(w, _)| matches!(w, Width::Resolved { .. } | Width::Masked { .. }))
         .count();
     let most_px = WIDTH_UNCERTAINTY_PX * mm_per_px;
-    let uncertainty_mm = if 2 * resolved >= measured.len() {
+    let limit = if 2 * resolved >= measured.len() {
         most_px
     } else {
         (limit_mm.unwrap_or(0.0) / 3.0).clamp(mm_per_px / 10.0, most_px)
     };
+    // How irregular the crack is: where the mask and the profile disagree
+    // on its width, and how much its widest stretches differ.
+    let disagreement = median(
+        points
+            .iter()
+            .filter_map(|(w, scale)| match w {
+                Width::Masked { spread, .. } => Some(spread * scale),
+                _ => None,
+            })
+            .collect(),
+    )
+    .unwrap_or(0.0);
+    let tail = match (
+        quantile(measured.clone(), 0.98),
+        quantile(measured.clone(), 0.9),
+    ) {
+        (Some(high), Some(low)) => (high - low) / 2.0,
+        _ => 0.0,
+    };
+    let uncertainty_mm = (limit.powi(2) + disagreement.powi(2) + tail.powi(2)).sqrt();
     Some(WidthRecord {
         max_mm: quantile(measured.clone(), 0.95),
         median_mm: median(measured),

@@ -335,7 +335,13 @@ fn place_frame(
                 .and_then(|g| trace(g, [b.x0, b.y0, b.x1, b.y1]))
                 .or_else(|| d.detection.mask.as_ref().and_then(trace_mask));
             let widths = match (&gray, &crack) {
-                (Some(g), Some(t)) => widths(g, &t.pixels, &t.edges, options.crack_darkness),
+                (Some(g), Some(t)) => widths(
+                    g,
+                    d.detection.mask.as_ref(),
+                    &t.pixels,
+                    &t.edges,
+                    options.crack_darkness,
+                ),
                 _ => Vec::new(),
             };
             let mut placed = scene.place(d.clone(), &pose, k, crack.as_ref(), &widths, blur_px);

@@ -1,8 +1,17 @@
 //! A crack's width in one image, across its centre line, in pixels.
 //!
-//! Along the centre line, the grey levels are sampled across the crack (on
-//! the normal of the line's local direction, at sub-pixel steps). Two
-//! measures come from that profile:
+//! Along the centre line, each point is measured across the crack (on the
+//! normal of the line's local direction, at sub-pixel steps):
+//!
+//! - where the detector segments the crack and its mask spans several
+//!   pixels there, the mask's extent across the line: a trained model
+//!   marks a real crack's full width (ragged and spalled edges, V and U
+//!   sections, debris in it) as the people who drew its training masks
+//!   did, which no profile of grey levels reads;
+//!
+//! Elsewhere the grey levels are sampled across the crack, out to a reach
+//! that grows with the crack (its mask, or its own dark extent) so the
+//! surface is read outside it. Two measures come from that profile:
 //!
 //! - where the crack spans several pixels, its full width at half its depth
 //!   (the edges found to a fraction of a pixel by interpolation), as a mask
@@ -18,6 +27,7 @@
 
 use image::GrayImage;
 use nalgebra::{Point2, Vector2};
+use postflight_core::mask::Mask;
 
 use crate::stats::median;
 
@@ -44,6 +54,10 @@ pub struct PointWidth {
 /// What the profile across the crack tells of its width.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Width {
+    /// The detector's mask spans the crack: its extent across the line
+    /// with the profile's (see [`widths`]), pixels, and how far either is
+    /// from their mean.
+    Masked { px: f64, spread: f64 },
     /// Wide enough to see both edges: full width at half depth, pixels.
     Resolved { px: f64, depth: f64 },
     /// Thinner: the darkness integral over the crack's depth, pixels.
@@ -53,10 +67,23 @@ pub enum Width {
 }
 
 impl Width {
+    /// The same kind of measure, `px` wide.
+    fn with_px(self, px: f64) -> Self {
+        match self {
+            Self::Masked { spread, .. } => Self::Masked { px, spread },
+            Self::Resolved { depth, .. } => Self::Resolved { px, depth },
+            Self::Integrated { .. } => Self::Integrated { px },
+            Self::Below { .. } => Self::Below { px },
+        }
+    }
+
     /// The width, or the bound it is below, in pixels.
     pub fn px(self) -> f64 {
         match self {
-            Self::Resolved { px, .. } | Self::Integrated { px } | Self::Below { px } => px,
+            Self::Masked { px, .. }
+            | Self::Resolved { px, .. }
+            | Self::Integrated { px }
+            | Self::Below { px } => px,
         }
     }
 }
@@ -73,20 +100,28 @@ struct Profile {
 }
 
 /// The width at each of `centre` (a traced centre line, frame pixels, with
-/// `edges` joining neighbours), measured in `gray`. `interior` is the share
-/// of the surface's brightness a crack's interior lacks, used where the
-/// crack has no resolved stretch to read it from.
+/// `edges` joining neighbours), measured in `mask` (the detector's crack
+/// pixels, where it segments) and `gray`. `interior` is the share of the
+/// surface's brightness a crack's interior lacks, used where the crack has
+/// no resolved stretch to read it from.
 pub fn widths(
     gray: &GrayImage,
+    mask: Option<&Mask>,
     centre: &[Point2<f64>],
     edges: &[(u32, u32)],
     interior: f64,
 ) -> Vec<PointWidth> {
     let neighbours = adjacency(centre.len(), edges);
-    let profiles: Vec<Option<(Vector2<f64>, Profile)>> = (0..centre.len())
+    let inside = mask.map(Inside::of);
+    let profiles: Vec<Option<(Vector2<f64>, Across)>> = (0..centre.len())
         .map(|i| {
             let across = normal(centre, &neighbours, i)?;
-            Some((across, profile(gray, centre[i], across)?))
+            let masked = inside.as_ref().and_then(|m| m.width(centre[i], across));
+            // The profile reaches well past the crack: past its mask's
+            // extent, or (without one) past its own dark extent.
+            let reach = masked.map_or(REACH, |px| REACH.max(1.5 * px + 4.0));
+            let profile = reached(gray, centre[i], across, reach)?;
+            Some((across, Across { masked, profile }))
         })
         .collect();
     // The crack's interior darkness: from its resolved stretches, if it
@@ -96,7 +131,7 @@ pub fn widths(
     let depths: Vec<f64> = profiles
         .iter()
         .flatten()
-        .filter_map(|(_, p)| resolved(p).map(|(_, depth)| depth / p.surface))
+        .filter_map(|(_, a)| resolved(&a.profile).map(|(_, depth)| depth / a.profile.surface))
         .collect();
     let measured = profiles.iter().flatten().count();
     let has_stretches = depths.len() as f64 >= (MIN_RESOLVED_SHARE * measured as f64).max(5.0);
@@ -105,18 +140,170 @@ pub fn widths(
     } else {
         interior
     };
-    profiles
+    let points: Vec<Option<PointWidth>> = profiles
         .into_iter()
         .zip(centre)
-        .filter_map(|(p, at)| {
-            let (across, p) = p?;
+        .map(|(p, at)| {
+            let (across, a) = p?;
             Some(PointWidth {
                 at: *at,
                 across,
-                width: measure(&p, share, has_stretches),
+                width: a.measure(share, has_stretches),
             })
         })
+        .collect();
+    along_the_line(points, &neighbours)
+}
+
+/// Each measured point's width as the median of the measured widths
+/// within [`SMOOTH_STEPS`] centre-line pixels of it: a crack's width is a
+/// stretch's, and one profile's is noisy (a speck of aggregate, a ragged
+/// edge, a bend the normal misjudges), which its widest point would
+/// otherwise pick out.
+fn along_the_line(points: Vec<Option<PointWidth>>, neighbours: &[Vec<usize>]) -> Vec<PointWidth> {
+    let px = |p: &Option<PointWidth>| match p.map(|p| p.width) {
+        Some(Width::Below { .. }) | None => None,
+        Some(w) => Some(w.px()),
+    };
+    (0..points.len())
+        .filter_map(|i| {
+            let mut point = points[i]?;
+            if px(&points[i]).is_some() {
+                let near = within(neighbours, i, SMOOTH_STEPS);
+                let smooth = median(near.iter().filter_map(|j| px(&points[*j])).collect());
+                point.width = point.width.with_px(smooth.unwrap_or(point.width.px()));
+            }
+            Some(point)
+        })
         .collect()
+}
+
+/// Centre-line pixels a width is the median over, each side.
+const SMOOTH_STEPS: usize = 4;
+
+/// What is measured across the line at one point: the mask's extent
+/// (pixels; `None` off the mask) and the grey levels.
+struct Across {
+    masked: Option<f64>,
+    profile: Profile,
+}
+
+impl Across {
+    /// The width: where the mask spans the crack and the profile shows
+    /// both its edges, the mean of the two (the mask marks the crack's
+    /// whole extent, ragged and spalled edges included, but a model draws
+    /// it only as finely as its own resolution; the profile's half depth
+    /// reads the open crack); elsewhere the profile's alone.
+    fn measure(&self, share: f64, has_stretches: bool) -> Width {
+        if let Some(mask_px) = self.masked.filter(|px| *px >= RESOLVED_PX) {
+            let profile = half_depth(&self.profile, mask_px / 2.0).map(|(px, _)| px);
+            return Width::Masked {
+                px: profile.map_or(mask_px, |p| (p + mask_px) / 2.0),
+                spread: profile.map_or(0.0, |p| (p - mask_px).abs() / 2.0),
+            };
+        }
+        measure(&self.profile, share, has_stretches)
+    }
+}
+
+/// Half the profile's span across the line, pixels, unless the crack
+/// reaches further.
+const REACH: f64 = 8.0;
+/// The farthest a profile reaches, pixels.
+const MAX_REACH: f64 = 64.0;
+
+/// How deep inside the detector's mask each of its pixels is: the distance
+/// from its centre to the nearest pixel off the mask, pixels.
+struct Inside {
+    mask: Mask,
+    distance: image::ImageBuffer<image::Luma<f64>, Vec<f64>>,
+}
+
+impl Inside {
+    fn of(mask: &Mask) -> Self {
+        // A pixel of background round the window: the crack ends there.
+        let (w, h) = (mask.width + 2, mask.height + 2);
+        let off = image::GrayImage::from_fn(w, h, |x, y| {
+            let on = x > 0 && y > 0 && mask.at(mask.x0 + x - 1, mask.y0 + y - 1);
+            image::Luma([if on { 0 } else { 255 }])
+        });
+        Self {
+            mask: mask.clone(),
+            distance: imageproc::distance_transform::euclidean_squared_distance_transform(&off),
+        }
+    }
+
+    /// The distance at frame pixel `(x, y)`; 0 off the mask.
+    fn at(&self, x: u32, y: u32) -> f64 {
+        if !self.mask.at(x, y) {
+            return 0.0;
+        }
+        let (u, v) = (x - self.mask.x0 + 1, y - self.mask.y0 + 1);
+        self.distance.get_pixel(u, v).0[0].sqrt()
+    }
+
+    /// The crack's width where the line through `at` along `across` crosses
+    /// the mask (`None` when no crack pixel lies within a pixel and a half
+    /// of `at` on it): the widest disc inside the mask on that crossing, as
+    /// `2 r - 1` pixels for `r` the distance between pixel centres (a line
+    /// one pixel wide is 1), the measure people's masks are scored by.
+    fn width(&self, at: Point2<f64>, across: Vector2<f64>) -> Option<f64> {
+        let depth = |t: f64| {
+            let p = at + across * t;
+            if p.x < 0.0 || p.y < 0.0 {
+                0.0
+            } else {
+                self.at(p.x as u32, p.y as u32)
+            }
+        };
+        let start = [0.0, 0.5, -0.5, 1.0, -1.0, 1.5, -1.5]
+            .into_iter()
+            .find(|t| depth(*t) > 0.0)?;
+        let deepest = |step: f64| {
+            let (mut t, mut most) = (start, depth(start));
+            while (t - start).abs() < MAX_REACH && depth(t + step) > 0.0 {
+                t += step;
+                most = most.max(depth(t));
+            }
+            most
+        };
+        Some(2.0 * deepest(STEP).max(deepest(-STEP)) - 1.0)
+    }
+}
+
+/// The profile at `at` out to `reach` pixels each side, reaching further
+/// (up to [`MAX_REACH`]) while the crack's darkness runs past half of it,
+/// so the surface is read outside the crack.
+fn reached(gray: &GrayImage, at: Point2<f64>, across: Vector2<f64>, reach: f64) -> Option<Profile> {
+    let mut reach = reach.min(MAX_REACH);
+    loop {
+        let p = profile(gray, at, across, reach)?;
+        if reach >= MAX_REACH || dark_extent(&p) < 0.5 * reach {
+            return Some(p);
+        }
+        reach = (2.0 * reach).min(MAX_REACH);
+    }
+}
+
+/// How far from the line the crack's darkness runs, pixels: the farther of
+/// the two sides where the profile, walking out from the line, first comes
+/// back within three noise sigmas of the surface.
+fn dark_extent(p: &Profile) -> f64 {
+    let Some(centre) = p.t.iter().position(|t| t.abs() < STEP / 2.0) else {
+        return 0.0;
+    };
+    let floor = 3.0 * p.noise;
+    if p.dark[centre] <= floor {
+        return 0.0;
+    }
+    let side = |step: isize| {
+        let mut i = centre as isize;
+        while i + step >= 0 && ((i + step) as usize) < p.dark.len() && p.dark[i as usize] > floor {
+            i += step;
+        }
+        p.t[i as usize].abs()
+    };
+    side(1).max(side(-1))
 }
 
 /// The width from one profile, with `share` the interior's darkness as a
@@ -148,32 +335,7 @@ fn measure(p: &Profile, share: f64, has_stretches: bool) -> Width {
 /// Full width at half depth where the profile shows a flat-bottomed crack
 /// at least [`RESOLVED_PX`] wide: (width px, depth grey levels).
 fn resolved(p: &Profile) -> Option<(f64, f64)> {
-    let centre = p.t.iter().position(|t| t.abs() < STEP / 2.0)?;
-    let depth = p.dark[centre.saturating_sub(2)..=(centre + 2).min(p.dark.len() - 1)]
-        .iter()
-        .copied()
-        .fold(0.0, f64::max);
-    if depth < 6.0 * p.noise.max(1.0) {
-        return None;
-    }
-    let half = depth / 2.0;
-    // Walk out from the centre to where darkness falls below half depth.
-    let edge = |step: isize| -> Option<f64> {
-        let mut i = centre as isize;
-        loop {
-            let next = i + step;
-            if next < 0 || next as usize >= p.dark.len() {
-                return None;
-            }
-            let (a, b) = (p.dark[i as usize], p.dark[next as usize]);
-            if b < half {
-                let f = (a - half) / (a - b);
-                return Some(p.t[i as usize] + f * (p.t[next as usize] - p.t[i as usize]));
-            }
-            i = next;
-        }
-    };
-    let width = edge(1)? - edge(-1)?;
+    let (width, depth) = half_depth(p, 0.5)?;
     // A flat bottom: the middle third of the crack is nearly as dark as its deepest.
     let flat =
         p.t.iter()
@@ -183,11 +345,44 @@ fn resolved(p: &Profile) -> Option<(f64, f64)> {
     (width >= RESOLVED_PX && flat).then_some((width, depth))
 }
 
-/// The grey levels across the crack at `at` along `across`: out to twice the
-/// crack's reach each side, the surface read from the outer quarter.
-fn profile(gray: &GrayImage, at: Point2<f64>, across: Vector2<f64>) -> Option<Profile> {
-    const REACH: f64 = 8.0;
-    let n = (REACH / STEP) as i64;
+/// Full width at half depth around the darkest point within `search`
+/// pixels of the line (its depth the mean over half a pixel each side of
+/// it), the edges found between samples by interpolation: (width px,
+/// depth grey levels); `None` where the crack is no darker than six noise
+/// sigmas or runs past the profile.
+fn half_depth(p: &Profile, search: f64) -> Option<(f64, f64)> {
+    let deepest = (0..p.t.len())
+        .filter(|i| p.t[*i].abs() <= search.max(STEP))
+        .max_by(|a, b| p.dark[*a].total_cmp(&p.dark[*b]))?;
+    let near = deepest.saturating_sub(2)..=(deepest + 2).min(p.dark.len() - 1);
+    let depth = p.dark[near.clone()].iter().sum::<f64>() / near.count() as f64;
+    if depth < 6.0 * p.noise.max(1.0) {
+        return None;
+    }
+    let half = depth / 2.0;
+    // Walk out from the deepest to where darkness falls below half depth.
+    let edge = |step: isize| -> Option<f64> {
+        let mut i = deepest as isize;
+        loop {
+            let next = i + step;
+            if next < 0 || next as usize >= p.dark.len() {
+                return None;
+            }
+            let (a, b) = (p.dark[i as usize], p.dark[next as usize]);
+            if b < half {
+                let f = ((a - half) / (a - b)).clamp(0.0, 1.0);
+                return Some(p.t[i as usize] + f * (p.t[next as usize] - p.t[i as usize]));
+            }
+            i = next;
+        }
+    };
+    Some((edge(1)? - edge(-1)?, depth))
+}
+
+/// The grey levels across the crack at `at` along `across`, out to `reach`
+/// pixels each side, the surface read from the outer two fifths.
+fn profile(gray: &GrayImage, at: Point2<f64>, across: Vector2<f64>, reach: f64) -> Option<Profile> {
+    let n = (reach / STEP) as i64;
     let t: Vec<f64> = (-n..=n).map(|k| k as f64 * STEP).collect();
     let values: Vec<f64> = t
         .iter()
@@ -196,7 +391,7 @@ fn profile(gray: &GrayImage, at: Point2<f64>, across: Vector2<f64>) -> Option<Pr
     let outer: Vec<f64> = t
         .iter()
         .zip(&values)
-        .filter(|(t, _)| t.abs() >= REACH * 0.6)
+        .filter(|(t, _)| t.abs() >= reach * 0.6)
         .map(|(_, v)| *v)
         .collect();
     let deviations = |surface: f64| outer.iter().map(|v| (v - surface).abs()).collect();
@@ -240,20 +435,29 @@ fn adjacency(n: usize, edges: &[(u32, u32)]) -> Vec<Vec<usize>> {
     out
 }
 
-/// Unit normal of the centre line at pixel `i`: across the main direction
-/// of the pixels within `DIRECTION_REACH` steps along the line.
-fn normal(centre: &[Point2<f64>], neighbours: &[Vec<usize>], i: usize) -> Option<Vector2<f64>> {
+/// Centre-line pixels within `steps` steps of pixel `i` along the line,
+/// `i` among them.
+fn within(neighbours: &[Vec<usize>], i: usize, steps: usize) -> Vec<usize> {
     let mut near = vec![i];
     let mut frontier = vec![i];
-    for _ in 0..DIRECTION_REACH {
-        let next: Vec<usize> = frontier
+    for _ in 0..steps {
+        let mut next: Vec<usize> = frontier
             .iter()
             .flat_map(|j| neighbours[*j].iter().copied())
             .filter(|j| !near.contains(j))
             .collect();
+        next.sort_unstable();
+        next.dedup();
         near.extend(&next);
         frontier = next;
     }
+    near
+}
+
+/// Unit normal of the centre line at pixel `i`: across the main direction
+/// of the pixels within `DIRECTION_REACH` steps along the line.
+fn normal(centre: &[Point2<f64>], neighbours: &[Vec<usize>], i: usize) -> Option<Vector2<f64>> {
+    let near = within(neighbours, i, DIRECTION_REACH);
     if near.len() < 3 {
         return None;
     }
@@ -314,7 +518,7 @@ mod tests {
 
     fn median_width(w: f64, angle: f64) -> (f64, Width) {
         let (img, centre, edges) = crack_image(w, angle, 7);
-        let found = widths(&img, &centre, &edges, 0.85);
+        let found = widths(&img, None, &centre, &edges, 0.85);
         let mut px: Vec<f64> = found.iter().map(|p| p.width.px()).collect();
         px.sort_by(f64::total_cmp);
         (px[px.len() / 2], found[found.len() / 2].width)
@@ -340,6 +544,40 @@ mod tests {
                 assert!(matches!(kind, Width::Resolved { .. }), "{w}: {kind:?}");
             }
         }
+    }
+
+    /// The mask of a straight crack `w` pixels wide through the middle of a
+    /// 64x64 frame at `angle`: the pixels whose centres it covers.
+    fn crack_mask(w: f64, angle: f64) -> Mask {
+        let (dx, dy) = (angle.cos(), angle.sin());
+        let pixels = (0..64u32).flat_map(|y| (0..64u32).map(move |x| (x, y)));
+        Mask::from_pixels(pixels.filter(|&(x, y)| {
+            let (px, py) = (f64::from(x) + 0.5 - 32.0, f64::from(y) + 0.5 - 32.0);
+            (px * dy - py * dx).abs() <= w / 2.0
+        }))
+        .unwrap()
+    }
+
+    #[test]
+    fn a_mask_that_spans_the_crack_measures_it_with_the_profile() {
+        for (w, angle) in [(5.0, 0.3), (9.0, 1.1), (14.0, 0.0)] {
+            let (img, centre, edges) = crack_image(w, angle, 3);
+            let mask = crack_mask(w, angle);
+            let found = widths(&img, Some(&mask), &centre, &edges, 0.85);
+            let mid = found[found.len() / 2].width;
+            assert!(matches!(mid, Width::Masked { .. }), "{w}: {mid:?}");
+            let error = (mid.px() - w).abs() / w;
+            assert!(error < 0.15, "{w} px at {angle} rad measured {mid:?}");
+        }
+        // A mask of a crack the image hardly shows: the mask's width alone.
+        let (img, centre, edges) = crack_image(0.0, 0.4, 5);
+        let found = widths(&img, Some(&crack_mask(7.0, 0.4)), &centre, &edges, 0.85);
+        let mid = found[found.len() / 2].width;
+        assert!(
+            matches!(mid, Width::Masked { spread, .. } if spread == 0.0)
+                && (mid.px() - 7.0).abs() < 1.0,
+            "{mid:?}"
+        );
     }
 
     #[test]

@@ -26,6 +26,62 @@ pub struct FailedFrame {
     pub why: String,
 }
 
+/// The order of a model input's colour channels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum ChannelOrder {
+    /// Red, green, blue (PyTorch and Ultralytics models).
+    Rgb,
+    /// Blue, green, red (models trained on OpenCV's images).
+    Bgr,
+}
+
+/// Where a model's input convention came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Source {
+    /// Nothing said: RGB on 0..1.
+    Default,
+    /// The model's metadata.
+    Metadata,
+    /// `[detect]` settings.
+    Settings,
+}
+
+/// How pixels were fed to the model: each channel's value is
+/// `pixel_scale * (v - mean) / std` for `v` on 0..1, the means and
+/// deviations listed red, green, blue, in `channel_order`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct InputConvention {
+    pub channel_order: ChannelOrder,
+    pub pixel_scale: f32,
+    pub mean: [f32; 3],
+    pub std: [f32; 3],
+    pub source: Source,
+}
+
+impl Default for InputConvention {
+    fn default() -> Self {
+        Self {
+            channel_order: ChannelOrder::Rgb,
+            pixel_scale: 1.0,
+            mean: [0.0; 3],
+            std: [1.0; 3],
+            source: Source::Default,
+        }
+    }
+}
+
+impl InputConvention {
+    /// RGB on 0..1 as letterboxing writes it, untouched.
+    pub fn is_identity(&self) -> bool {
+        self.channel_order == ChannelOrder::Rgb
+            && self.pixel_scale == 1.0
+            && self.mean == [0.0; 3]
+            && self.std == [1.0; 3]
+    }
+}
+
 /// `detect.json`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct DetectSummary {
@@ -46,6 +102,9 @@ pub struct DetectSummary {
     pub vocabulary: String,
     pub classes: Vec<String>,
     pub input_size: [u32; 2],
+    /// How pixels were fed to the model.
+    #[serde(default)]
+    pub input: InputConvention,
     /// Tile size, when tiles were run besides the whole frame.
     pub tile: Option<u32>,
     pub confidence: f32,

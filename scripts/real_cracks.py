@@ -1,0 +1,368 @@
+#!/usr/bin/env python3
+"""Real crack photographs as a flight, and postflight's candidates scored
+against the photos' own masks (drawn by people): the evaluation that
+docs/evaluation.md's "Real cracks" figures come from.
+
+    real_cracks.py write --photos DIR --gsd MM --out DIR [--limit N] [--downsample K]
+    real_cracks.py score FLIGHT RUN [FLIGHT RUN ...] [--pair FLIGHT RUN FLIGHT RUN]
+
+`write` lays each photo (with its mask `lab/NAME_mask.png` beside `img/`)
+on a flat surface: a camera 1.2 m above it looking straight down, one
+photo per 1 m cell (no two frames share ground), its focal length set so
+a pixel spans `--gsd` millimetres. `--downsample K` averages K x K pixel
+blocks first (the same cracks seen by a coarser camera: `--gsd` is then
+the coarse pixel's). It writes `flight.mcap` (ROS 2: the photos as
+CompressedImage, CameraInfo, PoseStamped, /tf_static, the surface as a
+PointCloud2 map) with the official `mcap-ros2-support` writer, and
+`photos.json` (each frame's photo, time and camera).
+
+`score` reads each run's `defects.json` and scores it against the masks:
+- a candidate is on a crack when most of its trace, projected back into
+  its photo, lies within 3 px of the mask;
+- a crack is a connected component of the mask (8-neighbours) of 30
+  pixels or more; it is found when an on-crack candidate's trace comes
+  within 3 px of it;
+- a crack's true width at a skeleton pixel of its mask is 2 x (distance
+  to the mask's edge) - 1 pixels (scikit-image's skeleton, SciPy's
+  Euclidean distance transform); a candidate's true width is the 95th
+  percentile of those at skeleton pixels within 3 px of its trace (as
+  postflight's `max_mm` is the 95th percentile along its line), and its
+  true condition state that width's under the default material's limits
+  (0.30 and 1.27 mm);
+- the review order is the queue's (confidence times length).
+`--pair` compares two runs of the same photos at two GSDs: candidates
+matched by photo and trace, and whether their widths agree within the
+sum of their uncertainties.
+"""
+
+import argparse
+import io
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+HEIGHT_M = 1.2
+CELL_M = 1.0
+COLUMNS = 10
+FRAME_S = 0.5
+T0_NS = 1_700_000_000 * 10**9
+NEAR_PX = 3.0
+MIN_COMPONENT_PX = 30
+STATE_LIMITS_MM = (0.30, 1.27)
+STATES = ("good", "fair", "poor")
+
+
+def mask_path(photo):
+    return photo.parent.parent / "lab" / (photo.stem + "_mask.png")
+
+
+def photos_in(folder, limit):
+    photos = sorted(p for p in Path(folder).iterdir() if p.suffix.lower() in (".jpg", ".jpeg", ".png"))
+    return photos[:limit] if limit else photos
+
+
+def cell(i):
+    return (CELL_M * (i % COLUMNS), CELL_M * (i // COLUMNS))
+
+
+# --- write ---------------------------------------------------------------
+
+
+def write(args):
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "fixtures"))
+    from write_flight import msgdef, ros_name, stamp  # the tests' ROS 2 message definitions
+    from mcap.writer import CompressionType
+    from mcap_ros2.writer import Writer
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    photos = photos_in(args.photos, args.limit)
+    if not photos:
+        sys.exit(f"real_cracks: no photos in {args.photos}")
+    f = HEIGHT_M * 1000.0 / args.gsd
+    messages = []
+    frames = []
+
+    def add(topic, typ, msg, ns):
+        messages.append((ns, topic, typ, msg))
+
+    identity = {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}
+    add("/tf_static", "tf2_msgs/TFMessage", {"transforms": [{
+        "header": {"stamp": stamp(T0_NS), "frame_id": "base_link"}, "child_frame_id": "camera_optical",
+        "transform": {"translation": {"x": 0.0, "y": 0.0, "z": 0.0}, "rotation": identity}}]}, T0_NS)
+    # Looking straight down: the optical frame's x east, y south, z down.
+    down = {"x": 1.0, "y": 0.0, "z": 0.0, "w": 0.0}
+    end_s = FRAME_S * (len(photos) + 1)
+    for k in range(int(end_s / 0.05) + 1):
+        t = 0.05 * k
+        # Hovering over cell i from (i + 0.5 - 0.2) s to (i + 0.5 + 0.2) s, flying between.
+        s = t / FRAME_S - 0.5
+        i = min(max(math.floor(s), 0), len(photos) - 1)
+        j = min(i + 1, len(photos) - 1)
+        frac = min(max((s - i - 0.4) / 0.2, 0.0), 1.0) if s > i else 0.0
+        (x0, y0), (x1, y1) = cell(i), cell(j)
+        pos = {"x": x0 + frac * (x1 - x0), "y": y0 + frac * (y1 - y0), "z": HEIGHT_M}
+        ns = T0_NS + round(t * 1e9)
+        add("/slam/pose", "geometry_msgs/PoseStamped", {
+            "header": {"stamp": stamp(ns), "frame_id": "map"},
+            "pose": {"position": pos, "orientation": down}}, ns)
+    for i, photo in enumerate(photos):
+        img = Image.open(photo).convert("RGB")
+        if args.downsample > 1:
+            k = args.downsample
+            w, h = img.width // k, img.height // k
+            a = np.asarray(img, dtype=np.float64)[: h * k, : w * k]
+            img = Image.fromarray(np.round(a.reshape(h, k, w, k, 3).mean(axis=(1, 3))).astype(np.uint8))
+            buffer = io.BytesIO()
+            img.save(buffer, format="PNG")
+            data, fmt = buffer.getvalue(), "png"
+        else:
+            data, fmt = photo.read_bytes(), "rgb8; jpeg compressed bgr8"
+        w, h = img.size
+        t = FRAME_S * (i + 0.5)
+        ns = T0_NS + round(t * 1e9)
+        header = {"stamp": stamp(ns), "frame_id": "camera_optical"}
+        cx, cy = w / 2.0, h / 2.0
+        add("/camera/image/compressed", "sensor_msgs/CompressedImage",
+            {"header": header, "format": fmt, "data": data}, ns + 1000)
+        add("/camera/camera_info", "sensor_msgs/CameraInfo", {
+            "header": header, "height": h, "width": w, "distortion_model": "plumb_bob",
+            "d": [0.0] * 5, "k": [f, 0, cx, 0, f, cy, 0, 0, 1], "r": [1, 0, 0, 0, 1, 0, 0, 0, 1],
+            "p": [f, 0, cx, 0, 0, f, cy, 0, 0, 0, 1, 0], "binning_x": 0, "binning_y": 0,
+            "roi": {"x_offset": 0, "y_offset": 0, "height": 0, "width": 0, "do_rectify": False}}, ns + 1000)
+        x, y = cell(i)
+        frames.append({"photo": str(photo.resolve()), "time_ns": ns, "camera": [x, y, HEIGHT_M],
+                       "focal_px": f, "centre_px": [cx, cy], "width": w, "height": h,
+                       "downsample": args.downsample, "gsd_mm": args.gsd})
+    # The surface: a 1.2 m square of points 2 cm apart under each camera.
+    grid = np.arange(-0.6, 0.6001, 0.02)
+    gx, gy = np.meshgrid(grid, grid)
+    points = np.concatenate([
+        np.stack([gx.ravel() + cell(i)[0], gy.ravel() + cell(i)[1], np.zeros(gx.size)], axis=1)
+        for i in range(len(photos))]).astype("<f4")
+    add("/map", "sensor_msgs/PointCloud2", {
+        "header": {"stamp": stamp(T0_NS), "frame_id": "map"}, "height": 1, "width": len(points),
+        "fields": [{"name": n, "offset": 4 * k, "datatype": 7, "count": 1} for k, n in enumerate("xyz")],
+        "is_bigendian": False, "point_step": 12, "row_step": 12 * len(points),
+        "data": points.tobytes(), "is_dense": True}, T0_NS + round(end_s * 1e9))
+    messages.sort(key=lambda m: m[0])
+    with open(out / "flight.mcap", "wb") as stream:
+        writer = Writer(stream, compression=CompressionType.ZSTD)
+        schemas = {}
+        for seq, (ns, topic, typ, msg) in enumerate(messages):
+            if typ not in schemas:
+                schemas[typ] = writer.register_msgdef(ros_name(typ), msgdef(typ))
+            writer.write_message(topic, schemas[typ], msg, log_time=ns, publish_time=ns, sequence=seq)
+        writer.finish()
+    (out / "photos.json").write_text(json.dumps({"gsd_mm": args.gsd, "frames": frames}, indent=1))
+    print(f"real_cracks: {len(photos)} photos at {args.gsd} mm per pixel (f = {f:.0f} px) in {out}",
+          file=sys.stderr)
+
+
+# --- score ---------------------------------------------------------------
+
+
+class Truth:
+    """One photo's mask: crack pixels, components, skeleton widths."""
+
+    def __init__(self, photo):
+        from scipy import ndimage
+        from skimage.morphology import skeletonize
+
+        self.on = np.asarray(Image.open(mask_path(Path(photo))).convert("L")) >= 128
+        labels, n = ndimage.label(self.on, structure=np.ones((3, 3)))
+        sizes = ndimage.sum(self.on, labels, range(1, n + 1))
+        self.components = [k + 1 for k in range(n) if sizes[k] >= MIN_COMPONENT_PX]
+        self.labels = labels
+        # Distance to the nearest pixel off the mask, and so from the edge.
+        self.to_crack = ndimage.distance_transform_edt(~self.on)
+        inside = ndimage.distance_transform_edt(self.on)
+        skeleton = skeletonize(self.on)
+        ys, xs = np.nonzero(skeleton)
+        self.skeleton = np.stack([xs, ys], axis=1).astype(float)
+        self.widths = 2.0 * inside[ys, xs] - 1.0
+
+    def near(self, pts):
+        """Each point's distance to the mask, pixels."""
+        h, w = self.on.shape
+        xi = np.clip(np.floor(pts[:, 0]).astype(int), 0, w - 1)
+        yi = np.clip(np.floor(pts[:, 1]).astype(int), 0, h - 1)
+        return self.to_crack[yi, xi]
+
+    def touched(self, pts):
+        """Components some point comes within NEAR_PX of."""
+        from scipy import ndimage
+
+        h, w = self.on.shape
+        hit = np.zeros_like(self.on)
+        xi = np.clip(np.floor(pts[:, 0]).astype(int), 0, w - 1)
+        yi = np.clip(np.floor(pts[:, 1]).astype(int), 0, h - 1)
+        hit[yi, xi] = True
+        hit = ndimage.binary_dilation(hit, iterations=int(NEAR_PX))
+        return set(np.unique(self.labels[hit & self.on])) & set(self.components)
+
+    def width_px(self, pts):
+        """95th percentile of the true widths at skeleton pixels near `pts`."""
+        if len(self.skeleton) == 0:
+            return None
+        d = np.min(np.linalg.norm(self.skeleton[:, None, :] - pts[None, ::4, :], axis=2), axis=1)
+        near = self.widths[d <= NEAR_PX]
+        return float(np.percentile(near, 95)) if len(near) else None
+
+
+def state(width_mm):
+    if width_mm is None:
+        return None
+    return STATES[sum(width_mm > limit for limit in STATE_LIMITS_MM)]
+
+
+def densify(line, step):
+    out = []
+    for a, b in zip(line[:-1], line[1:]):
+        n = max(1, int(math.ceil(np.linalg.norm(np.subtract(b, a)) / step)))
+        out.extend(np.add(a, np.outer(np.arange(n) / n, np.subtract(b, a))))
+    out.append(line[-1])
+    return np.array(out)
+
+
+def image_points(candidate, frame):
+    """The candidate's trace in its photo's pixels (of the mask, at full size)."""
+    f, (cx, cy), (x0, y0, z0) = frame["focal_px"], frame["centre_px"], frame["camera"]
+    k = frame["downsample"]
+    lines = candidate["trace"] or [[candidate["position"]]]
+    pts = np.concatenate([densify(np.asarray(line), frame["gsd_mm"] / 2000.0) for line in lines])
+    u = cx + f * (pts[:, 0] - x0) / (z0 - pts[:, 2])
+    v = cy - f * (pts[:, 1] - y0) / (z0 - pts[:, 2])
+    return np.stack([u, v], axis=1) * k
+
+
+def scored_run(flight, run):
+    photos = json.loads((Path(flight) / "photos.json").read_text())
+    by_time = {f["time_ns"]: f for f in photos["frames"]}
+    defects = json.loads((Path(run) / "defects.json").read_text())
+    defects = defects["defects"] if isinstance(defects, dict) else defects
+    truths = {}
+    rows = []
+    for d in defects:
+        frame = by_time.get(d["best"]["time_ns"])
+        if frame is None:
+            continue
+        truth = truths.setdefault(frame["photo"], Truth(frame["photo"]))
+        pts = image_points(d, frame)
+        on = float(np.mean(truth.near(pts) <= NEAR_PX)) >= 0.5
+        true_px = truth.width_px(pts) if on else None
+        mm_per_full_px = frame["gsd_mm"] / frame["downsample"]
+        width = d.get("width") or {}
+        size = d["length_m"] or 0.0
+        rows.append({
+            "id": d["id"], "photo": Path(frame["photo"]).name, "on": on,
+            "components": truth.touched(pts) if on else set(),
+            "true_px": true_px, "true_mm": None if true_px is None else true_px * mm_per_full_px,
+            "max_mm": width.get("max_mm"), "uncertainty_mm": width.get("uncertainty_mm"),
+            "narrower_than_mm": width.get("narrower_than_mm"),
+            "state": d.get("condition"), "priority": d["confidence"] * max(size, 0.05),
+            "confidence": d["confidence"], "pts": pts,
+        })
+    for photo in {f["photo"] for f in photos["frames"]}:
+        truths.setdefault(photo, Truth(photo))
+    return photos, truths, rows
+
+
+def band_of(px):
+    return "1-3 px" if px < 3 else "3-6 px" if px < 6 else "6 px and over"
+
+
+def report(flight, run):
+    photos, truths, rows = scored_run(flight, run)
+    on = [r for r in rows if r["on"]]
+    components = sum(len(t.components) for t in truths.values())
+    found = set()
+    for r in on:
+        found |= {(r["photo"], c) for c in r["components"]}
+    print(f"\n## {run}: {len(photos['frames'])} photos at {photos['gsd_mm']} mm per pixel")
+    print(f"candidates {len(rows)}, on cracks {len(on)} (precision {len(on) / max(len(rows), 1):.2f}); "
+          f"cracks (mask components) {components}, found {len(found)} (recall {len(found) / max(components, 1):.2f})")
+    print("| true width | candidates | measured | median error | median signed error | 90th percentile |")
+    print("|---|---|---|---|---|---|")
+    for band in ("1-3 px", "3-6 px", "6 px and over"):
+        in_band = [r for r in on if r["true_px"] is not None and r["true_px"] >= 1 and band_of(r["true_px"]) == band]
+        measured = [r for r in in_band if r["max_mm"] is not None]
+        errors = np.array([(r["max_mm"] - r["true_mm"]) / r["true_mm"] for r in measured])
+        if len(errors):
+            print(f"| {band} | {len(in_band)} | {len(measured)} | {np.median(np.abs(errors)):.0%} | "
+                  f"{np.median(errors):+.0%} | {np.percentile(np.abs(errors), 90):.0%} |")
+        else:
+            print(f"| {band} | {len(in_band)} | 0 | - | - | - |")
+    judged = [r for r in on if r["true_mm"] is not None]
+    right = sum(r["state"] == state(r["true_mm"]) for r in judged)
+    none = sum(r["state"] is None for r in judged)
+    print(f"condition state right for {right} of {len(judged)} candidates on cracks "
+          f"({right / max(len(judged), 1):.0%}); {none} without one")
+    confusion = {}
+    for r in judged:
+        key = (state(r["true_mm"]), r["state"])
+        confusion[key] = confusion.get(key, 0) + 1
+    print("states (true -> measured): " + ", ".join(f"{a}->{b}: {n}" for (a, b), n in sorted(confusion.items(), key=str)))
+    order = sorted(rows, key=lambda r: -r["priority"])
+    half = len(order) // 2
+    if half:
+        first = sum(r["on"] for r in order[:half]) / half
+        second = sum(r["on"] for r in order[half:]) / (len(order) - half)
+        distinct = len({round(r["confidence"], 6) for r in rows})
+        print(f"review order: precision {first:.2f} in the first half, {second:.2f} in the second "
+              f"({distinct} distinct confidences)")
+    return rows
+
+
+def pair(fine, coarse):
+    (_, _, a), (_, _, b) = fine, coarse
+    both = agree = 0
+    ratios = []
+    for r in a:
+        if r["max_mm"] is None or not r["on"]:
+            continue
+        matches = [s for s in b if s["photo"] == r["photo"] and s["max_mm"] is not None
+                   and np.mean(np.min(np.linalg.norm(s["pts"][:, None] - r["pts"][None, ::4], axis=2), axis=1) <= 8.0) >= 0.5]
+        if not matches:
+            continue
+        s = max(matches, key=lambda s: len(s["pts"]))
+        both += 1
+        ratios.append(s["max_mm"] / r["max_mm"])
+        if abs(s["max_mm"] - r["max_mm"]) <= (r["uncertainty_mm"] or 0) + (s["uncertainty_mm"] or 0):
+            agree += 1
+    print(f"\n## the same cracks at two GSDs: {both} measured in both, widths agree within their "
+          f"uncertainties for {agree} ({agree / max(both, 1):.0%}); coarse over fine: median "
+          f"{np.median(ratios) if ratios else float('nan'):.2f}")
+
+
+def score(args):
+    if len(args.runs) % 2:
+        sys.exit("real_cracks score: give FLIGHT RUN pairs")
+    for flight, run in zip(args.runs[::2], args.runs[1::2]):
+        report(flight, run)
+    if args.pair:
+        pair(scored_run(*args.pair[:2]), scored_run(*args.pair[2:]))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="command", required=True)
+    w = sub.add_parser("write")
+    w.add_argument("--photos", required=True)
+    w.add_argument("--gsd", type=float, required=True, help="millimetres per pixel")
+    w.add_argument("--out", required=True)
+    w.add_argument("--limit", type=int, default=0)
+    w.add_argument("--downsample", type=int, default=1)
+    s = sub.add_parser("score")
+    s.add_argument("runs", nargs="+")
+    s.add_argument("--pair", nargs=4, metavar=("FINE_FLIGHT", "FINE_RUN", "COARSE_FLIGHT", "COARSE_RUN"))
+    args = ap.parse_args()
+    write(args) if args.command == "write" else score(args)
+
+
+if __name__ == "__main__":
+    main()
