@@ -272,10 +272,6 @@ def scored_run(flight, run):
     return photos, truths, rows
 
 
-def band_of(px):
-    return "1-3 px" if px < 3 else "3-6 px" if px < 6 else "6 px and over"
-
-
 def report(flight, run):
     photos, truths, rows = scored_run(flight, run)
     on = [r for r in rows if r["on"]]
@@ -288,8 +284,9 @@ def report(flight, run):
           f"cracks (mask components) {components}, found {len(found)} (recall {len(found) / max(components, 1):.2f})")
     print("| true width | candidates | measured | median error | median signed error | 90th percentile |")
     print("|---|---|---|---|---|---|")
-    for band in ("1-3 px", "3-6 px", "6 px and over"):
-        in_band = [r for r in on if r["true_px"] is not None and r["true_px"] >= 1 and band_of(r["true_px"]) == band]
+    bands = {"1-3 px": (1, 3), "3-6 px": (3, 6), "6 px and over": (6, math.inf), "3 px and over": (3, math.inf)}
+    for band, (low, high) in bands.items():
+        in_band = [r for r in on if r["true_px"] is not None and low <= r["true_px"] < high]
         measured = [r for r in in_band if r["max_mm"] is not None]
         errors = np.array([(r["max_mm"] - r["true_mm"]) / r["true_mm"] for r in measured])
         if len(errors):

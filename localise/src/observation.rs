@@ -82,8 +82,9 @@ pub struct Placement {
 /// with its millimetres per pixel on the surface: the widest (95th
 /// percentile) and median of the points measured, good to
 /// [`WIDTH_UNCERTAINTY_PX`] where most show both edges, else to a third of
-/// the noise limit, within a tenth of a pixel and that, and to how
-/// irregular the crack is (how far its mask and its profile disagree, half
+/// the noise limit, within a tenth of a pixel and that, to the mask's
+/// whole-pixel edges where a mask measured it, and to how irregular the
+/// crack is (how far its mask and its profile disagree, half
 /// the spread of its widest stretches) besides; with none measured,
 /// narrower than the points' median limit.
 fn view_width(points: &[(Width, f64)]) -> Option<WidthRecord> {
@@ -135,7 +136,17 @@ fn view_width(points: &[(Width, f64)]) -> Option<WidthRecord> {
         (Some(high), Some(low)) => (high - low) / 2.0,
         _ => 0.0,
     };
-    let uncertainty_mm = (limit.powi(2) + disagreement.powi(2) + tail.powi(2)).sqrt();
+    // A mask's edges are whole pixels: each side is good to half of one.
+    let quantised = if points
+        .iter()
+        .any(|(w, _)| matches!(w, Width::Masked { .. }))
+    {
+        MASK_EDGES_PX * mm_per_px
+    } else {
+        0.0
+    };
+    let uncertainty_mm =
+        (limit.powi(2) + quantised.powi(2) + disagreement.powi(2) + tail.powi(2)).sqrt();
     Some(WidthRecord {
         max_mm: quantile(measured.clone(), 0.95),
         median_mm: median(measured),
@@ -149,6 +160,10 @@ fn view_width(points: &[(Width, f64)]) -> Option<WidthRecord> {
 /// flights (docs/evaluation.md) two thirds of widths came within 0.14 to
 /// 0.23 px, and below 2 px nine in ten within 0.28 px.
 const WIDTH_UNCERTAINTY_PX: f64 = 1.0 / 3.0;
+/// How far a width read from a mask is off for its pixel edges alone:
+/// each edge anywhere within half a pixel, so their difference within
+/// sqrt 2 halves.
+const MASK_EDGES_PX: f64 = std::f64::consts::FRAC_1_SQRT_2;
 
 /// What a detection is placed against.
 pub struct Scene<'a> {
