@@ -7,6 +7,7 @@ use nalgebra::{Point3, Vector3};
 
 use crate::rng::Rng;
 use crate::scene::{FacePicker, Scene};
+use crate::section::Section;
 
 /// One crack on one planar face of the structure.
 #[derive(Debug, Clone)]
@@ -59,9 +60,10 @@ pub enum Opening {
     Even,
     /// Widest mid-way along the main line, closing to `tip` metres at its
     /// ends; a branch leaves at the main line's width there and closes to
-    /// `tip`. Drawn by the share of each pixel's footprint it covers, so its
-    /// width can be measured below a pixel.
-    Tapered { tip: f64 },
+    /// `tip`. Its opening ragged, its cross-section `section` (a V to a U,
+    /// spalled edges, dirt); drawn by the darkness each pixel's footprint
+    /// across it holds, so its width can be measured below a pixel.
+    Tapered { tip: f64, section: Section },
 }
 
 /// The nearest point of a crack's centre line to a query point.
@@ -70,6 +72,9 @@ pub struct Nearest {
     pub distance: f64,
     /// The crack's width there, metres.
     pub width: f64,
+    /// The line it is on, and the arc length along it, metres.
+    pub line: usize,
+    pub arc: f64,
     /// Unit direction of the centre line there.
     pub along: Vector3<f64>,
 }
@@ -79,7 +84,7 @@ impl Crack {
     pub fn width_at(&self, line: usize, s: f64) -> f64 {
         match self.opening {
             Opening::Even => self.width,
-            Opening::Tapered { tip } => {
+            Opening::Tapered { tip, section } => {
                 let length = self.arc[line].last().copied().unwrap_or(0.0).max(1e-9);
                 let t = (s / length).clamp(0.0, 1.0);
                 let (root, shape) = if line == 0 {
@@ -90,7 +95,7 @@ impl Crack {
                         (std::f64::consts::FRAC_PI_2 * t).cos(),
                     )
                 };
-                tip + (root - tip).max(0.0) * shape.max(0.0).sqrt()
+                tip + (root - tip).max(0.0) * shape.max(0.0).sqrt() * section.opening(line, s)
             }
         }
     }
@@ -109,6 +114,8 @@ impl Crack {
         let mut best = Nearest {
             distance: f64::INFINITY,
             width: self.width,
+            line: 0,
+            arc: 0.0,
             along: Vector3::x(),
         };
         for (l, line) in self.lines.iter().enumerate() {
@@ -122,6 +129,8 @@ impl Crack {
                     best = Nearest {
                         distance: d,
                         width: self.width_at(l, arc),
+                        line: l,
+                        arc,
                         along: ab / len2.sqrt(),
                     };
                 }
@@ -163,6 +172,9 @@ impl Crack {
         self.center
     }
 }
+
+/// Share of the light the interior of a crack of one even width lacks.
+const EVEN_DEPTH: f64 = 0.85;
 
 /// All the cracks of a scene, with the query the renderer needs.
 pub struct Cracks(pub Vec<Crack>);
@@ -206,11 +218,11 @@ impl Cracks {
         }
     }
 
-    /// How much of a pixel centred at the surface point `p` is covered by a
-    /// crack (0 to 1), for a ray along `dir` whose pixel spans `footprint`
-    /// metres on the surface where it is most stretched; `pixel` is the
-    /// pixel's footprint across the ray, metres.
-    pub fn coverage(&self, p: &Point3<f64>, dir: &Vector3<f64>, footprint: f64, pixel: f64) -> f64 {
+    /// The share of a pixel's light a crack takes (0 to 1) where the pixel
+    /// is centred at the surface point `p`, for a ray along `dir` whose
+    /// pixel spans `footprint` metres on the surface where it is most
+    /// stretched; `pixel` is the pixel's footprint across the ray, metres.
+    pub fn darkness(&self, p: &Point3<f64>, dir: &Vector3<f64>, footprint: f64, pixel: f64) -> f64 {
         let mut best: f64 = 0.0;
         for c in &self.0 {
             // Off the crack's plane first: it rules out most cracks, and
@@ -222,20 +234,30 @@ impl Cracks {
             let near = c.nearest(p);
             let share = match c.opening {
                 Opening::Even => {
-                    // Area fraction of a crack of width w in a footprint of width f.
+                    // Area fraction of a crack of width w in a footprint of
+                    // width f, its interior 85% dark.
                     let reach = footprint.max(c.width) / 2.0;
                     if near.distance < reach {
-                        (c.width / footprint).min(1.0)
+                        EVEN_DEPTH * (c.width / footprint).min(1.0)
                     } else {
                         0.0
                     }
                 }
-                Opening::Tapered { .. } => {
-                    // The pixel's extent on the surface across the crack, and
-                    // how much of it the opening covers.
+                Opening::Tapered { section, .. } => {
+                    // The pixel's extent on the surface across the crack,
+                    // and the darkness the section holds over it.
                     let across = c.normal.cross(&near.along);
                     let f = pixel / (1.0 - across.dot(dir).powi(2)).max(1e-6).sqrt();
-                    crate::render::overlap(near.distance, f, near.width)
+                    let reach = section.reach(near.width);
+                    let (lo, hi) = (
+                        (near.distance - f / 2.0).max(-reach),
+                        (near.distance + f / 2.0).min(reach),
+                    );
+                    if hi <= lo {
+                        0.0
+                    } else {
+                        (section.across(near.line, near.arc, lo, hi, near.width) / f).min(1.0)
+                    }
                 }
             };
             best = best.max(share);
@@ -441,7 +463,10 @@ impl Crack {
     pub fn taper(&mut self, range: WidthRange, rng: &mut Rng) {
         let (lo, hi) = (range.min_mm / 1000.0, range.max_mm / 1000.0);
         self.width = lo * (hi / lo).powf(rng.uniform());
-        self.opening = Opening::Tapered { tip: lo };
+        self.opening = Opening::Tapered {
+            tip: lo,
+            section: Section::of(self.id),
+        };
         *self = self.clone().with_bounds();
     }
 
@@ -493,15 +518,15 @@ mod tests {
         let c = &cracks.0[0];
         let p = c.lines[0][1];
         let dir = -c.normal;
-        assert!(cracks.coverage(&p, &dir, 0.004, 0.004) > 0.1);
+        assert!(cracks.darkness(&p, &dir, 0.004, 0.004) > 0.05);
         assert_eq!(
-            cracks.coverage(&(p + c.normal * 1.5), &dir, 0.004, 0.004),
+            cracks.darkness(&(p + c.normal * 1.5), &dir, 0.004, 0.004),
             0.0
         );
     }
 
     #[test]
-    fn tapered_cracks_are_widest_mid_way_and_cover_their_share_of_a_pixel() {
+    fn tapered_cracks_are_widest_mid_way_and_darken_a_pixel_by_their_section() {
         let scene = Scene::girder_bridge();
         let mut cracks = Cracks::generate(&scene, 6, &mut Rng::new(7));
         let lines: Vec<_> = cracks.0.iter().map(|c| c.lines.clone()).collect();
@@ -519,7 +544,7 @@ mod tests {
                 (main[0] - 0.0001).abs() < 1e-9 && (main[main.len() - 1] - 0.0001).abs() < 1e-9
             );
             let widest = main.iter().copied().fold(0.0, f64::max);
-            assert!(widest <= c.width + 1e-12 && widest > 0.8 * c.width);
+            assert!(widest <= c.width + 1e-12 && widest > 0.7 * c.width);
             for (b, branch) in widths.iter().enumerate().skip(1) {
                 assert!(
                     branch[0] <= c.width + 1e-12,
@@ -527,15 +552,27 @@ mod tests {
                 );
             }
         }
-        // Seen face on through a pixel 4 mm across, a crack w wide covers w / 4 mm of it.
+        // Seen face on through a pixel 4 mm across, the pixel lacks the
+        // light its section takes summed across it, over 4 mm.
         let c = &cracks.0[0];
         let k = c.lines[0].len() / 2;
         let p = c.lines[0][k];
-        let w = c.nearest(&p).width;
-        let share = cracks.coverage(&p, &-c.normal, 0.004, 0.004);
+        let near = c.nearest(&p);
+        let Opening::Tapered { section, .. } = c.opening else {
+            panic!("tapered");
+        };
+        let reach = section.reach(near.width);
+        let n = 100_000;
+        let summed: f64 = (0..n)
+            .map(|i| {
+                let x = -reach + (f64::from(i) + 0.5) * 2.0 * reach / f64::from(n);
+                section.darkness(near.line, near.arc, x, near.width) * 2.0 * reach / f64::from(n)
+            })
+            .sum();
+        let dark = cracks.darkness(&p, &-c.normal, 0.004, 0.004);
         assert!(
-            (share - (w / 0.004).min(1.0)).abs() < 1e-6,
-            "{share} for {w}"
+            (dark - (summed / 0.004).min(1.0)).abs() < 0.01 * dark.max(1e-3),
+            "{dark} for {summed} m of darkness"
         );
     }
 }

@@ -23,6 +23,7 @@ pub mod render;
 pub mod repeat;
 pub mod rng;
 pub mod scene;
+pub mod section;
 pub mod sortie;
 pub mod truth;
 

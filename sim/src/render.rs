@@ -116,8 +116,8 @@ fn shade(
             };
             let cos = hit.normal.dot(&-dir).abs().max(0.2);
             let pixel = hit.distance * pixel_angle;
-            let crack = cracks.coverage(&p, dir, pixel / cos, pixel);
-            let v = g * (1.0 - 0.85 * crack);
+            let crack = cracks.darkness(&p, dir, pixel / cos, pixel);
+            let v = g * (1.0 - crack);
             let tint = marks.tint(&p, pixel);
             [v * tint[0], v * 0.98 * tint[1], v * 0.94 * tint[2]]
         }

@@ -1,0 +1,145 @@
+//! A crack's cross-section as real ones look, for the flights made to
+//! measure width (`--crack-widths`): from a V to a U, its depth (how much
+//! light its interior lacks) varying along it, its opening ragged along
+//! it, its edges spalled (a shallow, chipped shoulder either side) and
+//! stretches filled with dirt. Its width is the opening's, as an
+//! inspector's gauge reads it; the spalls and the dirt are what a profile
+//! of grey levels can take for more or less crack. Each crack's section
+//! is drawn from its id, so a flight keeps its seeds' other draws.
+
+use crate::rng::hash3;
+
+/// How one crack's section looks and varies along it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Section {
+    /// 0 for a flat-bottomed U, 1 for a V: the share of the half-width
+    /// over which the interior ramps up to its full depth from the edge.
+    pub vee: f64,
+    /// Share of the surface's light the interior lacks at its deepest.
+    pub depth: f64,
+    /// How much the opening varies along the crack, as a share of it.
+    pub ragged: f64,
+    /// A spalled shoulder this many half-widths wide beyond each edge, and
+    /// the share of light it lacks at the edge (fading to none).
+    pub spall: f64,
+    pub spall_depth: f64,
+    /// Share of the crack's length filled with dirt (its interior a third as dark).
+    pub dirt: f64,
+    salt: u64,
+}
+
+/// Wavelength of the variations along the crack, metres.
+const ALONG_M: f64 = 0.02;
+
+impl Section {
+    /// The section of crack `id`.
+    pub fn of(id: u32) -> Self {
+        let h = |k: i64| hash3(i64::from(id), k, 0, 0x5ec7);
+        Self {
+            vee: h(1),
+            depth: 0.55 + 0.35 * h(2),
+            ragged: 0.3 * h(3),
+            spall: 1.5 * h(4) * h(4),
+            spall_depth: 0.08 + 0.17 * h(5),
+            dirt: 0.3 * h(6),
+            salt: u64::from(id) << 8,
+        }
+    }
+
+    /// Smooth noise in [0, 1] at arc length `s` along line `line`.
+    fn along(&self, line: usize, s: f64, channel: u64) -> f64 {
+        let q = s / ALONG_M;
+        let (i, f) = (q.floor(), q - q.floor());
+        let at = |k: f64| hash3(k as i64, line as i64, 0, self.salt ^ channel);
+        let f = f * f * (3.0 - 2.0 * f);
+        at(i) * (1.0 - f) + at(i + 1.0) * f
+    }
+
+    /// The opening's factor at arc length `s` of line `line`: between
+    /// 1 - `ragged` and 1, so the crack is never wider than its widest.
+    pub fn opening(&self, line: usize, s: f64) -> f64 {
+        1.0 - self.ragged * self.along(line, s, 1)
+    }
+
+    /// Share of light missing at `x` metres across the centre line of an
+    /// opening `width` wide, at arc length `s` of line `line`.
+    pub fn darkness(&self, line: usize, s: f64, x: f64, width: f64) -> f64 {
+        let half = width / 2.0;
+        if half <= 0.0 {
+            return 0.0;
+        }
+        let x = x.abs();
+        if x < half {
+            let depth = self.depth * (0.75 + 0.25 * self.along(line, s, 2));
+            let dirty = self.along(line, s, 3) < self.dirt;
+            let depth = if dirty { depth / 3.0 } else { depth };
+            let ramp = self.vee * half;
+            return if half - x >= ramp {
+                depth
+            } else {
+                depth * (half - x) / ramp
+            };
+        }
+        let shoulder = self.spall * half * (0.5 + self.along(line, s, 4));
+        if x < half + shoulder {
+            self.spall_depth * (1.0 - (x - half) / shoulder)
+        } else {
+            0.0
+        }
+    }
+
+    /// The darkness summed across the crack from `lo` to `hi` metres
+    /// across its centre line (metre-shares of light), exactly: the
+    /// section is straight between its corners, so one midpoint each
+    /// stretch between them sums it.
+    pub fn across(&self, line: usize, s: f64, lo: f64, hi: f64, width: f64) -> f64 {
+        let half = width / 2.0;
+        let shoulder = self.spall * half * (0.5 + self.along(line, s, 4));
+        let ramp = self.vee * half;
+        let mut corners = vec![lo, hi];
+        for c in [half + shoulder, half, half - ramp] {
+            corners.extend([-c, c]);
+        }
+        corners.retain(|c| (lo..=hi).contains(c));
+        corners.sort_by(f64::total_cmp);
+        corners
+            .windows(2)
+            .map(|w| (w[1] - w[0]) * self.darkness(line, s, (w[0] + w[1]) / 2.0, width))
+            .sum()
+    }
+
+    /// How far the darkness reaches from the centre line, metres, for an
+    /// opening `width` wide at its widest.
+    pub fn reach(&self, width: f64) -> f64 {
+        width / 2.0 * (1.0 + 1.5 * self.spall)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sections_range_from_u_to_v_with_spalls_and_dirt() {
+        let sections: Vec<Section> = (0..200).map(Section::of).collect();
+        assert!(sections.iter().any(|s| s.vee < 0.2) && sections.iter().any(|s| s.vee > 0.8));
+        assert!(sections.iter().any(|s| s.spall > 0.5));
+        assert_eq!(Section::of(7), Section::of(7));
+        let s = Section::of(3);
+        let w = 0.004;
+        // Darkest inside, a shoulder at most outside, nothing far off.
+        let inside = s.darkness(0, 0.1, 0.0, w);
+        assert!(inside > 0.1 && inside <= 0.9);
+        assert!(s.darkness(0, 0.1, w / 2.0 + 1e-6, w) <= s.spall_depth);
+        assert_eq!(s.darkness(0, 0.1, s.reach(w) * 1.5 + 0.01, w), 0.0);
+        // The opening varies along the crack within its raggedness.
+        let factors: Vec<f64> = (0..100)
+            .map(|k| s.opening(0, f64::from(k) * 0.005))
+            .collect();
+        assert!(
+            factors
+                .iter()
+                .all(|f| *f <= 1.0 && *f >= 1.0 - s.ragged - 1e-12)
+        );
+    }
+}
