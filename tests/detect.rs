@@ -35,6 +35,18 @@ fn assert_same_boxes(a: &[(i64, [f64; 4], String)], b: &[(i64, [f64; 4], String)
     }
 }
 
+/// A flight simulated with `sim_args` into `dir`/sim and ingested into
+/// `dir`/run: (the simulated flight, the run).
+fn ingested(dir: &Path, sim_args: &[&str]) -> (PathBuf, PathBuf) {
+    let sim = simulate_into(dir, "sim", sim_args);
+    let run = dir.join("run");
+    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
+    (sim, run)
+}
+
+/// 20 frames of 640 x 480 with many cracks.
+const SMALL_FLIGHT: [&str; 6] = ["--frames", "20", "--cracks", "80", "--seed", "4"];
+
 /// Detections scored against truth.json at box IoU >= 0.3.
 #[derive(Debug, Default, Clone, Copy)]
 struct Score {
@@ -100,13 +112,10 @@ fn edited_model(model: &Path, to: &Path, edit: &str) {
 #[test]
 fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = simulate_into(
+    let (sim, run) = ingested(
         dir.path(),
-        "sim",
         &["--frames", "60", "--cracks", "80", "--seed", "4"],
     );
-    let run = dir.path().join("run");
-    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
 
     let baked = models().join("crack-baked.onnx");
     let out = detect(&run, &["--model", baked.to_str().unwrap()]);
@@ -226,13 +235,10 @@ fn reference_detectors_find_simulated_cracks_through_both_interfaces() {
 #[test]
 fn tiles_find_cracks_that_a_shrunk_frame_loses() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = simulate_into(
+    let (sim, run) = ingested(
         dir.path(),
-        "sim",
         &["--frames", "20", "--width", "1920", "--height", "1080"],
     );
-    let run = dir.path().join("run");
-    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
     let truth = read_json(&sim.join("truth.json"));
     let baked = models().join("crack-baked.onnx");
 
@@ -308,13 +314,7 @@ fn assert_same_detections(a: &[(i64, [f64; 5], i64)], b: &[(i64, [f64; 5], i64)]
 #[test]
 fn models_with_their_own_input_convention_detect_as_the_network_does() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = simulate_into(
-        dir.path(),
-        "sim",
-        &["--frames", "20", "--cracks", "80", "--seed", "4"],
-    );
-    let run = dir.path().join("run");
-    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
+    let (_, run) = ingested(dir.path(), &SMALL_FLIGHT);
     let run_model = |model: &Path, args: &[&str]| {
         let all = [&["--model", model.to_str().unwrap()], args].concat();
         let out = detect(&run, &all);
@@ -364,13 +364,7 @@ fn models_with_their_own_input_convention_detect_as_the_network_does() {
 #[test]
 fn a_fixed_size_model_runs_on_tiles_without_a_flag() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = simulate_into(
-        dir.path(),
-        "sim",
-        &["--frames", "20", "--cracks", "80", "--seed", "4"],
-    );
-    let run = dir.path().join("run");
-    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
+    let (sim, run) = ingested(dir.path(), &SMALL_FLIGHT);
     let truth = read_json(&sim.join("truth.json"));
     let fixed = wrapped_semantic(dir.path(), "none", Some(256));
     let model = fixed.to_str().unwrap();
@@ -437,9 +431,8 @@ fn reference_detector_meets_recall_and_precision_on_a_tower_flight() {
 #[test]
 fn rust_matches_python_onnxruntime_on_the_same_frames() {
     let dir = tempfile::tempdir().unwrap();
-    let sim = simulate_into(
+    let (sim, run) = ingested(
         dir.path(),
-        "sim",
         &[
             "--frames",
             "20",
@@ -455,8 +448,6 @@ fn rust_matches_python_onnxruntime_on_the_same_frames() {
             "png",
         ],
     );
-    let run = dir.path().join("run");
-    ingest_ok(&sim.join("flight.mcap"), &run, &[]);
     let baked = models().join("crack-baked.onnx");
     let open = models().join("crack-open.onnx");
     let prompts = models().join("prompts.json");

@@ -23,13 +23,17 @@ pub struct Section {
     /// the share of light it lacks at the edge (fading to none).
     pub spall: f64,
     pub spall_depth: f64,
-    /// Share of the crack's length filled with dirt (its interior a third as dark).
+    /// Below this, the dirt's noise along the crack fills it (its interior
+    /// a third as dark): up to about a fifth of its length, in stretches
+    /// of centimetres.
     pub dirt: f64,
     salt: u64,
 }
 
 /// Wavelength of the variations along the crack, metres.
 const ALONG_M: f64 = 0.02;
+/// Wavelength of the dirt's stretches along the crack, metres.
+const DIRT_M: f64 = 0.1;
 
 impl Section {
     /// The section of crack `id`.
@@ -41,18 +45,24 @@ impl Section {
             ragged: 0.3 * h(3),
             spall: 1.5 * h(4) * h(4),
             spall_depth: 0.08 + 0.17 * h(5),
-            dirt: 0.3 * h(6),
+            dirt: 0.2 * h(6),
             salt: u64::from(id) << 8,
         }
     }
 
-    /// Smooth noise in [0, 1] at arc length `s` along line `line`.
-    fn along(&self, line: usize, s: f64, channel: u64) -> f64 {
-        let q = s / ALONG_M;
+    /// Smooth noise in [0, 1] at arc length `s` along line `line`, varying
+    /// over `wavelength` metres.
+    fn varying(&self, line: usize, s: f64, channel: u64, wavelength: f64) -> f64 {
+        let q = s / wavelength;
         let (i, f) = (q.floor(), q - q.floor());
         let at = |k: f64| hash3(k as i64, line as i64, 0, self.salt ^ channel);
         let f = f * f * (3.0 - 2.0 * f);
         at(i) * (1.0 - f) + at(i + 1.0) * f
+    }
+
+    /// [`Self::varying`] over [`ALONG_M`].
+    fn along(&self, line: usize, s: f64, channel: u64) -> f64 {
+        self.varying(line, s, channel, ALONG_M)
     }
 
     /// The opening's factor at arc length `s` of line `line`: between
@@ -71,7 +81,7 @@ impl Section {
         let x = x.abs();
         if x < half {
             let depth = self.depth * (0.75 + 0.25 * self.along(line, s, 2));
-            let dirty = self.along(line, s, 3) < self.dirt;
+            let dirty = self.varying(line, s, 3, DIRT_M) < self.dirt;
             let depth = if dirty { depth / 3.0 } else { depth };
             let ramp = self.vee * half;
             return if half - x >= ramp {
