@@ -358,7 +358,10 @@ def main():
     s.add_argument("runs", nargs="+")
     s.add_argument("--pair", nargs=4, metavar=("FINE_FLIGHT", "FINE_RUN", "COARSE_FLIGHT", "COARSE_RUN"))
     args = ap.parse_args()
-    write(args) if args.command == "write" else score(args)
+    if args.command == "write":
+        write(args)
+    else:
+        score(args)
 
 
 if __name__ == "__main__":

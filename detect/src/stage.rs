@@ -271,7 +271,7 @@ pub fn detect(
     let library = locate(options.onnxruntime.as_deref())?;
     let runtime = Runtime::start(library)?;
     let session = runtime.session(&options.model, options.settings.device)?;
-    let warnings: Vec<String> = session.warning.iter().cloned().collect();
+    let mut warnings: Vec<String> = session.warning.iter().cloned().collect();
     let device = session.device;
     let (mut detector, classes) = Detector::new(session.session, options)?;
 
@@ -303,7 +303,6 @@ pub fn detect(
         .map(|(fw, fh)| detector.feed.size.place(fw, fh).0)
         .unwrap_or((options.settings.image_size, options.settings.image_size));
     let tile = first.and_then(|(fw, fh)| detector.feed.tile(options, fw, fh));
-    let mut warnings = warnings;
     if let (None, InputSize::Fixed(mw, mh), Some((fw, fh))) = (tile, detector.feed.size, first) {
         let shrink = (fw as f32 / mw as f32).max(fh as f32 / mh as f32);
         if shrink > 1.5 {

@@ -67,16 +67,6 @@ pub enum Width {
 }
 
 impl Width {
-    /// The same kind of measure, `px` wide.
-    fn with_px(self, px: f64) -> Self {
-        match self {
-            Self::Masked { spread, .. } => Self::Masked { px, spread },
-            Self::Resolved { depth, .. } => Self::Resolved { px, depth },
-            Self::Integrated { .. } => Self::Integrated { px },
-            Self::Below { .. } => Self::Below { px },
-        }
-    }
-
     /// The width, or the bound it is below, in pixels.
     pub fn px(self) -> f64 {
         match self {
@@ -164,16 +154,19 @@ pub fn widths(
 /// integral is already a sum across it).
 fn along_the_line(points: Vec<Option<PointWidth>>, neighbours: &[Vec<usize>]) -> Vec<PointWidth> {
     let masked = |p: &Option<PointWidth>| match p.map(|p| p.width) {
-        Some(w @ Width::Masked { .. }) => Some(w.px()),
+        Some(Width::Masked { px, .. }) => Some(px),
         _ => None,
     };
     (0..points.len())
         .filter_map(|i| {
             let mut point = points[i]?;
-            if masked(&points[i]).is_some() {
+            if let Width::Masked { px, spread } = point.width {
                 let near = within(neighbours, i, SMOOTH_STEPS);
                 let smooth = median(near.iter().filter_map(|j| masked(&points[*j])).collect());
-                point.width = point.width.with_px(smooth.unwrap_or(point.width.px()));
+                point.width = Width::Masked {
+                    px: smooth.unwrap_or(px),
+                    spread,
+                };
             }
             Some(point)
         })
