@@ -74,9 +74,8 @@ def cell(i):
 
 def write(args):
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "fixtures"))
-    from write_flight import msgdef, ros_name, stamp  # the tests' ROS 2 message definitions
     from mcap.writer import CompressionType
-    from mcap_ros2.writer import Writer
+    from write_flight import stamp, write_messages  # the tests' ROS 2 writer
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -150,14 +149,7 @@ def write(args):
         "is_bigendian": False, "point_step": 12, "row_step": 12 * len(points),
         "data": points.tobytes(), "is_dense": True}, T0_NS + round(end_s * 1e9))
     messages.sort(key=lambda m: m[0])
-    with open(out / "flight.mcap", "wb") as stream:
-        writer = Writer(stream, compression=CompressionType.ZSTD)
-        schemas = {}
-        for seq, (ns, topic, typ, msg) in enumerate(messages):
-            if typ not in schemas:
-                schemas[typ] = writer.register_msgdef(ros_name(typ), msgdef(typ))
-            writer.write_message(topic, schemas[typ], msg, log_time=ns, publish_time=ns, sequence=seq)
-        writer.finish()
+    write_messages(out / "flight.mcap", messages, compression=CompressionType.ZSTD)
     (out / "photos.json").write_text(json.dumps({"gsd_mm": args.gsd, "frames": frames}, indent=1))
     print(f"real_cracks: {len(photos)} photos at {args.gsd} mm per pixel (f = {f:.0f} px) in {out}",
           file=sys.stderr)

@@ -82,23 +82,21 @@ impl DetectOptions {
                 "at least 32 pixels, auto or off",
             )?;
         }
-        for (key, values) in [
-            (keys::mean, self.settings.mean),
-            (keys::std, self.settings.std),
-        ] {
-            if let Some(v) = values {
-                InvalidSetting::check(
-                    v.iter().all(|c| c.is_finite() && c.abs() <= 1e3)
-                        && (key != keys::std || v.iter().all(|c| *c > 0.0)),
-                    key,
-                    format!("{},{},{}", v[0], v[1], v[2]),
-                    if key == keys::std {
-                        "three numbers above 0 (on 0..1, as 0.229,0.224,0.225)"
-                    } else {
-                        "three numbers (on 0..1, as 0.485,0.456,0.406)"
-                    },
-                )?;
-            }
+        if let Some(mean) = self.settings.mean {
+            InvalidSetting::check(
+                mean.iter().all(|c| c.is_finite() && c.abs() <= 1e3),
+                keys::mean,
+                format!("{},{},{}", mean[0], mean[1], mean[2]),
+                "three numbers (on 0..1, as 0.485,0.456,0.406)",
+            )?;
+        }
+        if let Some(std) = self.settings.std {
+            InvalidSetting::check(
+                std.iter().all(|c| c.is_finite() && *c > 0.0 && *c <= 1e3),
+                keys::std,
+                format!("{},{},{}", std[0], std[1], std[2]),
+                "three numbers above 0 (on 0..1, as 0.229,0.224,0.225)",
+            )?;
         }
         if let Some(scale) = self.settings.pixel_scale {
             InvalidSetting::check(
@@ -233,15 +231,15 @@ fn metadata(session: &ort::session::Session) -> HashMap<String, String> {
 }
 
 /// The model's stride from its metadata (Ultralytics writes `stride`).
-fn model_stride(session: &ort::session::Session) -> Option<u32> {
-    let stride = session.metadata().ok()?.custom("stride")?;
+fn model_stride(metadata: &HashMap<String, String>) -> Option<u32> {
+    let stride = metadata.get("stride")?;
     stride.trim().parse().ok().filter(|s| *s > 0)
 }
 
 /// Class names of a model with a baked vocabulary, from its `names` metadata
 /// (Ultralytics writes `{0: 'crack', 1: 'spalling'}`).
-fn baked_names(session: &ort::session::Session) -> Option<Vec<String>> {
-    let names = session.metadata().ok()?.custom("names")?;
+fn baked_names(metadata: &HashMap<String, String>) -> Option<Vec<String>> {
+    let names = metadata.get("names")?;
     let mut out = Vec::new();
     for entry in names
         .trim()
@@ -452,14 +450,16 @@ impl Detector {
             why,
         };
         let signature = Signature::of_session(&session).map_err(model_error)?;
+        // Read once: the stride, the class names and the input convention.
+        let metadata = metadata(&session);
         let size = match signature.input_size {
             Some((h, w)) => InputSize::Fixed(w, h),
             None => InputSize::Rect {
                 size: options.settings.image_size,
-                stride: model_stride(&session).unwrap_or(DetectOptions::DEFAULT_STRIDE),
+                stride: model_stride(&metadata).unwrap_or(DetectOptions::DEFAULT_STRIDE),
             },
         };
-        let declared = Declared::of(&metadata(&session)).map_err(model_error)?;
+        let declared = Declared::of(&metadata).map_err(model_error)?;
         let feed = Feed {
             size,
             convention: convention::resolve(&options.settings, &declared),
@@ -467,7 +467,7 @@ impl Detector {
         let (text, names) = match &signature.vocabulary {
             Vocabulary::Baked => (
                 None,
-                baked_names(&session).unwrap_or_else(|| options.settings.prompts.clone()),
+                baked_names(&metadata).unwrap_or_else(|| options.settings.prompts.clone()),
             ),
             Vocabulary::Embeddings { input, dim } => {
                 let path = options.settings.embeddings.as_deref().ok_or_else(|| {
