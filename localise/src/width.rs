@@ -618,6 +618,24 @@ mod tests {
     }
 
     #[test]
+    fn a_mask_a_pixel_too_wide_or_over_bare_surface_does_not_widen_the_crack() {
+        // A model's mask a pixel outside each edge of a crack a few pixels
+        // wide: the half depth, not the mean of the two.
+        let (img, centre, edges) = crack_image(3.5, 0.5, 9);
+        let found = widths(&img, Some(&crack_mask(5.5, 0.5)), &centre, &edges, 0.85);
+        let mid = found[found.len() / 2].width;
+        assert!(matches!(mid, Width::Masked { .. }), "{mid:?}");
+        assert!((mid.px() - 3.5).abs() < 0.15 * 3.5, "{mid:?}");
+        // A mask where the grey levels show no crack: not the mask's extent.
+        let (img, centre, edges) = crack_image(0.0, 0.5, 9);
+        let found = widths(&img, Some(&crack_mask(7.0, 0.5)), &centre, &edges, 0.85);
+        assert!(
+            found.iter().all(|p| !matches!(p.width, Width::Masked { .. })),
+            "{found:?}"
+        );
+    }
+
+    #[test]
     fn a_crack_fainter_than_the_noise_is_below_a_limit() {
         let (_, kind) = median_width(0.03, 0.4);
         let Width::Below { px } = kind else {
