@@ -630,7 +630,9 @@ mod tests {
         let (img, centre, edges) = crack_image(0.0, 0.5, 9);
         let found = widths(&img, Some(&crack_mask(7.0, 0.5)), &centre, &edges, 0.85);
         assert!(
-            found.iter().all(|p| !matches!(p.width, Width::Masked { .. })),
+            found
+                .iter()
+                .all(|p| !matches!(p.width, Width::Masked { .. })),
             "{found:?}"
         );
     }
