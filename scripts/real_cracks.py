@@ -5,6 +5,7 @@ docs/evaluation.md's "Real cracks" figures come from.
 
     real_cracks.py write --photos DIR --gsd MM --out DIR [--limit N] [--downsample K]
     real_cracks.py score FLIGHT RUN [FLIGHT RUN ...] [--pair FLIGHT RUN FLIGHT RUN]
+    real_cracks.py darkness --photos DIR [--limit N]
 
 `write` lays each photo (with its mask `lab/NAME_mask.png` beside `img/`)
 on a flat surface: a camera 1.2 m above it looking straight down, one
@@ -34,6 +35,9 @@ PointCloud2 map) with the official `mcap-ros2-support` writer, and
 `--pair` compares two runs of the same photos at two GSDs: candidates
 matched by photo and trace, and whether their widths agree within the
 sum of their uncertainties.
+
+`darkness` says how dark the photos' cracks are for their drawn width
+(see its function).
 """
 
 import argparse
@@ -351,6 +355,47 @@ def score(args):
         pair(scored_run(*args.pair[:2]), scored_run(*args.pair[2:]))
 
 
+def darkness(args):
+    """How dark real cracks are for their width: at points along each
+    mask's medial axis, the darkness summed across the crack (grey levels
+    below the surface's, sampled every quarter pixel out to 10 px on the
+    axis's normal; the surface the median beyond 7 px) over the surface's
+    brightness and the drawn width, by that width. A crack `w` px wide
+    whose interior lacks a share `C` of the light sums to `C w`: this is
+    the `C` the darkness integral assumes (`--crack-darkness`)."""
+    from scipy import ndimage
+    from scipy.spatial import cKDTree
+
+    t = np.arange(-10, 10.001, 0.25)
+    shares = []
+    for photo in photos_in(args.photos, args.limit):
+        truth = truth_of(str(photo))
+        gray = np.asarray(Image.open(photo).convert("L"), dtype=float)
+        axis = truth.skeleton[::SUB * 3]
+        if len(axis) < 2:
+            continue
+        tree = cKDTree(truth.skeleton)
+        for x, y in axis:
+            near = truth.skeleton[tree.query_ball_point([x, y], 4.0)]
+            if len(near) < 4:
+                continue
+            _, _, vt = np.linalg.svd(near - near.mean(axis=0))
+            nx, ny = -vt[0][1], vt[0][0]
+            grey = ndimage.map_coordinates(gray, [y + t * ny, x + t * nx], order=1, mode="nearest")
+            drawn = ndimage.map_coordinates(truth.on.astype(float), [y + t * ny, x + t * nx], order=0)
+            surface = np.median(grey[np.abs(t) >= 7])
+            width = drawn.sum() * 0.25
+            if surface > 0 and width > 0:
+                shares.append((width, np.clip(surface - grey, 0, None).sum() * 0.25 / (surface * width)))
+    shares = np.array(shares)
+    print("| drawn width | points | darkness summed over surface x width, median |")
+    print("|---|---|---|")
+    for low, high in [(1, 3), (3, 5), (5, 7), (7, 10), (10, 15)]:
+        band = shares[(shares[:, 0] >= low) & (shares[:, 0] < high)]
+        if len(band):
+            print(f"| {low}-{high} px | {len(band)} | {np.median(band[:, 1]):.2f} |")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="command", required=True)
@@ -363,11 +408,11 @@ def main():
     s = sub.add_parser("score")
     s.add_argument("runs", nargs="+")
     s.add_argument("--pair", nargs=4, metavar=("FINE_FLIGHT", "FINE_RUN", "COARSE_FLIGHT", "COARSE_RUN"))
+    d = sub.add_parser("darkness")
+    d.add_argument("--photos", required=True)
+    d.add_argument("--limit", type=int, default=0)
     args = ap.parse_args()
-    if args.command == "write":
-        write(args)
-    else:
-        score(args)
+    {"write": write, "score": score, "darkness": darkness}[args.command](args)
 
 
 if __name__ == "__main__":
