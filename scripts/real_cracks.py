@@ -182,12 +182,17 @@ class Truth:
         # Widths on the mask's medial axis: skeleton and distances of the
         # mask drawn SUB times finer, so the axis of a crack an even number
         # of pixels wide runs down its middle (on pixel centres it runs a
-        # half pixel off, and scores a 4 px crack 3 px wide).
+        # half pixel off, and scores a 4 px crack 3 px wide). A fine
+        # pixel's distance to the nearest fine pixel off the mask is half a
+        # fine pixel more than to the near edge, and the fine axis of a
+        # crack (an even number of fine pixels wide) runs half a fine pixel
+        # nearer that edge than the far one: twice that distance is the
+        # width (a crack w px wide, 4w fine pixels, scores w).
         fine = np.kron(self.on, np.ones((SUB, SUB), dtype=bool))
         inside = ndimage.distance_transform_edt(fine)
         ys, xs = np.nonzero(skeletonize(fine))
         self.skeleton = np.stack([(xs + 0.5) / SUB - 0.5, (ys + 0.5) / SUB - 0.5], axis=1)
-        self.widths = 2.0 * (inside[ys, xs] - 0.5) / SUB
+        self.widths = 2.0 * inside[ys, xs] / SUB
 
     def near(self, pts):
         """Each point's distance to the mask, pixels."""

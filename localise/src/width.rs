@@ -221,9 +221,9 @@ impl Across {
 /// none. A model's mask edges lie about a pixel outside a thin crack's
 /// (its map is blurred over its receptive field): on Crack500's test
 /// photos, at the centre line's points where the annotators' masks say 2
-/// to 4 px, the model's masks came out 33 to 67% wider, against 4 to 18% at half depth. The half
-/// depth misses a wide crack's V or U shoulders: cracks over 6 px came out
-/// 28 to 35% narrower at half depth, 1 to 13% by the mask.
+/// to 4 px, the model's masks came out 39 to 74% wider, the half depth 7
+/// to 34%. The half depth misses a wide crack's V or U shoulders: where
+/// they say over 6 px, it came out 19 to 25% narrower, the mask 3 to 14%.
 const MASK_FROM_PX: f64 = 2.0 * RESOLVED_PX;
 /// Noise sigmas a crack's depth must pass for its half-depth width to
 /// count where the mask already says a crack is there.
