@@ -62,8 +62,7 @@ pub enum Width {
     /// their blend (see [`MASK_FROM_PX`]), pixels, and half the difference
     /// between the two.
     Masked { px: f64, spread: f64 },
-    /// Wide enough to see both edges: full width at half depth (a flat
-    /// bottom) or a quarter depth (sloped flanks), pixels.
+    /// Wide enough to see both edges: full width at half depth, pixels.
     Resolved { px: f64, depth: f64 },
     /// Thinner: the darkness integral over the crack's depth, pixels.
     Integrated { px: f64 },
@@ -130,13 +129,10 @@ pub fn widths(
         .collect();
     let measured = profiles.iter().flatten().count();
     let has_stretches = depths.len() as f64 >= (MIN_RESOLVED_SHARE * measured as f64).max(5.0);
-    let whole = Whole {
-        share: if has_stretches {
-            median(depths).unwrap_or(interior)
-        } else {
-            interior
-        },
-        has_stretches,
+    let share = if has_stretches {
+        median(depths).unwrap_or(interior)
+    } else {
+        interior
     };
     let points: Vec<Option<PointWidth>> = profiles
         .into_iter()
@@ -146,7 +142,7 @@ pub fn widths(
             Some(PointWidth {
                 at: *at,
                 across,
-                width: a.measure(&whole),
+                width: a.measure(share, has_stretches),
             })
         })
         .collect();
@@ -200,7 +196,7 @@ impl Across {
     /// shows the crack thinner than that, or where it shows no dark line
     /// at all, so the mask there marks a stain or the surface's texture),
     /// the profile's alone.
-    fn measure(&self, whole: &Whole) -> Width {
+    fn measure(&self, share: f64, has_stretches: bool) -> Width {
         let masked = self.masked.filter(|px| *px >= RESOLVED_PX);
         let confirmed = masked.and_then(|mask_px| {
             let (profile_px, _) = half_depth(&self.profile, mask_px / 2.0)?;
@@ -215,7 +211,7 @@ impl Across {
                     spread: (profile_px - mask_px).abs() / 2.0,
                 }
             }
-            None => measure(&self.profile, whole, masked.is_some()),
+            None => measure(&self.profile, share, has_stretches),
         }
     }
 }
@@ -336,27 +332,14 @@ fn dark_extent(p: &Profile) -> f64 {
     side(1).max(side(-1))
 }
 
-/// What a crack as a whole tells the measure of each of its points.
-struct Whole {
-    /// The share of the surface's brightness its interior lacks.
-    share: f64,
-    /// Whether it has resolved (flat-bottomed) stretches.
-    has_stretches: bool,
-}
-
-/// The width from one profile: at half depth where the crack has resolved
-/// stretches and this point is one; at a quarter depth where it slopes
-/// (see [`sloped`]) and no mask spans it (`spanned`: one that does but
-/// shows no dark line marks a stain or texture, not a wide crack); else
-/// the darkness integral over the interior's darkness.
-fn measure(p: &Profile, whole: &Whole, spanned: bool) -> Width {
-    if let Some((px, depth)) = resolved(p).filter(|_| whole.has_stretches) {
+/// The width from one profile, with `share` the interior's darkness as a
+/// share of the surface's brightness; measured at half depth only where
+/// the crack has resolved stretches.
+fn measure(p: &Profile, share: f64, has_stretches: bool) -> Width {
+    if let Some((px, depth)) = resolved(p).filter(|_| has_stretches) {
         return Width::Resolved { px, depth };
     }
-    if let Some((px, depth)) = sloped(p).filter(|_| !spanned) {
-        return Width::Resolved { px, depth };
-    }
-    let depth = whole.share * p.surface;
+    let depth = share * p.surface;
     // The crack's darkness near the line, not a neighbour's further out.
     let core: f64 =
         p.t.iter()
@@ -374,31 +357,6 @@ fn measure(p: &Profile, whole: &Whole, spanned: bool) -> Width {
     }
     Width::Integrated { px: core / depth }
 }
-
-/// The width at a quarter of its depth of a crack wider than the image's
-/// blur ([`SLOPED_FROM_PX`] at half depth or more) with no flat bottom:
-/// (width px, depth grey levels). A V or U section's flanks slope from its
-/// edges, so its half depth reads only part of its opening (half of a
-/// V's) and its darkness summed across it less than an interior of the
-/// assumed darkness would give (real cracks 3 px and wider sum to 0.39 to
-/// 0.59 of their width, docs/evaluation.md); a quarter depth reads three
-/// quarters of a V's and all of a U's, and the blur widens it by little.
-/// Where the detector's mask spans the crack, the mask measures it instead.
-fn sloped(p: &Profile) -> Option<(f64, f64)> {
-    let centre = p.t.iter().position(|t| t.abs() < STEP / 2.0)?;
-    let depth = p.dark[centre.saturating_sub(2)..=(centre + 2).min(p.dark.len() - 1)]
-        .iter()
-        .copied()
-        .fold(0.0, f64::max);
-    if edges_at_half(p, centre, depth, FOUND_SIGMAS)? < SLOPED_FROM_PX {
-        return None;
-    }
-    // The edges at half of half the depth.
-    Some((edges_at_half(p, centre, depth / 2.0, 0.0)?, depth))
-}
-
-/// Half-depth width from which a crack's profile shows its flanks, pixels.
-const SLOPED_FROM_PX: f64 = 2.0;
 
 /// Full width at half depth where the profile shows a flat-bottomed crack
 /// at least [`RESOLVED_PX`] wide: (width px, depth grey levels).
