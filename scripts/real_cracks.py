@@ -194,22 +194,22 @@ class Truth:
         self.skeleton = np.stack([(xs + 0.5) / SUB - 0.5, (ys + 0.5) / SUB - 0.5], axis=1)
         self.widths = 2.0 * inside[ys, xs] / SUB
 
+    def pixels(self, pts):
+        """Each point's pixel (row and column indices), clipped to the mask."""
+        h, w = self.on.shape
+        return (np.clip(np.floor(pts[:, 1]).astype(int), 0, h - 1),
+                np.clip(np.floor(pts[:, 0]).astype(int), 0, w - 1))
+
     def near(self, pts):
         """Each point's distance to the mask, pixels."""
-        h, w = self.on.shape
-        xi = np.clip(np.floor(pts[:, 0]).astype(int), 0, w - 1)
-        yi = np.clip(np.floor(pts[:, 1]).astype(int), 0, h - 1)
-        return self.to_crack[yi, xi]
+        return self.to_crack[self.pixels(pts)]
 
     def touched(self, pts):
         """Components some point comes within NEAR_PX of."""
         from scipy import ndimage
 
-        h, w = self.on.shape
         hit = np.zeros_like(self.on)
-        xi = np.clip(np.floor(pts[:, 0]).astype(int), 0, w - 1)
-        yi = np.clip(np.floor(pts[:, 1]).astype(int), 0, h - 1)
-        hit[yi, xi] = True
+        hit[self.pixels(pts)] = True
         hit = ndimage.binary_dilation(hit, iterations=int(NEAR_PX))
         return set(np.unique(self.labels[hit & self.on])) & set(self.components)
 
