@@ -84,8 +84,8 @@ pub struct Placement {
 /// [`WIDTH_UNCERTAINTY_PX`] where most show both edges, else to a third of
 /// the noise limit, within a tenth of a pixel and that, to the mask's
 /// whole-pixel edges where a mask measured it, and to how irregular the
-/// crack is (how far its mask and its profile disagree, half
-/// the spread of its widest stretches) besides; with none measured,
+/// crack is (how far its mask and its profile, or a sloping profile's
+/// levels, disagree; half the spread of its widest stretches) besides; with none measured,
 /// narrower than the points' median limit.
 fn view_width(points: &[(Width, f64)]) -> Option<WidthRecord> {
     let mm = |keep: fn(&Width) -> bool| -> Vec<f64> {
@@ -107,25 +107,20 @@ fn view_width(points: &[(Width, f64)]) -> Option<WidthRecord> {
             mm_per_px,
         });
     }
-    let resolved = points
-        .iter()
-        .filter(|(w, _)| matches!(w, Width::Resolved { .. } | Width::Masked { .. }))
-        .count();
+    let resolved = points.iter().filter(|(w, _)| w.spans()).count();
     let most_px = WIDTH_UNCERTAINTY_PX * mm_per_px;
     let limit = if 2 * resolved >= measured.len() {
         most_px
     } else {
         (limit_mm.unwrap_or(0.0) / 3.0).clamp(mm_per_px / 10.0, most_px)
     };
-    // How irregular the crack is: where the mask and the profile disagree
-    // on its width, and how much its widest stretches differ.
+    // How irregular the crack is: where the mask and the profile, or a
+    // sloping profile's levels, disagree on its width, and how much its
+    // widest stretches differ.
     let disagreement = median(
         points
             .iter()
-            .filter_map(|(w, scale)| match w {
-                Width::Masked { spread, .. } => Some(spread * scale),
-                _ => None,
-            })
+            .filter_map(|(w, scale)| Some(w.spread()? * scale))
             .collect(),
     )
     .unwrap_or(0.0);

@@ -62,8 +62,14 @@ pub enum Width {
     /// their blend (see [`MASK_FROM_PX`]), pixels, and half the difference
     /// between the two.
     Masked { px: f64, spread: f64 },
-    /// Wide enough to see both edges: full width at half depth, pixels.
+    /// Wide enough to see both edges, with a flat bottom: full width at
+    /// half depth, pixels.
     Resolved { px: f64, depth: f64 },
+    /// Wider than the blur with sloping flanks and no mask spanning it:
+    /// full width at a quarter of its depth (see [`sloped`]), pixels, and
+    /// half the difference from its width at half depth (how far its
+    /// flanks leave the opening uncertain).
+    Sloped { px: f64, spread: f64 },
     /// Thinner: the darkness integral over the crack's depth, pixels.
     Integrated { px: f64 },
     /// Fainter than the noise: narrower than this many pixels.
@@ -76,9 +82,24 @@ impl Width {
         match self {
             Self::Masked { px, .. }
             | Self::Resolved { px, .. }
+            | Self::Sloped { px, .. }
             | Self::Integrated { px }
             | Self::Below { px } => px,
         }
+    }
+
+    /// How uncertain the crack's shape leaves this width, pixels: where a
+    /// mask and the profile, or a sloped profile's levels, disagree.
+    pub fn spread(self) -> Option<f64> {
+        match self {
+            Self::Masked { spread, .. } | Self::Sloped { spread, .. } => Some(spread),
+            _ => None,
+        }
+    }
+
+    /// Whether it spans the crack (both edges seen), not a sum or a bound.
+    pub fn spans(self) -> bool {
+        !matches!(self, Self::Integrated { .. } | Self::Below { .. })
     }
 }
 
@@ -128,11 +149,23 @@ pub fn widths(
         .filter_map(|(_, a)| resolved(&a.profile).map(|(_, depth)| depth / a.profile.surface))
         .collect();
     let measured = profiles.iter().flatten().count();
-    let has_stretches = depths.len() as f64 >= (MIN_RESOLVED_SHARE * measured as f64).max(5.0);
-    let share = if has_stretches {
-        median(depths).unwrap_or(interior)
-    } else {
-        interior
+    let stretches = |n: usize| n as f64 >= (MIN_RESOLVED_SHARE * measured as f64).max(5.0);
+    let has_stretches = stretches(depths.len());
+    let slopes = stretches(
+        profiles
+            .iter()
+            .flatten()
+            .filter(|(_, a)| a.masked.is_none() && sloped(&a.profile).is_some())
+            .count(),
+    );
+    let whole = Whole {
+        share: if has_stretches {
+            median(depths).unwrap_or(interior)
+        } else {
+            interior
+        },
+        has_stretches,
+        slopes,
     };
     let points: Vec<Option<PointWidth>> = profiles
         .into_iter()
@@ -142,34 +175,40 @@ pub fn widths(
             Some(PointWidth {
                 at: *at,
                 across,
-                width: a.measure(share, has_stretches),
+                width: a.measure(&whole),
             })
         })
         .collect();
     along_the_line(points, &neighbours)
 }
 
-/// Each point measured with the mask, its width the median of those so
-/// measured within [`SMOOTH_STEPS`] centre-line pixels of it: a crack's
-/// width is a stretch's, and one crossing of a real crack's mask and
-/// profile is noisy (a speck of aggregate, a ragged edge, a bend the normal
-/// misjudges), which its widest point would otherwise pick out. Points
-/// the profile alone measures keep their own (a thin crack's darkness
-/// integral is already a sum across it).
+/// Each point measured across both edges by the mask or sloping flanks,
+/// its width the median of those so measured within [`SMOOTH_STEPS`]
+/// centre-line pixels of it: a crack's width is a stretch's, and one
+/// crossing of a real crack is noisy (a speck of aggregate, a ragged edge,
+/// a bend the normal misjudges), which its widest point would otherwise
+/// pick out. Points with a flat bottom or a darkness integral keep their
+/// own (the one is already steady, the other a sum across the crack).
 fn along_the_line(points: Vec<Option<PointWidth>>, neighbours: &[Vec<usize>]) -> Vec<PointWidth> {
-    let masked = |p: &Option<PointWidth>| match p.map(|p| p.width) {
-        Some(Width::Masked { px, .. }) => Some(px),
-        _ => None,
-    };
+    let smoothed = |w: Width| matches!(w, Width::Masked { .. } | Width::Sloped { .. });
     (0..points.len())
         .filter_map(|i| {
             let mut point = points[i]?;
-            if let Width::Masked { px, spread } = point.width {
+            if smoothed(point.width) {
+                let kind = std::mem::discriminant(&point.width);
                 let near = within(neighbours, i, SMOOTH_STEPS);
-                let smooth = median(near.iter().filter_map(|j| masked(&points[*j])).collect());
-                point.width = Width::Masked {
-                    px: smooth.unwrap_or(px),
-                    spread,
+                let px = median(
+                    near.iter()
+                        .filter_map(|j| points[*j])
+                        .filter(|p| std::mem::discriminant(&p.width) == kind)
+                        .map(|p| p.width.px())
+                        .collect(),
+                )
+                .unwrap_or(point.width.px());
+                point.width = match point.width {
+                    Width::Masked { spread, .. } => Width::Masked { px, spread },
+                    Width::Sloped { spread, .. } => Width::Sloped { px, spread },
+                    other => other,
                 };
             }
             Some(point)
@@ -196,7 +235,7 @@ impl Across {
     /// shows the crack thinner than that, or where it shows no dark line
     /// at all, so the mask there marks a stain or the surface's texture),
     /// the profile's alone.
-    fn measure(&self, share: f64, has_stretches: bool) -> Width {
+    fn measure(&self, whole: &Whole) -> Width {
         let masked = self.masked.filter(|px| *px >= RESOLVED_PX);
         let confirmed = masked.and_then(|mask_px| {
             let (profile_px, _) = half_depth(&self.profile, mask_px / 2.0)?;
@@ -211,7 +250,7 @@ impl Across {
                     spread: (profile_px - mask_px).abs() / 2.0,
                 }
             }
-            None => measure(&self.profile, share, has_stretches),
+            None => measure(&self.profile, whole, masked.is_some()),
         }
     }
 }
@@ -332,14 +371,29 @@ fn dark_extent(p: &Profile) -> f64 {
     side(1).max(side(-1))
 }
 
-/// The width from one profile, with `share` the interior's darkness as a
-/// share of the surface's brightness; measured at half depth only where
-/// the crack has resolved stretches.
-fn measure(p: &Profile, share: f64, has_stretches: bool) -> Width {
-    if let Some((px, depth)) = resolved(p).filter(|_| has_stretches) {
+/// What a crack as a whole tells the measure of each of its points.
+struct Whole {
+    /// The share of the surface's brightness its interior lacks.
+    share: f64,
+    /// Whether it has resolved (flat-bottomed) stretches.
+    has_stretches: bool,
+    /// Whether it has sloped stretches (see [`sloped`]).
+    slopes: bool,
+}
+
+/// The width from one profile: at half depth where the crack has resolved
+/// stretches and this point is one; at a quarter depth where it slopes
+/// (see [`sloped`]) and no mask spans it (`spanned`: one that does but
+/// shows no dark line marks a stain or texture, not a wide crack); else
+/// the darkness integral over the interior's darkness.
+fn measure(p: &Profile, whole: &Whole, spanned: bool) -> Width {
+    if let Some((px, depth)) = resolved(p).filter(|_| whole.has_stretches) {
         return Width::Resolved { px, depth };
     }
-    let depth = share * p.surface;
+    if let Some(width) = sloped(p).filter(|_| whole.slopes && !spanned) {
+        return width;
+    }
+    let depth = whole.share * p.surface;
     // The crack's darkness near the line, not a neighbour's further out.
     let core: f64 =
         p.t.iter()
@@ -358,6 +412,36 @@ fn measure(p: &Profile, share: f64, has_stretches: bool) -> Width {
     Width::Integrated { px: core / depth }
 }
 
+/// The width of a crack wider than the image's blur ([`SLOPED_FROM_PX`]
+/// at half depth or more) with no flat bottom, at a quarter of its depth.
+/// A V or U section's flanks slope from its edges, so its half depth
+/// reads only part of its opening (half of a V's) and its darkness summed
+/// across it less than an interior of the assumed darkness would give
+/// (real cracks 3 px and wider sum to 0.39 to 0.59 of their width,
+/// docs/evaluation.md); a quarter depth reads three quarters of a V's and
+/// all of a U's, and the blur widens it by little. How far the two levels
+/// differ says how far the flanks leave the opening uncertain.
+fn sloped(p: &Profile) -> Option<Width> {
+    let centre = p.t.iter().position(|t| t.abs() < STEP / 2.0)?;
+    let depth = p.dark[centre.saturating_sub(2)..=(centre + 2).min(p.dark.len() - 1)]
+        .iter()
+        .copied()
+        .fold(0.0, f64::max);
+    let half = edges_at_half(p, centre, depth, FOUND_SIGMAS)?;
+    if half < SLOPED_FROM_PX {
+        return None;
+    }
+    // The edges at half of half the depth.
+    let quarter = edges_at_half(p, centre, depth / 2.0, 0.0)?;
+    Some(Width::Sloped {
+        px: quarter,
+        spread: (quarter - half) / 2.0,
+    })
+}
+
+/// Half-depth width from which a crack's profile shows its flanks, pixels.
+const SLOPED_FROM_PX: f64 = 2.0;
+
 /// Full width at half depth where the profile shows a flat-bottomed crack
 /// at least [`RESOLVED_PX`] wide: (width px, depth grey levels).
 fn resolved(p: &Profile) -> Option<(f64, f64)> {
@@ -367,11 +451,12 @@ fn resolved(p: &Profile) -> Option<(f64, f64)> {
         .copied()
         .fold(0.0, f64::max);
     let width = edges_at_half(p, centre, depth, FOUND_SIGMAS)?;
-    // A flat bottom: the middle third of the crack is nearly as dark as its deepest.
+    // A flat bottom: the middle two thirds of the crack are nearly as dark
+    // as its deepest (a V's darkness falls to two thirds there).
     let flat =
         p.t.iter()
             .zip(&p.dark)
-            .filter(|(t, _)| t.abs() <= width / 6.0)
+            .filter(|(t, _)| t.abs() <= width / 3.0)
             .all(|(_, d)| *d >= 0.8 * depth);
     (width >= RESOLVED_PX && flat).then_some((width, depth))
 }
@@ -522,6 +607,18 @@ mod tests {
         angle: f64,
         seed: u32,
     ) -> (GrayImage, Vec<Point2<f64>>, Vec<(u32, u32)>) {
+        section_image(w, 0.0, angle, seed)
+    }
+
+    /// [`crack_image`] with a section from a flat-bottomed slot (`vee` 0)
+    /// to a V (1): the interior ramps to its full darkness over that share
+    /// of the half width from each edge.
+    fn section_image(
+        w: f64,
+        vee: f64,
+        angle: f64,
+        seed: u32,
+    ) -> (GrayImage, Vec<Point2<f64>>, Vec<(u32, u32)>) {
         let (dx, dy) = (angle.cos(), angle.sin());
         let mut img = GrayImage::new(64, 64);
         let mut state = seed.wrapping_mul(2_654_435_761).max(1);
@@ -533,8 +630,10 @@ mod tests {
                         f64::from(x) + (f64::from(sx) + 0.5) / 16.0 - 32.0,
                         f64::from(y) + (f64::from(sy) + 0.5) / 16.0 - 32.0,
                     );
-                    if (px * dy - py * dx).abs() <= w / 2.0 {
-                        covered += 1.0 / 256.0;
+                    let inside = w / 2.0 - (px * dy - py * dx).abs();
+                    if inside >= 0.0 {
+                        let ramp = vee * w / 2.0;
+                        covered += (inside / ramp).min(1.0) / 256.0;
                     }
                 }
             }
@@ -580,6 +679,22 @@ mod tests {
             if w >= 3.5 {
                 assert!(matches!(kind, Width::Resolved { .. }), "{w}: {kind:?}");
             }
+        }
+    }
+
+    #[test]
+    fn a_v_section_without_a_mask_is_read_at_a_quarter_of_its_depth() {
+        for (w, vee, angle) in [(5.0, 1.0, 0.3), (8.0, 1.0, 1.1), (11.0, 1.0, 0.0)] {
+            let (img, centre, edges) = section_image(w, vee, angle, 11);
+            let found = widths(&img, None, &centre, &edges, 0.85);
+            let mid = found[found.len() / 2].width;
+            let Width::Sloped { px, spread } = mid else {
+                panic!("{w} px, vee {vee}: {mid:?}");
+            };
+            // Half depth reads a V's middle half; a quarter depth, all but
+            // its last eighths, which the uncertainty says.
+            assert!((px - w).abs() < 0.25 * w, "{w} px, vee {vee}: {mid:?}");
+            assert!((px - w).abs() < 2.5 * spread, "{w} px, vee {vee}: {mid:?}");
         }
     }
 
