@@ -6,7 +6,7 @@
 //! (its mask, or its own dark extent) so the surface is read outside it.
 //!
 //! - Where the detector segments the crack, its mask spans several pixels
-//!   there and the profile shows a dark line at least as wide: a blend of
+//!   there and the profile shows a dark line with its edges apart: a blend of
 //!   the mask's extent across the line and the profile's width at half
 //!   depth, the mask's share growing with the crack. A trained model marks
 //!   a wide crack's full width (ragged and spalled edges, V and U sections,
@@ -17,9 +17,11 @@
 //! Elsewhere (the mask alone, with no dark line in the grey levels, marks
 //! a stain or the surface's texture) the profile alone measures:
 //!
-//! - where the crack spans several pixels, its full width at half its depth
-//!   (the edges found to a fraction of a pixel by interpolation), as a mask
-//!   of the crack's pixels would give it;
+//! - where the crack spans several pixels with a flat bottom, its full
+//!   width at half its depth (the edges found to a fraction of a pixel by
+//!   interpolation), as a mask of the crack's pixels would give it;
+//! - where it is wider than the blur without one (a V or U section, in a
+//!   stretch of such points), its full width at a quarter of its depth;
 //! - where it is thinner, its *darkness integral*: a crack `w` pixels wide
 //!   whose interior lacks `C` grey levels of the surface's brightness darkens
 //!   the profile by `w * C` summed across it, however the lens, the sensor
@@ -228,18 +230,18 @@ struct Across {
 
 impl Across {
     /// The width: where the mask spans the crack and the grey levels
-    /// confirm a dark line there, the profile's full width at half depth
-    /// for a crack a few pixels wide, the mask's extent for a wide one, and
-    /// a blend between (see [`MASK_FROM_PX`]); elsewhere (off the mask,
-    /// where the mask spans less than [`RESOLVED_PX`], where the profile
-    /// shows the crack thinner than that, or where it shows no dark line
-    /// at all, so the mask there marks a stain or the surface's texture),
-    /// the profile's alone.
+    /// confirm a dark line there with its edges apart ([`EDGES_APART_PX`]),
+    /// the profile's full width at half depth for a crack a few pixels
+    /// wide, the mask's extent for a wide one, and a blend between (see
+    /// [`MASK_FROM_PX`]); elsewhere (off the mask, where the mask spans
+    /// less than [`RESOLVED_PX`], where the profile shows the crack
+    /// thinner, or where it shows no dark line at all, so the mask there
+    /// marks a stain or the surface's texture), the profile's alone.
     fn measure(&self, whole: &Whole) -> Width {
         let masked = self.masked.filter(|px| *px >= RESOLVED_PX);
         let confirmed = masked.and_then(|mask_px| {
             let (profile_px, _) = half_depth(&self.profile, mask_px / 2.0)?;
-            Some((mask_px, profile_px)).filter(|_| profile_px >= RESOLVED_PX)
+            Some((mask_px, profile_px)).filter(|_| profile_px >= EDGES_APART_PX)
         });
         match confirmed {
             Some((mask_px, profile_px)) => {
@@ -412,7 +414,7 @@ fn measure(p: &Profile, whole: &Whole, spanned: bool) -> Width {
     Width::Integrated { px: core / depth }
 }
 
-/// The width of a crack wider than the image's blur ([`SLOPED_FROM_PX`]
+/// The width of a crack wider than the image's blur ([`EDGES_APART_PX`]
 /// at half depth or more) with no flat bottom, at a quarter of its depth.
 /// A V or U section's flanks slope from its edges, so its half depth
 /// reads only part of its opening (half of a V's) and its darkness summed
@@ -428,7 +430,7 @@ fn sloped(p: &Profile) -> Option<Width> {
         .copied()
         .fold(0.0, f64::max);
     let half = edges_at_half(p, centre, depth, FOUND_SIGMAS)?;
-    if half < SLOPED_FROM_PX {
+    if half < EDGES_APART_PX {
         return None;
     }
     // The edges at half of half the depth.
@@ -439,8 +441,9 @@ fn sloped(p: &Profile) -> Option<Width> {
     })
 }
 
-/// Half-depth width from which a crack's profile shows its flanks, pixels.
-const SLOPED_FROM_PX: f64 = 2.0;
+/// Half-depth width from which a profile shows a crack's two edges apart
+/// (its flanks), not a thinner line's blur, pixels.
+const EDGES_APART_PX: f64 = 2.0;
 
 /// Full width at half depth where the profile shows a flat-bottomed crack
 /// at least [`RESOLVED_PX`] wide: (width px, depth grey levels).
