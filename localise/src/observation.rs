@@ -85,8 +85,8 @@ pub struct Placement {
 /// the noise limit, within a tenth of a pixel and that, to the mask's
 /// whole-pixel edges where a mask measured it, and to how irregular the
 /// crack is (how far its mask and its profile, or a sloping profile's
-/// levels, disagree; half the spread of its widest stretches) besides; with none measured,
-/// narrower than the points' median limit.
+/// levels, disagree; half the spread of its widest stretches) besides;
+/// with none measured, narrower than the points' median limit.
 fn view_width(points: &[(Width, f64)]) -> Option<WidthRecord> {
     let mm = |keep: fn(&Width) -> bool| -> Vec<f64> {
         points

@@ -144,7 +144,9 @@ pub fn widths(
     // The crack's interior darkness: from its resolved stretches, if it
     // has some; a few scattered points that look resolved are something
     // else (a bend the profile runs along, a crossing), and would scale
-    // every thin point's width by a wrong darkness.
+    // every thin point's width by a wrong darkness. Sloped points likewise
+    // count only in a crack with stretches of them: a few scattered ones
+    // would make a thin crack's widest.
     let depths: Vec<f64> = profiles
         .iter()
         .flatten()
