@@ -734,6 +734,39 @@ fn bad_inputs_fail_clearly_or_are_counted() {
     assert!(!recorded["defects"].as_array().unwrap().is_empty());
     assert_eq!(from_file, recorded);
 
+    // The crops' folder holds what localise wrote and nothing else; a file
+    // of the user's in it is kept, and the rerun refused in one line.
+    let crops = run.join("defects");
+    let mut names: Vec<String> = std::fs::read_dir(&crops)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".jpg"))
+        .collect();
+    names.sort();
+    let mut expected: Vec<String> = recorded["defects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|d| d["crop"].as_str())
+        .map(|c| c.trim_start_matches("defects/").to_string())
+        .collect();
+    expected.sort();
+    assert_eq!(names, expected);
+    std::fs::write(crops.join("notes.txt"), "the inspector's own").unwrap();
+    let out = localise(&run, &[]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = stderr(&out);
+    assert!(
+        err.contains("holds notes.txt, which `postflight localise` did not write there"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert_eq!(
+        std::fs::read_to_string(crops.join("notes.txt")).unwrap(),
+        "the inspector's own"
+    );
+    std::fs::remove_file(crops.join("notes.txt")).unwrap();
+
     // A missing map file, and a run that was never detected.
     let out = localise(&run, &["--map", "/nonexistent/map.ply"]);
     assert_eq!(out.status.code(), Some(1));

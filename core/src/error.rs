@@ -33,6 +33,16 @@ pub enum Error {
     #[error("plan {}: {why}", path.display())]
     Plan { path: PathBuf, why: String },
 
+    #[error(
+        "{} holds {entry}, which `postflight {stage}` did not write there; move it away or choose another run directory (the stage writes its own files into that folder)",
+        dir.display()
+    )]
+    NotOurs {
+        dir: PathBuf,
+        entry: String,
+        stage: crate::outputs::Stage,
+    },
+
     #[error(transparent)]
     Setting(#[from] crate::setting::InvalidSetting),
 }

@@ -15,6 +15,10 @@ use crate::error::Error;
 use crate::outputs::Stage;
 use crate::table::Row;
 
+/// The record a stage keeps in a folder it fills (see [`RunDir::refill`]):
+/// the names of the files it wrote there, as JSON.
+pub const FOLDER_RECORD: &str = ".postflight-files.json";
+
 /// A run directory: the outputs of the stages run on one flight.
 #[derive(Debug, Clone)]
 pub struct RunDir {
@@ -96,6 +100,53 @@ impl RunDir {
             }),
             _ => Ok(()),
         }
+    }
+
+    /// Make the folder `name` ready for `stage` to write `files` into it:
+    /// created if missing, else emptied of what `stage` wrote there before
+    /// (the record it keeps in the folder lists it) and of nothing else. A
+    /// folder holding anything the record does not list, or no record at
+    /// all, is the user's: refused, never deleted. The record lists `files`
+    /// before any is written, so an interrupted stage's files are still
+    /// known as its own.
+    pub fn refill(&self, name: &str, stage: Stage, files: &[String]) -> Result<PathBuf, Error> {
+        let dir = self.file(name);
+        let folder = RunDir { path: dir.clone() };
+        let written: Vec<String> = if folder.file(FOLDER_RECORD).is_file() {
+            folder.read_json(FOLDER_RECORD)?
+        } else {
+            Vec::new()
+        };
+        let entries = match std::fs::read_dir(&dir) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
+            Err(cause) => return Err(Error::Open { path: dir, cause }),
+            Ok(entries) => entries
+                .map(|e| e.map(|e| e.file_name().to_string_lossy().into_owned()))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|cause| Error::Open {
+                    path: dir.clone(),
+                    cause,
+                })?,
+        };
+        let foreign = entries
+            .iter()
+            .find(|e| e.as_str() != FOLDER_RECORD && !written.contains(e));
+        if let Some(entry) = foreign {
+            return Err(Error::NotOurs {
+                dir,
+                entry: entry.clone(),
+                stage,
+            });
+        }
+        for entry in &entries {
+            folder.remove(entry)?;
+        }
+        std::fs::create_dir_all(&dir).map_err(|cause| Error::Write {
+            path: dir.clone(),
+            cause,
+        })?;
+        folder.write_json(FOLDER_RECORD, &files)?;
+        Ok(dir)
     }
 
     /// Write `name` atomically with `write`.
@@ -194,5 +245,40 @@ impl RunDir {
             .finish()
             .and_then(|df| parse(&df))
             .map_err(|cause| Error::Table { path, cause })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_folder_is_refilled_of_what_its_stage_wrote_and_a_users_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let run = RunDir::create(dir.path()).unwrap();
+        let names = |n: &[&str]| n.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        // Missing: created, its record listing what will be written.
+        let folder = run
+            .refill("crops", Stage::Localise, &names(&["a.jpg", "b.jpg"]))
+            .unwrap();
+        std::fs::write(folder.join("a.jpg"), "a").unwrap();
+        // Refilled: the old files go, whether or not they were all written.
+        run.refill("crops", Stage::Localise, &names(&["c.jpg"]))
+            .unwrap();
+        assert!(!folder.join("a.jpg").exists());
+        std::fs::write(folder.join("c.jpg"), "c").unwrap();
+        // A file the stage did not write: refused, and everything kept.
+        std::fs::write(folder.join("notes.txt"), "mine").unwrap();
+        let err = run
+            .refill("crops", Stage::Localise, &names(&["d.jpg"]))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("holds notes.txt"), "{err}");
+        assert!(folder.join("c.jpg").exists() && folder.join("notes.txt").exists());
+        // A folder of the same name with no record is the user's.
+        std::fs::create_dir(dir.path().join("theirs")).unwrap();
+        std::fs::write(dir.path().join("theirs/c.jpg"), "theirs").unwrap();
+        assert!(run.refill("theirs", Stage::Localise, &[]).is_err());
+        assert!(dir.path().join("theirs/c.jpg").exists());
     }
 }

@@ -455,15 +455,8 @@ fn write_outputs(
         limits,
     } = *written;
     let run = &flight.run;
-    let crops = run.file(files::CROPS);
-    let write_error = |cause| postflight_core::Error::Write {
-        path: crops.clone(),
-        cause,
-    };
-    if crops.exists() {
-        std::fs::remove_dir_all(&crops).map_err(write_error)?;
-    }
-    std::fs::create_dir_all(&crops).map_err(write_error)?;
+    let crop_files: Vec<String> = candidates.iter().map(|c| format!("{}.jpg", c.id)).collect();
+    run.refill(files::CROPS, Stage::Localise, &crop_files)?;
     let defects = candidates
         .par_iter()
         .map(|c| {
