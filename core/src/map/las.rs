@@ -13,17 +13,41 @@ pub(super) fn parse(bytes: &[u8]) -> Result<(Vec<Point3<f64>>, Crs), String> {
     let mut reader = las::Reader::new(Cursor::new(bytes.to_vec()))
         .map_err(|e| format!("it is not a readable LAS or LAZ file ({e})"))?;
     let crs = crs_of(reader.header())?;
-    let points = reader
-        .read_all()
-        .map_err(|e| format!("its points cannot be read ({e})"))?;
-    let points = points
-        .x()
-        .zip(points.y())
-        .zip(points.z())
-        .map(|((x, y), z)| Point3::new(x, y, z))
-        .collect();
-    Ok((points, crs))
+    let header = reader.header();
+    let claimed = header.number_of_points();
+    // An uncompressed file's points are all in it: a count it cannot hold
+    // is refused before any is read.
+    let format = header.point_format();
+    let needed = claimed.saturating_mul(u64::from(format.len()));
+    if !format.is_compressed && needed > bytes.len() as u64 {
+        return Err(format!(
+            "its header claims {claimed} points ({needed} bytes), more than the file's {} bytes hold; the file is truncated or corrupt",
+            bytes.len()
+        ));
+    }
+    // In batches, so memory follows the points there are, not the count a
+    // (compressed) file's header claims.
+    let mut points = Vec::new();
+    let mut batch = las::PointDataBuilder::new().for_header(header).build();
+    loop {
+        let read = reader
+            .fill_points(BATCH, &mut batch)
+            .map_err(|e| format!("its points cannot be read ({e})"))?;
+        points.extend(
+            batch
+                .x()
+                .zip(batch.y())
+                .zip(batch.z())
+                .map(|((x, y), z)| Point3::new(x, y, z)),
+        );
+        if read < BATCH {
+            return Ok((points, crs));
+        }
+    }
 }
+
+/// Points read at a time.
+const BATCH: u64 = 1 << 16;
 
 /// The CRS of the LAS or LAZ file at `path`, from its header alone.
 pub(super) fn crs_of_file(path: &std::path::Path) -> Result<Crs, String> {
@@ -48,4 +72,48 @@ fn crs_of(header: &las::Header) -> Result<Crs, String> {
     code.map(|epsg| Crs { epsg }).ok_or_else(|| {
         "it has no coordinate reference system (no WKT or GeoTIFF keys with an EPSG code), so where its points are on the Earth is unknown; assign it one (pdal translate IN OUT --writers.las.a_srs=EPSG:CODE, or laspy's header.add_crs), or give the map as PLY or PCD in the flight's map frame".to_string()
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A LAS 1.4 file of `n` points with a WKT CRS (EPSG:32633).
+    fn las_file(n: usize) -> Vec<u8> {
+        let mut builder = las::Builder::from((1, 4));
+        builder.point_format = las::point::Format::new(6).unwrap();
+        let mut header = builder.into_header().unwrap();
+        let wkt = r#"PROJCS["WGS 84 / UTM zone 33N",GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]],PROJECTION["Transverse_Mercator"],UNIT["metre",1],AUTHORITY["EPSG","32633"]]"#;
+        header.set_wkt_crs(wkt.as_bytes().to_vec()).unwrap();
+        let mut writer = las::Writer::new(Cursor::new(Vec::new()), header).unwrap();
+        for i in 0..n {
+            writer
+                .write_point(las::Point {
+                    x: i as f64,
+                    y: 2.0,
+                    z: 3.0,
+                    gps_time: Some(0.0),
+                    ..Default::default()
+                })
+                .unwrap();
+        }
+        writer.into_inner().unwrap().into_inner()
+    }
+
+    #[test]
+    fn points_are_read_and_a_count_the_file_cannot_hold_is_refused() {
+        let file = las_file(3);
+        let (points, crs) = parse(&file).unwrap();
+        assert_eq!(crs.epsg, 32633);
+        assert_eq!(points.len(), 3);
+        assert_eq!(points[2], Point3::new(2.0, 2.0, 3.0));
+        // The point counts (the legacy one, bytes 107-110, and LAS 1.4's,
+        // 247-254) claim 4,294,967,295 points: refused before any is read
+        // or allocated.
+        let mut lying = file.clone();
+        lying[107..111].copy_from_slice(&u32::MAX.to_le_bytes());
+        lying[247..255].copy_from_slice(&u64::from(u32::MAX).to_le_bytes());
+        let err = parse(&lying).unwrap_err();
+        assert!(err.contains("claims 4294967295 points"), "{err}");
+    }
 }

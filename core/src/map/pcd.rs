@@ -108,6 +108,13 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<Point3<f64>>, String> {
         .collect();
     let point_size: usize = fields.iter().map(Field::bytes).sum();
     let short = || "PCD file is shorter than its header says".to_string();
+    if point_size == 0 {
+        return Err("PCD header gives its fields no size (SIZE or COUNT 0)".into());
+    }
+    // The points' bytes, checked before anything is read or allocated by it.
+    let total = n
+        .checked_mul(point_size)
+        .ok_or_else(|| format!("PCD header claims {n} points, more than any file holds"))?;
     // The header's count is a claim; reserve no more than the body can hold.
     let mut points = Vec::with_capacity(n.min(body.len()));
     match data {
@@ -137,6 +144,9 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<Point3<f64>>, String> {
             }
         }
         "binary" => {
+            if total > body.len() {
+                return Err(short());
+            }
             for i in 0..n {
                 let p = body
                     .get(i * point_size..(i + 1) * point_size)
@@ -157,9 +167,12 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<Point3<f64>>, String> {
                 )
             };
             let (compressed, raw) = (word(0)?, word(4)?);
+            if raw != total {
+                return Err("PCD compressed data has the wrong size".into());
+            }
             let src = body.get(8..8 + compressed).ok_or_else(short)?;
             let soa = lzf_decompress(src, raw)?;
-            if soa.len() != n * point_size {
+            if soa.len() != total {
                 return Err("PCD compressed data has the wrong size".into());
             }
             // Field-major: all points' first field, then the second, ...
@@ -281,5 +294,35 @@ mod tests {
         file.extend_from_slice(&(soa.len() as u32).to_le_bytes());
         file.extend_from_slice(&lzf);
         assert_eq!(parse(&file).unwrap(), expected());
+    }
+
+    #[test]
+    fn a_count_no_file_holds_is_refused_before_anything_is_read() {
+        // POINTS times the point size wraps a 64-bit size; and a count
+        // the body is far too short for, in each DATA kind.
+        for points in ["1537228672809129302", "4000000000"] {
+            let header = HEADER.replace("POINTS 2", &format!("POINTS {points}"));
+            for data in ["binary", "binary_compressed"] {
+                let mut file = format!(
+                    "{header}DATA {data}
+"
+                )
+                .into_bytes();
+                file.extend_from_slice(&[8, 0, 0, 0, 40, 0, 0, 0]);
+                file.extend_from_slice(&binary_points());
+                let err = parse(&file).unwrap_err();
+                assert!(err.contains("PCD"), "{points} {data}: {err}");
+            }
+        }
+        let sizeless = HEADER.replace("SIZE 4 4 8 4", "SIZE 0 0 0 0");
+        let err = parse(
+            format!(
+                "{sizeless}DATA binary
+"
+            )
+            .as_bytes(),
+        )
+        .unwrap_err();
+        assert!(err.contains("no size"), "{err}");
     }
 }
