@@ -113,8 +113,12 @@ mod wkt {
     pub(super) fn parse(text: &str) -> Option<Node> {
         let mut chars = text.trim().chars().peekable();
         let keyword = taken_while(&mut chars, |c| c.is_ascii_alphanumeric() || c == '_');
-        node(keyword, &mut chars)
+        node(keyword, &mut chars, 0)
     }
+
+    /// How deep nodes may nest: a CRS's WKT nests under ten deep, and a
+    /// file's may not take the stack with it.
+    const MAX_DEPTH: usize = 64;
 
     /// The characters from here while `keep` holds.
     fn taken_while(chars: &mut Chars<'_>, keep: impl Fn(char) -> bool) -> String {
@@ -126,9 +130,12 @@ mod wkt {
         taken
     }
 
-    /// The node `keyword` opens: its bracket, its values and nodes, and its
-    /// closing bracket.
-    fn node(keyword: String, chars: &mut Chars<'_>) -> Option<Node> {
+    /// The node `keyword` opens, `depth` nodes deep: its bracket, its
+    /// values and nodes, and its closing bracket.
+    fn node(keyword: String, chars: &mut Chars<'_>, depth: usize) -> Option<Node> {
+        if depth > MAX_DEPTH {
+            return None;
+        }
         let mut node = Node {
             keyword,
             ..Node::default()
@@ -163,7 +170,9 @@ mod wkt {
                     // A keyword with brackets is a node; without, a bare value.
                     let word = taken_while(chars, |c| c.is_ascii_alphanumeric() || c == '_');
                     match chars.peek() {
-                        Some('[' | '(') => node.children.push(self::node(word, chars)?),
+                        Some('[' | '(') => {
+                            node.children.push(self::node(word, chars, depth + 1)?);
+                        }
                         _ => node.values.push(word),
                     }
                 }
@@ -198,6 +207,9 @@ mod tests {
                 .unwrap_err()
                 .contains("site grid")
         );
+        // 32,000 nested nodes: refused, not a stack overflow.
+        let deep = format!("{}{}", "A[".repeat(32_000), "]".repeat(32_000));
+        assert!(Crs::from_wkt(&deep).unwrap_err().contains("cannot be read"));
         assert!(Crs::from_wkt("not wkt").is_err());
     }
 
