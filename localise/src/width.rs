@@ -146,7 +146,9 @@ pub fn widths(
     // else (a bend the profile runs along, a crossing), and would scale
     // every thin point's width by a wrong darkness. Sloped points likewise
     // count only in a crack with stretches of them: a few scattered ones
-    // would make a thin crack's widest.
+    // would make a thin crack's widest. The stretches are counted off any
+    // mask (a thin mask's points count for neither; counting them too made
+    // the repeat inspection call two unchanged cracks widened).
     let depths: Vec<f64> = profiles
         .iter()
         .flatten()
@@ -231,6 +233,11 @@ struct Across {
 }
 
 impl Across {
+    /// The mask's extent where it spans the crack ([`RESOLVED_PX`] or more).
+    fn spanned(&self) -> Option<f64> {
+        self.masked.filter(|px| *px >= RESOLVED_PX)
+    }
+
     /// The width: where the mask spans the crack and the grey levels
     /// confirm a dark line there with its edges apart ([`EDGES_APART_PX`]),
     /// the profile's full width at half depth for a crack a few pixels
@@ -240,7 +247,7 @@ impl Across {
     /// thinner, or where it shows no dark line at all, so the mask there
     /// marks a stain or the surface's texture), the profile's alone.
     fn measure(&self, whole: &Whole) -> Width {
-        let masked = self.masked.filter(|px| *px >= RESOLVED_PX);
+        let masked = self.spanned();
         let confirmed = masked.and_then(|mask_px| {
             let (profile_px, _) = half_depth(&self.profile, mask_px / 2.0)?;
             Some((mask_px, profile_px)).filter(|_| profile_px >= EDGES_APART_PX)
@@ -426,12 +433,11 @@ fn measure(p: &Profile, whole: &Whole, spanned: bool) -> Width {
 /// all of a U's, and the blur widens it by little. How far the two levels
 /// differ says how far the flanks leave the opening uncertain.
 fn sloped(p: &Profile) -> Option<Width> {
-    let centre = p.t.iter().position(|t| t.abs() < STEP / 2.0)?;
-    let depth = p.dark[centre.saturating_sub(2)..=(centre + 2).min(p.dark.len() - 1)]
-        .iter()
-        .copied()
-        .fold(0.0, f64::max);
-    let half = edges_at_half(p, centre, depth, FOUND_SIGMAS)?;
+    let Found {
+        centre,
+        depth,
+        width: half,
+    } = found(p)?;
     if half < EDGES_APART_PX {
         return None;
     }
@@ -450,12 +456,7 @@ const EDGES_APART_PX: f64 = 2.0;
 /// Full width at half depth where the profile shows a flat-bottomed crack
 /// at least [`RESOLVED_PX`] wide: (width px, depth grey levels).
 fn resolved(p: &Profile) -> Option<(f64, f64)> {
-    let centre = p.t.iter().position(|t| t.abs() < STEP / 2.0)?;
-    let depth = p.dark[centre.saturating_sub(2)..=(centre + 2).min(p.dark.len() - 1)]
-        .iter()
-        .copied()
-        .fold(0.0, f64::max);
-    let width = edges_at_half(p, centre, depth, FOUND_SIGMAS)?;
+    let Found { depth, width, .. } = found(p)?;
     // A flat bottom: the middle two thirds of the crack are nearly as dark
     // as its deepest (a V's darkness falls to two thirds there).
     let flat =
@@ -464,6 +465,31 @@ fn resolved(p: &Profile) -> Option<(f64, f64)> {
             .filter(|(t, _)| t.abs() <= width / 3.0)
             .all(|(_, d)| *d >= 0.8 * depth);
     (width >= RESOLVED_PX && flat).then_some((width, depth))
+}
+
+/// A crack the profile shows on the line, where nothing else says one is
+/// there: deeper than [`FOUND_SIGMAS`] noise sigmas.
+struct Found {
+    /// The sample on the line.
+    centre: usize,
+    /// The darkest within two samples of it, grey levels.
+    depth: f64,
+    /// Full width at half that depth, pixels.
+    width: f64,
+}
+
+fn found(p: &Profile) -> Option<Found> {
+    let centre = p.t.iter().position(|t| t.abs() < STEP / 2.0)?;
+    let depth = p.dark[centre.saturating_sub(2)..=(centre + 2).min(p.dark.len() - 1)]
+        .iter()
+        .copied()
+        .fold(0.0, f64::max);
+    let width = edges_at_half(p, centre, depth, FOUND_SIGMAS)?;
+    Some(Found {
+        centre,
+        depth,
+        width,
+    })
 }
 
 /// The distance between the two places, walking out from sample `from`,
