@@ -710,18 +710,9 @@ fn bad_inputs_fail_clearly_or_are_counted() {
     let path = dir.path().join("path.csv");
     std::fs::write(&path, "X,Y,Z,Yaw\n0,0,2,0\n").unwrap();
     let out = localise(&run, &["--plan", path.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(1));
-    let err = stderr(&out);
-    assert!(
-        err.contains("a waypoint path names no structure voxels"),
-        "{err}"
-    );
-    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert_fails_in_one_line(&out, "a waypoint path names no structure voxels");
     let out = localise(&run, &["--map", shifted_path.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(1));
-    let err = stderr(&out);
-    assert!(err.contains("does not overlap the flight"), "{err}");
-    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert_fails_in_one_line(&out, "does not overlap the flight");
     assert!(!run.join("localise.json").exists());
     // The same map where it belongs works, and gives what the recorded map
     // gives: a rerun keeps the candidates and their ids.
@@ -754,13 +745,10 @@ fn bad_inputs_fail_clearly_or_are_counted() {
     assert_eq!(names, expected);
     std::fs::write(crops.join("notes.txt"), "the inspector's own").unwrap();
     let out = localise(&run, &[]);
-    assert_eq!(out.status.code(), Some(1));
-    let err = stderr(&out);
-    assert!(
-        err.contains("holds notes.txt, which `postflight localise` did not write there"),
-        "{err}"
+    assert_fails_in_one_line(
+        &out,
+        "holds notes.txt, which `postflight localise` did not write there",
     );
-    assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert_eq!(
         std::fs::read_to_string(crops.join("notes.txt")).unwrap(),
         "the inspector's own"
