@@ -913,6 +913,16 @@ fn no_gaps_give_an_empty_plan_and_bad_runs_say_what_to_do() {
         "{}",
         stderr(&out)
     );
+    // Values no flight has, which would keep the planner busy for ever or
+    // write non-finite numbers: refused in one line, naming the option.
+    for (args, says) in [
+        (["--clearance", "1e9"], "--clearance must be 0 to 10 metres"),
+        (["--clearance", "inf"], "--clearance must be 0 to 10 metres"),
+        (["--hover", "inf"], "--hover must be 0 or more seconds"),
+        (["--speed", "inf"], "--speed must be a positive number"),
+    ] {
+        assert_fails_in_one_line(&replan(&run, &args), says);
+    }
 
     // Keep-out zones that cannot be used, each refused in one line that
     // says why, with replan.json gone rather than stale.

@@ -46,7 +46,7 @@ postflight_core::settings! {
         /// the flight's first pose].
         #[arg(long, value_name = "X,Y,Z", value_parser = point3, allow_hyphen_values = true)]
         home: [f64; 3],
-        /// Closest approach to any occupied voxel, metres.
+        /// Closest approach to any occupied voxel, metres (0 to 10).
         #[arg(long = "clearance", value_name = "M")]
         clearance_m: f64 = 1.0,
         /// Which gaps to fly for: the planned voxels the flight missed,

@@ -17,7 +17,7 @@ use postflight_core::outputs::replan::{
     DronePlan, GapChoice, ReplanSummary, ReshootSpot, Sortie, Uninspectable, Unplannable, Waypoint,
     files,
 };
-use postflight_core::{Flight, Intrinsics, InvalidSetting, Key, RunDir, Stage, Viewpoint};
+use postflight_core::{Flight, Intrinsics, InvalidSetting, RunDir, Stage, Viewpoint};
 
 use crate::airspace::{Airspace, read_zones};
 use crate::error::ReplanError;
@@ -83,9 +83,20 @@ impl ReplanOptions {
     /// Refuse settings that cannot work.
     fn check(&self) -> Result<(), InvalidSetting> {
         let s = &self.settings;
-        let at_least_0 = |key: Key, v: f64| InvalidSetting::check(v >= 0.0, key, v, "0 or more");
-        at_least_0(keys::clearance_m, s.clearance_m)?;
-        at_least_0(keys::hover_s, s.hover_s)?;
+        InvalidSetting::check(
+            (0.0..=MAX_CLEARANCE_M).contains(&s.clearance_m),
+            keys::clearance_m,
+            s.clearance_m,
+            &format!(
+                "0 to {MAX_CLEARANCE_M} metres (the free space is searched that far round the map)"
+            ),
+        )?;
+        InvalidSetting::check(
+            s.hover_s.is_finite() && s.hover_s >= 0.0,
+            keys::hover_s,
+            s.hover_s,
+            "0 or more seconds",
+        )?;
         InvalidSetting::check(s.drones >= 1, keys::drones, s.drones, "1 or more drones")?;
         InvalidSetting::check(
             s.battery_minutes.is_finite() && s.battery_minutes > 0.0,
@@ -94,7 +105,7 @@ impl ReplanOptions {
             "a positive number of minutes",
         )?;
         InvalidSetting::check(
-            s.speed_m_s > 0.0,
+            s.speed_m_s.is_finite() && s.speed_m_s > 0.0,
             keys::speed_m_s,
             s.speed_m_s,
             "a positive number of metres per second",
@@ -339,6 +350,11 @@ fn left_out(route: &Route) -> Vec<Uninspectable> {
 
 /// Rounds of [`own_routes`]' rebalancing.
 const REBALANCE_ROUNDS: usize = 3;
+
+/// The most clearance a follow-up flight may keep from the structure,
+/// metres: inspection drones keep 1 to 5 m, and the free space's distances
+/// are worked out that far round every occupied voxel.
+const MAX_CLEARANCE_M: f64 = 10.0;
 
 /// Each drone's stretch of the team's route flown as a route of its own,
 /// from its home with its camera: the sorties, and the gaps the drones'
