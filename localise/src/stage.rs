@@ -455,12 +455,12 @@ fn write_outputs(
         limits,
     } = *written;
     let run = &flight.run;
-    let crop_files: Vec<String> = candidates.iter().map(|c| format!("{}.jpg", c.id)).collect();
+    let crop_files: Vec<String> = candidates.iter().map(|c| files::crop(&c.id)).collect();
     run.refill(files::CROPS, Stage::Localise, &crop_files)?;
     let defects = candidates
         .par_iter()
         .map(|c| {
-            let name = format!("{}/{}.jpg", files::CROPS, c.id);
+            let name = format!("{}/{}", files::CROPS, files::crop(&c.id));
             let best = &observations[c.best];
             let frame = flight
                 .frame(best.detection.frame)

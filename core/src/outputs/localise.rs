@@ -31,6 +31,11 @@ pub mod files {
     /// Directory of candidate crops, `<id>.jpg`.
     pub const CROPS: &str = "defects";
     pub const SUMMARY: &str = "localise.json";
+
+    /// A candidate's crop's file name in [`CROPS`].
+    pub fn crop(id: &str) -> String {
+        format!("{id}.jpg")
+    }
 }
 
 /// What became of a detection.
