@@ -496,11 +496,24 @@ fn bad_input_fails_with_one_line_and_no_run_dir() {
         "noposes",
         &["--poses", "none", "--duration", "2"],
     );
+    // A named pipe: opening it would wait for a writer for ever.
+    let pipe = dir.path().join("pipe.mcap");
+    assert!(
+        std::process::Command::new("mkfifo")
+            .arg(&pipe)
+            .status()
+            .unwrap()
+            .success()
+    );
     let cases = [
         (text.clone(), "not a flight recording"),
         (empty, "it is empty"),
         (dir.path().join("missing.mcap"), "cannot open"),
         (no_poses.clone(), "no usable pose topic"),
+        (
+            pipe,
+            "it is not a regular file but a pipe, socket or device",
+        ),
     ];
     for (i, (flight, message)) in cases.iter().enumerate() {
         let run = dir.path().join(format!("run{i}"));

@@ -108,16 +108,28 @@ const RELEASE_STEP: usize = 32 << 20;
 impl Recording {
     /// Open and map `path`, checking it is an MCAP file or a ROS 1 bag.
     pub fn open(path: &Path) -> Result<Self, IngestError> {
+        // Before opening: opening a named pipe waits for a writer for ever.
+        let kind = std::fs::metadata(path)
+            .map_err(|cause| postflight_core::Error::Open {
+                path: path.to_owned(),
+                cause,
+            })?
+            .file_type();
+        if !kind.is_file() {
+            return Err(IngestError::NotRecording {
+                path: path.to_owned(),
+                why: if kind.is_dir() {
+                    "it is a directory"
+                } else {
+                    "it is not a regular file but a pipe, socket or device"
+                }
+                .into(),
+            });
+        }
         let file = File::open(path).map_err(|cause| postflight_core::Error::Open {
             path: path.to_owned(),
             cause,
         })?;
-        if file.metadata().map(|m| m.is_dir()).unwrap_or(false) {
-            return Err(IngestError::NotRecording {
-                path: path.to_owned(),
-                why: "it is a directory".into(),
-            });
-        }
         // SAFETY: the map is read-only; a file changed underneath us by another
         // process is outside what a post-flight tool can defend against.
         let map =
