@@ -138,7 +138,15 @@ pub fn widths(
             // extent, or (without one) past its own dark extent.
             let reach = masked.map_or(REACH, |px| REACH.max(1.5 * px + 4.0));
             let profile = reached(gray, centre[i], across, reach)?;
-            Some((across, Across { masked, profile }))
+            let sloped = sloped(&profile);
+            Some((
+                across,
+                Across {
+                    masked,
+                    profile,
+                    sloped,
+                },
+            ))
         })
         .collect();
     // The crack's interior darkness: from its resolved stretches, if it
@@ -161,7 +169,7 @@ pub fn widths(
         profiles
             .iter()
             .flatten()
-            .filter(|(_, a)| a.masked.is_none() && sloped(&a.profile).is_some())
+            .filter(|(_, a)| a.masked.is_none() && a.sloped.is_some())
             .count(),
     );
     let whole = Whole {
@@ -226,10 +234,12 @@ fn along_the_line(points: Vec<Option<PointWidth>>, neighbours: &[Vec<usize>]) ->
 const SMOOTH_STEPS: usize = 4;
 
 /// What is measured across the line at one point: the mask's extent
-/// (pixels; `None` off the mask) and the grey levels.
+/// (pixels; `None` off the mask), the grey levels and, where they show
+/// sloping flanks, their width (see [`sloped`]).
 struct Across {
     masked: Option<f64>,
     profile: Profile,
+    sloped: Option<Width>,
 }
 
 impl Across {
@@ -261,7 +271,7 @@ impl Across {
                     spread: (profile_px - mask_px).abs() / 2.0,
                 }
             }
-            None => measure(&self.profile, whole, masked.is_some()),
+            None => measure(&self.profile, self.sloped, whole, masked.is_some()),
         }
     }
 }
@@ -394,14 +404,14 @@ struct Whole {
 
 /// The width from one profile: at half depth where the crack has resolved
 /// stretches and this point is one; at a quarter depth where it slopes
-/// (see [`sloped`]) and no mask spans it (`spanned`: one that does but
+/// (`sloped`, see [`sloped`]) and no mask spans it (`spanned`: one that does but
 /// shows no dark line marks a stain or texture, not a wide crack); else
 /// the darkness integral over the interior's darkness.
-fn measure(p: &Profile, whole: &Whole, spanned: bool) -> Width {
+fn measure(p: &Profile, sloped: Option<Width>, whole: &Whole, spanned: bool) -> Width {
     if let Some((px, depth)) = resolved(p).filter(|_| whole.has_stretches) {
         return Width::Resolved { px, depth };
     }
-    if let Some(width) = sloped(p).filter(|_| whole.slopes && !spanned) {
+    if let Some(width) = sloped.filter(|_| whole.slopes && !spanned) {
         return width;
     }
     let depth = whole.share * p.surface;
