@@ -537,3 +537,178 @@ fn bad_photos_and_a_laz_without_a_crs_are_named_in_one_line() {
     );
     assert!(!run.exists());
 }
+
+/// Tags and reconstructions holding values no camera or solver writes
+/// (issue 57, items 1, 2 and 12): each photo so tagged is skipped with the
+/// tag named, each reconstruction refused in one line with the value
+/// named, within seconds, and nothing written.
+#[test]
+fn tags_and_reconstructions_that_are_no_cameras_are_named() {
+    let sim = simulated(&["--frames", "60"]);
+    let dir = tempfile::tempdir().unwrap();
+    let bad = [
+        (
+            "DJI_0002.JPG",
+            "XMP-drone-dji:AbsoluteAltitude=1e308",
+            "altitude 1e308 m is not a flight's",
+        ),
+        ("DJI_0003.JPG", "GPSLatitude=200", "200"),
+        (
+            "DJI_0004.JPG",
+            "XMP-drone-dji:GimbalYawDegree=1e300",
+            "gimbal angles",
+        ),
+        (
+            "DJI_0005.JPG",
+            "XMP-drone-dji:DewarpData=2026-01-01;inf,inf,0,0,0,0,0,0,0",
+            "DewarpData is not a lens's",
+        ),
+        (
+            "DJI_0006.JPG",
+            "XMP-drone-dji:DewarpData=2026-01-01;3000,3000,1e9,0,0,0,0,0,0",
+            "principal point",
+        ),
+        (
+            "DJI_0007.JPG",
+            "XMP-drone-dji:DewarpData=2026-01-01;3000,3000,0,0,1e300,0,0,0,0",
+            "distortion coefficient",
+        ),
+    ];
+    let mut extra = Vec::new();
+    for (name, tag, _) in &bad {
+        extra.extend(["--retag", name, tag]);
+    }
+    let (photos, _) = photo_folder(&sim, dir.path(), &extra);
+    let run = dir.path().join("skipped");
+    let out = on_photos("ingest", &photos, &[], &run);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let warnings = read_json(&run.join("ingest.json"))["warnings"].clone();
+    let warnings: Vec<&str> = warnings
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w.as_str().unwrap())
+        .collect();
+    for (name, _, says) in &bad {
+        assert!(
+            warnings
+                .iter()
+                .any(|w| w.starts_with(&format!("{name}: ")) && w.contains(says)),
+            "{name}: {says} in {warnings:?}"
+        );
+    }
+    // A folder whose only photo is one of them: its error is that photo's,
+    // not "no GPS position".
+    let alone = dir.path().join("alone");
+    std::fs::create_dir_all(&alone).unwrap();
+    std::fs::copy(photos.join(bad[0].0), alone.join(bad[0].0)).unwrap();
+    let out = on_photos("ingest", &alone, &[], &dir.path().join("alone-run"));
+    assert_fails_in_one_line(&out, bad[0].2);
+
+    // Reconstructions: an OpenSfM reference far off the Earth (a hang in
+    // the rotation's iteration before), a COLMAP lens that is no lens.
+    let opensfm = |reference: &str, camera: &str| {
+        format!(
+            r#"[{{"cameras": {{"c": {camera}}}, "shots": {{"DJI_0001.JPG": {{"camera": "c", "rotation": [0, 0, 0], "translation": [0, 0, 0]}}}}, "points": {{}}, "reference_lla": {reference}}}]"#
+        )
+    };
+    let lens = r#"{"projection_type": "perspective", "width": 1280, "height": 960, "focal": 2.0}"#;
+    let here = r#"{"latitude": 47.3977, "longitude": 8.5456, "altitude": 488}"#;
+    let colmap = |i: usize, cameras: &str| {
+        let model = dir.path().join(format!("colmap-{i}"));
+        std::fs::create_dir_all(&model).unwrap();
+        std::fs::write(model.join("cameras.txt"), cameras).unwrap();
+        std::fs::write(
+            model.join("images.txt"),
+            "1 1 0 0 0 0 0 0 1 DJI_0001.JPG\n\n",
+        )
+        .unwrap();
+        std::fs::write(model.join("points3D.txt"), "").unwrap();
+        model
+    };
+    let refused = [
+        (
+            opensfm(
+                r#"{"latitude": 47.3977, "longitude": 8.5456, "altitude": 1e308}"#,
+                lens,
+            ),
+            None,
+            "its reference_lla is not a place on the Earth: altitude 1e308 m",
+        ),
+        (
+            opensfm(
+                r#"{"latitude": 999, "longitude": 8.5456, "altitude": 488}"#,
+                lens,
+            ),
+            None,
+            "999,8.5456 is not a latitude and longitude",
+        ),
+        (
+            opensfm(
+                here,
+                r#"{"projection_type": "perspective", "width": 1280, "height": 960, "focal": 0}"#,
+            ),
+            None,
+            "focal length 0 x 0 px",
+        ),
+        (
+            opensfm(
+                here,
+                r#"{"projection_type": "perspective", "width": -1280, "height": 960, "focal": 2}"#,
+            ),
+            None,
+            "a camera -1280 x 960 pixels",
+        ),
+        (
+            String::new(),
+            Some("1 PINHOLE 1280 960 3000 640 480\n"),
+            "PINHOLE has 3 parameters; COLMAP's PINHOLE has 4",
+        ),
+        (
+            String::new(),
+            Some("1 PINHOLE 1280 960 0 3000 640 480\n"),
+            "focal length 0 x 3000 px",
+        ),
+        (
+            String::new(),
+            Some("1 PINHOLE 1280 960 -300 -300 640 480\n"),
+            "focal length -300 x -300 px",
+        ),
+        (
+            String::new(),
+            Some("1 SIMPLE_RADIAL 1280 960 3000 640 480 1e300\n"),
+            "distortion coefficient 1e300",
+        ),
+        (
+            String::new(),
+            Some("1 PINHOLE 1280 960 nan 3000 640 480\n"),
+            "focal length NaN x 3000 px",
+        ),
+    ];
+    let (photos, _) = photo_folder(&sim, &dir.path().join("good"), &[]);
+    for (i, (json, cameras, says)) in refused.iter().enumerate() {
+        let model = match cameras {
+            Some(cameras) => colmap(i, cameras),
+            None => {
+                let path = dir.path().join(format!("reconstruction-{i}.json"));
+                std::fs::write(&path, json).unwrap();
+                path
+            }
+        };
+        let run = dir.path().join(format!("refused-{i}"));
+        let started = std::time::Instant::now();
+        let out = on_photos(
+            "ingest",
+            &photos,
+            &["--reconstruction", model.to_str().unwrap()],
+            &run,
+        );
+        assert!(
+            started.elapsed().as_secs() < 30,
+            "{says}: {:?}",
+            started.elapsed()
+        );
+        assert_fails_in_one_line(&out, says);
+        assert!(!run.join("ingest.json").exists(), "{says}");
+    }
+}

@@ -652,6 +652,13 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
     assert!(planned_missed < gaps.len());
 
     focus_is_judged_and_planned_under_its_view_model(&run, &plan_file, &before);
+
+    // A home far off the map (a point given in the wrong frame) would make
+    // the space to plan in vast: refused in one line, within seconds.
+    let started = std::time::Instant::now();
+    let out = replan(&run, &["--home", "1e12,0,0"]);
+    assert_fails_in_one_line(&out, "the space to plan in, round the map and home, spans");
+    assert!(started.elapsed().as_secs() < 30, "{:?}", started.elapsed());
 }
 
 /// A focus region around the east pier (x 7.4 to 8.6 m, y -2.5 to 2.5 m,
@@ -920,9 +927,20 @@ fn no_gaps_give_an_empty_plan_and_bad_runs_say_what_to_do() {
         (["--clearance", "inf"], "--clearance must be 0 to 10 metres"),
         (["--hover", "inf"], "--hover must be 0 or more seconds"),
         (["--speed", "inf"], "--speed must be a positive number"),
+        (["--drones", "100000"], "--drones must be 1 to 50 drones"),
+        (
+            ["--drone", "{name = \"a\", home = [0, nan, 0]}"],
+            "--drone must be a point [x, y, z] in the map frame, metres (it is a's home [0, NaN, 0])",
+        ),
     ] {
         assert_fails_in_one_line(&replan(&run, &args), says);
     }
+    let config = dir.path().join("nan-home.toml");
+    std::fs::write(&config, "[replan]\nhome = [nan, 0, 0]\n").unwrap();
+    assert_fails_in_one_line(
+        &replan(&run, &["--config", config.to_str().unwrap()]),
+        "must be a point [x, y, z] in the map frame, metres (it is [NaN, 0, 0])",
+    );
 
     // Keep-out zones that cannot be used, each refused in one line that
     // says why, with replan.json gone rather than stale.
@@ -962,4 +980,17 @@ fn no_gaps_give_an_empty_plan_and_bad_runs_say_what_to_do() {
         &["--keep-out", zones, "--geo-origin", "47.3,8.4,400"],
         "rail: upperVerticalReference is AMSL, which needs a geoid model",
     );
+
+    // Coverage too (last: a failed coverage removes its summary): a face needing more views than replan can plan.
+    let out = postflight(
+        &[
+            "coverage",
+            "--run",
+            run.to_str().unwrap(),
+            "--views",
+            "4000000000",
+        ],
+        dir.path(),
+    );
+    assert_fails_in_one_line(&out, "--views must be 1 to 64 views");
 }

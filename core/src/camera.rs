@@ -4,6 +4,8 @@
 use nalgebra::{Isometry3, Point2, Vector3};
 use serde::{Deserialize, Serialize};
 
+use crate::shown::Shown;
+
 /// Lens distortion, as named by ROS's `distortion_model`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "model", content = "coefficients", rename_all = "snake_case")]
@@ -19,8 +21,22 @@ pub enum Distortion {
 }
 
 impl Distortion {
+    /// No lens's coefficient is this large: OpenCV's calibrations give
+    /// single figures, a rational model's denominators some tens.
+    pub const MAX_COEFFICIENT: f64 = 1000.0;
+
     /// Parse a ROS model name and coefficient list.
     pub fn from_ros(model: &str, d: &[f64]) -> Result<Self, String> {
+        if let Some(bad) = d
+            .iter()
+            .find(|v| !(-Self::MAX_COEFFICIENT..=Self::MAX_COEFFICIENT).contains(*v))
+        {
+            return Err(format!(
+                "distortion coefficient {} is not a lens's (each must be finite and within ±{})",
+                Shown(*bad),
+                Self::MAX_COEFFICIENT
+            ));
+        }
         if d.iter().all(|v| *v == 0.0) {
             return Ok(Self::None);
         }
@@ -160,14 +176,10 @@ impl Intrinsics {
                 k.len()
             ));
         };
-        let valid = *fx > 0.0 && *fy > 0.0 && cx.is_finite() && cy.is_finite();
-        if !valid {
+        if *fx == 0.0 && *fy == 0.0 {
             return Err("camera matrix K is unset (fx, fy must be positive)".into());
         }
-        if width == 0 || height == 0 {
-            return Err("image width and height must be positive".into());
-        }
-        Ok(Self {
+        let lens = Self {
             width,
             height,
             fx: *fx,
@@ -175,7 +187,52 @@ impl Intrinsics {
             cx: *cx,
             cy: *cy,
             distortion: Distortion::from_ros(model, d)?,
-        })
+        };
+        lens.check()?;
+        Ok(lens)
+    }
+
+    /// A longer focal length than this, in pixels, is no camera's (a 20 MP
+    /// frame behind a 1200 mm lens has some 300,000).
+    pub const MAX_FOCAL_PX: f64 = 1e6;
+
+    /// Whether these are a camera's: a positive size, focal lengths
+    /// positive up to [`Self::MAX_FOCAL_PX`], the principal point within a
+    /// frame's size of the frame. Every lens read from a file or a tag
+    /// passes this where it enters, so nothing later meets NaN.
+    pub fn check(&self) -> Result<(), String> {
+        let Self {
+            width,
+            height,
+            fx,
+            fy,
+            cx,
+            cy,
+            ..
+        } = *self;
+        if width == 0 || height == 0 {
+            return Err(format!(
+                "an image {width} x {height} pixels (width and height must be positive)"
+            ));
+        }
+        let focal = |f: f64| f > 0.0 && f <= Self::MAX_FOCAL_PX;
+        if !(focal(fx) && focal(fy)) {
+            return Err(format!(
+                "focal length {} x {} px (each must be positive and at most {})",
+                Shown(fx),
+                Shown(fy),
+                Self::MAX_FOCAL_PX
+            ));
+        }
+        let (w, h) = (f64::from(width), f64::from(height));
+        if !((-w..=2.0 * w).contains(&cx) && (-h..=2.0 * h).contains(&cy)) {
+            return Err(format!(
+                "principal point {}, {} px is not near a {width} x {height} frame",
+                Shown(cx),
+                Shown(cy)
+            ));
+        }
+        Ok(())
     }
 
     /// Pixel of a point in the camera's optical frame; `None` behind the camera.

@@ -12,6 +12,8 @@ use map_3d::Ellipsoid;
 use nalgebra::{Point3, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
+use crate::shown::Shown;
+
 /// A position on the Earth.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Geodetic {
@@ -20,6 +22,37 @@ pub struct Geodetic {
     pub longitude_deg: f64,
     /// Altitude, metres, in the datum given (above the ellipsoid for GPS).
     pub altitude_m: f64,
+}
+
+impl Geodetic {
+    /// Altitudes further from the ellipsoid than this, metres, are no
+    /// flight's (the deepest mine, the highest drone are some km).
+    pub const MAX_ALTITUDE_M: f64 = 100_000.0;
+
+    /// Latitude within ±90°, longitude within ±180°, altitude within
+    /// ±[`Self::MAX_ALTITUDE_M`], every value finite.
+    pub fn check(&self) -> Result<(), String> {
+        let Self {
+            latitude_deg: lat,
+            longitude_deg: lon,
+            altitude_m: alt,
+        } = *self;
+        if !((-90.0..=90.0).contains(&lat) && (-180.0..=180.0).contains(&lon)) {
+            return Err(format!(
+                "{},{} is not a latitude and longitude in degrees (latitude within ±90, longitude within ±180)",
+                Shown(lat),
+                Shown(lon)
+            ));
+        }
+        if !(-Self::MAX_ALTITUDE_M..=Self::MAX_ALTITUDE_M).contains(&alt) {
+            return Err(format!(
+                "altitude {} m is not a flight's (within ±{} m)",
+                Shown(alt),
+                Self::MAX_ALTITUDE_M
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// The map frame's origin on the Earth and the heading of its x axis.
@@ -105,17 +138,13 @@ impl GeoOrigin {
         Ok(origin)
     }
 
-    /// Latitude within ±90°, longitude within ±180°, every value finite.
+    /// Its position passes [`Geodetic::check`], its yaw is finite.
     pub fn check(&self) -> Result<(), String> {
-        let Geodetic {
-            latitude_deg: lat,
-            longitude_deg: lon,
-            altitude_m: alt,
-        } = self.position;
-        let finite = [lat, lon, alt, self.yaw_deg].iter().all(|v| v.is_finite());
-        if !finite || lat.abs() > 90.0 || lon.abs() > 180.0 {
+        self.position.check()?;
+        if !self.yaw_deg.is_finite() {
             return Err(format!(
-                "{lat},{lon} is not a latitude and longitude in degrees (latitude within ±90, longitude within ±180)"
+                "yaw {} is not an angle in degrees",
+                Shown(self.yaw_deg)
             ));
         }
         Ok(())

@@ -48,6 +48,7 @@ pub mod run_log;
 pub mod runs;
 pub mod serde_pose;
 pub mod setting;
+pub mod shown;
 pub mod similarity;
 pub mod structure;
 pub mod table;

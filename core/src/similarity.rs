@@ -56,7 +56,7 @@ impl Similarity {
             local(Vector3::y() * 100.0) - o,
             local(Vector3::z() * 100.0) - o,
         ]) / 100.0;
-        let rotation = UnitQuaternion::from_matrix(&axes);
+        let rotation = rotation(&axes);
         Self {
             scale: 1.0,
             rigid: Isometry3::from_parts(Translation3::from(o.coords), rotation),
@@ -72,6 +72,10 @@ impl Similarity {
                 "{n} point pairs; a similarity needs {} or more",
                 Self::MIN_PAIRS
             ));
+        }
+        let finite = |ps: &[Point3<f64>]| ps.iter().all(|p| p.coords.iter().all(|v| v.is_finite()));
+        if !(finite(from) && finite(to)) {
+            return Err("a point is not a place (its coordinates are not finite)".into());
         }
         let mean =
             |ps: &[Point3<f64>]| ps.iter().map(|p| p.coords).sum::<Vector3<f64>>() / n as f64;
@@ -96,7 +100,7 @@ impl Similarity {
         }
         let r = u * d * v_t;
         let scale = (svd.singular_values.component_mul(&d.diagonal())).sum() / spread;
-        let rotation = UnitQuaternion::from_matrix(&r);
+        let rotation = rotation(&r);
         let translation = mt - rotation * (mf * scale);
         let fit = Self {
             scale,
@@ -111,6 +115,13 @@ impl Similarity {
             .sqrt();
         Ok((fit, rms))
     }
+}
+
+/// The rotation nearest `m`, found in a bounded number of steps: nalgebra's
+/// `from_matrix` iterates until it converges, which a matrix holding NaN
+/// never does. A rotation matrix converges in a few.
+fn rotation(m: &Matrix3<f64>) -> UnitQuaternion<f64> {
+    UnitQuaternion::from_matrix_eps(m, f64::EPSILON, 100, UnitQuaternion::identity())
 }
 
 #[cfg(test)]

@@ -56,11 +56,13 @@ impl ViewModel {
     /// Refuse a View model that cannot work.
     pub fn check(&self) -> Result<(), InvalidSetting> {
         InvalidSetting::check(
-            self.min_distance_m >= 0.0 && self.min_distance_m < self.max_distance_m,
+            self.min_distance_m >= 0.0
+                && self.min_distance_m < self.max_distance_m
+                && self.max_distance_m.is_finite(),
             keys::min_distance_m,
             self.min_distance_m,
             &format!(
-                "at least 0 and below the distance band's far edge ({} {})",
+                "at least 0 and below the distance band's far edge ({} {}), both finite",
                 keys::max_distance_m,
                 self.max_distance_m
             ),
@@ -78,18 +80,31 @@ impl ViewModel {
             "in (0, 90] degrees",
         )?;
         InvalidSetting::check(
-            self.max_blur_px >= 0.0,
+            self.max_blur_px >= 0.0 && self.max_blur_px.is_finite(),
             keys::max_blur_px,
             self.max_blur_px,
-            "0 or more pixels",
+            "0 or more pixels, finite",
         )?;
         InvalidSetting::check(
-            self.max_gsd_mm > 0.0,
+            self.max_gsd_mm > 0.0 && self.max_gsd_mm.is_finite(),
             keys::max_gsd_mm,
             self.max_gsd_mm,
-            "positive",
+            "a positive number of millimetres",
+        )?;
+        InvalidSetting::check(
+            (1..=Self::MAX_VIEWS_REQUIRED).contains(&self.views_required),
+            keys::views_required,
+            self.views_required,
+            &format!(
+                "1 to {} views (replan plans that many viewpoints for each face it must cover)",
+                Self::MAX_VIEWS_REQUIRED
+            ),
         )
     }
+
+    /// More views of a face than any inspection asks for (two or three;
+    /// photogrammetry a dozen): replan's work grows with it.
+    pub const MAX_VIEWS_REQUIRED: u32 = 64;
 }
 
 /// Why a camera does not inspect a face. Ordered by how far the camera got

@@ -147,9 +147,9 @@ fn photo_origin(
     }
     let position = first
         .first_position()
-        .ok_or_else(|| IngestError::NoPosedPhotos {
+        .map_err(|why| IngestError::NoPosedPhotos {
             path: first.path().to_owned(),
-            first: Some("no photo has an EXIF GPS position".into()),
+            first: Some(why),
         })?;
     Ok(Some(GeoOrigin {
         position,

@@ -58,4 +58,6 @@ pub enum ReplanError {
         max_m: f64,
         battery_minutes: f64,
     },
+    #[error(transparent)]
+    SpaceTooLarge(#[from] crate::free_space::TooLarge),
 }

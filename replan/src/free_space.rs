@@ -37,29 +37,61 @@ pub struct FreeSpace<'a> {
 /// Room kept above the map for paths that go over the structure, metres.
 const HEADROOM_M: f64 = 10.0;
 
+/// The most voxels the free space holds (five bytes each: a gigabyte).
+pub const MAX_CELLS: usize = 200_000_000;
+
+/// A free space that would hold more than [`MAX_CELLS`] voxels: the map
+/// and the points it must hold (home) span too far at its resolution.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error(
+    "the space to plan in, round the map and home, spans {:.0} x {:.0} x {:.0} m: more than {MAX_CELLS} voxels at {resolution_m} m; give a home near the map with {} (in the map frame, metres) or a coarser [coverage] resolution_m",
+    extent_m[0], extent_m[1], extent_m[2], crate::settings::keys::home
+)]
+pub struct TooLarge {
+    /// Its extent in x, y and z, metres.
+    pub extent_m: [f64; 3],
+    pub resolution_m: f64,
+}
+
 impl<'a> FreeSpace<'a> {
     pub fn new(
         map: &'a VoxelMap,
         clearance_m: f64,
         also_inside: &[Point3<f64>],
         airspace: Airspace,
-    ) -> Self {
+    ) -> Result<Self, TooLarge> {
         let res = map.grid.resolution;
-        let (mut lo, mut hi) = ([i32::MAX; 3], [i32::MIN; 3]);
+        // In i64: a point far off the map (a home given in the wrong
+        // frame) spans more voxels than i32 counts.
+        let (mut lo, mut hi) = ([i64::MAX; 3], [i64::MIN; 3]);
+        let unbounded = |p: &Point3<f64>| {
+            let v = (p - map.grid.origin) / res;
+            [v.x, v.y, v.z].map(|x| x.floor() as i64)
+        };
         let all = map
             .voxels()
-            .chain(also_inside.iter().map(|p| map.grid.voxel_of(p)));
+            .map(|v| v.0.map(i64::from))
+            .chain(also_inside.iter().map(unbounded));
         for v in all {
             for k in 0..3 {
-                lo[k] = lo[k].min(v.0[k]);
-                hi[k] = hi[k].max(v.0[k]);
+                lo[k] = lo[k].min(v[k]);
+                hi[k] = hi[k].max(v[k]);
             }
         }
         if lo[0] > hi[0] {
             (lo, hi) = ([0; 3], [0; 3]);
         }
-        hi[2] += (HEADROOM_M / res).ceil() as i32;
-        let dims = [0, 1, 2].map(|k| (hi[k] - lo[k] + 1) as usize);
+        hi[2] += (HEADROOM_M / res).ceil() as i64;
+        let spans = [0, 1, 2].map(|k| (hi[k] - lo[k] + 1) as f64);
+        let cells = spans.iter().product::<f64>();
+        let in_i32 = lo.iter().chain(&hi).all(|v| i32::try_from(*v).is_ok());
+        if cells > MAX_CELLS as f64 || !in_i32 {
+            return Err(TooLarge {
+                extent_m: spans.map(|n| n * res),
+                resolution_m: res,
+            });
+        }
+        let (lo, dims) = (lo.map(|v| v as i32), spans.map(|n| n as usize));
         let mut space = Self {
             map,
             clearance_m,
@@ -96,7 +128,7 @@ impl<'a> FreeSpace<'a> {
             }
         }
         space.centre_distance = distance;
-        space
+        Ok(space)
     }
 
     /// Distances beyond this are not told apart: far enough to decide a
@@ -401,7 +433,7 @@ mod tests {
     #[test]
     fn a_path_round_a_wall_keeps_the_clearance_and_is_near_shortest() {
         let map = wall();
-        let space = FreeSpace::new(&map, 1.0, &[], Airspace::default());
+        let space = FreeSpace::new(&map, 1.0, &[], Airspace::default()).unwrap();
         let (a, b) = (Point3::new(-3.0, 0.0, 3.0), Point3::new(3.5, 0.0, 3.0));
         assert!(!space.segment_is_clear(&a, &b));
         let path = space.path(&a, &b).expect("round the wall");
@@ -448,7 +480,7 @@ mod tests {
             }
         }
         let map = VoxelMap::from_points(VoxelGrid::new(0.5, Point3::origin()), &points, 1);
-        let space = FreeSpace::new(&map, 1.0, &[], Airspace::default());
+        let space = FreeSpace::new(&map, 1.0, &[], Airspace::default()).unwrap();
         let inside = Point3::new(10.25, 10.25, 3.25);
         assert!(space.point_is_clear(&inside));
         let outside = Point3::new(-5.0, -5.0, 3.0);

@@ -97,7 +97,20 @@ impl ReplanOptions {
             s.hover_s,
             "0 or more seconds",
         )?;
-        InvalidSetting::check(s.drones >= 1, keys::drones, s.drones, "1 or more drones")?;
+        InvalidSetting::check(
+            (1..=MAX_DRONES).contains(&s.drones),
+            keys::drones,
+            s.drones,
+            &format!("1 to {MAX_DRONES} drones"),
+        )?;
+        if let Some(h) = s.home {
+            InvalidSetting::check(
+                h.iter().all(|v| v.is_finite()),
+                keys::home,
+                format!("[{}, {}, {}]", h[0], h[1], h[2]),
+                "a point [x, y, z] in the map frame, metres",
+            )?;
+        }
         InvalidSetting::check(
             s.battery_minutes.is_finite() && s.battery_minutes > 0.0,
             keys::battery_minutes,
@@ -144,7 +157,21 @@ impl ReplanOptions {
                 ),
             )?;
         }
+        InvalidSetting::check(
+            s.drone.len() <= MAX_DRONES as usize,
+            keys::drone,
+            format!("{} entries", s.drone.len()),
+            &format!("1 to {MAX_DRONES} drones"),
+        )?;
         for d in &s.drone {
+            if let Some(h) = d.home {
+                InvalidSetting::check(
+                    h.iter().all(|v| v.is_finite()),
+                    keys::drone,
+                    format!("{}'s home [{}, {}, {}]", d.name, h[0], h[1], h[2]),
+                    "a point [x, y, z] in the map frame, metres",
+                )?;
+            }
             let positive = |v: Option<f64>| v.is_none_or(|v| v.is_finite() && v > 0.0);
             for (what, v) in [
                 ("speed_m_s", d.speed_m_s),
@@ -214,12 +241,10 @@ pub fn replan(
     let (map, _) = ingest::load_map(&flight, given.map(PathBuf::as_path), Some(grid))?;
     summary.frame_id = map.cloud.frame_id.clone();
     let phase = Instant::now();
-    let space = FreeSpace::new(
-        &map.voxels,
-        options.settings.clearance_m,
-        &[launch],
-        airspace,
-    );
+    let homes: Vec<Point3<f64>> = std::iter::once(launch)
+        .chain(team.iter().map(|m| m.home))
+        .collect();
+    let space = FreeSpace::new(&map.voxels, options.settings.clearance_m, &homes, airspace)?;
     let home = clear_home(&space, &map, launch, &mut summary)?;
     summary.phases.clearance_s = phase.elapsed().as_secs_f64();
 
@@ -355,6 +380,10 @@ const REBALANCE_ROUNDS: usize = 3;
 /// metres: inspection drones keep 1 to 5 m, and the free space's distances
 /// are worked out that far round every occupied voxel.
 const MAX_CLEARANCE_M: f64 = 10.0;
+
+/// The most drones one follow-up is split between: teams fly a handful,
+/// and the tour's split grows with each.
+const MAX_DRONES: u32 = 50;
 
 /// Each drone's stretch of the team's route flown as a route of its own,
 /// from its home with its camera: the sorties, and the gaps the drones'

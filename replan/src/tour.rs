@@ -456,7 +456,7 @@ mod tests {
     #[test]
     fn legs_through_the_wall_are_recosted_and_the_tour_goes_round_once() {
         let map = wall();
-        let space = FreeSpace::new(&map, 1.0, &[], crate::airspace::Airspace::default());
+        let space = FreeSpace::new(&map, 1.0, &[], crate::airspace::Airspace::default()).unwrap();
         // Home west of the wall; two clusters east of it, each with a near
         // and a far choice; straight lines cross the wall.
         let points = vec![

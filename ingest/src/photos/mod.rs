@@ -144,12 +144,26 @@ impl PhotoFolder {
     }
 
     /// The position of its first photo (by name) that has one: the run's
-    /// geo origin when none is given.
-    pub fn first_position(&self) -> Option<Geodetic> {
-        self.photos.iter().find_map(|name| {
-            let bytes = self.photo(name).ok()?;
-            tags::read(&bytes).ok()?.position
-        })
+    /// geo origin when none is given. Without one, why: the first photo's
+    /// error where a photo has one, else that none is tagged.
+    pub fn first_position(&self) -> Result<Geodetic, String> {
+        let mut first_error = None;
+        for name in &self.photos {
+            let tags = self
+                .photo(name)
+                .map_err(|e| e.to_string())
+                .and_then(|bytes| tags::read(&bytes).map_err(|why| format!("{name}: {why}")));
+            match tags {
+                Ok(tags::PhotoTags {
+                    position: Some(at), ..
+                }) => return Ok(at),
+                Ok(_) => {}
+                Err(why) => {
+                    first_error.get_or_insert(why);
+                }
+            }
+        }
+        Err(first_error.unwrap_or_else(|| "no photo has an EXIF GPS position".into()))
     }
 
     /// The photos' GPS positions in the map frame at `origin`, by name.

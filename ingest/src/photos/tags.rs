@@ -10,6 +10,7 @@ use std::io::Cursor;
 use exif::{Exif, In, Tag, Value};
 use nalgebra::Vector3;
 use postflight_core::geo::Geodetic;
+use postflight_core::shown::Shown;
 use postflight_core::{Distortion, Intrinsics};
 
 use super::xmp;
@@ -111,9 +112,12 @@ pub(crate) fn read(jpeg: &[u8]) -> Result<PhotoTags, String> {
         width,
         height,
         time: exif.and_then(capture_time),
-        position: exif.and_then(|e| position(e, number("AbsoluteAltitude"))),
-        gimbal: gimbal(&dji),
-        lens: lens(&dji, exif, width, height),
+        position: match exif {
+            Some(e) => position(e, number("AbsoluteAltitude"))?,
+            None => None,
+        },
+        gimbal: gimbal(&dji)?,
+        lens: lens(&dji, exif, width, height)?,
         exposure_s: exif
             .and_then(|e| rational(e, Tag::ExposureTime))
             .filter(|s| *s > 0.0),
@@ -139,16 +143,32 @@ pub(crate) fn read(jpeg: &[u8]) -> Result<PhotoTags, String> {
     })
 }
 
-/// The gimbal's attitude (roll 0 where only yaw and pitch are tagged).
-fn gimbal(dji: &BTreeMap<String, String>) -> Option<Attitude> {
+/// The gimbal's attitude (roll 0 where only yaw and pitch are tagged);
+/// an error where its angles are tagged but are not angles.
+fn gimbal(dji: &BTreeMap<String, String>) -> Result<Option<Attitude>, String> {
     let number = |name: &str| dji.get(name).and_then(|v| v.parse::<f64>().ok());
-    let attitude = Attitude {
-        yaw_deg: number("GimbalYawDegree")?,
-        pitch_deg: number("GimbalPitchDegree")?,
-        roll_deg: number("GimbalRollDegree").unwrap_or(0.0),
+    let (Some(yaw_deg), Some(pitch_deg)) = (number("GimbalYawDegree"), number("GimbalPitchDegree"))
+    else {
+        return Ok(None);
     };
-    let finite = [attitude.yaw_deg, attitude.pitch_deg, attitude.roll_deg];
-    finite.iter().all(|v| v.is_finite()).then_some(attitude)
+    let roll_deg = number("GimbalRollDegree").unwrap_or(0.0);
+    // Within a turn or two of zero: DJI tags ±180 at most.
+    if ![yaw_deg, pitch_deg, roll_deg]
+        .iter()
+        .all(|v| v.abs() <= 720.0)
+    {
+        return Err(format!(
+            "its gimbal angles (yaw {}, pitch {}, roll {}) are not angles in degrees",
+            Shown(yaw_deg),
+            Shown(pitch_deg),
+            Shown(roll_deg)
+        ));
+    }
+    Ok(Some(Attitude {
+        yaw_deg,
+        pitch_deg,
+        roll_deg,
+    }))
 }
 
 /// Width and height from the JPEG's frame header.
@@ -225,8 +245,19 @@ fn capture_time(exif: &Exif) -> Option<(i64, bool)> {
         .map(|ns| (ns, t.offset.is_some()))
 }
 
-/// EXIF's GPS position; `altitude` (DJI's absolute altitude) over EXIF's.
-fn position(exif: &Exif, altitude: Option<f64>) -> Option<Geodetic> {
+/// EXIF's GPS position; `altitude` (DJI's absolute altitude) over EXIF's;
+/// an error where it is tagged but is not a place on the Earth.
+fn position(exif: &Exif, altitude: Option<f64>) -> Result<Option<Geodetic>, String> {
+    tagged_position(exif, altitude)
+        .map(|g| {
+            g.check()
+                .map(|()| g)
+                .map_err(|e| format!("its GPS position is not a place on the Earth: {e}"))
+        })
+        .transpose()
+}
+
+fn tagged_position(exif: &Exif, altitude: Option<f64>) -> Option<Geodetic> {
     let degrees = |tag, reference, negative: u8| {
         let dms = rationals(exif, tag)?;
         let value = dms
@@ -238,7 +269,7 @@ fn position(exif: &Exif, altitude: Option<f64>) -> Option<Geodetic> {
             Some(r) if r.eq_ignore_ascii_case(&negative) => -1.0,
             _ => 1.0,
         };
-        Some(sign * value).filter(|v| v.is_finite())
+        Some(sign * value)
     };
     let latitude_deg = degrees(Tag::GPSLatitude, Tag::GPSLatitudeRef, b'S')?;
     let longitude_deg = degrees(Tag::GPSLongitude, Tag::GPSLongitudeRef, b'W')?;
@@ -254,16 +285,30 @@ fn position(exif: &Exif, altitude: Option<f64>) -> Option<Geodetic> {
         longitude_deg,
         altitude_m: altitude.or(exif_altitude)?,
     })
-    .filter(|g| g.latitude_deg.abs() <= 90.0 && g.longitude_deg.abs() <= 180.0)
 }
 
-/// The best lens model the tags give.
+/// The best lens model the tags give; an error where that is not a lens's.
 fn lens(
     dji: &BTreeMap<String, String>,
     exif: Option<&Exif>,
     width: u32,
     height: u32,
-) -> Option<(Intrinsics, LensSource)> {
+) -> Result<Option<(Intrinsics, LensSource)>, String> {
+    let Some((lens, source)) = tagged_lens(dji, exif, width, height)? else {
+        return Ok(None);
+    };
+    match lens.check() {
+        Ok(()) => Ok(Some((lens, source))),
+        Err(e) => Err(format!("{} is not a lens's: {e}", source.describe())),
+    }
+}
+
+fn tagged_lens(
+    dji: &BTreeMap<String, String>,
+    exif: Option<&Exif>,
+    width: u32,
+    height: u32,
+) -> Result<Option<(Intrinsics, LensSource)>, String> {
     let (w, h) = (f64::from(width), f64::from(height));
     let number = |name: &str| dji.get(name).and_then(|v| v.parse::<f64>().ok());
     let pinhole = |f: f64, cx: f64, cy: f64| Intrinsics {
@@ -290,20 +335,25 @@ fn lens(
         // Photos DJI already undistorted keep only the pinhole.
         let dewarped = number("DewarpFlag") == Some(1.0);
         let distortion = match dewarped {
-            true => Distortion::None,
-            false => Distortion::from_ros("plumb_bob", &[k1, k2, p1, p2, k3]).ok()?,
+            true => Ok(Distortion::None),
+            false => Distortion::from_ros("plumb_bob", &[k1, k2, p1, p2, k3]),
         };
-        Some(Intrinsics {
-            width,
-            height,
-            fx,
-            fy,
-            cx: w / 2.0 + cx,
-            cy: h / 2.0 + cy,
-            distortion,
+        // Uncalibrated cameras write zeros: the next tag's lens then.
+        (fx > 0.0 && fy > 0.0).then(|| {
+            distortion.map(|distortion| Intrinsics {
+                width,
+                height,
+                fx,
+                fy,
+                cx: w / 2.0 + cx,
+                cy: h / 2.0 + cy,
+                distortion,
+            })
         })
-        .filter(|k| k.fx > 0.0 && k.fy > 0.0)
     });
+    let dewarp = dewarp
+        .transpose()
+        .map_err(|e| format!("{}: {e}", LensSource::DewarpData.describe()))?;
     let calibrated = number("CalibratedFocalLength")
         .filter(|f| *f > 0.0)
         .map(|f| {
@@ -339,12 +389,12 @@ fn lens(
         ))
         .filter(|k| k.fx > 0.0)
     });
-    [
+    Ok([
         (dewarp, LensSource::DewarpData),
         (calibrated, LensSource::CalibratedFocalLength),
         (focal_plane, LensSource::FocalPlane),
         (film, LensSource::FilmEquivalent),
     ]
     .into_iter()
-    .find_map(|(k, source)| Some((k?, source)))
+    .find_map(|(k, source)| Some((k?, source))))
 }

@@ -79,9 +79,19 @@ fn text(bytes: &[u8]) -> Result<String, String> {
 /// A camera as postflight models it: OpenCV's distortion models, the
 /// principal point moved half a pixel to ROS's pixel centres.
 fn intrinsics(model: &str, width: u64, height: u64, p: &[f64]) -> Result<Intrinsics, String> {
+    if let Some((_, _, count)) = MODELS.iter().find(|m| m.0 == model)
+        && *count != p.len()
+    {
+        return Err(format!(
+            "its camera model {model} has {} parameters; COLMAP's {model} has {count}",
+            p.len()
+        ));
+    }
+    let size = |v: u64| u32::try_from(v).map_err(|_| format!("a camera {width} x {height} pixels"));
+    let (width, height) = (size(width)?, size(height)?);
     let pinhole = |fx: f64, fy: f64, cx: f64, cy: f64, distortion| Intrinsics {
-        width: width as u32,
-        height: height as u32,
+        width,
+        height,
         fx,
         fy,
         cx: cx - 0.5,
@@ -89,7 +99,7 @@ fn intrinsics(model: &str, width: u64, height: u64, p: &[f64]) -> Result<Intrins
         distortion,
     };
     let radial = |k: [f64; 5]| Distortion::from_ros("plumb_bob", &k);
-    Ok(match (model, p) {
+    let lens = match (model, p) {
         ("SIMPLE_PINHOLE", [f, cx, cy]) => pinhole(*f, *f, *cx, *cy, Distortion::None),
         ("PINHOLE", [fx, fy, cx, cy]) => pinhole(*fx, *fy, *cx, *cy, Distortion::None),
         ("SIMPLE_RADIAL", [f, cx, cy, k]) => {
@@ -116,7 +126,10 @@ fn intrinsics(model: &str, width: u64, height: u64, p: &[f64]) -> Result<Intrins
                 "its camera model {other} is not one postflight projects with (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, FULL_OPENCV, OPENCV_FISHEYE); refine with one of those"
             ));
         }
-    })
+    };
+    lens.check()
+        .map_err(|e| format!("a camera's lens is not one: {e}"))?;
+    Ok(lens)
 }
 
 /// `T_model_camera` from COLMAP's `cam_from_world`.

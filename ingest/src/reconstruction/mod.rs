@@ -54,6 +54,16 @@ impl Reconstruction {
         if r.images.is_empty() {
             return Err("it has no registered images".into());
         }
+        if let Some(p) = r
+            .points
+            .iter()
+            .find(|p| !p.coords.iter().all(|v| v.is_finite()))
+        {
+            return Err(format!(
+                "its point {}, {}, {} is not a place",
+                p.x, p.y, p.z
+            ));
+        }
         Ok(r)
     }
 

@@ -96,6 +96,10 @@ pub(super) fn read(path: &Path) -> Result<Reconstruction, String> {
             longitude_deg: r.longitude,
             altitude_m: r.altitude,
         });
+    if let Some(at) = &reference {
+        at.check()
+            .map_err(|e| format!("its reference_lla is not a place on the Earth: {e}"))?;
+    }
     let mut images = BTreeMap::new();
     let mut points = Vec::new();
     for part in &parts {
@@ -107,6 +111,16 @@ pub(super) fn read(path: &Path) -> Result<Reconstruction, String> {
                 )
             })?;
             let lens = intrinsics(camera)?;
+            if !shot
+                .translation
+                .iter()
+                .chain(&shot.rotation)
+                .all(|v| v.is_finite())
+            {
+                return Err(format!(
+                    "shot {name}'s pose is not a rotation and translation"
+                ));
+            }
             let cam_from_world = Isometry3::from_parts(
                 Translation3::from(Vector3::from(shot.translation)),
                 UnitQuaternion::from_scaled_axis(Vector3::from(shot.rotation)),
@@ -143,13 +157,21 @@ fn intrinsics(c: &Camera) -> Result<Intrinsics, String> {
             ));
         }
     };
-    Ok(Intrinsics {
-        width: c.width as u32,
-        height: c.height as u32,
+    let pixels = |v: f64| {
+        (v >= 1.0 && v <= f64::from(u32::MAX) && v.fract() == 0.0)
+            .then_some(v as u32)
+            .ok_or_else(|| format!("a camera {} x {} pixels", c.width, c.height))
+    };
+    let lens = Intrinsics {
+        width: pixels(c.width)?,
+        height: pixels(c.height)?,
         fx,
         fy,
         cx: c.c_x * size + c.width / 2.0 - 0.5,
         cy: c.c_y * size + c.height / 2.0 - 0.5,
         distortion,
-    })
+    };
+    lens.check()
+        .map_err(|e| format!("a camera's lens is not one: {e}"))?;
+    Ok(lens)
 }
