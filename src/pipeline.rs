@@ -185,7 +185,7 @@ fn forget_without_targets(
     quiet: bool,
 ) -> anyhow::Result<()> {
     log.forget(stage.name());
-    dir.remove(stage.summary_file())?;
+    dir.clear(stage)?;
     if !quiet {
         println!(
             "{}: skipped (needs --plan, or --target-boxes, --target-cloud or --target-map)",
@@ -241,9 +241,11 @@ fn run_logged(
     dir: &RunDir,
     quiet: bool,
 ) -> anyhow::Result<f64> {
-    // From here on this stage and every later one must run again.
+    // From here on this stage and every later one must run again: their
+    // files go, so a failure here leaves none that claims the old results.
     for later in Stage::ALL.iter().filter(|s| **s >= stage) {
         log.forget(later.name());
+        dir.clear(*later)?;
     }
     log.running = Some(stage.name().to_string());
     log.write(dir)?;

@@ -711,4 +711,17 @@ fn tags_and_reconstructions_that_are_no_cameras_are_named() {
         assert_fails_in_one_line(&out, says);
         assert!(!run.join("ingest.json").exists(), "{says}");
     }
+    // Into a run ingested before: the failure leaves no ingest.json that
+    // claims the earlier flight is this one (issue 57, item 13).
+    let earlier = dir.path().join("skipped");
+    assert!(earlier.join("ingest.json").is_file());
+    let bad = dir.path().join("reconstruction-0.json");
+    let out = on_photos(
+        "ingest",
+        &photos,
+        &["--reconstruction", bad.to_str().unwrap()],
+        &earlier,
+    );
+    assert_fails_in_one_line(&out, refused[0].2);
+    assert!(!earlier.join("ingest.json").exists());
 }

@@ -549,6 +549,56 @@ fn a_run_killed_mid_detect_resumes_without_redoing_ingest() {
         "{text}"
     );
 
+    // A rerun whose replan fails (a battery of three seconds): nothing left
+    // claims the old follow-up, neither replan's files nor the report and
+    // summary built on them; the stages before keep their results, and no
+    // JSON left holds null where a number was (issue 57, item 13).
+    let flat = dir.path().join("flat-battery.toml");
+    std::fs::write(
+        &flat,
+        "[replan]\nsolver_time_limit_s = 2.0\nbattery_minutes = 0.05\n[localise]\nmax_range_m = 25.0\n[view]\nmax_distance_m = 3.0\n",
+    )
+    .unwrap();
+    assert!(run.join("report.html").is_file() && run.join("replan.csv").is_file());
+    let failed = run_with(&args(&flat, &plan));
+    assert_eq!(failed.status.code(), Some(1), "{}", stderr(&failed));
+    assert!(
+        stderr(&failed).contains("stage replan failed"),
+        "{}",
+        stderr(&failed)
+    );
+    let left: Vec<String> = std::fs::read_dir(&run)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    for name in &left {
+        assert!(
+            !(name.starts_with("replan")
+                || [
+                    "report.html",
+                    "summary.json",
+                    "candidates.csv",
+                    "flight.rrd"
+                ]
+                .contains(&name.as_str())),
+            "{name} is left from before the failed replan: {left:?}"
+        );
+        if name.ends_with(".json") {
+            let text = std::fs::read_to_string(run.join(name)).unwrap();
+            let value: Value =
+                serde_json::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!(!value.is_null(), "{name} is null");
+        }
+    }
+    for kept in [
+        "ingest.json",
+        "detect.json",
+        "localise.json",
+        "coverage.json",
+    ] {
+        assert!(left.contains(&kept.to_string()), "{kept} gone: {left:?}");
+    }
+
     // A malformed plan is refused before anything runs, by line and column.
     let bad_plan = dir.path().join("bad-plan.json");
     std::fs::write(&bad_plan, "{\"resolution\": \"half a metre\"}").unwrap();

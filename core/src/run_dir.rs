@@ -112,22 +112,8 @@ impl RunDir {
     pub fn refill(&self, name: &str, stage: Stage, files: &[String]) -> Result<PathBuf, Error> {
         let dir = self.file(name);
         let folder = RunDir { path: dir.clone() };
-        let written: Vec<String> = if folder.file(FOLDER_RECORD).is_file() {
-            folder.read_json(FOLDER_RECORD)?
-        } else {
-            Vec::new()
-        };
-        let entries = match std::fs::read_dir(&dir) {
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
-            Err(cause) => return Err(Error::Open { path: dir, cause }),
-            Ok(entries) => entries
-                .map(|e| e.map(|e| e.file_name().to_string_lossy().into_owned()))
-                .collect::<Result<Vec<_>, _>>()
-                .map_err(|cause| Error::Open {
-                    path: dir.clone(),
-                    cause,
-                })?,
-        };
+        let written = folder.record()?;
+        let entries = folder.entries()?;
         let foreign = entries
             .iter()
             .find(|e| e.as_str() != FOLDER_RECORD && !written.contains(e));
@@ -147,6 +133,65 @@ impl RunDir {
         })?;
         folder.write_json(FOLDER_RECORD, &files)?;
         Ok(dir)
+    }
+
+    /// Remove what `stage` wrote here, its summary first (so the stage
+    /// reads as not run even if removing the rest fails): its files, and
+    /// in each folder it fills the files its record lists, the folder too
+    /// when nothing else is in it. Nothing else: a user's file stays.
+    pub fn clear(&self, stage: Stage) -> Result<(), Error> {
+        self.remove(stage.summary_file())?;
+        for entry in self.entries()? {
+            if stage.writes(&entry) && self.file(&entry).is_file() {
+                self.remove(&entry)?;
+            }
+        }
+        for name in stage.folders() {
+            let folder = RunDir {
+                path: self.file(name),
+            };
+            if !folder.file(FOLDER_RECORD).is_file() {
+                continue;
+            }
+            for file in folder.record()? {
+                folder.remove(&file)?;
+            }
+            folder.remove(FOLDER_RECORD)?;
+            // Fails, as it should, where the user keeps files in it.
+            let _ = std::fs::remove_dir(&folder.path);
+        }
+        Ok(())
+    }
+
+    /// The names of the files this folder's [`FOLDER_RECORD`] lists (none
+    /// without one); only plain names, so a record cannot point elsewhere.
+    fn record(&self) -> Result<Vec<String>, Error> {
+        if !self.file(FOLDER_RECORD).is_file() {
+            return Ok(Vec::new());
+        }
+        let names: Vec<String> = self.read_json(FOLDER_RECORD)?;
+        Ok(names
+            .into_iter()
+            .filter(|n| Path::new(n).file_name() == Some(std::ffi::OsStr::new(n)))
+            .collect())
+    }
+
+    /// The names of the entries in this directory (none if it is missing).
+    fn entries(&self) -> Result<Vec<String>, Error> {
+        match std::fs::read_dir(&self.path) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Vec::new()),
+            Err(cause) => Err(Error::Open {
+                path: self.path.clone(),
+                cause,
+            }),
+            Ok(entries) => entries
+                .map(|e| e.map(|e| e.file_name().to_string_lossy().into_owned()))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|cause| Error::Open {
+                    path: self.path.clone(),
+                    cause,
+                }),
+        }
     }
 
     /// Write `name` atomically with `write`.
@@ -280,5 +325,47 @@ mod tests {
         std::fs::write(dir.path().join("theirs/c.jpg"), "theirs").unwrap();
         assert!(run.refill("theirs", Stage::Localise, &[]).is_err());
         assert!(dir.path().join("theirs/c.jpg").exists());
+    }
+
+    #[test]
+    fn a_stage_is_cleared_of_what_it_wrote_and_nothing_else() {
+        let dir = tempfile::tempdir().unwrap();
+        let run = RunDir::create(dir.path()).unwrap();
+        for name in [
+            "replan.json",
+            "replan-2.kmz",
+            "replan-drone-1.csv",
+            "report.html",
+            "notes.txt",
+        ] {
+            std::fs::write(run.file(name), "x").unwrap();
+        }
+        let crops = run
+            .refill(
+                crate::outputs::localise::files::CROPS,
+                Stage::Localise,
+                &["a.jpg".into()],
+            )
+            .unwrap();
+        std::fs::write(crops.join("a.jpg"), "a").unwrap();
+        std::fs::write(crops.join("mine.jpg"), "mine").unwrap();
+        run.clear(Stage::Replan).unwrap();
+        run.clear(Stage::Localise).unwrap();
+        let left = |d: &Path| {
+            let mut names: Vec<String> = std::fs::read_dir(d)
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            names.sort();
+            names
+        };
+        assert_eq!(left(dir.path()), ["defects", "notes.txt", "report.html"]);
+        // The crop it wrote goes with its record; the user's stays.
+        assert_eq!(left(&crops), ["mine.jpg"]);
+        std::fs::remove_file(crops.join("mine.jpg")).unwrap();
+        run.refill("defects", Stage::Localise, &["b.jpg".into()])
+            .unwrap();
+        run.clear(Stage::Localise).unwrap();
+        assert!(!crops.exists());
     }
 }

@@ -105,6 +105,11 @@ pub fn ingest(
         options.settings.max_pose_gap_s,
         "a positive number of seconds",
     )?;
+    // A failed rerun must not leave the last ingest looking current (the
+    // folder is created only once the flight reads).
+    if options.out.is_dir() {
+        RunDir::create(&options.out)?.remove(files::SUMMARY)?;
+    }
     let mut sources = open_all(&options.flights)?;
     let origin = photo_origin(options, &sources)?;
     let reconstruction = reconstruction(options, &sources, origin.as_ref(), progress)?;

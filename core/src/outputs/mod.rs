@@ -48,6 +48,48 @@ impl Stage {
         }
     }
 
+    /// Whether `name`, a file in the run directory, is one it writes.
+    pub fn writes(self, name: &str) -> bool {
+        let named = |names: &[&str]| names.contains(&name);
+        match self {
+            Self::Ingest => {
+                use ingest::files::*;
+                named(&[FRAMES, TRAJECTORY, CAMERAS, GNSS, SUMMARY])
+            }
+            Self::Detect => {
+                use detect::files::*;
+                named(&[DETECTIONS, COCO, SUMMARY])
+            }
+            Self::Localise => {
+                use localise::files::*;
+                named(&[OBSERVATIONS, DEFECTS, DEFECTS_JSON, SUMMARY])
+            }
+            Self::Coverage => {
+                use coverage::files::*;
+                named(&[TABLE, SUMMARY, VIEWPOINTS_TABLE, VIEWPOINTS_SUMMARY])
+            }
+            Self::Replan => {
+                use replan::files::*;
+                named(&[SUMMARY, PATH_CSV, KML, GEOJSON])
+                    || is_mission(name)
+                    || is_drone_path_csv(name)
+            }
+            Self::Report => {
+                use report::files::*;
+                named(&[REPORT, CANDIDATES, RECORDING, SUMMARY])
+            }
+        }
+    }
+
+    /// The folders it fills, each keeping a record of what it wrote there
+    /// ([`RunDir::refill`](crate::RunDir::refill)).
+    pub fn folders(self) -> &'static [&'static str] {
+        match self {
+            Self::Localise => &[localise::files::CROPS],
+            _ => &[],
+        }
+    }
+
     /// The file it writes last: it exists exactly when the stage completed.
     pub fn summary_file(self) -> &'static str {
         match self {
