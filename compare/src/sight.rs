@@ -87,6 +87,7 @@ mod tests {
             frame_id: "map".into(),
             points,
             grid: None,
+            mesh_spacing_m: None,
         };
         let map = SlamMap::on_grid(cloud, grid).unwrap();
         let looking_back = Matrix3::from_columns(&[Vector3::y(), -Vector3::z(), -Vector3::x()]);

@@ -51,6 +51,7 @@ fn main() {
             frame_id: "map".into(),
             points,
             grid: None,
+            mesh_spacing_m: None,
         },
         grid,
     )

@@ -174,6 +174,7 @@ mod tests {
                 frame_id: "map".into(),
                 points,
                 grid: None,
+                mesh_spacing_m: None,
             },
             grid,
         )

@@ -82,6 +82,7 @@ mod tests {
                     frame_id: "map".into(),
                     points,
                     grid: None,
+                    mesh_spacing_m: None,
                 },
                 grid,
             )

@@ -333,7 +333,10 @@ fn summarise(
             .count(),
         focus: Vec::new(),
         seconds,
-        warnings: shot_warnings(shots),
+        warnings: shot_warnings(shots)
+            .into_iter()
+            .chain(scene.map.cloud.coarsened())
+            .collect(),
     }
 }
 

@@ -215,6 +215,7 @@ mod tests {
             frame_id: "map".into(),
             points: points.to_vec(),
             grid: None,
+            mesh_spacing_m: None,
         };
         SlamMap::on_grid(cloud, VoxelGrid::new(0.5, Point3::origin())).unwrap()
     }

@@ -247,6 +247,7 @@ pub fn map_cloud(
         frame_id: String::new(),
         points: points.iter().map(|p| r.similarity.apply(p)).collect(),
         grid: None,
+        mesh_spacing_m: None,
     };
     Ok(Some((
         cloud,

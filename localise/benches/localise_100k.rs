@@ -72,6 +72,7 @@ fn girder_map(rng: &mut Rng) -> SlamMap {
             frame_id: "map".into(),
             points,
             grid: None,
+            mesh_spacing_m: None,
         },
         0.5,
     )

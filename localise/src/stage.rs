@@ -152,6 +152,7 @@ pub fn localise(
     }
     check_overlap(&flight, &map, options.settings.max_range_m, hit, cast)?;
     warnings.extend(unplaced_warnings(&outcomes));
+    warnings.extend(map.cloud.coarsened());
 
     let (candidates, joints): (Vec<_>, Vec<_>) = fuse(&observations, &options.settings)
         .into_iter()

@@ -302,6 +302,7 @@ pub(crate) mod tests {
                 frame_id: "map".into(),
                 points,
                 grid: None,
+                mesh_spacing_m: None,
             },
             0.5,
         )

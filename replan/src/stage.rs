@@ -240,6 +240,7 @@ pub fn replan(
     let given = options.map.as_ref().or(coverage.map.as_ref());
     let (map, _) = ingest::load_map(&flight, given.map(PathBuf::as_path), Some(grid))?;
     summary.frame_id = map.cloud.frame_id.clone();
+    summary.warnings.extend(map.cloud.coarsened());
     let phase = Instant::now();
     let homes: Vec<Point3<f64>> = std::iter::once(launch)
         .chain(team.iter().map(|m| m.home))

@@ -12,9 +12,11 @@ use crate::crs::Crs;
 use crate::error::Error;
 use crate::geo::GeoOrigin;
 
-/// A mesh's surface as points, [`SAMPLE_SPACING_M`] apart.
-fn surface(mesh: &Mesh) -> Vec<Point3<f64>> {
-    mesh.surface_points(SAMPLE_SPACING_M)
+/// A mesh's surface as points, [`SAMPLE_SPACING_M`] apart or as far as
+/// its size needs ([`Mesh::spacing`]).
+fn surface(mesh: &Mesh) -> Result<(Vec<Point3<f64>>, f64), String> {
+    let spacing = mesh.spacing()?;
+    Ok((mesh.surface_points(spacing), spacing))
 }
 
 /// Whether a file is a survey's point cloud (LAS or LAZ), by its extension.
@@ -31,6 +33,10 @@ pub struct PointCloud {
     /// The grid whose voxel centres the points are, when the map is a voxel
     /// map (an OctoMap's, at its resolution).
     pub grid: Option<VoxelGrid>,
+    /// How far apart its points were sampled, metres, when the map is a
+    /// mesh; farther than [`SAMPLE_SPACING_M`] for a mesh too large to
+    /// sample so densely ([`PointCloud::coarsened`]).
+    pub mesh_spacing_m: Option<f64>,
 }
 
 impl PointCloud {
@@ -81,6 +87,7 @@ impl PointCloud {
             frame_id: crs.to_string(),
             points,
             grid: None,
+            mesh_spacing_m: None,
         })
     }
 
@@ -106,18 +113,23 @@ impl PointCloud {
             Ok((
                 map.points,
                 Some(VoxelGrid::new(map.resolution, Point3::origin())),
+                None,
             ))
         };
-        let (points, grid) = match extension {
-            "ply" => super::ply::parse(bytes).map(|ply| match ply.triangles.is_empty() {
-                true => (ply.points, None),
-                false => (surface(&Mesh { vertices: ply.points, triangles: ply.triangles }), None),
+        let mesh = |mesh: Mesh| surface(&mesh).map(|(points, at)| (points, None, Some(at)));
+        let (points, grid, mesh_spacing_m) = match extension {
+            "ply" => super::ply::parse(bytes).and_then(|ply| match ply.triangles.is_empty() {
+                true => Ok((ply.points, None, None)),
+                false => mesh(Mesh {
+                    vertices: ply.points,
+                    triangles: ply.triangles,
+                }),
             }),
             "obj" => std::str::from_utf8(bytes)
                 .map_err(|_| "the OBJ file is not text".to_string())
                 .and_then(super::mesh::parse_obj)
-                .map(|mesh| (surface(&mesh), None)),
-            "pcd" => super::pcd::parse(bytes).map(|points| (points, None)),
+                .and_then(mesh),
+            "pcd" => super::pcd::parse(bytes).map(|points| (points, None, None)),
             "bt" => octomap(super::octomap::Format::Binary),
             "ot" => octomap(super::octomap::Format::Full),
             "las" | "laz" => Err(
@@ -136,7 +148,18 @@ impl PointCloud {
             frame_id: String::new(),
             points,
             grid,
+            mesh_spacing_m,
         })
+    }
+
+    /// What to warn of where the map is a mesh sampled coarser than
+    /// [`SAMPLE_SPACING_M`] to keep within its point budget.
+    pub fn coarsened(&self) -> Option<String> {
+        let spacing = self.mesh_spacing_m.filter(|s| *s > SAMPLE_SPACING_M)?;
+        Some(format!(
+            "the map's mesh is too large to sample every {SAMPLE_SPACING_M} m within {} points: sampled every {spacing:.2} m, so cracks are placed on a coarser surface; give a mesh of the inspected part only for finer placement",
+            super::mesh::MAX_SURFACE_POINTS
+        ))
     }
 
     pub fn len(&self) -> usize {

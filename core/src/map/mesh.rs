@@ -8,6 +8,10 @@ use nalgebra::Point3;
 /// Points are sampled this far apart on a mesh's surface, metres.
 pub const SAMPLE_SPACING_M: f64 = 0.02;
 
+/// The most points a mesh's surface is sampled into (half a gigabyte): a
+/// larger surface is sampled farther apart, and the map says so.
+pub const MAX_SURFACE_POINTS: usize = 20_000_000;
+
 /// Vertices and the triangles between them (indices into `vertices`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mesh {
@@ -16,6 +20,51 @@ pub struct Mesh {
 }
 
 impl Mesh {
+    /// The spacing its surface is sampled at: [`SAMPLE_SPACING_M`], or as
+    /// much farther apart as keeps it within [`MAX_SURFACE_POINTS`]; an
+    /// error for a vertex that is not a place, or more triangles than
+    /// that many points can sample at all.
+    pub fn spacing(&self) -> Result<f64, String> {
+        if let Some((i, v)) = self
+            .vertices
+            .iter()
+            .enumerate()
+            .find(|(_, v)| !v.coords.iter().all(|x| x.is_finite()))
+        {
+            return Err(format!(
+                "vertex {} ({}, {}, {}) is not a place: its coordinates must be finite",
+                i + 1,
+                v.x,
+                v.y,
+                v.z
+            ));
+        }
+        // Each triangle's grid of rows: at most (n + 1) rows of m / 2 + 2.
+        let bound = |spacing: f64| -> f64 {
+            self.triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|i| self.vertices[i]);
+                    let n = ((b - a).norm() / spacing).ceil().max(1.0);
+                    let m = ((c - a).norm() / spacing).ceil().max(1.0);
+                    (n + 1.0) * (m / 2.0 + 2.0)
+                })
+                .sum()
+        };
+        let budget = MAX_SURFACE_POINTS as f64;
+        let mut spacing = SAMPLE_SPACING_M;
+        for _ in 0..200 {
+            if bound(spacing) <= budget {
+                return Ok(spacing);
+            }
+            spacing *= 1.25;
+        }
+        Err(format!(
+            "its {} triangles are more than {MAX_SURFACE_POINTS} points can sample; simplify the mesh",
+            self.triangles.len()
+        ))
+    }
+
     /// Points on every triangle, on a grid `spacing` apart along two of
     /// its sides (its corners and edges included), so no point of the
     /// surface is farther than `spacing` from one.
@@ -142,5 +191,38 @@ mod tests {
         assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3]]);
         assert!(parse_obj("v 0 0 0\nf 1 2 3\n").is_err());
         assert!(parse_obj("v 0 0\n").is_err());
+    }
+
+    #[test]
+    fn a_vast_mesh_is_sampled_within_its_budget_and_says_so() {
+        // One triangle with 1 km sides, 36 bytes: 1.25e9 points every 2 cm.
+        let obj = b"v 0 0 0\nv 1000 0 0\nv 0 1000 0\nf 1 2 3\n";
+        let cloud = crate::map::PointCloud::parse(obj, "obj").unwrap();
+        assert!(
+            cloud.points.len() <= MAX_SURFACE_POINTS,
+            "{}",
+            cloud.points.len()
+        );
+        assert!(
+            cloud.points.len() > MAX_SURFACE_POINTS / 4,
+            "{}",
+            cloud.points.len()
+        );
+        let warning = cloud.coarsened().unwrap();
+        let spacing = cloud.mesh_spacing_m.unwrap();
+        assert!((0.1..0.4).contains(&spacing), "{spacing}");
+        assert!(
+            warning.contains(&format!("sampled every {spacing:.2} m")),
+            "{warning}"
+        );
+        // A small one is sampled as always, with nothing to say.
+        let small =
+            crate::map::PointCloud::parse(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "obj").unwrap();
+        assert_eq!(small.mesh_spacing_m, Some(SAMPLE_SPACING_M));
+        assert!(small.coarsened().is_none());
+        // A vertex that is not a place is named.
+        let err = crate::map::PointCloud::parse(b"v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", "obj")
+            .unwrap_err();
+        assert!(err.contains("vertex 2 (NaN, 0, 0) is not a place"), "{err}");
     }
 }

@@ -235,6 +235,7 @@ mod tests {
                 frame_id: "map".into(),
                 points: points.clone(),
                 grid: None,
+                mesh_spacing_m: None,
             },
             DEFAULT_RESOLUTION,
         )

@@ -61,5 +61,6 @@ pub fn decode(msg: &PointCloud2) -> Result<PointCloud, String> {
         frame_id: msg.header.frame_id.clone(),
         points,
         grid: None,
+        mesh_spacing_m: None,
     })
 }
