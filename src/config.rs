@@ -125,7 +125,7 @@ impl RunConfig {
     }
 
     pub fn load(path: &Path) -> anyhow::Result<Self> {
-        let text = std::fs::read_to_string(path)
+        let text = postflight_core::user_file::read_to_string(path)
             .map_err(|e| anyhow::anyhow!("cannot read config {}: {e}", path.display()))?;
         Self::parse(&text).map_err(|why| anyhow::anyhow!("config {}: {why}", path.display()))
     }

@@ -733,3 +733,68 @@ fn gps_fixes_are_kept_as_recorded_by_ros2_and_ros1_and_place_the_map_on_the_eart
         assert!(aligned <= fixed && aligned > fixed * 4 / 5, "{geo}");
     }
 }
+
+/// A named pipe given where postflight reads a file (settings, a map, a
+/// plan, a model, a calibration) is refused in one line at once, not
+/// waited on for ever (issue 57, item 5).
+#[test]
+fn named_pipes_given_as_inputs_are_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let (flight, _) = write_flight(dir.path(), "flight", &["--duration", "2"]);
+    let run = dir.path().join("run");
+    let ingested = run_ingest(&flight, &run, &[]);
+    assert!(ingested.status.success(), "{}", stderr(&ingested));
+    let pipe = dir.path().join("pipe");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&pipe)
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let (f, r, p) = (
+        flight.to_str().unwrap(),
+        run.to_str().unwrap(),
+        pipe.to_str().unwrap(),
+    );
+    let out = dir.path().join("out");
+    let o = out.to_str().unwrap();
+    for (args, says) in [
+        (
+            &["run", "--flight", f, "--config", p, "--out", o][..],
+            "pipe, socket or device",
+        ),
+        (
+            &["run", "--flight", f, "--map", p, "--out", o],
+            "is not a file",
+        ),
+        (
+            &["ingest", "--flight", f, "--camera-info", p, "--out", o],
+            "pipe, socket or device",
+        ),
+        (
+            &["coverage", "--run", r, "--plan", p],
+            "pipe, socket or device",
+        ),
+        (
+            &["detect", "--run", r, "--model", p],
+            "pipe, socket or device",
+        ),
+    ] {
+        // Spawned and waited on with a deadline: a regression hangs here.
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_postflight"))
+            .args(args)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let start = std::time::Instant::now();
+        while child.try_wait().unwrap().is_none() {
+            if start.elapsed().as_secs() > 60 {
+                child.kill().unwrap();
+                panic!("{args:?} waited on the pipe");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        assert_fails_in_one_line(&child.wait_with_output().unwrap(), says);
+        assert!(!out.exists(), "{args:?} wrote {o}");
+    }
+}

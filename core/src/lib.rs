@@ -55,6 +55,7 @@ pub mod table;
 pub mod time;
 pub mod trace;
 pub mod trajectory;
+pub mod user_file;
 pub mod view;
 
 pub use camera::{Camera, Distortion, Intrinsics};

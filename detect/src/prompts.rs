@@ -20,7 +20,7 @@ impl Embeddings {
             path: path.to_owned(),
             why,
         };
-        let bytes = std::fs::read(path).map_err(|e| {
+        let bytes = postflight_core::user_file::read(path).map_err(|e| {
             bad(format!(
                 "{e}; check the path given to {}",
                 crate::settings::keys::embeddings
@@ -88,7 +88,7 @@ impl Embeddings {
 /// The rows of a `.npy` array named by the lines of the `.txt` beside it.
 fn named_rows(path: &Path, bytes: &[u8]) -> Result<BTreeMap<String, Vec<f32>>, String> {
     let names_path = path.with_extension("txt");
-    let names = std::fs::read_to_string(&names_path).map_err(|e| {
+    let names = postflight_core::user_file::read_to_string(&names_path).map_err(|e| {
         format!(
             "cannot read the prompt names {} ({e}); write one name per line, in the order of the array's rows",
             names_path.display()

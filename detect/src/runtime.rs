@@ -225,10 +225,10 @@ impl Runtime {
             path: model.to_owned(),
             why: e.to_string(),
         };
-        if !model.is_file() {
+        if let Err(e) = postflight_core::user_file::check(model) {
             return Err(DetectError::Model {
                 path: model.to_owned(),
-                why: format!("no such file; check the path given to {}", inputs::MODEL),
+                why: format!("{e}; check the path given to {}", inputs::MODEL),
             });
         }
         let builder = ort::session::Session::builder(&self.environment).map_err(bad)?;

@@ -28,7 +28,7 @@ pub fn from_calibration_file(path: &Path) -> Result<Intrinsics, IngestError> {
         path: path.to_owned(),
         why,
     };
-    let text = std::fs::read_to_string(path).map_err(|e| {
+    let text = postflight_core::user_file::read_to_string(path).map_err(|e| {
         error(format!(
             "{e}; check the path given as {}",
             keys::camera_info_file

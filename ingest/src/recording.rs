@@ -109,22 +109,20 @@ impl Recording {
     /// Open and map `path`, checking it is an MCAP file or a ROS 1 bag.
     pub fn open(path: &Path) -> Result<Self, IngestError> {
         // Before opening: opening a named pipe waits for a writer for ever.
-        let kind = std::fs::metadata(path)
-            .map_err(|cause| postflight_core::Error::Open {
-                path: path.to_owned(),
-                cause,
-            })?
-            .file_type();
-        if !kind.is_file() {
-            return Err(IngestError::NotRecording {
-                path: path.to_owned(),
-                why: if kind.is_dir() {
-                    "it is a directory"
-                } else {
-                    "it is not a regular file but a pipe, socket or device"
+        match std::fs::metadata(path) {
+            Err(cause) => {
+                return Err(postflight_core::Error::Open {
+                    path: path.to_owned(),
+                    cause,
                 }
-                .into(),
-            });
+                .into());
+            }
+            Ok(_) => {
+                postflight_core::user_file::check(path).map_err(|e| IngestError::NotRecording {
+                    path: path.to_owned(),
+                    why: e.to_string(),
+                })?
+            }
         }
         let file = File::open(path).map_err(|cause| postflight_core::Error::Open {
             path: path.to_owned(),

@@ -117,7 +117,7 @@ pub fn read_zones(
     origin: &GeoOrigin,
     take_off: &Point3<f64>,
 ) -> Result<Vec<Region>, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
+    let text = postflight_core::user_file::read_to_string(path).map_err(|e| e.to_string())?;
     let features = match text.parse::<GeoJson>().map_err(|e| e.to_string())? {
         GeoJson::FeatureCollection(c) => c.features,
         GeoJson::Feature(f) => vec![f],

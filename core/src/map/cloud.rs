@@ -52,7 +52,8 @@ impl PointCloud {
             .and_then(|e| e.to_str())
             .map(str::to_ascii_lowercase)
             .unwrap_or_default();
-        let bytes = std::fs::read(path).map_err(|e| error(format!("{e}; check the path")))?;
+        let bytes =
+            crate::user_file::read(path).map_err(|e| error(format!("{e}; check the path")))?;
         Self::parse(&bytes, &ext).map_err(error)
     }
 
@@ -67,7 +68,8 @@ impl PointCloud {
             path: path.to_owned(),
             why,
         };
-        let bytes = std::fs::read(path).map_err(|e| error(format!("{e}; check the path")))?;
+        let bytes =
+            crate::user_file::read(path).map_err(|e| error(format!("{e}; check the path")))?;
         let (points, crs) = super::las::parse(&bytes).map_err(error)?;
         let origin = origin.ok_or_else(|| {
             error(format!(

@@ -9,7 +9,7 @@ use nalgebra::Point3;
 use crate::crs::Crs;
 
 /// Every point of a LAS or LAZ file, in its coordinates, and its CRS.
-pub(super) fn parse(bytes: &[u8]) -> Result<(Vec<Point3<f64>>, Crs), String> {
+pub fn parse(bytes: &[u8]) -> Result<(Vec<Point3<f64>>, Crs), String> {
     let mut reader = las::Reader::new(Cursor::new(bytes.to_vec()))
         .map_err(|e| format!("it is not a readable LAS or LAZ file ({e})"))?;
     let crs = crs_of(reader.header())?;
@@ -51,6 +51,7 @@ const BATCH: u64 = 1 << 16;
 
 /// The CRS of the LAS or LAZ file at `path`, from its header alone.
 pub(super) fn crs_of_file(path: &std::path::Path) -> Result<Crs, String> {
+    crate::user_file::check(path).map_err(|e| format!("{e}; check the path"))?;
     let reader = las::Reader::from_path(path)
         .map_err(|e| format!("it is not a readable LAS or LAZ file ({e})"))?;
     crs_of(reader.header())

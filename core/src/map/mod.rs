@@ -2,7 +2,7 @@
 //! nearest-point queries.
 
 pub mod cloud;
-mod las;
+pub mod las;
 pub mod mesh;
 pub mod octomap;
 mod pcd;

@@ -187,7 +187,7 @@ impl FlownPlan {
 }
 
 fn read_plan(path: &Path) -> Result<String, Error> {
-    std::fs::read_to_string(path).map_err(|e| Error::Plan {
+    crate::user_file::read_to_string(path).map_err(|e| Error::Plan {
         path: path.to_owned(),
         why: format!(
             "{e}; check the path given to {}",

@@ -70,6 +70,13 @@ pub struct PhotoFolder {
     tags: OnceLock<Vec<Result<PhotoTags, String>>>,
 }
 
+/// Read a JPEG's tags as ingest does, keeping only whether they read: the
+/// `photo_tags` fuzz target's entry (`fuzz/`).
+#[doc(hidden)]
+pub fn read_tags(jpeg: &[u8]) -> Result<(), String> {
+    tags::read(jpeg).map(|_| ())
+}
+
 impl PhotoFolder {
     /// Whether a file is named as a JPEG photo.
     pub fn is_photo_name(path: &Path) -> bool {
@@ -131,7 +138,8 @@ impl PhotoFolder {
     /// A photo's bytes, as the camera wrote them.
     pub fn photo(&self, name: &str) -> Result<Vec<u8>, IngestError> {
         let path = self.path.join(name);
-        std::fs::read(&path).map_err(|cause| postflight_core::Error::Open { path, cause }.into())
+        postflight_core::user_file::read(&path)
+            .map_err(|cause| postflight_core::Error::Open { path, cause }.into())
     }
 
     /// A photo, decoded.

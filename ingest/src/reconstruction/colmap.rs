@@ -33,7 +33,7 @@ pub(super) fn read(dir: &Path) -> Result<Reconstruction, String> {
     let binary = dir.join("images.bin").is_file();
     let file = |stem: &str| {
         let path = dir.join(format!("{stem}.{}", if binary { "bin" } else { "txt" }));
-        std::fs::read(&path).map_err(|e| {
+        postflight_core::user_file::read(&path).map_err(|e| {
             format!(
                 "it is not a COLMAP model: {} ({e}); give the folder holding cameras, images and points3D (.bin or .txt)",
                 path.display()

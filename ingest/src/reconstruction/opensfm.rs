@@ -71,7 +71,8 @@ struct Lla {
 }
 
 pub(super) fn read(path: &Path) -> Result<Reconstruction, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{e}; check the path"))?;
+    let text = postflight_core::user_file::read_to_string(path)
+        .map_err(|e| format!("{e}; check the path"))?;
     let parts: Vec<Part> = serde_json::from_str(&text)
         .map_err(|e| format!("it is not an OpenSfM reconstruction.json ({e})"))?;
     let beside = path.with_file_name("reference_lla.json");
