@@ -37,9 +37,12 @@ impl Crs {
             "COMPOUNDCRS" | "COMPD_CS" => node.children.first().unwrap_or(&node),
             _ => &node,
         };
-        let epsg = horizontal
+        let code = horizontal
             .epsg()
             .ok_or_else(|| format!("its WKT CRS {:?} has no EPSG identifier", horizontal.name()))?;
+        let epsg = u16::try_from(code).map_err(|_| {
+            format!("its WKT CRS names EPSG:{code}, which is not a CRS postflight knows")
+        })?;
         Ok(Self { epsg })
     }
 
@@ -97,7 +100,7 @@ mod wkt {
         }
 
         /// Its own `ID["EPSG", n]` (WKT 2) or `AUTHORITY["EPSG", "n"]` (WKT 1).
-        pub(super) fn epsg(&self) -> Option<u16> {
+        pub(super) fn epsg(&self) -> Option<u32> {
             self.children.iter().find_map(|c| {
                 let is_id = matches!(c.keyword.to_ascii_uppercase().as_str(), "ID" | "AUTHORITY");
                 let authority = c.values.first()?;
@@ -211,6 +214,9 @@ mod tests {
         let deep = format!("{}{}", "A[".repeat(32_000), "]".repeat(32_000));
         assert!(Crs::from_wkt(&deep).unwrap_err().contains("cannot be read"));
         assert!(Crs::from_wkt("not wkt").is_err());
+        // A code past any EPSG's is named, not taken for no code at all.
+        let err = Crs::from_wkt(&WKT1.replace("\"32632\"", "\"99999\"")).unwrap_err();
+        assert!(err.contains("EPSG:99999"), "{err}");
     }
 
     #[test]

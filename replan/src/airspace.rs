@@ -145,11 +145,18 @@ pub fn read_zones(
             let corners: Vec<Point3<f64>> = ring
                 .iter()
                 .map(|position| match position.as_slice() {
-                    [lon, lat, ..] => Ok(origin.to_local(&Geodetic {
-                        latitude_deg: *lat,
-                        longitude_deg: *lon,
-                        altitude_m: take_off_altitude,
-                    })),
+                    [lon, lat, ..] => {
+                        let at = Geodetic {
+                            latitude_deg: *lat,
+                            longitude_deg: *lon,
+                            altitude_m: take_off_altitude,
+                        };
+                        // GeoJSON's order is longitude, latitude (RFC 7946).
+                        at.check().map_err(|e| {
+                            format!("{name}: position [{lon}, {lat}]: {e}; GeoJSON gives longitude first")
+                        })?;
+                        Ok(origin.to_local(&at))
+                    }
                     _ => Err(format!("{name} has a position without two numbers")),
                 })
                 .collect::<Result<_, _>>()?;
@@ -324,6 +331,22 @@ mod tests {
             read_zones(&path, &origin, &take_off)
                 .unwrap_err()
                 .contains("bare geometry")
+        );
+    }
+
+    #[test]
+    fn a_position_off_the_earth_is_refused_with_the_order_named() {
+        // Latitude first, as people write it: 200 is no latitude.
+        let text = r#"{"type": "Feature", "properties": {"name": "bridge"},
+            "geometry": {"type": "Polygon", "coordinates": [[[47.4, 8.5], [47.4, 200], [47.5, 8.5], [47.4, 8.5]]]}}"#;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("zones.geojson");
+        std::fs::write(&path, text).unwrap();
+        let origin: GeoOrigin = "47.4,8.5,400,0".parse().unwrap();
+        let err = read_zones(&path, &origin, &Point3::origin()).unwrap_err();
+        assert!(
+            err.contains("bridge: position [47.4, 200]") && err.contains("longitude first"),
+            "{err}"
         );
     }
 }

@@ -143,8 +143,12 @@ impl PointCloud {
                     .into(),
             ),
         }?;
+        // Organised clouds (PCL's) hold NaN where the sensor had no return:
+        // no point there.
+        let mut points = points;
+        points.retain(|p| p.coords.iter().all(|v| v.is_finite()));
         if points.is_empty() {
-            return Err("the map has no points".into());
+            return Err("the map has no points (none with finite coordinates)".into());
         }
         Ok(Self {
             frame_id: String::new(),

@@ -194,7 +194,7 @@ mod tests {
     }
 
     #[test]
-    fn a_vast_mesh_is_sampled_within_its_budget_and_says_so() {
+    fn a_vast_mesh_is_sampled_within_its_budget_and_a_map_holds_only_places() {
         // One triangle with 1 km sides, 36 bytes: 1.25e9 points every 2 cm.
         let obj = b"v 0 0 0\nv 1000 0 0\nv 0 1000 0\nf 1 2 3\n";
         let cloud = crate::map::PointCloud::parse(obj, "obj").unwrap();
@@ -224,5 +224,18 @@ mod tests {
         let err = crate::map::PointCloud::parse(b"v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", "obj")
             .unwrap_err();
         assert!(err.contains("vertex 2 (NaN, 0, 0) is not a place"), "{err}");
+        // A cloud's NaN points are no returns (PCL's organised clouds):
+        // dropped; a cloud of nothing else has no points.
+        let pcd = |rows: &str| {
+            format!(
+                "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\nDATA ascii\n{rows}"
+            )
+        };
+        let cloud =
+            crate::map::PointCloud::parse(pcd("nan nan nan\n1 2 3\n").as_bytes(), "pcd").unwrap();
+        assert_eq!(cloud.points, [Point3::new(1.0, 2.0, 3.0)]);
+        let err =
+            crate::map::PointCloud::parse(pcd("nan 0 0\n0 nan 0\n").as_bytes(), "pcd").unwrap_err();
+        assert!(err.contains("no points"), "{err}");
     }
 }

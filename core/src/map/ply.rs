@@ -210,13 +210,24 @@ fn parse_ascii(body: &[u8], elements: &[Element], layout: &Layout) -> Result<Ply
                 // Faces hold only their index list where postflight reads them.
                 let n = get(0)? as usize;
                 let polygon: Vec<usize> = (1..=n)
-                    .map(|k| get(k).map(|v| v as usize))
+                    .map(|k| get(k).and_then(index))
                     .collect::<Result<_, _>>()?;
                 fan(&polygon, &mut ply.triangles);
             }
         }
     }
     Ok(ply)
+}
+
+/// A face's vertex index as read: a whole number, 0 or more.
+fn index(v: f64) -> Result<usize, String> {
+    if v >= 0.0 && v.fract() == 0.0 && v < usize::MAX as f64 {
+        Ok(v as usize)
+    } else {
+        Err(format!(
+            "a PLY face names vertex {v}, which is not an index (a whole number, 0 or more)"
+        ))
+    }
 }
 
 /// A polygon's triangles, fanned from its first corner.
@@ -257,11 +268,9 @@ fn parse_binary(
                         let items = body.get(pos..pos + n * item_ty.size()).ok_or_else(short)?;
                         if layout.faces == Some((e, k)) {
                             polygon.clear();
-                            polygon.extend(
-                                items
-                                    .chunks_exact(item_ty.size())
-                                    .map(|b| item_ty.read(b, big) as usize),
-                            );
+                            for b in items.chunks_exact(item_ty.size()) {
+                                polygon.push(index(item_ty.read(b, big))?);
+                            }
                             fan(&polygon, &mut ply.triangles);
                         }
                         pos += n * item_ty.size();
@@ -336,5 +345,20 @@ mod tests {
             parse(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n")
                 .is_err()
         );
+    }
+
+    #[test]
+    fn a_negative_face_index_is_refused() {
+        let ply = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n";
+        let err = parse(ply).err().unwrap();
+        assert!(err.contains("names vertex -1"), "{err}");
+        let mut binary = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n".to_vec();
+        binary.extend([0u8; 36]);
+        binary.push(3);
+        for i in [0i32, -7, 2] {
+            binary.extend(i.to_le_bytes());
+        }
+        let err = parse(&binary).err().unwrap();
+        assert!(err.contains("names vertex -7"), "{err}");
     }
 }

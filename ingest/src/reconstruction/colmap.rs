@@ -48,9 +48,9 @@ pub(super) fn read(dir: &Path) -> Result<Reconstruction, String> {
             binary::points(&points)?,
         ),
         false => (
-            text::cameras(&text(&cameras)?)?,
-            text::images(&text(&images)?)?,
-            text::points(&text(&points)?)?,
+            text::cameras(&text("cameras.txt", &cameras)?)?,
+            text::images(&text("images.txt", &images)?)?,
+            text::points(&text("points3D.txt", &points)?)?,
         ),
     };
     let mut registered = BTreeMap::new();
@@ -72,8 +72,8 @@ pub(super) fn read(dir: &Path) -> Result<Reconstruction, String> {
     })
 }
 
-fn text(bytes: &[u8]) -> Result<String, String> {
-    String::from_utf8(bytes.to_vec()).map_err(|e| format!("a model file is not text ({e})"))
+fn text(name: &str, bytes: &[u8]) -> Result<String, String> {
+    String::from_utf8(bytes.to_vec()).map_err(|e| format!("its {name} is not UTF-8 text ({e})"))
 }
 
 /// A camera as postflight models it: OpenCV's distortion models, the
@@ -325,5 +325,28 @@ mod binary {
                 Ok(p)
             })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_model_file_that_is_not_text_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("cameras.txt"),
+            "1 PINHOLE 640 480 500 500 320 240\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.path().join("images.txt"),
+            b"1 1 0 0 0 0 0 0 1 \xff\xfe.jpg\n\n",
+        )
+        .unwrap();
+        std::fs::write(dir.path().join("points3D.txt"), "").unwrap();
+        let err = read(dir.path()).err().unwrap();
+        assert!(err.contains("its images.txt is not UTF-8 text"), "{err}");
     }
 }
