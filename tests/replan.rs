@@ -659,6 +659,26 @@ fn the_replan_inspects_every_coverable_gap_and_keeps_clear_of_the_map() {
     let out = replan(&run, &["--home", "1e12,0,0"]);
     assert_fails_in_one_line(&out, "the space to plan in, round the map and home, spans");
     assert!(started.elapsed().as_secs() < 30, "{:?}", started.elapsed());
+
+    // A team drone's camera file that is missing, or is no calibration:
+    // named as the drone's, in one line however long the file.
+    let notes = dir.path().join("notes.txt");
+    std::fs::write(&notes, "not a calibration ".repeat(500)).unwrap();
+    for (file, says) in [
+        (
+            dir.path().join("missing.yaml"),
+            "check the path given as zoom's camera_info_file in --drone",
+        ),
+        (notes, "not a ROS camera calibration file"),
+    ] {
+        let drone = format!(
+            "{{name = \"zoom\", camera_info_file = \"{}\"}}",
+            file.display()
+        );
+        let out = replan(&run, &["--drone", &drone]);
+        assert_fails_in_one_line(&out, says);
+        assert!(stderr(&out).len() < 600, "{}", stderr(&out));
+    }
 }
 
 /// A focus region around the east pier (x 7.4 to 8.6 m, y -2.5 to 2.5 m,

@@ -216,7 +216,10 @@ impl Scene {
             faces,
             lenses: match (&options.viewpoints, &options.viewpoint_camera) {
                 (Some(_), Some(camera)) => {
-                    vec![ingest::calibration::from_calibration_file(camera)?]
+                    vec![ingest::calibration::from_calibration_file(
+                        camera,
+                        &"--viewpoint-camera",
+                    )?]
                 }
                 _ => lenses(flight)?,
             },

@@ -29,7 +29,9 @@ pub(crate) fn cameras(
         .settings
         .camera_info_file
         .as_deref()
-        .map(calibration::from_calibration_file)
+        .map(|path| {
+            calibration::from_calibration_file(path, &crate::settings::keys::camera_info_file)
+        })
         .transpose()?;
     let mut first_frame: BTreeMap<&str, &Frame> = BTreeMap::new();
     for f in &scan.frames {

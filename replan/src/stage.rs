@@ -343,7 +343,10 @@ fn team(
             let speed = d.speed_m_s.unwrap_or(s.speed_m_s);
             let minutes = d.battery_minutes.unwrap_or(s.battery_minutes);
             let lens = match &d.camera_info_file {
-                Some(path) => ingest::calibration::from_calibration_file(path)?,
+                Some(path) => ingest::calibration::from_calibration_file(
+                    path,
+                    &format!("{}'s camera_info_file in {}", d.name, keys::drone),
+                )?,
                 None => lens.clone(),
             };
             Ok(Member {
