@@ -81,18 +81,10 @@ pub fn tables() -> [Table; 7] {
 }
 
 impl RunConfig {
-    /// Every `(table, key)` of the file, set or not.
+    /// Every `(table, key)` of the file, set or not (JSON keeps unset
+    /// keys as null, where TOML leaves them out).
     #[cfg(test)]
     pub fn keys(&self) -> BTreeSet<(String, String)> {
-        self.keys_where(|_| true)
-    }
-
-    /// The `(table, key)`s this file sets.
-    pub fn keys_set(&self) -> BTreeSet<(String, String)> {
-        self.keys_where(|v| !v.is_null())
-    }
-
-    fn keys_where(&self, keep: impl Fn(&serde_json::Value) -> bool) -> BTreeSet<(String, String)> {
         let value = serde_json::to_value(self).expect("the config serialises to JSON");
         let tables = value.as_object().into_iter().flatten();
         tables
@@ -100,7 +92,22 @@ impl RunConfig {
                 keys.as_object()
                     .into_iter()
                     .flatten()
-                    .filter(|(_, v)| keep(v))
+                    .map(move |(key, _)| (table.clone(), key.clone()))
+            })
+            .collect()
+    }
+
+    /// The `(table, key)`s this file sets.
+    pub fn keys_set(&self) -> BTreeSet<(String, String)> {
+        // Through TOML, not JSON: JSON has no NaN or infinity, and a key
+        // set to one would read as unset (and be worded as its flag).
+        let value = toml::Value::try_from(self).expect("the config serialises to TOML");
+        let tables = value.as_table().into_iter().flatten();
+        tables
+            .flat_map(|(table, keys)| {
+                keys.as_table()
+                    .into_iter()
+                    .flatten()
                     .map(move |(key, _)| (table.clone(), key.clone()))
             })
             .collect()

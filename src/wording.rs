@@ -176,5 +176,11 @@ mod tests {
         let min = postflight_core::view::keys::min_distance_m;
         assert_eq!(coverage.word(&min).unwrap(), "--min-distance");
         assert_eq!(coverage.word(&postflight_core::setting::inputs::MAP), None);
+        // A key set to what JSON cannot hold (NaN, infinity) is still set.
+        let config: RunConfig = toml::from_str("[replan]\nspeed_m_s = nan\n").unwrap();
+        let replan = sources(&["postflight", "replan", "--run", "r"])
+            .with_config(Path::new("n.toml"), &config);
+        let speed = replan::settings::keys::speed_m_s;
+        assert_eq!(replan.word(&speed).unwrap(), "[replan] speed_m_s in n.toml");
     }
 }
