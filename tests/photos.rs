@@ -579,6 +579,9 @@ fn tags_and_reconstructions_that_are_no_cameras_are_named() {
         extra.extend(["--retag", name, tag]);
     }
     let (photos, _) = photo_folder(&sim, dir.path(), &extra);
+    // A copy cut short: its header reads, its image does not.
+    let whole = std::fs::read(photos.join("DJI_0008.JPG")).unwrap();
+    std::fs::write(photos.join("DJI_0008.JPG"), &whole[..whole.len() / 2]).unwrap();
     let run = dir.path().join("skipped");
     let out = on_photos("ingest", &photos, &[], &run);
     assert!(out.status.success(), "{}", stderr(&out));
@@ -589,7 +592,8 @@ fn tags_and_reconstructions_that_are_no_cameras_are_named() {
         .iter()
         .map(|w| w.as_str().unwrap())
         .collect();
-    for (name, _, says) in &bad {
+    let truncated = ("DJI_0008.JPG", "", "it is truncated");
+    for (name, _, says) in bad.iter().chain([&truncated]) {
         assert!(
             warnings
                 .iter()
