@@ -2,8 +2,9 @@
 //! measure width (`--crack-widths`): from a V to a U, its depth (how much
 //! light its interior lacks) varying along it, its opening ragged along
 //! it, its edges spalled (a shallow, chipped shoulder either side) and
-//! stretches filled with dirt. Its width is the opening's, as an
-//! inspector's gauge reads it; the spalls and the dirt are what a profile
+//! stretches filled with dirt, and the narrower the opening the darker
+//! its interior (a slot, whose depth the light does not reach). Its width
+//! is the opening's, as an inspector's gauge reads it; the spalls and the dirt are what a profile
 //! of grey levels can take for more or less crack. Each crack's section
 //! is drawn from its id, so a flight keeps its seeds' other draws.
 
@@ -29,6 +30,20 @@ pub struct Section {
     pub dirt: f64,
     salt: u64,
 }
+
+/// An opening this wide is half a slot: its interior's darkness half way
+/// from its section's to [`SLOT_DEPTH`] throughout, flat-bottomed half
+/// way from its section's V. Light reaches the bottom of a wide crack but
+/// not of a narrow one as deep: real cracks darken as they narrow.
+/// Crack500's cracks, their darkness summed across them over their drawn
+/// width, sum to 0.85 to 1.05 of it where drawn 1 to 3 px wide, 0.59 to
+/// 0.68 at 3 to 5 px, 0.33 to 0.53 at 5 to 15 px (both halves,
+/// `scripts/real_cracks.py darkness`); its pixel's size is not published
+/// (phone photos resized to 640 x 360), so this takes it as about a
+/// millimetre, the size the measurement flights shoot at.
+const SLOT_M: f64 = 0.002;
+/// The share of light a slot's interior lacks.
+const SLOT_DEPTH: f64 = 0.95;
 
 /// Wavelength of the variations along the crack, metres.
 const ALONG_M: f64 = 0.02;
@@ -80,10 +95,12 @@ impl Section {
         }
         let x = x.abs();
         if x < half {
+            let slot = Self::slot(width);
             let depth = self.depth * (0.75 + 0.25 * self.along(line, s, 2));
+            let depth = depth + (SLOT_DEPTH - depth) * slot;
             let dirty = self.varying(line, s, 3, DIRT_M) < self.dirt;
             let depth = if dirty { depth / 3.0 } else { depth };
-            let ramp = self.vee * half;
+            let ramp = self.ramp(width);
             return if half - x >= ramp {
                 depth
             } else {
@@ -105,7 +122,7 @@ impl Section {
     pub fn across(&self, line: usize, s: f64, lo: f64, hi: f64, width: f64) -> f64 {
         let half = width / 2.0;
         let shoulder = self.spall * half * (0.5 + self.along(line, s, 4));
-        let ramp = self.vee * half;
+        let ramp = self.ramp(width);
         let mut corners = vec![lo, hi];
         for c in [half + shoulder, half, half - ramp] {
             corners.extend([-c, c]);
@@ -116,6 +133,18 @@ impl Section {
             .windows(2)
             .map(|w| (w[1] - w[0]) * self.darkness(line, s, (w[0] + w[1]) / 2.0, width))
             .sum()
+    }
+
+    /// How much of a slot an opening `width` wide is: all of one as the
+    /// width goes to nothing, half at [`SLOT_M`], less as its square grows.
+    fn slot(width: f64) -> f64 {
+        1.0 / (1.0 + (width / SLOT_M).powi(2))
+    }
+
+    /// How far in from each edge the interior ramps to its full depth,
+    /// metres: the section's V, less as the opening narrows to a slot.
+    fn ramp(&self, width: f64) -> f64 {
+        self.vee * (1.0 - Self::slot(width)) * width / 2.0
     }
 
     /// How far the darkness reaches from the centre line, metres, for an
@@ -139,7 +168,7 @@ mod tests {
         let w = 0.004;
         // Darkest inside, a shoulder at most outside, nothing far off.
         let inside = s.darkness(0, 0.1, 0.0, w);
-        assert!(inside > 0.1 && inside <= 0.9);
+        assert!(inside > 0.1 && inside <= SLOT_DEPTH);
         assert!(s.darkness(0, 0.1, w / 2.0 + 1e-6, w) <= s.spall_depth);
         assert_eq!(s.darkness(0, 0.1, s.reach(w) * 1.5 + 0.01, w), 0.0);
         // The opening varies along the crack within its raggedness.
@@ -151,5 +180,21 @@ mod tests {
                 .iter()
                 .all(|f| *f <= 1.0 && *f >= 1.0 - s.ragged - 1e-12)
         );
+    }
+
+    #[test]
+    fn narrower_openings_hold_more_darkness_for_their_width() {
+        // Summed across the opening, over its width: its mean darkness.
+        let mean = |s: &Section, w: f64| s.across(0, 0.1, -w / 2.0, w / 2.0, w) / w;
+        for id in 0..50 {
+            let s = Section::of(id);
+            let (slot, crack, wide) = (mean(&s, 0.0005), mean(&s, 0.002), mean(&s, 0.008));
+            assert!(slot > crack && crack > wide, "{id}: {slot} {crack} {wide}");
+            // A slot is nearly as dark as a slot can be, unless dirt fills it.
+            assert!(
+                !(SLOT_DEPTH / 2.5..=0.8 * SLOT_DEPTH).contains(&slot),
+                "{id}: {slot}"
+            );
+        }
     }
 }
