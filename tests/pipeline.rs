@@ -727,4 +727,18 @@ fn a_missing_path_is_named_once_and_nothing_is_written() {
         );
         assert!(!out_dir.exists(), "{command:?} wrote {o}");
     }
+    // A photo folder that is not there is named as such, not as a
+    // recording that could not be read.
+    let photos = dir.path().join("photos");
+    let out = postflight(
+        &["ingest", "--photos", photos.to_str().unwrap(), "--out", o],
+        dir.path(),
+    );
+    assert_fails_in_one_line(&out, "cannot open");
+    assert!(
+        !stderr(&out).contains("not a flight recording"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!out_dir.exists());
 }

@@ -158,12 +158,14 @@ pub fn decode_compressed(data: &[u8]) -> Result<DynamicImage, String> {
     if format == image::ImageFormat::Jpeg && !ends_with_eoi(data) {
         return Err("JPEG is cut off (no end-of-image marker)".into());
     }
-    image::load_from_memory_with_format(data, format).map_err(|e| e.to_string())
+    // Some of the decoders' messages run over lines: one line for the log.
+    image::load_from_memory_with_format(data, format)
+        .map_err(|e| e.to_string().lines().collect::<Vec<_>>().join("; "))
 }
 
 /// Whether a JPEG ends with its end-of-image marker (`FF D9`), allowing the
 /// few padding bytes some encoders append.
-fn ends_with_eoi(data: &[u8]) -> bool {
+pub(crate) fn ends_with_eoi(data: &[u8]) -> bool {
     let tail = &data[data.len().saturating_sub(16)..];
     tail.windows(2).any(|w| w == [0xff, 0xd9])
 }

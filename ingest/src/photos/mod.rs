@@ -95,9 +95,9 @@ impl PhotoFolder {
 
     /// List the JPEGs of `dir`; an error when it holds none.
     pub fn open(dir: &Path) -> Result<Self, IngestError> {
-        let listed = std::fs::read_dir(dir).map_err(|e| IngestError::NotRecording {
+        let listed = std::fs::read_dir(dir).map_err(|cause| postflight_core::Error::Open {
             path: dir.to_owned(),
-            why: e.to_string(),
+            cause,
         })?;
         let mut photos = Vec::new();
         let mut size_bytes = 0;

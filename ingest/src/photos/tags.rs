@@ -97,9 +97,8 @@ pub(crate) struct PhotoTags {
 pub(crate) fn read(jpeg: &[u8]) -> Result<PhotoTags, String> {
     let (width, height) = image_size(jpeg)?;
     // A copy cut short still has its header: caught here, not when detect
-    // decodes it. Writers may pad after the end marker with zeros.
-    let end = jpeg.iter().rposition(|b| *b != 0).map_or(0, |i| i + 1);
-    if !jpeg[..end].ends_with(&[0xFF, 0xD9]) {
+    // decodes it.
+    if !crate::image::ends_with_eoi(jpeg) {
         return Err("it is truncated (it does not end with JPEG's end-of-image marker)".into());
     }
     let exif = match exif::Reader::new().read_from_container(&mut Cursor::new(jpeg)) {

@@ -1,0 +1,5 @@
+//! A PLY map, as `--map` reads it.
+#![no_main]
+libfuzzer_sys::fuzz_target!(|bytes: &[u8]| {
+    let _ = postflight_core::map::PointCloud::parse(bytes, "ply");
+});
