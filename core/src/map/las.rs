@@ -10,6 +10,19 @@ use crate::crs::Crs;
 
 /// Every point of a LAS or LAZ file, in its coordinates, and its CRS.
 pub fn parse(bytes: &[u8]) -> Result<(Vec<Point3<f64>>, Crs), String> {
+    guarded(|| parse_unguarded(bytes))
+}
+
+/// `read`, with a panic of the `las` or `laz` crate on a corrupt file (their
+/// overflow checks and assertions in debug builds, found by fuzzing) made
+/// the error it is.
+fn guarded<T>(read: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(read)).unwrap_or_else(|_| {
+        Err("it is not a readable LAS or LAZ file (corrupt: its reader gave up on it)".into())
+    })
+}
+
+fn parse_unguarded(bytes: &[u8]) -> Result<(Vec<Point3<f64>>, Crs), String> {
     let mut reader = las::Reader::new(Cursor::new(bytes.to_vec()))
         .map_err(|e| format!("it is not a readable LAS or LAZ file ({e})"))?;
     let crs = crs_of(reader.header())?;
@@ -52,9 +65,11 @@ const BATCH: u64 = 1 << 16;
 /// The CRS of the LAS or LAZ file at `path`, from its header alone.
 pub(super) fn crs_of_file(path: &std::path::Path) -> Result<Crs, String> {
     crate::user_file::check(path).map_err(|e| format!("{e}; check the path"))?;
-    let reader = las::Reader::from_path(path)
-        .map_err(|e| format!("it is not a readable LAS or LAZ file ({e})"))?;
-    crs_of(reader.header())
+    guarded(|| {
+        let reader = las::Reader::from_path(path)
+            .map_err(|e| format!("it is not a readable LAS or LAZ file ({e})"))?;
+        crs_of(reader.header())
+    })
 }
 
 /// The file's CRS; an error naming what is missing and how to add it.
@@ -78,6 +93,15 @@ fn crs_of(header: &las::Header) -> Result<Crs, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_file_the_las_reader_panics_on_is_an_error() {
+        // Found by the `las` fuzz target (minimised): a header whose sizes
+        // overflow the `las` crate's arithmetic (a panic in debug builds);
+        // the LAZ decoder's assertions on corrupt streams go the same way.
+        let bytes = include_bytes!("fuzzed/las-header-overflow.laz");
+        assert!(parse(bytes).is_err());
+    }
 
     /// A LAS 1.4 file of `n` points with a WKT CRS (EPSG:32633).
     fn las_file(n: usize) -> Vec<u8> {
