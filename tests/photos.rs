@@ -31,6 +31,13 @@ fn photo_folder(sim: &Path, dir: &Path, extra: &[&str]) -> (PathBuf, Value) {
     (photos, serde_json::from_str(&listed).unwrap())
 }
 
+/// The warnings a run's ingest.json lists.
+fn ingest_warnings(run: &Path) -> Vec<String> {
+    let summary = read_json(&run.join("ingest.json"));
+    let warnings = summary["warnings"].as_array().unwrap().iter();
+    warnings.map(|w| w.as_str().unwrap().to_string()).collect()
+}
+
 /// `postflight COMMAND --photos PHOTOS ARGS... --out OUT`.
 fn on_photos(command: &str, photos: &Path, args: &[&str], out: &Path) -> std::process::Output {
     let mut all = vec![command, "--photos", photos.to_str().unwrap()];
@@ -492,13 +499,7 @@ fn bad_photos_and_a_laz_without_a_crs_are_named_in_one_line() {
     let run = dir.path().join("skipped");
     let out = on_photos("ingest", &photos, &[], &run);
     assert!(out.status.success(), "{}", stderr(&out));
-    let warnings = read_json(&run.join("ingest.json"))["warnings"].clone();
-    let warnings: Vec<&str> = warnings
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|w| w.as_str().unwrap())
-        .collect();
+    let warnings = ingest_warnings(&run);
     assert!(
         warnings
             .iter()
@@ -585,13 +586,7 @@ fn tags_and_reconstructions_that_are_no_cameras_are_named() {
     let run = dir.path().join("skipped");
     let out = on_photos("ingest", &photos, &[], &run);
     assert!(out.status.success(), "{}", stderr(&out));
-    let warnings = read_json(&run.join("ingest.json"))["warnings"].clone();
-    let warnings: Vec<&str> = warnings
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|w| w.as_str().unwrap())
-        .collect();
+    let warnings = ingest_warnings(&run);
     let truncated = ("DJI_0008.JPG", "", "it is truncated");
     for (name, _, says) in bad.iter().chain([&truncated]) {
         assert!(
