@@ -81,8 +81,9 @@ impl<'a> FreeSpace<'a> {
         if lo[0] > hi[0] {
             (lo, hi) = ([0; 3], [0; 3]);
         }
-        hi[2] += (HEADROOM_M / res).ceil() as i64;
-        let spans = [0, 1, 2].map(|k| (hi[k] - lo[k] + 1) as f64);
+        // Saturating: a home at 1e300 m saturates its voxel at i64's end.
+        hi[2] = hi[2].saturating_add((HEADROOM_M / res).ceil() as i64);
+        let spans = [0, 1, 2].map(|k| hi[k].saturating_sub(lo[k]).saturating_add(1) as f64);
         let cells = spans.iter().product::<f64>();
         let in_i32 = lo.iter().chain(&hi).all(|v| i32::try_from(*v).is_ok());
         if cells > MAX_CELLS as f64 || !in_i32 {
@@ -433,6 +434,11 @@ mod tests {
     #[test]
     fn a_path_round_a_wall_keeps_the_clearance_and_is_near_shortest() {
         let map = wall();
+        // A point far off the map (a home in the wrong frame) is refused.
+        for far in [1e12, 1e300] {
+            let home = [Point3::new(far, 0.0, 0.0)];
+            assert!(FreeSpace::new(&map, 1.0, &home, Airspace::default()).is_err());
+        }
         let space = FreeSpace::new(&map, 1.0, &[], Airspace::default()).unwrap();
         let (a, b) = (Point3::new(-3.0, 0.0, 3.0), Point3::new(3.5, 0.0, 3.0));
         assert!(!space.segment_is_clear(&a, &b));
