@@ -6,6 +6,7 @@ use std::io::Cursor;
 
 use nalgebra::Point3;
 
+use super::las_sizes;
 use crate::crs::Crs;
 
 /// Every point of a LAS or LAZ file, in its coordinates, and its CRS.
@@ -23,9 +24,11 @@ fn guarded<T>(read: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
 }
 
 fn parse_unguarded(bytes: &[u8]) -> Result<(Vec<Point3<f64>>, Crs), String> {
-    let mut reader = las::Reader::new(Cursor::new(bytes.to_vec()))
-        .map_err(|e| format!("it is not a readable LAS or LAZ file ({e})"))?;
-    let crs = crs_of(reader.header())?;
+    las_sizes::check_evlrs(Cursor::new(bytes))?;
+    let header = las::Header::new(Cursor::new(bytes)).map_err(unreadable)?;
+    let crs = crs_of(&header)?;
+    las_sizes::check_laz(bytes, &header)?;
+    let mut reader = las::Reader::new(Cursor::new(bytes.to_vec())).map_err(unreadable)?;
     let header = reader.header();
     let claimed = header.number_of_points();
     // An uncompressed file's points are all in it: a count it cannot hold
@@ -65,11 +68,17 @@ const BATCH: u64 = 1 << 16;
 /// The CRS of the LAS or LAZ file at `path`, from its header alone.
 pub(super) fn crs_of_file(path: &std::path::Path) -> Result<Crs, String> {
     crate::user_file::check(path).map_err(|e| format!("{e}; check the path"))?;
+    let open = || std::fs::File::open(path).map(std::io::BufReader::new);
+    let file = open().map_err(|e| format!("it cannot be read ({e})"))?;
     guarded(|| {
-        let reader = las::Reader::from_path(path)
-            .map_err(|e| format!("it is not a readable LAS or LAZ file ({e})"))?;
-        crs_of(reader.header())
+        las_sizes::check_evlrs(file)?;
+        let file = open().map_err(|e| format!("it cannot be read ({e})"))?;
+        crs_of(&las::Header::new(file).map_err(unreadable)?)
     })
+}
+
+fn unreadable(e: las::Error) -> String {
+    format!("it is not a readable LAS or LAZ file ({e})")
 }
 
 /// The file's CRS; an error naming what is missing and how to add it.
@@ -105,8 +114,14 @@ mod tests {
 
     /// A LAS 1.4 file of `n` points with a WKT CRS (EPSG:32633).
     fn las_file(n: usize) -> Vec<u8> {
+        las_or_laz_file(n, false)
+    }
+
+    /// The same, LAZ-compressed where `compressed`.
+    fn las_or_laz_file(n: usize, compressed: bool) -> Vec<u8> {
         let mut builder = las::Builder::from((1, 4));
         builder.point_format = las::point::Format::new(6).unwrap();
+        builder.point_format.is_compressed = compressed;
         let mut header = builder.into_header().unwrap();
         let wkt = r#"PROJCS["WGS 84 / UTM zone 33N",GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]],PROJECTION["Transverse_Mercator"],UNIT["metre",1],AUTHORITY["EPSG","32633"]]"#;
         header.set_wkt_crs(wkt.as_bytes().to_vec()).unwrap();
@@ -140,5 +155,64 @@ mod tests {
         lying[247..255].copy_from_slice(&u64::from(u32::MAX).to_le_bytes());
         let err = parse(&lying).unwrap_err();
         assert!(err.contains("claims 4294967295 points"), "{err}");
+    }
+
+    fn le_u32(bytes: &[u8], at: usize) -> usize {
+        u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()) as usize
+    }
+
+    #[test]
+    fn sizes_a_laz_file_cannot_hold_are_refused_before_they_are_allocated() {
+        // Found by the `las` fuzz target: a LAZ 1.4 file of 836 kB whose
+        // chunk claimed layers the decoder allocated (3.4 GB) before
+        // finding their bytes missing. Here a valid file, then its sizes
+        // made to lie one at a time.
+        let file = las_or_laz_file(100, true);
+        assert_eq!(parse(&file).unwrap().0.len(), 100);
+        let data = le_u32(&file, 96);
+        // The first chunk: the chunk table's offset (8 bytes), a point of
+        // format 6 uncompressed (30 bytes), its point count, then the size
+        // of each of its 9 layers.
+        let mut layers = file.clone();
+        let first_layer = data + 8 + 30 + 4;
+        layers[first_layer..first_layer + 4].copy_from_slice(&u32::MAX.to_le_bytes());
+        let err = parse(&layers).unwrap_err();
+        assert!(err.contains("LAZ chunk 1 claims 42949"), "{err}");
+        // The chunk table: its version, then its number of chunks.
+        let mut table = file.clone();
+        let table_at = u64::from_le_bytes(file[data..data + 8].try_into().unwrap()) as usize;
+        table[table_at + 4..table_at + 8].copy_from_slice(&u32::MAX.to_le_bytes());
+        let err = parse(&table).unwrap_err();
+        assert!(
+            err.contains("chunk table claims 4294967295 chunks"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn an_extended_vlr_longer_than_the_file_is_refused() {
+        let mut builder = las::Builder::from((1, 4));
+        builder.evlrs.push(las::Vlr {
+            user_id: "postflight".into(),
+            record_id: 1,
+            description: "test".into(),
+            data: vec![7; 100],
+        });
+        let header = builder.into_header().unwrap();
+        let writer = las::Writer::new(Cursor::new(Vec::new()), header).unwrap();
+        let mut file = writer.into_inner().unwrap().into_inner();
+        let start = u64::from_le_bytes(file[235..243].try_into().unwrap()) as usize;
+        assert_eq!(le_u32(&file, 243), 1);
+        file[start + 20..start + 28].copy_from_slice(&(1u64 << 40).to_le_bytes());
+        let err = parse(&file).unwrap_err();
+        assert!(
+            err.contains("extended VLR 1 claims 1099511627776 bytes"),
+            "{err}"
+        );
+        let path = std::env::temp_dir().join(format!("postflight-evlr-{}.las", std::process::id()));
+        std::fs::write(&path, &file).unwrap();
+        let err = crs_of_file(&path).unwrap_err();
+        std::fs::remove_file(&path).unwrap();
+        assert!(err.contains("extended VLR 1 claims"), "{err}");
     }
 }

@@ -3,6 +3,7 @@
 
 pub mod cloud;
 pub mod las;
+mod las_sizes;
 pub mod mesh;
 pub mod octomap;
 mod pcd;
