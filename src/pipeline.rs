@@ -251,6 +251,8 @@ fn run_logged(
     log.write(dir)?;
     let start = Instant::now();
     run_stage(stage, inputs, quiet).map_err(|e| {
+        // Nothing of a failed stage stays to be taken for its results.
+        let _ = dir.clear(stage);
         anyhow::anyhow!(
             "stage {} failed: {e:#}\nthe results of the stages before it are intact in {}; fix the cause and rerun the same command to resume from {}",
             stage.name(),

@@ -385,6 +385,74 @@ fn the_demo_reports_the_simulated_cracks_and_the_simulated_gap() {
     assert_eq!(modified(&run.join("ingest.json")), ingest_time);
 }
 
+/// The files each stage after ingest writes, in the run's order (replan's
+/// missions and per-drone paths too: every name starting with "replan").
+const STAGE_FILES: [(&str, &[&str]); 5] = [
+    (
+        "detect",
+        &["detections.parquet", "detections.coco.json", "detect.json"],
+    ),
+    (
+        "localise",
+        &[
+            "defects.json",
+            "observations.parquet",
+            "defects.parquet",
+            "defects",
+            "localise.json",
+        ],
+    ),
+    ("coverage", &["coverage.parquet", "coverage.json"]),
+    (
+        "replan",
+        &["replan.csv", "replan.kml", "replan.geojson", "replan.json"],
+    ),
+    (
+        "report",
+        &[
+            "report.html",
+            "candidates.csv",
+            "flight.rrd",
+            "summary.json",
+        ],
+    ),
+];
+
+/// After `failed` failed in `run`: no file of it or of a later stage is
+/// left to be taken for their results (`users`, the user's own, stays);
+/// each stage before it kept its summary; every JSON file left reads as a
+/// value, none as null (issue 57, items 12 and 13).
+fn assert_honest_after_failure(run: &Path, failed: &str, users: Option<&Path>) {
+    let left: Vec<String> = std::fs::read_dir(run)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|name| users.is_none_or(|u| u != run.join(name)))
+        .collect();
+    let at = STAGE_FILES.iter().position(|(s, _)| *s == failed).unwrap();
+    for (stage, files) in &STAGE_FILES[at..] {
+        for name in &left {
+            assert!(
+                !(files.contains(&name.as_str()) || name.starts_with(stage) && *stage == "replan"),
+                "{name} of {stage} is left after {failed} failed: {left:?}"
+            );
+        }
+    }
+    for (stage, files) in
+        std::iter::once(&("ingest", &["ingest.json"][..])).chain(&STAGE_FILES[..at])
+    {
+        let summary = files.last().unwrap();
+        assert!(
+            left.contains(&summary.to_string()),
+            "{stage}'s {summary} gone after {failed} failed: {left:?}"
+        );
+    }
+    for name in left.iter().filter(|n| n.ends_with(".json")) {
+        let text = std::fs::read_to_string(run.join(name)).unwrap();
+        let value: Value = serde_json::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(!value.is_null(), "{name} is null");
+    }
+}
+
 #[test]
 fn a_run_killed_mid_detect_resumes_without_redoing_ingest() {
     let dir = tempfile::tempdir().unwrap();
@@ -567,37 +635,48 @@ fn a_run_killed_mid_detect_resumes_without_redoing_ingest() {
         "{}",
         stderr(&failed)
     );
-    let left: Vec<String> = std::fs::read_dir(&run)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    for name in &left {
-        assert!(
-            !(name.starts_with("replan")
-                || [
-                    "report.html",
-                    "summary.json",
-                    "candidates.csv",
-                    "flight.rrd"
-                ]
-                .contains(&name.as_str())),
-            "{name} is left from before the failed replan: {left:?}"
+    assert_honest_after_failure(&run, "replan", None);
+
+    // Each stage failing in turn, from the last to the first, with the
+    // user's own folder where it writes a file: the folder is named and
+    // kept, and the run directory is as honest as above.
+    let done = run_with(&args(&config, &plan));
+    assert!(done.status.success(), "{}", stderr(&done));
+    for (stage, files) in STAGE_FILES.iter().rev() {
+        // The user's folder is there before the run: so is not the file.
+        let mine = run.join(files[0]);
+        std::fs::remove_file(&mine).unwrap();
+        std::fs::create_dir(&mine).unwrap();
+        std::fs::write(mine.join("notes.txt"), "the user's").unwrap();
+        let mut forced = args(&config, &plan);
+        forced.extend(["--force".to_string(), stage.to_string()]);
+        let failed = run_with(&forced);
+        assert_eq!(
+            failed.status.code(),
+            Some(1),
+            "{stage}: {}",
+            stderr(&failed)
         );
-        if name.ends_with(".json") {
-            let text = std::fs::read_to_string(run.join(name)).unwrap();
-            let value: Value =
-                serde_json::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
-            assert!(!value.is_null(), "{name} is null");
-        }
+        let err = stderr(&failed);
+        assert!(
+            err.contains(&format!("stage {stage} failed"))
+                && err.contains(&format!("{} is in the way", mine.display())),
+            "{err}"
+        );
+        assert_honest_after_failure(&run, stage, Some(&mine));
+        assert_eq!(
+            std::fs::read_to_string(mine.join("notes.txt")).unwrap(),
+            "the user's"
+        );
+        std::fs::remove_dir_all(&mine).unwrap();
     }
-    for kept in [
-        "ingest.json",
-        "detect.json",
-        "localise.json",
-        "coverage.json",
-    ] {
-        assert!(left.contains(&kept.to_string()), "{kept} gone: {left:?}");
-    }
+    // What the failures left is what the stages before them wrote: a rerun
+    // takes it as current.
+    let resumed = run_with(&args(&config, &plan));
+    assert!(resumed.status.success(), "{}", stderr(&resumed));
+    let text = stdout(&resumed);
+    assert!(text.contains("ingest: up to date, skipped"), "{text}");
+    assert!(text.contains("detections in"), "detect reran:\n{text}");
 
     // A malformed plan is refused before anything runs, by line and column.
     let bad_plan = dir.path().join("bad-plan.json");

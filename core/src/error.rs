@@ -43,6 +43,12 @@ pub enum Error {
         stage: crate::outputs::Stage,
     },
 
+    #[error(
+        "{} is in the way: postflight writes a file of that name there, and this is not a file; move it away or choose another run directory",
+        path.display()
+    )]
+    InTheWay { path: PathBuf },
+
     #[error(transparent)]
     Setting(#[from] crate::setting::InvalidSetting),
 }

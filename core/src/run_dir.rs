@@ -92,8 +92,14 @@ impl RunDir {
 
     /// Remove a file if present (a stage clears its summary before writing,
     /// so an interrupted stage never looks complete).
+    /// Whatever is there and is not a file (a user's folder) is in the
+    /// way: refused, never deleted.
     pub fn remove(&self, name: &str) -> Result<(), Error> {
-        match std::fs::remove_file(self.file(name)) {
+        let path = self.file(name);
+        if std::fs::symlink_metadata(&path).is_ok_and(|m| !m.is_file() && !m.is_symlink()) {
+            return Err(Error::InTheWay { path });
+        }
+        match std::fs::remove_file(path) {
             Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(Error::Write {
                 path: self.file(name),
                 cause: e,
@@ -140,9 +146,16 @@ impl RunDir {
     /// in each folder it fills the files its record lists, the folder too
     /// when nothing else is in it. Nothing else: a user's file stays.
     pub fn clear(&self, stage: Stage) -> Result<(), Error> {
-        self.remove(stage.summary_file())?;
+        // A folder of one of the names is the user's (see `remove`).
+        let a_file = |name: &str| {
+            std::fs::symlink_metadata(self.file(name)).is_ok_and(|m| m.is_file() || m.is_symlink())
+        };
+        let summary = stage.summary_file();
+        if a_file(summary) {
+            self.remove(summary)?;
+        }
         for entry in self.entries()? {
-            if stage.writes(&entry) && self.file(&entry).is_file() {
+            if stage.writes(&entry) && a_file(&entry) {
                 self.remove(&entry)?;
             }
         }
@@ -194,22 +207,32 @@ impl RunDir {
         }
     }
 
-    /// Write `name` atomically with `write`.
+    /// Write `name` atomically with `write`; no trace of it where writing
+    /// fails. Whatever is at `name` and is not a file (a user's folder of
+    /// that name) is refused, never replaced.
     pub fn write_with(
         &self,
         name: &str,
         write: impl FnOnce(&mut File) -> Result<(), Error>,
     ) -> Result<(), Error> {
         let target = self.file(name);
+        if std::fs::symlink_metadata(&target).is_ok_and(|m| !m.is_file() && !m.is_symlink()) {
+            return Err(Error::InTheWay { path: target });
+        }
         let tmp = self.file(&format!(".{name}.tmp"));
         let io = |cause| Error::Write {
             path: target.clone(),
             cause,
         };
-        let mut file = File::create(&tmp).map_err(io)?;
-        write(&mut file)?;
-        file.sync_all().map_err(io)?;
-        std::fs::rename(&tmp, &target).map_err(io)
+        let written = File::create(&tmp).map_err(io).and_then(|mut file| {
+            write(&mut file)?;
+            file.sync_all().map_err(io)?;
+            std::fs::rename(&tmp, &target).map_err(io)
+        });
+        if written.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+        }
+        written
     }
 
     /// Write `name` atomically with the text `text`.

@@ -158,9 +158,17 @@ pub fn decode_compressed(data: &[u8]) -> Result<DynamicImage, String> {
     if format == image::ImageFormat::Jpeg && !ends_with_eoi(data) {
         return Err("JPEG is cut off (no end-of-image marker)".into());
     }
-    // Some of the decoders' messages run over lines: one line for the log.
-    image::load_from_memory_with_format(data, format)
-        .map_err(|e| e.to_string().lines().collect::<Vec<_>>().join("; "))
+    image::load_from_memory_with_format(data, format).map_err(one_line)
+}
+
+/// A decoder's message on one line: some of them run over lines, or end
+/// in a line break, which would split the log's line.
+pub(crate) fn one_line(error: image::ImageError) -> String {
+    let text = error.to_string();
+    text.lines()
+        .filter(|l| !l.trim().is_empty())
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// Whether a JPEG ends with its end-of-image marker (`FF D9`), allowing the
@@ -180,6 +188,19 @@ mod tests {
         let mut out = Cursor::new(Vec::new());
         img.write_to(&mut out, format).unwrap();
         out.into_inner()
+    }
+
+    #[test]
+    fn a_decoders_message_is_one_line() {
+        // An APP0 segment claiming 65 kB: the JPEG decoder's message ends
+        // in a line break, which would split the log's line.
+        let mut data = encoded(image::ImageFormat::Jpeg);
+        data[4] = 0xff;
+        let err = decode_compressed(&data).unwrap_err();
+        assert!(
+            err.contains("Not enough bytes") && !err.contains('\n'),
+            "{err:?}"
+        );
     }
 
     #[test]

@@ -181,7 +181,7 @@ fn image_size(jpeg: &[u8]) -> Result<(u32, u32), String> {
     let reader = image::ImageReader::with_format(Cursor::new(jpeg), image::ImageFormat::Jpeg);
     reader
         .into_dimensions()
-        .map_err(|e| format!("it is not a readable JPEG ({e})"))
+        .map_err(|e| format!("it is not a readable JPEG ({})", crate::image::one_line(e)))
 }
 
 fn camera_name(exif: &Exif) -> String {
