@@ -1,7 +1,9 @@
 //! Camera images as recorded: reading their size from the first bytes
-//! (metadata ingest) and decoding them to pixels (later stages).
+//! (metadata ingest), decoding them to pixels (later stages) and marking a
+//! detection's box on one for reviewers (localise's crops, the review
+//! queue's frames).
 
-use image::{DynamicImage, GrayImage, ImageBuffer, Luma, RgbImage};
+use image::{DynamicImage, GrayImage, ImageBuffer, Luma, Rgb, RgbImage};
 
 /// Container of a `sensor_msgs/msg/CompressedImage`, from its magic bytes
 /// (the `format` string is free text and often wrong).
@@ -176,6 +178,31 @@ pub(crate) fn one_line(error: image::ImageError) -> String {
 pub(crate) fn ends_with_eoi(data: &[u8]) -> bool {
     let tail = &data[data.len().saturating_sub(16)..];
     tail.windows(2).any(|w| w == [0xff, 0xd9])
+}
+
+/// Draw a detection box (`[x0, y0, x1, y1]`, pixels) on an image in red,
+/// `thickness` pixels wide inwards, clipped to the image.
+pub fn draw_box(img: &mut RgbImage, bbox: [f32; 4], thickness: u32) {
+    let (w, h) = (img.width(), img.height());
+    if w == 0 || h == 0 {
+        return;
+    }
+    let red = Rgb([230, 40, 40]);
+    let clamp = |v: f32, n: u32| (v.max(0.0) as u32).min(n - 1);
+    let (x0, y0) = (clamp(bbox[0], w), clamp(bbox[1], h));
+    let (x1, y1) = (clamp(bbox[2], w).max(x0), clamp(bbox[3], h).max(y0));
+    for t in 0..thickness {
+        let (ax0, ay0) = ((x0 + t).min(x1), (y0 + t).min(y1));
+        let (ax1, ay1) = (x1.saturating_sub(t).max(ax0), y1.saturating_sub(t).max(ay0));
+        for x in ax0..=ax1 {
+            img.put_pixel(x, ay0, red);
+            img.put_pixel(x, ay1, red);
+        }
+        for y in ay0..=ay1 {
+            img.put_pixel(ax0, y, red);
+            img.put_pixel(ax1, y, red);
+        }
+    }
 }
 
 #[cfg(test)]

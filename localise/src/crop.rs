@@ -1,38 +1,13 @@
-//! Pictures of a detection for reviewers: its box drawn on a frame, and
-//! the crop of a candidate's best view.
+//! The crop of a candidate's best view, its box drawn, for reviewers.
 
 use std::path::Path;
 
-use image::{DynamicImage, Rgb, RgbImage};
+use image::{DynamicImage, RgbImage};
 use ingest::Recordings;
+use ingest::image::draw_box;
 use postflight_core::Frame;
 
 use crate::observation::Observation;
-
-/// Draw a detection box (`[x0, y0, x1, y1]`, pixels) on an image in red,
-/// `thickness` pixels wide inwards, clipped to the image.
-pub fn draw_box(img: &mut RgbImage, bbox: [f32; 4], thickness: u32) {
-    let (w, h) = (img.width(), img.height());
-    if w == 0 || h == 0 {
-        return;
-    }
-    let red = Rgb([230, 40, 40]);
-    let clamp = |v: f32, n: u32| (v.max(0.0) as u32).min(n - 1);
-    let (x0, y0) = (clamp(bbox[0], w), clamp(bbox[1], h));
-    let (x1, y1) = (clamp(bbox[2], w).max(x0), clamp(bbox[3], h).max(y0));
-    for t in 0..thickness {
-        let (ax0, ay0) = ((x0 + t).min(x1), (y0 + t).min(y1));
-        let (ax1, ay1) = (x1.saturating_sub(t).max(ax0), y1.saturating_sub(t).max(ay0));
-        for x in ax0..=ax1 {
-            img.put_pixel(x, ay0, red);
-            img.put_pixel(x, ay1, red);
-        }
-        for y in ay0..=ay1 {
-            img.put_pixel(ax0, y, red);
-            img.put_pixel(ax1, y, red);
-        }
-    }
-}
 
 /// The least a crop spans each way, pixels (where the frame has as many):
 /// a small box's crop shows the surface round it, not a blur of its pixels.

@@ -32,7 +32,7 @@ pub fn view_jpeg(
         .to_rgb8();
     if draw_box {
         let thickness = (img.width() / 320).max(2);
-        localise::crop::draw_box(&mut img, v.bbox, thickness);
+        ingest::image::draw_box(&mut img, v.bbox, thickness);
     }
     let mut img = DynamicImage::ImageRgb8(img);
     if img.width() > MAX_WIDTH {
