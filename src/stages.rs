@@ -2,6 +2,7 @@
 //! and one line saying what it did. The stage commands and `postflight run`
 //! share these.
 
+use postflight_core::outputs::localise::Outcome;
 use postflight_core::outputs::report::files;
 
 use crate::progress::Bar;
@@ -80,10 +81,10 @@ pub fn localise(options: &localise::LocaliseOptions, quiet: bool) -> anyhow::Res
             "{} defect candidates from {} detections ({} placed, {} without pose, {} on no surface, {} on obstacles) into {}",
             summary.defects,
             summary.detections,
-            o.placed,
-            o.no_pose,
-            o.no_surface,
-            o.obstacle,
+            o.get(Outcome::Placed),
+            o.get(Outcome::NoPose),
+            o.get(Outcome::NoSurface),
+            o.get(Outcome::Obstacle),
             options.run.display()
         );
         if !summary.set_aside.is_empty() {

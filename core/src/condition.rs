@@ -14,7 +14,6 @@
 
 use crate::outputs::localise::WidthRecord;
 use crate::setting::InvalidSetting;
-use crate::table::Named;
 
 crate::settings! {
     table = "condition", keys = keys;
@@ -157,13 +156,14 @@ impl ConditionConfig {
     }
 }
 
-/// A condition state of the manual: 1 good to 4 severe.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum ConditionState {
-    Good,
-    Fair,
-    Poor,
-    Severe,
+crate::kind! {
+    /// A condition state of the manual: 1 good to 4 severe.
+    pub enum ConditionState("condition state") {
+        Good = "good",
+        Fair = "fair",
+        Poor = "poor",
+        Severe = "severe",
+    }
 }
 
 impl ConditionState {
@@ -182,20 +182,6 @@ impl ConditionState {
         Self::ALL.get(usize::from(n).checked_sub(1)?).copied()
     }
 }
-
-impl Named for ConditionState {
-    const ALL: &'static [Self] = &[Self::Good, Self::Fair, Self::Poor, Self::Severe];
-    fn name(self) -> &'static str {
-        match self {
-            Self::Good => "good",
-            Self::Fair => "fair",
-            Self::Poor => "poor",
-            Self::Severe => "severe",
-        }
-    }
-}
-
-crate::table::serde_by_name!(ConditionState, "condition state");
 
 #[cfg(test)]
 mod tests {

@@ -24,72 +24,30 @@ pub enum ImageLocation {
     Photo(String),
 }
 
-/// Whether and why a frame has a camera pose.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum PoseStatus {
-    /// Interpolated from the trajectory and the camera extrinsic.
-    Ok,
-    /// Taken before the first pose of the trajectory.
-    BeforeTrajectory,
-    /// Taken after the last pose of the trajectory.
-    AfterTrajectory,
-    /// The poses either side are further apart than the allowed gap.
-    PoseGap,
-    /// No transform chain from the body to the image's frame.
-    NoExtrinsic,
-}
-
-impl PoseStatus {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Ok => "ok",
-            Self::BeforeTrajectory => "before_trajectory",
-            Self::AfterTrajectory => "after_trajectory",
-            Self::PoseGap => "pose_gap",
-            Self::NoExtrinsic => "no_extrinsic",
-        }
+crate::kind! {
+    /// Whether and why a frame has a camera pose.
+    pub enum PoseStatus("pose status") {
+        /// Interpolated from the trajectory and the camera extrinsic.
+        Ok = "ok",
+        /// Taken before the first pose of the trajectory.
+        BeforeTrajectory = "before_trajectory",
+        /// Taken after the last pose of the trajectory.
+        AfterTrajectory = "after_trajectory",
+        /// The poses either side are further apart than the allowed gap.
+        PoseGap = "pose_gap",
+        /// No transform chain from the body to the image's frame.
+        NoExtrinsic = "no_extrinsic",
     }
 }
 
-crate::table::serde_by_name!(PoseStatus, "pose status");
-
-impl crate::table::Named for PoseStatus {
-    const ALL: &'static [Self] = &[
-        Self::Ok,
-        Self::BeforeTrajectory,
-        Self::AfterTrajectory,
-        Self::PoseGap,
-        Self::NoExtrinsic,
-    ];
-    fn name(self) -> &'static str {
-        self.as_str()
-    }
-}
-
-/// Whether the frame's image header could be read.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum ImageStatus {
-    Ok,
-    /// The compressed data is not JPEG or PNG, or its header is damaged.
-    Unreadable,
-    /// A raw encoding postflight cannot decode.
-    UnsupportedEncoding,
-}
-
-impl ImageStatus {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Ok => "ok",
-            Self::Unreadable => "unreadable",
-            Self::UnsupportedEncoding => "unsupported_encoding",
-        }
-    }
-}
-
-impl crate::table::Named for ImageStatus {
-    const ALL: &'static [Self] = &[Self::Ok, Self::Unreadable, Self::UnsupportedEncoding];
-    fn name(self) -> &'static str {
-        self.as_str()
+crate::kind! {
+    /// Whether the frame's image header could be read.
+    pub enum ImageStatus("image status") {
+        Ok = "ok",
+        /// The compressed data is not JPEG or PNG, or its header is damaged.
+        Unreadable = "unreadable",
+        /// A raw encoding postflight cannot decode.
+        UnsupportedEncoding = "unsupported_encoding",
     }
 }
 

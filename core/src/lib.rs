@@ -36,6 +36,7 @@ pub mod error;
 pub mod flight;
 pub mod frame;
 pub mod geo;
+pub mod kind;
 pub mod map;
 pub mod mask;
 pub mod motion;

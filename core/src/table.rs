@@ -78,39 +78,7 @@ impl<T: Cell> Columns for T {
     }
 }
 
-/// A kind stored by its name (`+x`, `no_surface`, `needs_repair`).
-pub trait Named: Sized + Copy + 'static {
-    /// Every kind.
-    const ALL: &'static [Self];
-    /// Its name, as tables and files spell it.
-    fn name(self) -> &'static str;
-    /// The kind named `name`.
-    fn named(name: &str) -> Option<Self> {
-        Self::ALL.iter().copied().find(|k| k.name() == name)
-    }
-}
-
-/// Serialize and deserialize a [`Named`] kind as its name, so it can key a
-/// JSON object (`{"too_far": 12}`).
-macro_rules! serde_by_name {
-    ($kind:ty, $what:literal) => {
-        impl serde::Serialize for $kind {
-            fn serialize<S: serde::Serializer>(&self, to: S) -> Result<S::Ok, S::Error> {
-                to.serialize_str($crate::table::Named::name(*self))
-            }
-        }
-
-        impl<'de> serde::Deserialize<'de> for $kind {
-            fn deserialize<D: serde::Deserializer<'de>>(from: D) -> Result<Self, D::Error> {
-                let name = String::deserialize(from)?;
-                <Self as $crate::table::Named>::named(&name).ok_or_else(|| {
-                    serde::de::Error::custom(format!(concat!("unknown ", $what, " {:?}"), name))
-                })
-            }
-        }
-    };
-}
-pub(crate) use serde_by_name;
+pub use crate::kind::Named;
 
 fn missing(column: &Column, row: usize) -> polars::prelude::PolarsError {
     polars_err!(ComputeError: "column {} has no value in row {row}", column.name())

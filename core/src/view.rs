@@ -107,61 +107,27 @@ impl ViewModel {
     pub const MAX_VIEWS_REQUIRED: u32 = 64;
 }
 
-/// Why a camera does not inspect a face. Ordered by how far the camera got
-/// through the rules, so the furthest over all cameras is the reason a
-/// face was missed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Miss {
-    /// Beyond the distance band (for a face: no camera ever came that close).
-    TooFar,
-    TooClose,
-    /// Outside the viewing cone.
-    OutOfCone,
-    /// Inside the cone but outside the image (a cone wider than the lens).
-    OutsideImage,
-    /// The face points away, or is seen more obliquely than the largest incidence.
-    BackFacing,
-    /// Ground sampling distance coarser than the target.
-    TooCoarse,
-    /// Another occupied voxel is in the line of sight.
-    Occluded,
-    /// The frame is motion-blurred beyond the threshold.
-    Blurred,
-    /// Seen, but by fewer usable views than the face needs.
-    TooFewViews,
-}
-
-impl Miss {
-    pub const ALL: [Self; 9] = [
-        Self::TooFar,
-        Self::TooClose,
-        Self::OutOfCone,
-        Self::OutsideImage,
-        Self::BackFacing,
-        Self::TooCoarse,
-        Self::Occluded,
-        Self::Blurred,
-        Self::TooFewViews,
-    ];
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::TooFar => "too_far",
-            Self::TooClose => "too_close",
-            Self::OutOfCone => "out_of_cone",
-            Self::OutsideImage => "outside_image",
-            Self::BackFacing => "back_facing",
-            Self::TooCoarse => "too_coarse",
-            Self::Occluded => "occluded",
-            Self::Blurred => "blurred",
-            Self::TooFewViews => "too_few_views",
-        }
-    }
-}
-
-impl crate::table::Named for Miss {
-    const ALL: &'static [Self] = &Self::ALL;
-    fn name(self) -> &'static str {
-        self.as_str()
+crate::kind! {
+    /// Why a camera does not inspect a face. Ordered by how far the camera got
+    /// through the rules, so the furthest over all cameras is the reason a
+    /// face was missed.
+    pub enum Miss("view rule") {
+        /// Beyond the distance band (for a face: no camera ever came that close).
+        TooFar = "too_far",
+        TooClose = "too_close",
+        /// Outside the viewing cone.
+        OutOfCone = "out_of_cone",
+        /// Inside the cone but outside the image (a cone wider than the lens).
+        OutsideImage = "outside_image",
+        /// The face points away, or is seen more obliquely than the largest incidence.
+        BackFacing = "back_facing",
+        /// Ground sampling distance coarser than the target.
+        TooCoarse = "too_coarse",
+        /// Another occupied voxel is in the line of sight.
+        Occluded = "occluded",
+        /// The frame is motion-blurred beyond the threshold.
+        Blurred = "blurred",
+        /// Seen, but by fewer usable views than the face needs.
+        TooFewViews = "too_few_views",
     }
 }

@@ -143,11 +143,12 @@ pub fn localise(
         &options.settings,
         progress,
     );
-    let outcomes = count_outcomes(&observations);
+    let outcomes: Outcomes = observations.iter().map(|o| o.outcome).collect();
     let total = observations.len() as u64;
-    let cast = (outcomes.placed + outcomes.no_surface + outcomes.obstacle) as usize;
-    let hit = (outcomes.placed + outcomes.obstacle) as usize;
-    if outcomes.no_pose > 0 && outcomes.no_pose == total {
+    let count = |outcome| outcomes.get(outcome);
+    let hit = (count(Outcome::Placed) + count(Outcome::Obstacle)) as usize;
+    let cast = hit + count(Outcome::NoSurface) as usize;
+    if count(Outcome::NoPose) > 0 && count(Outcome::NoPose) == total {
         return Err(LocaliseError::NoPoses { detections: total });
     }
     check_overlap(&flight, &map, options.settings.max_range_m, hit, cast)?;
@@ -247,34 +248,21 @@ fn place(
     (observations, warnings)
 }
 
-fn count_outcomes(observations: &[Observation]) -> Outcomes {
-    let mut outcomes = Outcomes::default();
-    for o in observations {
-        *match o.outcome {
-            Outcome::Placed => &mut outcomes.placed,
-            Outcome::NoPose => &mut outcomes.no_pose,
-            Outcome::NoIntrinsics => &mut outcomes.no_intrinsics,
-            Outcome::NoSurface => &mut outcomes.no_surface,
-            Outcome::Obstacle => &mut outcomes.obstacle,
-        } += 1;
-    }
-    outcomes
-}
-
 /// What the summary says of detections that could not be placed.
 fn unplaced_warnings(outcomes: &Outcomes) -> Vec<String> {
     let mut warnings = Vec::new();
-    if outcomes.no_pose > 0 {
+    let no_pose = outcomes.get(Outcome::NoPose);
+    if no_pose > 0 {
         warnings.push(format!(
-            "{} detections are in frames without a pose and were not placed (see outcome = no_pose in {})",
-            outcomes.no_pose,
+            "{no_pose} detections are in frames without a pose and were not placed (see outcome = {} in {})",
+            Outcome::NoPose.as_str(),
             files::OBSERVATIONS
         ));
     }
-    if outcomes.no_intrinsics > 0 {
+    let no_intrinsics = outcomes.get(Outcome::NoIntrinsics);
+    if no_intrinsics > 0 {
         warnings.push(format!(
-            "{} detections are from a camera without intrinsics; give them to `postflight ingest` as {}",
-            outcomes.no_intrinsics,
+            "{no_intrinsics} detections are from a camera without intrinsics; give them to `postflight ingest` as {}",
             ingest::settings::keys::camera_info_file
         ));
     }

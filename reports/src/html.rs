@@ -455,7 +455,7 @@ fn changes_section(r: &RunResults) -> Markup {
             (format!("{:.0}%", g.overlap_pct)) " of the earlier map."
         }
         div.cards {
-            @for k in ChangeKind::ALL {
+            @for &k in ChangeKind::ALL {
                 div.card { b { (c.count(k)) } span { (k.words()) } }
             }
         }

@@ -15,27 +15,19 @@ use postflight_core::condition::ConditionState;
 use postflight_core::outputs::localise::DefectRecord;
 use postflight_core::table::Named;
 
-/// What a reviewer decided about a candidate.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Verdict {
-    /// A crack.
-    Accepted,
-    /// Not a crack (a false detection).
-    Rejected,
-    /// A crack that needs repair, with a severity from 1 to 5.
-    NeedsRepair,
+postflight_core::kind! {
+    /// What a reviewer decided about a candidate.
+    pub enum Verdict("verdict") {
+        /// A crack.
+        Accepted = "accepted",
+        /// Not a crack (a false detection).
+        Rejected = "rejected",
+        /// A crack that needs repair, with a severity from 1 to 5.
+        NeedsRepair = "needs_repair",
+    }
 }
 
 impl Verdict {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Accepted => "accepted",
-            Self::Rejected => "rejected",
-            Self::NeedsRepair => "needs_repair",
-        }
-    }
-
     /// As people read it: "needs repair".
     pub fn words(self) -> &'static str {
         match self {
@@ -46,13 +38,6 @@ impl Verdict {
 
     pub fn parse(s: &str) -> Option<Self> {
         <Self as Named>::named(s)
-    }
-}
-
-impl Named for Verdict {
-    const ALL: &'static [Self] = &[Self::Accepted, Self::Rejected, Self::NeedsRepair];
-    fn name(self) -> &'static str {
-        self.as_str()
     }
 }
 

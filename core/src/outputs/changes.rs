@@ -62,63 +62,39 @@ pub struct RegistrationRecord {
     pub iterations: usize,
 }
 
-/// What became of a defect candidate between the flights.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ChangeKind {
-    /// Seen now, not by the earlier flight, which inspected its place
-    /// finely enough to see it.
-    New,
-    /// Seen now, on surface the earlier flight did not inspect (or, when it
-    /// has no coverage, may not have), or saw too coarsely for a crack this
-    /// narrow: it may be old, first seen now. The mirror of
-    /// `NotReinspected`.
-    FirstSeen,
-    /// Seen by both; longer now by more than both flights' measurement
-    /// spread (and perhaps wider too: see the widening).
-    Grown,
-    /// Seen by both, as long as before, but wider by more than both
-    /// flights' width uncertainties combined and a fifth of its earlier
-    /// width.
-    Widened,
-    /// Seen by both, as long and as wide as before within the spread.
-    Unchanged,
-    /// Seen by both, but neither its length nor its width was measured in
-    /// both (every view of it in one flight blurred, too oblique or cut
-    /// short): whether it changed is not known; shoot it again.
-    NotMeasured,
-    /// Seen before; this flight inspected its place and found nothing.
-    NotSeenAgain,
-    /// Seen before; this flight did not inspect its place, so nothing is
-    /// known of it now.
-    NotReinspected,
+crate::kind! {
+    /// What became of a defect candidate between the flights.
+    pub enum ChangeKind("change") {
+        /// Seen now, not by the earlier flight, which inspected its place
+        /// finely enough to see it.
+        New = "new",
+        /// Seen now, on surface the earlier flight did not inspect (or, when it
+        /// has no coverage, may not have), or saw too coarsely for a crack this
+        /// narrow: it may be old, first seen now. The mirror of
+        /// `NotReinspected`.
+        FirstSeen = "first_seen",
+        /// Seen by both; longer now by more than both flights' measurement
+        /// spread (and perhaps wider too: see the widening).
+        Grown = "grown",
+        /// Seen by both, as long as before, but wider by more than both
+        /// flights' width uncertainties combined and a fifth of its earlier
+        /// width.
+        Widened = "widened",
+        /// Seen by both, as long and as wide as before within the spread.
+        Unchanged = "unchanged",
+        /// Seen by both, but neither its length nor its width was measured in
+        /// both (every view of it in one flight blurred, too oblique or cut
+        /// short): whether it changed is not known; shoot it again.
+        NotMeasured = "not_measured",
+        /// Seen before; this flight inspected its place and found nothing.
+        NotSeenAgain = "not_seen_again",
+        /// Seen before; this flight did not inspect its place, so nothing is
+        /// known of it now.
+        NotReinspected = "not_reinspected",
+    }
 }
 
 impl ChangeKind {
-    pub const ALL: [Self; 8] = [
-        Self::New,
-        Self::FirstSeen,
-        Self::Grown,
-        Self::Widened,
-        Self::Unchanged,
-        Self::NotMeasured,
-        Self::NotSeenAgain,
-        Self::NotReinspected,
-    ];
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::New => "new",
-            Self::FirstSeen => "first_seen",
-            Self::Grown => "grown",
-            Self::Widened => "widened",
-            Self::Unchanged => "unchanged",
-            Self::NotMeasured => "not_measured",
-            Self::NotSeenAgain => "not_seen_again",
-            Self::NotReinspected => "not_reinspected",
-        }
-    }
-
     /// As people read it: "not seen again".
     pub fn words(self) -> &'static str {
         match self {
@@ -137,13 +113,6 @@ impl ChangeKind {
             self,
             Self::New | Self::FirstSeen | Self::Grown | Self::Widened
         )
-    }
-}
-
-impl crate::table::Named for ChangeKind {
-    const ALL: &'static [Self] = &Self::ALL;
-    fn name(self) -> &'static str {
-        self.as_str()
     }
 }
 

@@ -60,7 +60,7 @@ impl Named for NotInspected {
     }
 }
 
-crate::table::serde_by_name!(NotInspected, "reason");
+crate::serde_by_name!(NotInspected, "reason");
 
 /// `coverage.json`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -195,22 +195,13 @@ pub fn element_map(summary: &CoverageSummary, records: &[VoxelRecord]) -> Elemen
     ElementMap::new(summary.structure.clone(), grid, voxels)
 }
 
-/// GATSBI's classes of a target voxel: inspected or not.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum VoxelClass {
-    /// `V_BI`: inspected.
-    Inspected,
-    /// `V_BN`: not inspected.
-    NotInspected,
-}
-
-impl crate::table::Named for VoxelClass {
-    const ALL: &'static [Self] = &[Self::Inspected, Self::NotInspected];
-    fn name(self) -> &'static str {
-        match self {
-            Self::Inspected => "V_BI",
-            Self::NotInspected => "V_BN",
-        }
+crate::kind! {
+    /// GATSBI's classes of a target voxel: inspected or not.
+    pub enum VoxelClass("voxel class") {
+        /// `V_BI`: inspected.
+        Inspected = "V_BI",
+        /// `V_BN`: not inspected.
+        NotInspected = "V_BN",
     }
 }
 

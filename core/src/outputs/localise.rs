@@ -38,55 +38,24 @@ pub mod files {
     }
 }
 
-/// What became of a detection.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Outcome {
-    /// Placed on the structure.
-    Placed,
-    /// Its frame has no pose (none recorded near the frame time).
-    NoPose,
-    /// Its camera has no intrinsics.
-    NoIntrinsics,
-    /// Its rays met no mapped surface within range.
-    NoSurface,
-    /// Its rays met a mapped surface that is not the structure to inspect.
-    Obstacle,
-}
-
-impl Outcome {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Outcome::Placed => "placed",
-            Outcome::NoPose => "no_pose",
-            Outcome::NoIntrinsics => "no_intrinsics",
-            Outcome::NoSurface => "no_surface",
-            Outcome::Obstacle => "obstacle",
-        }
-    }
-}
-
-impl crate::table::Named for Outcome {
-    const ALL: &'static [Self] = &[
-        Self::Placed,
-        Self::NoPose,
-        Self::NoIntrinsics,
-        Self::NoSurface,
-        Self::Obstacle,
-    ];
-    fn name(self) -> &'static str {
-        self.as_str()
+crate::kind! {
+    /// What became of a detection.
+    pub enum Outcome("outcome") {
+        /// Placed on the structure.
+        Placed = "placed",
+        /// Its frame has no pose (none recorded near the frame time).
+        NoPose = "no_pose",
+        /// Its camera has no intrinsics.
+        NoIntrinsics = "no_intrinsics",
+        /// Its rays met no mapped surface within range.
+        NoSurface = "no_surface",
+        /// Its rays met a mapped surface that is not the structure to inspect.
+        Obstacle = "obstacle",
     }
 }
 
 /// Detections of each outcome.
-#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
-pub struct Outcomes {
-    pub placed: u64,
-    pub no_pose: u64,
-    pub no_intrinsics: u64,
-    pub no_surface: u64,
-    pub obstacle: u64,
-}
+pub type Outcomes = crate::kind::Counts<Outcome>;
 
 /// `localise.json`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -194,77 +163,41 @@ pub struct ViewRecord {
     pub clipped: bool,
 }
 
-/// A rule of the View model a view breaks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ViewFault {
-    /// Farther than the distance band.
-    TooFar,
-    /// Nearer than the distance band.
-    TooClose,
-    /// Seen more obliquely than the largest incidence.
-    TooOblique,
-    /// GSD coarser than the View model's target.
-    TooCoarse,
-    /// The frame is motion-blurred beyond the threshold.
-    Blurred,
-}
-
-impl ViewFault {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::TooFar => "too_far",
-            Self::TooClose => "too_close",
-            Self::TooOblique => "too_oblique",
-            Self::TooCoarse => "too_coarse",
-            Self::Blurred => "blurred",
-        }
+crate::kind! {
+    /// A rule of the View model a view breaks.
+    pub enum ViewFault("view fault") {
+        /// Farther than the distance band.
+        TooFar = "too_far",
+        /// Nearer than the distance band.
+        TooClose = "too_close",
+        /// Seen more obliquely than the largest incidence.
+        TooOblique = "too_oblique",
+        /// GSD coarser than the View model's target.
+        TooCoarse = "too_coarse",
+        /// The frame is motion-blurred beyond the threshold.
+        Blurred = "blurred",
     }
 }
 
-impl crate::table::Named for ViewFault {
-    const ALL: &'static [Self] = &[
-        Self::TooFar,
-        Self::TooClose,
-        Self::TooOblique,
-        Self::TooCoarse,
-        Self::Blurred,
-    ];
-    fn name(self) -> &'static str {
-        self.as_str()
+crate::kind! {
+    /// Whether a candidate's length was measured, and if not, why.
+    pub enum LengthStatus("length status") {
+        /// From at least one view that shows the whole crack.
+        Measured = "measured",
+        /// Only from views the image border cuts: the crack is at least this long.
+        Partial = "partial",
+        /// Every view is too oblique to measure on.
+        TooOblique = "too_oblique",
+        /// Every view steep enough to measure on is blurred.
+        Blurred = "blurred",
+        /// No view traced the crack's line (its boxes placed it).
+        NotTraced = "not_traced",
+        /// The only traced views are far away and cut by the image border.
+        FarAndCut = "far_and_cut",
     }
-}
-
-/// Whether a candidate's length was measured, and if not, why.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum LengthStatus {
-    /// From at least one view that shows the whole crack.
-    Measured,
-    /// Only from views the image border cuts: the crack is at least this long.
-    Partial,
-    /// Every view is too oblique to measure on.
-    TooOblique,
-    /// Every view steep enough to measure on is blurred.
-    Blurred,
-    /// No view traced the crack's line (its boxes placed it).
-    NotTraced,
-    /// The only traced views are far away and cut by the image border.
-    FarAndCut,
 }
 
 impl LengthStatus {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Measured => "measured",
-            Self::Partial => "partial",
-            Self::TooOblique => "too_oblique",
-            Self::Blurred => "blurred",
-            Self::NotTraced => "not_traced",
-            Self::FarAndCut => "far_and_cut",
-        }
-    }
-
     /// Why there is no length, for people; `None` when there is one.
     pub fn missing_reason(self) -> Option<&'static str> {
         match self {
@@ -274,20 +207,6 @@ impl LengthStatus {
             Self::NotTraced => Some("no view traced the crack's line"),
             Self::FarAndCut => Some("its only traced views are far and cut by the image border"),
         }
-    }
-}
-
-impl crate::table::Named for LengthStatus {
-    const ALL: &'static [Self] = &[
-        Self::Measured,
-        Self::Partial,
-        Self::TooOblique,
-        Self::Blurred,
-        Self::NotTraced,
-        Self::FarAndCut,
-    ];
-    fn name(self) -> &'static str {
-        self.as_str()
     }
 }
 
