@@ -107,20 +107,64 @@ impl ViewModel {
     pub const MAX_VIEWS_REQUIRED: u32 = 64;
 }
 
+/// The rules, each once: what coverage judges a camera and a face by, and
+/// localise a view of a crack. Each gives the rule broken, if any; the
+/// band's and limits' edges count as within.
+impl ViewModel {
+    /// The distance band, camera to face centre (at the camera itself: too
+    /// close).
+    pub fn distance_miss(&self, distance_m: f64) -> Option<Miss> {
+        if distance_m > self.max_distance_m {
+            Some(Miss::TooFar)
+        } else if distance_m < self.min_distance_m || distance_m < 1e-9 {
+            Some(Miss::TooClose)
+        } else {
+            None
+        }
+    }
+
+    /// The viewing cone: `off_axis_deg` between the optical axis and the
+    /// direction to the face.
+    pub fn cone_miss(&self, off_axis_deg: f64) -> Option<Miss> {
+        (off_axis_deg > self.cone_apex_deg / 2.0).then_some(Miss::OutOfCone)
+    }
+
+    /// The largest incidence: `incidence_deg` between the face's normal and
+    /// the direction to the camera.
+    pub fn incidence_miss(&self, incidence_deg: f64) -> Option<Miss> {
+        (incidence_deg > self.max_incidence_deg).then_some(Miss::TooOblique)
+    }
+
+    /// The GSD target ([`ViewModel::gsd_mm`]).
+    pub fn gsd_miss(&self, gsd_mm: f64) -> Option<Miss> {
+        (gsd_mm > self.max_gsd_mm).then_some(Miss::TooCoarse)
+    }
+
+    /// The largest blur streak (`None`: unknown, not judged; an unmeasurable
+    /// NaN streak counts as blurred).
+    pub fn blur_miss(&self, blur_px: Option<f64>) -> Option<Miss> {
+        blur_px
+            .is_some_and(|b| b.is_nan() || b > self.max_blur_px)
+            .then_some(Miss::Blurred)
+    }
+}
+
 crate::kind! {
-    /// Why a camera does not inspect a face. Ordered by how far the camera got
-    /// through the rules, so the furthest over all cameras is the reason a
-    /// face was missed.
+    /// A rule of the View model a view breaks: why a camera does not inspect
+    /// a face (coverage), or why a view of a crack is not one to measure by
+    /// (localise). Ordered by how far a camera got through the rules, so the
+    /// furthest over all cameras is the reason a face was missed.
     pub enum Miss("view rule") {
         /// Beyond the distance band (for a face: no camera ever came that close).
         TooFar = "too_far",
+        /// Nearer than the distance band.
         TooClose = "too_close",
         /// Outside the viewing cone.
         OutOfCone = "out_of_cone",
         /// Inside the cone but outside the image (a cone wider than the lens).
         OutsideImage = "outside_image",
-        /// The face points away, or is seen more obliquely than the largest incidence.
-        BackFacing = "back_facing",
+        /// Seen more obliquely than the largest incidence, or from behind.
+        TooOblique = "too_oblique",
         /// Ground sampling distance coarser than the target.
         TooCoarse = "too_coarse",
         /// Another occupied voxel is in the line of sight.

@@ -25,13 +25,6 @@ pub struct Shot {
     pub blur_px: Option<f64>,
 }
 
-impl Shot {
-    /// Blurred beyond `max_blur_px` (an unknown blur is not judged).
-    pub fn is_blurred(&self, max_blur_px: f64) -> bool {
-        self.blur_px.is_some_and(|b| b.is_nan() || b > max_blur_px)
-    }
-}
-
 /// What the shots did for one face.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FaceCover {
@@ -55,9 +48,7 @@ pub fn judge(
     if occluded(map, &Point3::from(shot.camera.translation.vector), face) {
         return Err(Miss::Occluded);
     }
-    if shot.is_blurred(view.max_blur_px) {
-        return Err(Miss::Blurred);
-    }
+    view.blur_miss(shot.blur_px).map_or(Ok(()), Err)?;
     Ok(sight)
 }
 

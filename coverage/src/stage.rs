@@ -292,7 +292,7 @@ fn summarise(
     let shots_blurred = shots
         .shots
         .iter()
-        .filter(|s| s.is_blurred(view.max_blur_px))
+        .filter(|s| view.blur_miss(s.blur_px).is_some())
         .count();
     CoverageSummary {
         run: options.run.clone(),

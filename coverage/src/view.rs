@@ -33,17 +33,11 @@ pub fn look(
     let origin = Point3::from(camera.translation.vector);
     let to_face = face.centre - origin;
     let distance_m = to_face.norm();
-    if distance_m > view.max_distance_m {
-        return Err(Miss::TooFar);
-    }
-    if distance_m < view.min_distance_m || distance_m < 1e-9 {
-        return Err(Miss::TooClose);
-    }
+    view.distance_miss(distance_m).map_or(Ok(()), Err)?;
     let dir = to_face / distance_m;
     let axis = camera.rotation * nalgebra::Vector3::z();
-    if axis.dot(&dir).clamp(-1.0, 1.0).acos() > (view.cone_apex_deg / 2.0).to_radians() {
-        return Err(Miss::OutOfCone);
-    }
+    let off_axis_deg = axis.dot(&dir).clamp(-1.0, 1.0).acos().to_degrees();
+    view.cone_miss(off_axis_deg).map_or(Ok(()), Err)?;
     let in_image = k
         .project(&(camera.inverse() * face.centre).coords)
         .is_some_and(|px| k.contains(&px));
@@ -51,13 +45,9 @@ pub fn look(
         return Err(Miss::OutsideImage);
     }
     let incidence_deg = face.normal.dot(&-dir).clamp(-1.0, 1.0).acos().to_degrees();
-    if incidence_deg > view.max_incidence_deg {
-        return Err(Miss::BackFacing);
-    }
+    view.incidence_miss(incidence_deg).map_or(Ok(()), Err)?;
     let gsd_mm = ViewModel::gsd_mm(distance_m, k);
-    if gsd_mm > view.max_gsd_mm {
-        return Err(Miss::TooCoarse);
-    }
+    view.gsd_miss(gsd_mm).map_or(Ok(()), Err)?;
     Ok(Sight {
         distance_m,
         incidence_deg,
@@ -189,7 +179,7 @@ mod tests {
         let f = face();
         // Behind the face, looking at it through the voxel.
         let cam = camera(f.centre - Vector3::x() * 3.0, Vector3::x());
-        assert_eq!(look(&cam, &lens(), &f, &view()), Err(Miss::BackFacing));
+        assert_eq!(look(&cam, &lens(), &f, &view()), Err(Miss::TooOblique));
         // 59 and 61 degrees from the normal, in the horizontal plane.
         for (deg, ok) in [(59.0f64, true), (61.0, false)] {
             let d = Vector3::new(deg.to_radians().cos(), deg.to_radians().sin(), 0.0);

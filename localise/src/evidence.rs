@@ -4,43 +4,31 @@
 //! measure, and whether the spot must be shot again.
 
 use postflight_core::ViewModel;
-use postflight_core::outputs::localise::{Evidence, LengthStatus, ViewFault};
+use postflight_core::outputs::localise::{Evidence, LengthStatus};
+use postflight_core::view::Miss;
 
 use crate::observation::Placement;
 
 /// The View model's rules a view of a crack at `range_m` and `incidence_deg`
 /// breaks, seen at the View model's GSD `gsd_mm` ([`ViewModel::gsd_mm`]) in
-/// a frame blurred by `blur_px` (`None`: unknown, not judged).
+/// a frame blurred by `blur_px` (`None`: unknown, not judged). Not the
+/// cone: the detector reads the whole image.
 pub fn view_faults(
     view: &ViewModel,
     range_m: f64,
     incidence_deg: f64,
     gsd_mm: f64,
     blur_px: Option<f64>,
-) -> Vec<ViewFault> {
-    let mut faults = Vec::new();
-    if range_m > view.max_distance_m {
-        faults.push(ViewFault::TooFar);
-    }
-    if range_m < view.min_distance_m {
-        faults.push(ViewFault::TooClose);
-    }
-    if incidence_deg > view.max_incidence_deg {
-        faults.push(ViewFault::TooOblique);
-    }
-    if gsd_mm > view.max_gsd_mm {
-        faults.push(ViewFault::TooCoarse);
-    }
-    if is_blurred(view, blur_px) {
-        faults.push(ViewFault::Blurred);
-    }
-    faults
-}
-
-/// Whether a frame blurred by `blur_px` (`None`: unknown, not judged) is
-/// too blurred for the View model.
-pub fn is_blurred(view: &ViewModel, blur_px: Option<f64>) -> bool {
-    blur_px.is_some_and(|b| b.is_nan() || b > view.max_blur_px)
+) -> Vec<Miss> {
+    [
+        view.distance_miss(range_m),
+        view.incidence_miss(incidence_deg),
+        view.gsd_miss(gsd_mm),
+        view.blur_miss(blur_px),
+    ]
+    .into_iter()
+    .flatten()
+    .collect()
 }
 
 /// A candidate's evidence from its best view and its length's status.
@@ -72,21 +60,15 @@ mod tests {
         assert_eq!(
             view_faults(&view, 10.5, 70.0, 10.5, Some(4.0)),
             [
-                ViewFault::TooFar,
-                ViewFault::TooOblique,
-                ViewFault::TooCoarse,
-                ViewFault::Blurred
+                Miss::TooFar,
+                Miss::TooOblique,
+                Miss::TooCoarse,
+                Miss::Blurred
             ]
         );
-        assert_eq!(
-            view_faults(&view, 1.5, 0.0, 1.5, None),
-            [ViewFault::TooClose]
-        );
+        assert_eq!(view_faults(&view, 1.5, 0.0, 1.5, None), [Miss::TooClose]);
         // Within the band but coarse through a short lens.
-        assert_eq!(
-            view_faults(&view, 4.0, 0.0, 8.0, None),
-            [ViewFault::TooCoarse]
-        );
+        assert_eq!(view_faults(&view, 4.0, 0.0, 8.0, None), [Miss::TooCoarse]);
     }
 
     #[test]
@@ -122,7 +104,7 @@ mod tests {
         assert!(evidence(&sharp, LengthStatus::TooOblique).reshoot);
         let far = Placement {
             sight: Default::default(),
-            view_faults: vec![ViewFault::TooFar],
+            view_faults: vec![Miss::TooFar],
             width: None,
             camera_std_m: None,
             ..sharp

@@ -16,8 +16,9 @@ use crate::observation::{Observation, Placement, measures_length};
 use crate::settings::LocaliseConfig;
 use crate::stats::median;
 use crate::union_find::UnionFind;
-use postflight_core::outputs::localise::{Evidence, LengthStatus, Outcome, ViewFault, WidthRecord};
+use postflight_core::outputs::localise::{Evidence, LengthStatus, Outcome, WidthRecord};
 use postflight_core::trace::Trace;
+use postflight_core::view::Miss;
 
 /// One physical crack, as the views of it agree.
 #[derive(Debug, Clone)]
@@ -377,7 +378,7 @@ fn length_status<'a>(
         LengthStatus::TooOblique
     } else if group.iter().all(|i| {
         let p = placement(*i);
-        !measures_length(p.hit.incidence) || p.view_faults.contains(&ViewFault::Blurred)
+        !measures_length(p.hit.incidence) || p.view_faults.contains(&Miss::Blurred)
     }) {
         LengthStatus::Blurred
     } else if group.iter().all(|i| placement(*i).length_m.is_none()) {
@@ -449,7 +450,6 @@ mod tests {
     use crate::surface::SurfaceHit;
     use postflight_core::detection::FrameDetection;
     use postflight_core::detection::{BoxXyxy, Detection};
-    use postflight_core::outputs::localise::ViewFault;
 
     fn observation(frame: u32, centre: [f64; 3], normal: [f64; 3], radius: f64) -> Observation {
         let centre = Point3::from(centre);
@@ -661,7 +661,7 @@ mod tests {
             observation(1, [3.0, 1.02, 2.0], [-1.0, 0.0, 0.0], 0.3),
         ];
         // Frame 0 is finer but too close; frame 1 meets the rules.
-        obs[0].placement.as_mut().unwrap().view_faults = vec![ViewFault::TooClose];
+        obs[0].placement.as_mut().unwrap().view_faults = vec![Miss::TooClose];
         let c = fuse(&obs, &LocaliseConfig::default());
         assert_eq!(c[0].best, 1);
         assert!(!c[0].evidence.reshoot);
@@ -678,7 +678,7 @@ mod tests {
         // One of them face-on but blurred: no length, because blurred.
         let p = obs[1].placement.as_mut().unwrap();
         p.hit.incidence = 10f64.to_radians();
-        p.view_faults = vec![ViewFault::Blurred];
+        p.view_faults = vec![Miss::Blurred];
         let c = fuse(&obs, &LocaliseConfig::default());
         assert_eq!(c[0].evidence.length, LengthStatus::Blurred);
         assert!(c[0].evidence.reshoot);

@@ -8,12 +8,13 @@ use std::collections::HashSet;
 use nalgebra::{Isometry3, Point2, Point3, Vector3};
 use postflight_core::detection::FrameDetection;
 use postflight_core::map::{SlamMap, VoxelIndex};
-use postflight_core::outputs::localise::{Outcome, ViewFault, WidthRecord};
+use postflight_core::outputs::localise::{Outcome, WidthRecord};
 use postflight_core::trace::Trace;
+use postflight_core::view::Miss;
 use postflight_core::{Intrinsics, ViewModel};
 
 use crate::centre_line;
-use crate::evidence::{is_blurred, view_faults};
+use crate::evidence::view_faults;
 
 use crate::joint::Line;
 use crate::stats::{median, quantile};
@@ -69,7 +70,7 @@ pub struct Placement {
     /// The frame's motion blur, pixels (`None`: unknown).
     pub blur_px: Option<f64>,
     /// The View model's rules the view breaks.
-    pub view_faults: Vec<ViewFault>,
+    pub view_faults: Vec<Miss>,
     /// The crack's width on the surface as this view measures it (`None`:
     /// no centre line to measure across).
     pub width: Option<WidthRecord>,
@@ -307,7 +308,7 @@ impl Scene<'_> {
         // the slant (a crack seen only obliquely still gets a state). A
         // blurred frame measures neither: the smear stretches the crack's
         // line along the motion and widens or fades it across.
-        let sharp = !is_blurred(self.view, blur_px);
+        let sharp = self.view.blur_miss(blur_px).is_none();
         let measures = sharp && measures_length(surface.incidence);
         let measured = trace.filter(|_| measures);
         let length_m = measured.map(|t| {
@@ -672,7 +673,7 @@ mod tests {
             assert!(p.length_m.is_some() && p.width.is_some() && !p.trace.is_empty());
         }
         let p = place(Some(2.0 * view.max_blur_px));
-        assert!(p.view_faults.contains(&ViewFault::Blurred));
+        assert!(p.view_faults.contains(&Miss::Blurred));
         assert!((p.centre - Point3::from((a.coords + b.coords) / 2.0)).norm() < 0.02);
         assert!(p.length_m.is_none() && p.width.is_none() && p.trace.is_empty());
     }

@@ -199,7 +199,8 @@ pub fn export_run(run: &Path, db: &Path, out: &Path) -> Result<Vec<PathBuf>, Rev
 #[cfg(test)]
 mod tests {
     use postflight_core::FaceSide;
-    use postflight_core::outputs::localise::{LengthStatus, ViewFault};
+    use postflight_core::outputs::localise::LengthStatus;
+    use postflight_core::view::Miss;
 
     use super::*;
 
@@ -272,7 +273,7 @@ mod tests {
                 frames: 4,
                 confidence: 0.9,
                 max_score: 0.7,
-                view_faults: vec![ViewFault::TooFar],
+                view_faults: vec![Miss::TooFar],
                 view_gsd_mm: 2.9,
                 blur_px: None,
                 length_status: if length_m.is_some() {

@@ -22,6 +22,7 @@ use crate::error::Error;
 use crate::map::{FaceSide, VoxelIndex};
 use crate::run_dir::RunDir;
 use crate::trace::Trace;
+use crate::view::Miss;
 
 /// Files of the localise stage.
 pub mod files {
@@ -164,22 +165,6 @@ pub struct ViewRecord {
 }
 
 crate::kind! {
-    /// A rule of the View model a view breaks.
-    pub enum ViewFault("view fault") {
-        /// Farther than the distance band.
-        TooFar = "too_far",
-        /// Nearer than the distance band.
-        TooClose = "too_close",
-        /// Seen more obliquely than the largest incidence.
-        TooOblique = "too_oblique",
-        /// GSD coarser than the View model's target.
-        TooCoarse = "too_coarse",
-        /// The frame is motion-blurred beyond the threshold.
-        Blurred = "blurred",
-    }
-}
-
-crate::kind! {
     /// Whether a candidate's length was measured, and if not, why.
     pub enum LengthStatus("length status") {
         /// From at least one view that shows the whole crack.
@@ -214,7 +199,7 @@ impl LengthStatus {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Evidence {
     /// The View model's rules the best view breaks; empty when it meets them.
-    pub view_faults: Vec<ViewFault>,
+    pub view_faults: Vec<Miss>,
     /// The best view's GSD as the View model measures it (fronto-parallel
     /// at its range), millimetres; see [`ViewRecord::oblique_gsd_mm`] for
     /// the footprint along the surface.
@@ -535,7 +520,7 @@ crate::table! {
         frames: u32,
         confidence: f64,
         max_score: f64,
-        view_faults: Vec<ViewFault>,
+        view_faults: Vec<Miss>,
         view_gsd_mm: f64,
         blur_px: Option<f64>,
         length_status: LengthStatus,
@@ -761,7 +746,7 @@ mod tests {
                 max_score: 0.53,
                 evidence: Evidence {
                     view_faults: if best == 3 {
-                        vec![ViewFault::TooFar, ViewFault::Blurred]
+                        vec![Miss::TooFar, Miss::Blurred]
                     } else {
                         Vec::new()
                     },
