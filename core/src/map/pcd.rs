@@ -98,6 +98,18 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<Point3<f64>>, String> {
             .ok_or(format!("PCD file has no {a} field"))
     };
     let xyz = [axis("x")?, axis("y")?, axis("z")?];
+    // A point's bytes and values, checked: a SIZE or COUNT no file holds
+    // would wrap them.
+    let columns = fields
+        .iter()
+        .try_fold(0usize, |sum, f| sum.checked_add(f.count));
+    let point_size = fields
+        .iter()
+        .try_fold(0usize, |sum, f| {
+            sum.checked_add(f.size.checked_mul(f.count)?)
+        })
+        .filter(|_| columns.is_some())
+        .ok_or("PCD header's SIZE and COUNT give a point more bytes than any file holds")?;
     let offsets: Vec<usize> = fields
         .iter()
         .scan(0, |acc, f| {
@@ -106,7 +118,6 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<Point3<f64>>, String> {
             Some(o)
         })
         .collect();
-    let point_size: usize = fields.iter().map(Field::bytes).sum();
     let short = || "PCD file is shorter than its header says".to_string();
     if point_size == 0 {
         return Err("PCD header gives its fields no size (SIZE or COUNT 0)".into());
@@ -314,6 +325,11 @@ mod tests {
                 assert!(err.contains("PCD"), "{points} {data}: {err}");
             }
         }
+        // Found by the `pcd` fuzz target: a COUNT whose bytes wrap a
+        // 64-bit size (a panic in debug builds).
+        let counted = HEADER.replace("COUNT 1 1 1 1", "COUNT 7039476560217360156 1 1 1");
+        let err = parse(format!("{counted}DATA binary\n").as_bytes()).unwrap_err();
+        assert!(err.contains("more bytes than any file holds"), "{err}");
         let sizeless = HEADER.replace("SIZE 4 4 8 4", "SIZE 0 0 0 0");
         let err = parse(
             format!(
