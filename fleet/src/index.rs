@@ -5,7 +5,7 @@ use maud::{Markup, PreEscaped, html};
 use page::{STYLE, document};
 use postflight_core::outputs::report::files::REPORT;
 
-use crate::tables::{FleetRun, files};
+use crate::tables::{FleetRun, RunState, files};
 
 /// The page for `runs` (as [`crate::tables::runs`] lists them: by
 /// structure, then date).
@@ -15,7 +15,10 @@ pub fn page(runs: &[FleetRun]) -> String {
         s.dedup();
         s.len()
     };
-    let failed = runs.iter().filter(|r| r.state() == "failed").count();
+    let failed = runs
+        .iter()
+        .filter(|r| r.state() == RunState::Failed)
+        .count();
     let body = html! {
         h1 { "Fleet" }
         p.sub {
@@ -66,7 +69,7 @@ fn flight_row(r: &FleetRun, first_of_structure: bool) -> Markup {
             td { (r.date().unwrap_or("")) }
             td { (r.run.rsplit('/').next().unwrap_or("")) }
             td {
-                @if r.state() == "failed" { span.flag { "failed" } } @else { (r.state()) }
+                @if r.state() == RunState::Failed { span.flag { (r.state().as_str()) } } @else { (r.state().as_str()) }
             }
             td.n { (s.map_or_else(blank, |s| s.frames.to_string())) }
             td.n { (c.map_or_else(blank, |c| format!("{:.1}%", c.inspected_pct))) }

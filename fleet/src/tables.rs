@@ -75,17 +75,33 @@ impl FleetRun {
         record.or(summary)
     }
 
-    /// `finished`, `failed`, `running`, or `complete` for a run made by
-    /// hand whose report exists (`incomplete` otherwise).
-    pub fn state(&self) -> &'static str {
+    /// How it went: as its task recorded, or for a run made by hand by
+    /// whether its report exists.
+    pub fn state(&self) -> RunState {
         use crate::task::TaskState;
         match (self.record.as_ref().map(|r| r.state), &self.summary) {
-            (Some(TaskState::Finished), _) => "finished",
-            (Some(TaskState::Failed), _) => "failed",
-            (Some(TaskState::Running), _) => "running",
-            (None, Some(_)) => "complete",
-            (None, None) => "incomplete",
+            (Some(TaskState::Finished), _) => RunState::Finished,
+            (Some(TaskState::Failed), _) => RunState::Failed,
+            (Some(TaskState::Running), _) => RunState::Running,
+            (None, Some(_)) => RunState::Complete,
+            (None, None) => RunState::Incomplete,
         }
+    }
+}
+
+postflight_core::kind! {
+    /// How a run of the fleet stands.
+    pub enum RunState("run state") {
+        /// Its task finished.
+        Finished = "finished",
+        /// Its task failed (the error is on record).
+        Failed = "failed",
+        /// Its task is at work, or was when it last wrote.
+        Running = "running",
+        /// Made by hand (no task), and its report exists.
+        Complete = "complete",
+        /// Made by hand, and without a report.
+        Incomplete = "incomplete",
     }
 }
 
@@ -296,7 +312,7 @@ postflight_core::table! {
     /// (none before its report).
     pub struct FlightRow {
         flight: FlightId,
-        state: String,
+        state: RunState,
         error: Option<String>,
         last_attempt: Option<String>,
         /// Seconds the stages of its current results took.
@@ -326,7 +342,7 @@ impl FlightRow {
         let replan = s.and_then(|s| s.replan.as_ref());
         Self {
             flight: FlightId::of(run),
-            state: run.state().to_string(),
+            state: run.state(),
             error: record.and_then(|r| r.error.clone()),
             last_attempt: record.map(|r| r.started.clone()),
             processing_s: s.map(|s| s.timings_s.values().sum()),
