@@ -1,6 +1,7 @@
 //! Frames: the camera images of a flight, each with its time, camera pose and
 //! where to find its pixels in the recording.
 
+use crate::kind::Named;
 use nalgebra::Isometry3;
 use serde::{Deserialize, Serialize};
 
@@ -51,6 +52,71 @@ crate::kind! {
     }
 }
 
+/// How a frame's image is stored, as `frames.parquet` spells it: `jpeg`,
+/// `png`, or a raw `sensor_msgs/Image` encoding (`rgb8`, `mono16`, ...).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ImageEncoding {
+    Compressed(Compression),
+    /// A raw encoding as its message names it; also a compressed image's
+    /// `format` where its bytes are neither JPEG nor PNG.
+    Raw(String),
+}
+
+crate::kind! {
+    /// The container of a compressed image, from its magic bytes (a
+    /// `CompressedImage`'s `format` is free text and often wrong).
+    pub enum Compression("image container") {
+        Jpeg = "jpeg",
+        Png = "png",
+    }
+}
+
+impl Compression {
+    /// The container `data` starts as, if JPEG or PNG.
+    pub fn sniff(data: &[u8]) -> Option<Self> {
+        if data.starts_with(&[0xff, 0xd8, 0xff]) {
+            Some(Self::Jpeg)
+        } else if data.starts_with(b"\x89PNG\r\n\x1a\n") {
+            Some(Self::Png)
+        } else {
+            None
+        }
+    }
+}
+
+impl ImageEncoding {
+    pub fn as_str(&self) -> &str {
+        match self {
+            Self::Compressed(c) => c.as_str(),
+            Self::Raw(raw) => raw,
+        }
+    }
+
+    /// The encoding `name` spells.
+    pub fn parse(name: &str) -> Self {
+        Compression::named(name).map_or_else(|| Self::Raw(name.to_string()), Self::Compressed)
+    }
+}
+
+impl PartialEq<&str> for ImageEncoding {
+    fn eq(&self, name: &&str) -> bool {
+        self.as_str() == *name
+    }
+}
+
+impl crate::table::Cell for ImageEncoding {
+    fn column(name: &str, values: &[&Self]) -> crate::table::Column {
+        crate::table::Column::new(
+            name.into(),
+            values.iter().map(|v| v.as_str()).collect::<Vec<&str>>(),
+        )
+    }
+    fn values(column: &crate::table::Column) -> crate::table::PolarsResult<Vec<Self>> {
+        let texts = String::values(column)?;
+        Ok(texts.iter().map(|t| Self::parse(t)).collect())
+    }
+}
+
 /// One camera image of the flight.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Frame {
@@ -68,8 +134,7 @@ pub struct Frame {
     pub frame_id: String,
     pub width: Option<u32>,
     pub height: Option<u32>,
-    /// `jpeg`, `png`, or the raw encoding (`rgb8`, `mono16`, ...).
-    pub encoding: String,
+    pub encoding: ImageEncoding,
     /// Pose of the camera's optical frame in the world (`T_world_camera`).
     pub camera_pose: Option<Isometry3<f64>>,
     pub pose_status: PoseStatus,

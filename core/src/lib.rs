@@ -62,7 +62,7 @@ pub mod view;
 pub use camera::{Camera, Distortion, Intrinsics};
 pub use error::Error;
 pub use flight::Flight;
-pub use frame::{Frame, ImageLocation, ImageStatus, MessageLocation, PoseStatus};
+pub use frame::{Frame, ImageEncoding, ImageLocation, ImageStatus, MessageLocation, PoseStatus};
 pub use map::FaceSide;
 pub use outputs::Stage;
 pub use plan::{FlownPlan, InspectionPlan, PathPoint, PlanFile, Viewpoint, YawUnit};

@@ -5,32 +5,7 @@
 
 use image::{DynamicImage, GrayImage, ImageBuffer, Luma, Rgb, RgbImage};
 
-/// Container of a `sensor_msgs/msg/CompressedImage`, from its magic bytes
-/// (the `format` string is free text and often wrong).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Compression {
-    Jpeg,
-    Png,
-}
-
-impl Compression {
-    pub fn sniff(data: &[u8]) -> Option<Self> {
-        if data.starts_with(&[0xff, 0xd8, 0xff]) {
-            Some(Self::Jpeg)
-        } else if data.starts_with(b"\x89PNG\r\n\x1a\n") {
-            Some(Self::Png)
-        } else {
-            None
-        }
-    }
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Jpeg => "jpeg",
-            Self::Png => "png",
-        }
-    }
-}
+pub use postflight_core::frame::Compression;
 
 /// Width and height of a JPEG or PNG from its headers, reading only the
 /// bytes before the pixel data.

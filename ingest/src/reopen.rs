@@ -8,6 +8,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use image::DynamicImage;
+use postflight_core::frame::ImageEncoding;
 use postflight_core::map::{PointCloud, SlamMap, VoxelGrid, merged};
 use postflight_core::outputs::ingest::RecordingSummary;
 use postflight_core::{Flight, Frame, ImageLocation, MessageLocation};
@@ -289,7 +290,7 @@ fn mismatched(frame: &Frame) -> IngestError {
 }
 
 fn is_compressed(frame: &Frame) -> bool {
-    matches!(frame.encoding.as_str(), "jpeg" | "png")
+    matches!(frame.encoding, ImageEncoding::Compressed(_))
 }
 
 /// How a recording's ROS 1 topics read again decode, from the definitions

@@ -7,7 +7,7 @@
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::Arc;
 
-use postflight_core::frame::{EXPOSURE_TOPIC, camera_namespace};
+use postflight_core::frame::{EXPOSURE_TOPIC, ImageEncoding, camera_namespace};
 use postflight_core::geo::Geodetic;
 use postflight_core::outputs::ingest::{GnssFix, TopicSummary};
 use postflight_core::pose::StampedPose;
@@ -253,9 +253,10 @@ impl Scan {
             Kind::CompressedImage => {
                 let (head, data) = wire.compressed_image(m.data)?;
                 let size = compressed_size(data);
-                let encoding = Compression::sniff(data)
-                    .map(|c| c.as_str().to_string())
-                    .unwrap_or(head.format);
+                let encoding = Compression::sniff(data).map_or_else(
+                    || ImageEncoding::parse(&head.format),
+                    ImageEncoding::Compressed,
+                );
                 let status = match size {
                     Some(_) => ImageStatus::Ok,
                     None => ImageStatus::Unreadable,
@@ -271,8 +272,12 @@ impl Scan {
                     ImageStatus::UnsupportedEncoding
                 };
                 let size = Some((head.width, head.height));
-                self.frames
-                    .push(frame(&head.header, size, head.encoding, status));
+                self.frames.push(frame(
+                    &head.header,
+                    size,
+                    ImageEncoding::Raw(head.encoding),
+                    status,
+                ));
             }
             Kind::CameraInfo => {
                 if !self.camera_infos.contains_key(topic) {

@@ -12,6 +12,7 @@ use ingest::Recordings;
 use nalgebra::Isometry3;
 use page::condition_text;
 use postflight_core::detection::FrameDetection;
+use postflight_core::frame::{Compression, ImageEncoding};
 use postflight_core::mask::Mask;
 use postflight_core::outputs::detect::read_detections;
 use postflight_core::{Camera, Flight, Frame};
@@ -305,7 +306,7 @@ fn log_image(
     }
     match recording.compressed_image(frame) {
         Ok(Some(bytes)) => {
-            let media = if frame.encoding == "png" {
+            let media = if frame.encoding == ImageEncoding::Compressed(Compression::Png) {
                 rerun::MediaType::png()
             } else {
                 rerun::MediaType::jpeg()

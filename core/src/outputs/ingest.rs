@@ -10,7 +10,7 @@ use nalgebra::Isometry3;
 use serde::{Deserialize, Serialize};
 
 use crate::error::Error;
-use crate::frame::{Frame, ImageLocation, ImageStatus, MessageLocation, PoseStatus};
+use crate::frame::{Frame, ImageEncoding, ImageLocation, ImageStatus, MessageLocation, PoseStatus};
 use crate::geo::{GeoAlignment, GeoOrigin, Geodetic};
 use crate::pose::{StampedPose, from_parts_xyzw, quaternion_xyzw};
 use crate::run_dir::RunDir;
@@ -389,7 +389,7 @@ crate::table! {
         frame_id: String,
         width: Option<u32>,
         height: Option<u32>,
-        encoding: String,
+        encoding: ImageEncoding,
         has_pose: bool,
         pose_status: PoseStatus,
         image_status: ImageStatus,

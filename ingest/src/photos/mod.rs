@@ -17,6 +17,7 @@ use std::sync::OnceLock;
 
 use image::DynamicImage;
 use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion};
+use postflight_core::frame::{Compression, ImageEncoding};
 use postflight_core::geo::{GeoOrigin, Geodetic};
 use postflight_core::outputs::ingest::{
     GnssFix, PhotoFolderSummary, PoseSource, RecordingSummary, SkippedPhoto,
@@ -418,7 +419,7 @@ impl Posed {
             frame_id: camera.to_string(),
             width: Some(self.tags.width),
             height: Some(self.tags.height),
-            encoding: "jpeg".to_string(),
+            encoding: ImageEncoding::Compressed(Compression::Jpeg),
             camera_pose: Some(self.camera_pose),
             pose_status: PoseStatus::Ok,
             image_status: ImageStatus::Ok,
