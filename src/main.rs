@@ -138,14 +138,22 @@ impl FlightArgs {
     }
 }
 
+/// `--map`, as every command that reads the map takes it.
+#[derive(clap::Args, Debug, Clone)]
+struct MapArg {
+    /// Map: PLY, PCD, OctoMap .bt/.ot, an OBJ or PLY mesh (world frame, metres),
+    /// or a LAS/LAZ in its CRS; instead of the one recorded in the flight
+    /// (for replan, the one coverage used).
+    #[arg(long = "map", value_name = "FILE")]
+    file: Option<PathBuf>,
+}
+
 #[derive(Args)]
 struct RunArgs {
     #[command(flatten)]
     flight: FlightArgs,
-    /// Map: PLY, PCD, OctoMap .bt/.ot, an OBJ or PLY mesh (world frame, metres),
-    /// or a LAS/LAZ in its CRS; instead of the one recorded in the flight.
-    #[arg(long, value_name = "FILE")]
-    map: Option<PathBuf>,
+    #[command(flatten)]
+    map: MapArg,
     #[command(flatten)]
     plan: PlanArgs,
     #[command(flatten)]
@@ -207,10 +215,8 @@ struct ReplanArgs {
     /// Run directory holding a completed coverage stage.
     #[arg(long)]
     run: PathBuf,
-    /// Map: PLY, PCD, OctoMap .bt/.ot, an OBJ or PLY mesh (world frame, metres),
-    /// or a LAS/LAZ in its CRS; instead of the one coverage used.
-    #[arg(long, value_name = "FILE")]
-    map: Option<PathBuf>,
+    #[command(flatten)]
+    map: MapArg,
     #[command(flatten)]
     settings: replan::ReplanSettings,
     #[command(flatten)]
@@ -285,10 +291,8 @@ struct CoverageArgs {
     /// Judge the viewpoints as shots of this camera (a ROS camera_info YAML: a team drone's) instead of the flight's.
     #[arg(long, value_name = "camera.yaml", requires = "viewpoints")]
     viewpoint_camera: Option<PathBuf>,
-    /// Map: PLY, PCD, OctoMap .bt/.ot, an OBJ or PLY mesh (world frame, metres),
-    /// or a LAS/LAZ in its CRS; instead of the one recorded in the flight.
-    #[arg(long, value_name = "FILE")]
-    map: Option<PathBuf>,
+    #[command(flatten)]
+    map: MapArg,
     #[command(flatten)]
     targets: TargetArgs,
     #[command(flatten)]
@@ -304,10 +308,8 @@ struct LocaliseArgs {
     /// Run directory holding a completed detect.
     #[arg(long)]
     run: PathBuf,
-    /// Map: PLY, PCD, OctoMap .bt/.ot, an OBJ or PLY mesh (world frame, metres),
-    /// or a LAS/LAZ in its CRS; instead of the one recorded in the flight.
-    #[arg(long, value_name = "FILE")]
-    map: Option<PathBuf>,
+    #[command(flatten)]
+    map: MapArg,
     /// Inspection plan: its target voxels are the structure (hits elsewhere are obstacles).
     #[arg(long, value_name = "plan.json")]
     plan: Option<PathBuf>,
@@ -664,7 +666,7 @@ fn localise(args: &LocaliseArgs, quiet: bool) -> anyhow::Result<()> {
     let plan = args.plan.clone().map(PlanFile::new);
     let options = config.localise_options(
         &args.run,
-        args.map.as_deref(),
+        args.map.file.as_deref(),
         plan.as_ref(),
         args.targets.targets(),
     );
@@ -683,7 +685,7 @@ fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
         viewpoint_camera: args.viewpoint_camera.clone(),
         ..config.coverage_options(
             &args.run,
-            args.map.as_deref(),
+            args.map.file.as_deref(),
             args.plan.plan().as_ref(),
             args.targets.targets(),
         )
@@ -698,7 +700,7 @@ fn replan(args: &ReplanArgs, quiet: bool) -> anyhow::Result<()> {
     };
     let config = args.config.under(flags)?;
     stages::replan(
-        &config.replan_options(&args.run, args.map.as_deref()),
+        &config.replan_options(&args.run, args.map.file.as_deref()),
         quiet,
     )
 }
@@ -714,7 +716,7 @@ fn run_pipeline(args: &RunArgs, quiet: bool) -> anyhow::Result<()> {
     let config = args.config.under(RunConfig::default())?;
     let inputs = pipeline::RunInputs {
         flights: args.flight.recordings()?,
-        map: args.map.clone(),
+        map: args.map.file.clone(),
         plan: args.plan.plan(),
         targets: args.targets.targets(),
         model: args.model.clone(),
