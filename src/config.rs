@@ -13,28 +13,67 @@ use postflight_core::condition::ConditionSettings;
 use postflight_core::{PlanFile, ViewSettings};
 use serde::{Deserialize, Serialize};
 
-/// The settings of every stage: `postflight.toml`, or the flags of one
-/// command (where only that stage's tables are set).
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct RunConfig {
-    pub ingest: ingest::IngestSettings,
-    pub detect: detect::DetectSettings,
-    pub localise: localise::LocaliseSettings,
-    pub view: ViewSettings,
-    pub condition: ConditionSettings,
-    pub coverage: coverage::CoverageSettings,
-    pub replan: replan::ReplanSettings,
+/// The tables of `postflight.toml`, each named once: in the order of its
+/// documentation, each a stage crate's settings (`postflight_core::settings!`),
+/// and where an unset key's value comes from before its default. Gives
+/// [`RunConfig`], [`ConfigArg`], [`tables`], [`RunConfig::over`] and the
+/// list the errors name.
+macro_rules! stage_tables {
+    ($( $table:ident: $settings:ty $(, default from $from:literal)?; )+) => {
+        /// The settings of every stage: `postflight.toml`, or the flags of one
+        /// command (where only that stage's tables are set).
+        #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+        #[serde(default, deny_unknown_fields)]
+        pub struct RunConfig {
+            $( pub $table: $settings, )+
+        }
+
+        /// `--config`: the file a stage command reads its tables from.
+        #[derive(Debug, Clone, Default, Args)]
+        pub struct ConfigArg {
+            #[arg(
+                long,
+                value_name = "postflight.toml",
+                help = concat!("Settings file (postflight.toml; tables", $(" [", stringify!($table), "]",)+ "); flags given win over it")
+            )]
+            pub config: Option<PathBuf>,
+        }
+
+        /// Every table, in the order of `postflight.toml`'s documentation.
+        pub fn tables() -> Vec<Table> {
+            vec![$(
+                Table {
+                    name: <$settings>::TABLE,
+                    args: <$settings>::augment_args(clap::Command::new(<$settings>::TABLE)),
+                    defaults: serde_json::to_value(<$settings>::default().resolve())
+                        .expect("defaults serialise to JSON"),
+                    default_from: None $(.or(Some($from)))?,
+                },
+            )+]
+        }
+
+        impl RunConfig {
+            /// Each setting from `self` where set, else from `under`.
+            pub fn over(&self, under: &Self) -> Self {
+                Self {
+                    $( $table: self.$table.over(&under.$table), )+
+                }
+            }
+        }
+
+        /// The tables, as errors list them.
+        const TABLE_LIST: &str = concat!($("[", stringify!($table), "] ",)+);
+    };
 }
 
-/// `--config`: the file a stage command reads its tables from.
-#[derive(Debug, Clone, Default, Args)]
-pub struct ConfigArg {
-    /// Settings file (postflight.toml; tables [ingest], [detect],
-    /// [localise], [view], [condition], [coverage], [replan]); flags given
-    /// win over it.
-    #[arg(long, value_name = "postflight.toml")]
-    pub config: Option<PathBuf>,
+stage_tables! {
+    ingest: ingest::IngestSettings;
+    detect: detect::DetectSettings;
+    localise: localise::LocaliseSettings;
+    view: ViewSettings, default from "the plan's, else";
+    condition: ConditionSettings;
+    coverage: coverage::CoverageSettings;
+    replan: replan::ReplanSettings;
 }
 
 impl ConfigArg {
@@ -54,30 +93,6 @@ pub struct Table {
     pub defaults: serde_json::Value,
     /// Where an unset key's value comes from before its default.
     pub default_from: Option<&'static str>,
-}
-
-/// Every table, in the order of `postflight.toml`'s documentation.
-pub fn tables() -> [Table; 7] {
-    macro_rules! table {
-        ($settings:ty, $from:expr) => {
-            Table {
-                name: <$settings>::TABLE,
-                args: <$settings>::augment_args(clap::Command::new(<$settings>::TABLE)),
-                defaults: serde_json::to_value(<$settings>::default().resolve())
-                    .expect("defaults serialise to JSON"),
-                default_from: $from,
-            }
-        };
-    }
-    [
-        table!(ingest::IngestSettings, None),
-        table!(detect::DetectSettings, None),
-        table!(localise::LocaliseSettings, None),
-        table!(ViewSettings, Some("the plan's, else")),
-        table!(ConditionSettings, None),
-        table!(coverage::CoverageSettings, None),
-        table!(replan::ReplanSettings, None),
-    ]
 }
 
 impl RunConfig {
@@ -113,19 +128,6 @@ impl RunConfig {
             .collect()
     }
 
-    /// Each setting from `self` where set, else from `under`.
-    pub fn over(&self, under: &Self) -> Self {
-        Self {
-            ingest: self.ingest.over(&under.ingest),
-            detect: self.detect.over(&under.detect),
-            localise: self.localise.over(&under.localise),
-            view: self.view.over(&under.view),
-            condition: self.condition.over(&under.condition),
-            coverage: self.coverage.over(&under.coverage),
-            replan: self.replan.over(&under.replan),
-        }
-    }
-
     /// The file at `path`, or every setting unset without one.
     pub fn load_or_default(path: Option<&Path>) -> anyhow::Result<Self> {
         path.map_or_else(|| Ok(Self::default()), Self::load)
@@ -142,8 +144,9 @@ impl RunConfig {
     pub fn parse(text: &str) -> Result<Self, String> {
         toml::from_str(text).map_err(|e| {
             format!(
-                "{}; tables are [ingest], [detect], [localise], [view], [condition], [coverage] and [replan] (see docs/cli.md)",
-                e.to_string().trim().replace('\n', " ")
+                "{}; the tables are {}(see docs/cli.md)",
+                e.to_string().trim().replace('\n', " "),
+                TABLE_LIST
             )
         })
     }
