@@ -74,6 +74,7 @@ stage_tables! {
     condition: ConditionSettings;
     coverage: coverage::CoverageSettings;
     replan: replan::ReplanSettings;
+    compare: compare::CompareSettings;
 }
 
 impl ConfigArg {
@@ -302,6 +303,8 @@ camera_info_file = "wide.yaml"
 name = "carriageway"
 outline = [[0.0, -4.5], [16.0, -4.5], [16.0, 4.5], [0.0, 4.5]]
 bottom_m = 6.5
+[compare]
+link_distance_m = 0.15
 "#;
 
 #[cfg(test)]

@@ -95,6 +95,10 @@ struct CompareArgs {
     /// The later run directory (with coverage); the results go here.
     #[arg(long, value_name = "RUN_B")]
     after: PathBuf,
+    #[command(flatten)]
+    settings: compare::CompareSettings,
+    #[command(flatten)]
+    config: config::ConfigArg,
 }
 
 #[derive(Args)]
@@ -537,6 +541,7 @@ fn config_file(command: &Command) -> Option<PathBuf> {
         Command::Localise(args) => &args.config,
         Command::Coverage(args) => &args.config,
         Command::Replan(args) => &args.config,
+        Command::Compare(args) => &args.config,
         Command::Batch(command) => return batch::task_config(command),
         _ => return None,
     };
@@ -738,7 +743,14 @@ fn run_pipeline(args: &RunArgs, quiet: bool) -> anyhow::Result<()> {
 }
 
 fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<()> {
-    let options = compare::CompareOptions::new(args.before.clone(), args.after.clone());
+    let config = args.config.under(RunConfig {
+        compare: args.settings.clone(),
+        ..RunConfig::default()
+    })?;
+    let options = compare::CompareOptions {
+        settings: config.compare.resolve(),
+        ..compare::CompareOptions::new(args.before.clone(), args.after.clone())
+    };
     let summary = compare::compare(&options)?;
     // The later run's report gets its "changes since" section.
     if postflight_core::RunDir::open(&args.after, Stage::Report).is_ok() {

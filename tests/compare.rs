@@ -340,3 +340,36 @@ fn runs_of_different_structures_are_refused_with_the_overlap_they_have() {
     assert_eq!(e.trim().lines().count(), 1, "{e}");
     assert!(!b.join("changes.json").exists());
 }
+
+#[test]
+fn a_link_distance_that_cannot_match_is_refused_as_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("postflight.toml");
+    std::fs::write(&config, "[compare]\nlink_distance_m = inf\n").unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    let out = postflight(
+        &[
+            "compare",
+            "--before",
+            a.to_str().unwrap(),
+            "--after",
+            b.to_str().unwrap(),
+            "--config",
+            config.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert_fails_in_one_line(&out, "[compare] link_distance_m");
+    let out = postflight(
+        &[
+            "compare",
+            "--before",
+            a.to_str().unwrap(),
+            "--after",
+            b.to_str().unwrap(),
+            "--link-distance=-0.5",
+        ],
+        dir.path(),
+    );
+    assert_fails_in_one_line(&out, "--link-distance must be 0 or more metres");
+}

@@ -16,4 +16,6 @@ pub enum CompareError {
     Coverage(#[from] coverage::CoverageError),
     #[error(transparent)]
     Core(#[from] postflight_core::Error),
+    #[error(transparent)]
+    Setting(#[from] postflight_core::InvalidSetting),
 }

@@ -12,9 +12,11 @@
 
 pub mod changes;
 pub mod error;
+pub mod settings;
 pub mod sight;
 pub mod stage;
 
 pub use error::CompareError;
 pub use postflight_core::map::register::{RegisterOptions, Registration, register};
+pub use settings::{CompareConfig, CompareSettings};
 pub use stage::{CompareOptions, compare};

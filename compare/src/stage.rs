@@ -16,6 +16,7 @@ use postflight_core::{Flight, RunDir, Stage, ViewModel};
 
 use crate::changes::{Earlier, Inspected, MatchOptions, changes};
 use crate::error::CompareError;
+use crate::settings::CompareConfig;
 use crate::sight::FramesInView;
 use postflight_core::map::register::{RegisterOptions, Registration, register};
 
@@ -26,10 +27,7 @@ pub struct CompareOptions {
     pub before: PathBuf,
     pub after: PathBuf,
     pub register: RegisterOptions,
-    /// Largest gap between two candidates' extents that still matches,
-    /// metres; `None`: the wider of the two runs' own fusion link distance
-    /// (each `localise.json`'s `link_distance_m`).
-    pub link_distance_m: Option<f64>,
+    pub settings: CompareConfig,
 }
 
 impl CompareOptions {
@@ -38,7 +36,7 @@ impl CompareOptions {
             before,
             after,
             register: RegisterOptions::default(),
-            link_distance_m: None,
+            settings: CompareConfig::default(),
         }
     }
 }
@@ -46,6 +44,7 @@ impl CompareOptions {
 /// Compare the runs; the summary written.
 pub fn compare(options: &CompareOptions) -> Result<ChangesSummary, CompareError> {
     let started = Instant::now();
+    options.settings.check()?;
     let before = Side::read(&options.before, Stage::Localise)?;
     let after = Side::read(&options.after, Stage::Coverage)?;
     let before_map = before.map()?;
@@ -60,6 +59,7 @@ pub fn compare(options: &CompareOptions) -> Result<ChangesSummary, CompareError>
     let inspected_after = after.inspected.as_ref().expect("coverage completed");
     let matching = MatchOptions::with_link_distance(
         options
+            .settings
             .link_distance_m
             .unwrap_or(before.link_distance_m.max(after.link_distance_m)),
     );
