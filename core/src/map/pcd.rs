@@ -31,6 +31,24 @@ impl Field {
 }
 
 pub fn parse(bytes: &[u8]) -> Result<Vec<Point3<f64>>, String> {
+    let (header, body) = split_header(bytes)?;
+    let header = Header::parse(header)?;
+    let layout = Layout::of(&header.fields)?;
+    let n = header.points;
+    layout.total(n)?;
+    let mut points = match header.data.as_str() {
+        "ascii" => read_ascii(body, &layout, n)?,
+        "binary" => read_binary(body, &header.fields, &layout, n)?,
+        "binary_compressed" => read_compressed(body, &header.fields, &layout, n)?,
+        other => return Err(format!("unknown PCD DATA kind {other:?}")),
+    };
+    // PCL marks missing points as NaN in organised clouds.
+    points.retain(|p| p.iter().all(|v| v.is_finite()));
+    Ok(points)
+}
+
+/// The header's text (through the `DATA` line) and the body after it.
+fn split_header(bytes: &[u8]) -> Result<(&str, &[u8]), String> {
     let data_line = super::ply::find(bytes, b"\nDATA ").ok_or("not a PCD file: no DATA line")?;
     let eol = bytes[data_line + 1..]
         .iter()
@@ -38,169 +56,219 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<Point3<f64>>, String> {
         .map(|p| data_line + 1 + p)
         .ok_or("PCD header has no end")?;
     let header = std::str::from_utf8(&bytes[..eol]).map_err(|_| "PCD header is not text")?;
-    let body = &bytes[eol + 1..];
+    Ok((header, &bytes[eol + 1..]))
+}
 
-    let mut names = Vec::new();
-    let mut sizes = Vec::new();
-    let mut kinds = Vec::new();
-    let mut counts = Vec::new();
-    let mut points_n = None;
-    let mut data = "";
-    for line in header
-        .lines()
-        .map(str::trim)
-        .filter(|l| !l.starts_with('#'))
-    {
-        let mut words = line.split_whitespace();
-        let key = words.next().unwrap_or_default();
-        let rest: Vec<&str> = words.collect();
-        match key {
-            "FIELDS" => names = rest.iter().map(|s| s.to_string()).collect(),
-            "SIZE" => sizes = parse_all(&rest, line)?,
-            "TYPE" => {
-                kinds = rest
-                    .iter()
-                    .map(|s| s.chars().next().unwrap_or('?'))
-                    .collect()
+/// What a PCD header says: its fields, its point count and how the data
+/// is stored.
+struct Header {
+    fields: Vec<Field>,
+    points: usize,
+    data: String,
+}
+
+impl Header {
+    fn parse(header: &str) -> Result<Self, String> {
+        let mut names = Vec::new();
+        let mut sizes = Vec::new();
+        let mut kinds = Vec::new();
+        let mut counts = Vec::new();
+        let mut points = None;
+        let mut data = "";
+        for line in header
+            .lines()
+            .map(str::trim)
+            .filter(|l| !l.starts_with('#'))
+        {
+            let mut words = line.split_whitespace();
+            let key = words.next().unwrap_or_default();
+            let rest: Vec<&str> = words.collect();
+            match key {
+                "FIELDS" => names = rest.iter().map(|s| s.to_string()).collect(),
+                "SIZE" => sizes = parse_all(&rest, line)?,
+                "TYPE" => {
+                    kinds = rest
+                        .iter()
+                        .map(|s| s.chars().next().unwrap_or('?'))
+                        .collect()
+                }
+                "COUNT" => counts = parse_all(&rest, line)?,
+                "POINTS" => {
+                    points = Some(
+                        parse_all::<usize>(&rest, line)?
+                            .first()
+                            .copied()
+                            .unwrap_or(0),
+                    )
+                }
+                "DATA" => data = rest.first().copied().unwrap_or_default(),
+                _ => {}
             }
-            "COUNT" => counts = parse_all(&rest, line)?,
-            "POINTS" => {
-                points_n = Some(
-                    parse_all::<usize>(&rest, line)?
-                        .first()
-                        .copied()
-                        .unwrap_or(0),
-                )
-            }
-            "DATA" => data = rest.first().copied().unwrap_or_default(),
-            _ => {}
         }
-    }
-    if counts.is_empty() {
-        counts = vec![1; names.len()];
-    }
-    if sizes.len() != names.len() || kinds.len() != names.len() || counts.len() != names.len() {
-        return Err("PCD header's FIELDS, SIZE, TYPE and COUNT disagree in length".into());
-    }
-    let fields: Vec<Field> = (0..names.len())
-        .map(|i| Field {
-            name: names[i].clone(),
-            size: sizes[i],
-            kind: kinds[i],
-            count: counts[i],
+        if counts.is_empty() {
+            counts = vec![1; names.len()];
+        }
+        if sizes.len() != names.len() || kinds.len() != names.len() || counts.len() != names.len() {
+            return Err("PCD header's FIELDS, SIZE, TYPE and COUNT disagree in length".into());
+        }
+        let fields = (0..names.len())
+            .map(|i| Field {
+                name: names[i].clone(),
+                size: sizes[i],
+                kind: kinds[i],
+                count: counts[i],
+            })
+            .collect();
+        Ok(Self {
+            fields,
+            points: points.ok_or("PCD header has no POINTS line")?,
+            data: data.to_string(),
         })
-        .collect();
-    let n = points_n.ok_or("PCD header has no POINTS line")?;
-    let axis = |a: &str| {
-        fields
+    }
+}
+
+/// Where x, y and z are in a point: their fields, each field's byte offset
+/// and value column, and a point's bytes.
+struct Layout {
+    xyz: [usize; 3],
+    offsets: Vec<usize>,
+    columns: Vec<usize>,
+    point_size: usize,
+}
+
+impl Layout {
+    fn of(fields: &[Field]) -> Result<Self, String> {
+        let axis = |a: &str| {
+            fields
+                .iter()
+                .position(|f| f.name == a)
+                .ok_or(format!("PCD file has no {a} field"))
+        };
+        let xyz = [axis("x")?, axis("y")?, axis("z")?];
+        // A point's bytes and values, checked: a SIZE or COUNT no file holds
+        // would wrap them.
+        let values = fields
             .iter()
-            .position(|f| f.name == a)
-            .ok_or(format!("PCD file has no {a} field"))
-    };
-    let xyz = [axis("x")?, axis("y")?, axis("z")?];
-    // A point's bytes and values, checked: a SIZE or COUNT no file holds
-    // would wrap them.
-    let columns = fields
-        .iter()
-        .try_fold(0usize, |sum, f| sum.checked_add(f.count));
-    let point_size = fields
-        .iter()
-        .try_fold(0usize, |sum, f| {
-            sum.checked_add(f.size.checked_mul(f.count)?)
+            .try_fold(0usize, |sum, f| sum.checked_add(f.count));
+        let point_size = fields
+            .iter()
+            .try_fold(0usize, |sum, f| {
+                sum.checked_add(f.size.checked_mul(f.count)?)
+            })
+            .filter(|_| values.is_some())
+            .ok_or("PCD header's SIZE and COUNT give a point more bytes than any file holds")?;
+        if point_size == 0 {
+            return Err("PCD header gives its fields no size (SIZE or COUNT 0)".into());
+        }
+        let running = |each: fn(&Field) -> usize| {
+            fields
+                .iter()
+                .scan(0, |sum, f| {
+                    let at = *sum;
+                    *sum += each(f);
+                    Some(at)
+                })
+                .collect()
+        };
+        Ok(Self {
+            xyz,
+            offsets: running(Field::bytes),
+            columns: running(|f| f.count),
+            point_size,
         })
-        .filter(|_| columns.is_some())
-        .ok_or("PCD header's SIZE and COUNT give a point more bytes than any file holds")?;
-    let offsets: Vec<usize> = fields
-        .iter()
-        .scan(0, |acc, f| {
-            let o = *acc;
-            *acc += f.bytes();
-            Some(o)
-        })
-        .collect();
-    let short = || "PCD file is shorter than its header says".to_string();
-    if point_size == 0 {
-        return Err("PCD header gives its fields no size (SIZE or COUNT 0)".into());
     }
-    // The points' bytes, checked before anything is read or allocated by it.
-    let total = n
-        .checked_mul(point_size)
-        .ok_or_else(|| format!("PCD header claims {n} points, more than any file holds"))?;
+
+    /// The points' bytes, checked before anything is read or allocated by
+    /// them.
+    fn total(&self, n: usize) -> Result<usize, String> {
+        n.checked_mul(self.point_size)
+            .ok_or_else(|| format!("PCD header claims {n} points, more than any file holds"))
+    }
+}
+
+fn short() -> String {
+    "PCD file is shorter than its header says".to_string()
+}
+
+/// `DATA ascii`: a line per point, each field giving COUNT values.
+fn read_ascii(body: &[u8], layout: &Layout, n: usize) -> Result<Vec<Point3<f64>>, String> {
+    let text = std::str::from_utf8(body).map_err(|_| "PCD ascii data is not text")?;
     // The header's count is a claim; reserve no more than the body can hold.
     let mut points = Vec::with_capacity(n.min(body.len()));
-    match data {
-        "ascii" => {
-            let text = std::str::from_utf8(body).map_err(|_| "PCD ascii data is not text")?;
-            // Columns: each field contributes COUNT values.
-            let column: Vec<usize> = fields
-                .iter()
-                .scan(0, |acc, f| {
-                    let c = *acc;
-                    *acc += f.count;
-                    Some(c)
-                })
-                .collect();
-            for line in text.lines().filter(|l| !l.trim().is_empty()).take(n) {
-                let values: Vec<&str> = line.split_whitespace().collect();
-                let get = |a: usize| -> Result<f64, String> {
-                    values
-                        .get(column[xyz[a]])
-                        .and_then(|v| v.parse().ok())
-                        .ok_or(format!("bad PCD line {line:?}"))
-                };
-                points.push(Point3::new(get(0)?, get(1)?, get(2)?));
-            }
-            if points.len() < n {
-                return Err(short());
-            }
-        }
-        "binary" => {
-            if total > body.len() {
-                return Err(short());
-            }
-            for i in 0..n {
-                let p = body
-                    .get(i * point_size..(i + 1) * point_size)
-                    .ok_or_else(short)?;
-                let get = |a: usize| {
-                    fields[xyz[a]]
-                        .read(&p[offsets[xyz[a]]..])
-                        .ok_or("unsupported PCD field type")
-                };
-                points.push(Point3::new(get(0)?, get(1)?, get(2)?));
-            }
-        }
-        "binary_compressed" => {
-            let word = |at: usize| -> Result<usize, String> {
-                Ok(
-                    u32::from_le_bytes(body.get(at..at + 4).ok_or_else(short)?.try_into().unwrap())
-                        as usize,
-                )
-            };
-            let (compressed, raw) = (word(0)?, word(4)?);
-            if raw != total {
-                return Err("PCD compressed data has the wrong size".into());
-            }
-            let src = body.get(8..8 + compressed).ok_or_else(short)?;
-            let soa = lzf_decompress(src, raw)?;
-            if soa.len() != total {
-                return Err("PCD compressed data has the wrong size".into());
-            }
-            // Field-major: all points' first field, then the second, ...
-            let column = |a: usize, i: usize| {
-                let f = &fields[xyz[a]];
-                let start = offsets[xyz[a]] * n + i * f.bytes();
-                f.read(&soa[start..]).ok_or("unsupported PCD field type")
-            };
-            for i in 0..n {
-                points.push(Point3::new(column(0, i)?, column(1, i)?, column(2, i)?));
-            }
-        }
-        other => return Err(format!("unknown PCD DATA kind {other:?}")),
+    for line in text.lines().filter(|l| !l.trim().is_empty()).take(n) {
+        let values: Vec<&str> = line.split_whitespace().collect();
+        let get = |a: usize| -> Result<f64, String> {
+            values
+                .get(layout.columns[layout.xyz[a]])
+                .and_then(|v| v.parse().ok())
+                .ok_or(format!("bad PCD line {line:?}"))
+        };
+        points.push(Point3::new(get(0)?, get(1)?, get(2)?));
     }
-    // PCL marks missing points as NaN in organised clouds.
-    points.retain(|p| p.iter().all(|v| v.is_finite()));
+    if points.len() < n {
+        return Err(short());
+    }
     Ok(points)
+}
+
+/// `DATA binary`: the points one after the other.
+fn read_binary(
+    body: &[u8],
+    fields: &[Field],
+    layout: &Layout,
+    n: usize,
+) -> Result<Vec<Point3<f64>>, String> {
+    if layout.total(n)? > body.len() {
+        return Err(short());
+    }
+    let size = layout.point_size;
+    (0..n)
+        .map(|i| {
+            let p = body.get(i * size..(i + 1) * size).ok_or_else(short)?;
+            let get = |a: usize| {
+                let field = layout.xyz[a];
+                fields[field]
+                    .read(&p[layout.offsets[field]..])
+                    .ok_or("unsupported PCD field type")
+            };
+            Ok(Point3::new(get(0)?, get(1)?, get(2)?))
+        })
+        .collect()
+}
+
+/// `DATA binary_compressed`: LZF of the points stored field by field (all
+/// points' first field, then the second, ...).
+fn read_compressed(
+    body: &[u8],
+    fields: &[Field],
+    layout: &Layout,
+    n: usize,
+) -> Result<Vec<Point3<f64>>, String> {
+    let total = layout.total(n)?;
+    let word = |at: usize| -> Result<usize, String> {
+        Ok(
+            u32::from_le_bytes(body.get(at..at + 4).ok_or_else(short)?.try_into().unwrap())
+                as usize,
+        )
+    };
+    let (compressed, raw) = (word(0)?, word(4)?);
+    if raw != total {
+        return Err("PCD compressed data has the wrong size".into());
+    }
+    let src = body.get(8..8 + compressed).ok_or_else(short)?;
+    let soa = lzf_decompress(src, raw)?;
+    if soa.len() != total {
+        return Err("PCD compressed data has the wrong size".into());
+    }
+    let column = |a: usize, i: usize| {
+        let field = layout.xyz[a];
+        let f = &fields[field];
+        let start = layout.offsets[field] * n + i * f.bytes();
+        f.read(&soa[start..]).ok_or("unsupported PCD field type")
+    };
+    (0..n)
+        .map(|i| Ok(Point3::new(column(0, i)?, column(1, i)?, column(2, i)?)))
+        .collect()
 }
 
 fn parse_all<T: std::str::FromStr>(words: &[&str], line: &str) -> Result<Vec<T>, String> {
