@@ -3,10 +3,11 @@
 //! onto the mapped surface, with the crack's extent and length measured on
 //! that surface.
 
+use std::borrow::Cow;
 use std::collections::HashSet;
 
 use nalgebra::{Isometry3, Point2, Point3, Vector3};
-use postflight_core::detection::FrameDetection;
+use postflight_core::detection::{BoxXyxy, FrameDetection};
 use postflight_core::map::{SlamMap, VoxelIndex};
 use postflight_core::outputs::localise::{Outcome, WidthRecord};
 use postflight_core::trace::Trace;
@@ -222,7 +223,9 @@ pub fn measures_length(incidence: f64) -> bool {
 
 impl Scene<'_> {
     /// Place a detection seen by a camera at `pose` (`T_world_camera`,
-    /// optical frame) in a frame blurred by `blur_px` (`None`: unknown).
+    /// optical frame) in a frame blurred by `blur_px` (`None`: unknown):
+    /// its rays cast onto the map's surface, its pixels onto that surface's
+    /// plane, then what the view measures there.
     pub fn place(
         &self,
         detection: FrameDetection,
@@ -233,91 +236,42 @@ impl Scene<'_> {
         blur_px: Option<f64>,
     ) -> Observation {
         let b = detection.detection.bbox;
-        let (w, h) = (k.width as f32, k.height as f32);
-        let at_border = |x: f32, y: f32| {
-            x <= BORDER_PX || y <= BORDER_PX || x >= w - BORDER_PX || y >= h - BORDER_PX
-        };
-        // The trace follows the crack past its box: if it runs to the edge
-        // of the image, so may the crack.
-        let clipped = at_border(b.x0, b.y0)
-            || at_border(b.x1, b.y1)
-            || trace.is_some_and(|t| t.pixels.iter().any(|p| at_border(p.x as f32, p.y as f32)));
         let mut observation = Observation {
             detection,
             outcome: Outcome::NoSurface,
             placement: None,
             traced_px: trace.map_or(0, |t| t.pixels.len() as u32),
-            clipped,
+            clipped: clipped(&b, trace, k),
         };
-        // The crack's pixels: its centre line, or the box's centre and diagonals.
-        let box_pixels: Vec<Point2<f64>>;
-        let pixels: &[Point2<f64>] = match trace {
-            Some(t) => &t.pixels,
-            None => {
-                let (x0, y0, x1, y1) = (
-                    f64::from(b.x0),
-                    f64::from(b.y0),
-                    f64::from(b.x1),
-                    f64::from(b.y1),
-                );
-                box_pixels = [0.0, 0.25, 0.5, 0.75, 1.0]
-                    .iter()
-                    .flat_map(|s| {
-                        [
-                            Point2::new(x0 + (x1 - x0) * s, y0 + (y1 - y0) * s),
-                            Point2::new(x1 - (x1 - x0) * s, y0 + (y1 - y0) * s),
-                        ]
-                    })
-                    .collect();
-                &box_pixels
-            }
-        };
-        let origin = Point3::from(pose.translation.vector);
-        let ray = |px: &Point2<f64>| pose.rotation * k.ray(px);
-        let hits: Vec<SurfaceHit> = spread(pixels, RAYS)
-            .iter()
-            .filter_map(|px| surface::cast(self.map, &origin, &ray(px), self.max_range))
-            .collect();
-        let Some(surface) = consensus(&hits) else {
+        let pixels = crack_pixels(&b, trace);
+        let eye = Eye { pose, k };
+        let Some(surface) = self.surface(&eye, &pixels) else {
             return observation;
         };
         // Every crack pixel onto the surface's plane.
         let on_surface: Vec<Option<Point3<f64>>> = pixels
             .iter()
             .map(|px| {
-                intersect(&origin, &ray(px), &surface.point, &surface.normal)
-                    .filter(|p| (p - origin).norm() <= self.max_range)
+                eye.on_plane(px, &surface)
+                    .filter(|p| (p - eye.origin()).norm() <= self.max_range)
             })
             .collect();
-        let points: Vec<Point3<f64>> = on_surface.iter().flatten().copied().collect();
-        if points.is_empty() {
+        let Some(footprint) = Footprint::of(&on_surface) else {
             return observation;
-        }
-        let centre = Point3::from(
-            points.iter().map(|p| p.coords).sum::<Vector3<f64>>() / points.len() as f64,
-        );
-        let radius = points
-            .iter()
-            .map(|p| (p - centre).norm())
-            .fold(0.0, f64::max);
-        let extent = points
-            .iter()
-            .fold([points[0], points[0]], |[lo, hi], p| [lo.inf(p), hi.sup(p)]);
+        };
         // Length and trace only from a view that measures; width from
         // steeper views too, each point's footprint across the crack taking
         // the slant (a crack seen only obliquely still gets a state). A
         // blurred frame measures neither: the smear stretches the crack's
         // line along the motion and widens or fades it across.
         let sharp = self.view.blur_miss(blur_px).is_none();
-        let measures = sharp && measures_length(surface.incidence);
-        let measured = trace.filter(|_| measures);
+        let measured = trace.filter(|_| sharp && measures_length(surface.incidence));
         let length_m = measured.map(|t| {
             let at: Vec<Option<Vector3<f64>>> =
                 on_surface.iter().map(|p| p.map(|p| p.coords)).collect();
             t.length(&at)
         });
-        let on_plane =
-            |px: Point2<f64>| intersect(&origin, &ray(&px), &surface.point, &surface.normal);
+        let on_plane = |px: Point2<f64>| eye.on_plane(&px, &surface);
         let line = trace.and_then(|t| {
             let points: Vec<Point3<f64>> = t.pixels.iter().filter_map(|p| on_plane(*p)).collect();
             Line::fit(&points)
@@ -332,7 +286,7 @@ impl Scene<'_> {
             })
             .flatten();
         // The hit at the crack's centre, for its voxel, face, range and angle.
-        let hit = SurfaceHit::new(self.map, &origin, centre, surface.normal);
+        let hit = SurfaceHit::new(self.map, &eye.origin(), footprint.centre, surface.normal);
         observation.outcome = match self.structure {
             Some(structure) if !near_structure(structure, hit.voxel) => Outcome::Obstacle,
             _ => Outcome::Placed,
@@ -343,23 +297,9 @@ impl Scene<'_> {
         let trace = measured.map_or_else(Trace::default, |t| {
             centre_line::on_surface(t, &on_surface, oblique_gsd_mm / 1000.0)
         });
-        let near_border = |p: &Point2<f64>| {
-            let (x, y) = (p.x as f32, p.y as f32);
-            x <= CUT_PX || y <= CUT_PX || x >= w - CUT_PX || y >= h - CUT_PX
-        };
-        let cut = measured.map_or_else(Vec::new, |t| {
-            (t.pixels.iter().zip(&on_surface))
-                .filter(|(px, _)| near_border(px))
-                .filter_map(|(_, p)| *p)
-                .collect()
-        });
-        let sight = Sight {
-            origin,
-            corners: [(b.x0, b.y0), (b.x1, b.y0), (b.x1, b.y1), (b.x0, b.y1)]
-                .map(|(x, y)| ray(&Point2::new(f64::from(x), f64::from(y)))),
-        };
+        let cut = measured.map_or_else(Vec::new, |t| cut_ends(t, &on_surface, k));
         observation.placement = Some(Placement {
-            sight,
+            sight: eye.sight(&b),
             oblique_gsd_mm,
             view_gsd_mm,
             blur_px,
@@ -371,9 +311,9 @@ impl Scene<'_> {
                 blur_px,
             ),
             hit,
-            centre,
-            extent,
-            radius,
+            centre: footprint.centre,
+            extent: footprint.extent,
+            radius: footprint.radius,
             length_m,
             trace,
             cut,
@@ -383,6 +323,133 @@ impl Scene<'_> {
         });
         observation
     }
+
+    /// The surface the crack's rays agree on, if any: [`RAYS`] of them,
+    /// spread along its pixels.
+    fn surface(&self, eye: &Eye, pixels: &[Point2<f64>]) -> Option<SurfaceHit> {
+        let hits: Vec<SurfaceHit> = spread(pixels, RAYS)
+            .iter()
+            .filter_map(|px| surface::cast(self.map, &eye.origin(), &eye.ray(px), self.max_range))
+            .collect();
+        consensus(&hits)
+    }
+}
+
+/// A camera as a view casts from it: its pose and lens.
+struct Eye<'a> {
+    pose: &'a Isometry3<f64>,
+    k: &'a Intrinsics,
+}
+
+impl Eye<'_> {
+    fn origin(&self) -> Point3<f64> {
+        Point3::from(self.pose.translation.vector)
+    }
+
+    /// The ray through pixel `px`, world frame.
+    fn ray(&self, px: &Point2<f64>) -> Vector3<f64> {
+        self.pose.rotation * self.k.ray(px)
+    }
+
+    /// Where pixel `px`'s ray meets the plane of `surface`.
+    fn on_plane(&self, px: &Point2<f64>, surface: &SurfaceHit) -> Option<Point3<f64>> {
+        intersect(
+            &self.origin(),
+            &self.ray(px),
+            &surface.point,
+            &surface.normal,
+        )
+    }
+
+    /// The pyramid of rays through the box's corners.
+    fn sight(&self, b: &BoxXyxy) -> Sight {
+        Sight {
+            origin: self.origin(),
+            corners: [(b.x0, b.y0), (b.x1, b.y0), (b.x1, b.y1), (b.x0, b.y1)]
+                .map(|(x, y)| self.ray(&Point2::new(f64::from(x), f64::from(y)))),
+        }
+    }
+}
+
+/// Whether the image border may cut the crack: its box, or its trace,
+/// which follows it past the box, runs to the border.
+fn clipped(b: &BoxXyxy, trace: Option<&CrackTrace>, k: &Intrinsics) -> bool {
+    let at_border = |x: f32, y: f32| near_border(x, y, BORDER_PX, k);
+    at_border(b.x0, b.y0)
+        || at_border(b.x1, b.y1)
+        || trace.is_some_and(|t| t.pixels.iter().any(|p| at_border(p.x as f32, p.y as f32)))
+}
+
+/// Whether `(x, y)` is within `margin` pixels of the image's border.
+fn near_border(x: f32, y: f32, margin: f32, k: &Intrinsics) -> bool {
+    let (w, h) = (k.width as f32, k.height as f32);
+    x <= margin || y <= margin || x >= w - margin || y >= h - margin
+}
+
+/// The crack's pixels: its centre line, or the box's centre and diagonals.
+fn crack_pixels<'a>(b: &BoxXyxy, trace: Option<&'a CrackTrace>) -> Cow<'a, [Point2<f64>]> {
+    match trace {
+        Some(t) => Cow::Borrowed(&t.pixels),
+        None => {
+            let (x0, y0, x1, y1) = (
+                f64::from(b.x0),
+                f64::from(b.y0),
+                f64::from(b.x1),
+                f64::from(b.y1),
+            );
+            [0.0, 0.25, 0.5, 0.75, 1.0]
+                .iter()
+                .flat_map(|s| {
+                    [
+                        Point2::new(x0 + (x1 - x0) * s, y0 + (y1 - y0) * s),
+                        Point2::new(x1 - (x1 - x0) * s, y0 + (y1 - y0) * s),
+                    ]
+                })
+                .collect()
+        }
+    }
+}
+
+/// Where a view puts a crack on the surface: the centre of its points,
+/// the farthest of them from it, and their bounds.
+struct Footprint {
+    centre: Point3<f64>,
+    radius: f64,
+    extent: [Point3<f64>; 2],
+}
+
+impl Footprint {
+    /// `None` where no pixel met the surface's plane.
+    fn of(on_surface: &[Option<Point3<f64>>]) -> Option<Self> {
+        let points: Vec<Point3<f64>> = on_surface.iter().flatten().copied().collect();
+        let first = *points.first()?;
+        let centre = Point3::from(
+            points.iter().map(|p| p.coords).sum::<Vector3<f64>>() / points.len() as f64,
+        );
+        Some(Self {
+            centre,
+            radius: points
+                .iter()
+                .map(|p| (p - centre).norm())
+                .fold(0.0, f64::max),
+            extent: points
+                .iter()
+                .fold([first, first], |[lo, hi], p| [lo.inf(p), hi.sup(p)]),
+        })
+    }
+}
+
+/// The trace's points near the image border, on the surface: where the
+/// border may cut the crack.
+fn cut_ends(
+    t: &CrackTrace,
+    on_surface: &[Option<Point3<f64>>],
+    k: &Intrinsics,
+) -> Vec<Point3<f64>> {
+    (t.pixels.iter().zip(on_surface))
+        .filter(|(px, _)| near_border(px.x as f32, px.y as f32, CUT_PX, k))
+        .filter_map(|(_, p)| *p)
+        .collect()
 }
 
 /// Millimetres on the surface per image pixel across the crack at `p`:
