@@ -16,6 +16,17 @@ libfuzzer_sys::fuzz_target!(|text: &str| {
     let _ = stage::<detect::DetectSettings>(&file, "detect");
     let _ = stage::<localise::LocaliseSettings>(&file, "localise");
     let _ = stage::<coverage::CoverageSettings>(&file, "coverage");
+    if let Some(settings) = stage::<postflight_core::ViewSettings>(&file, "view") {
+        let _ = settings.resolve().check();
+    }
+    if let Some(settings) =
+        stage::<postflight_core::condition::ConditionSettings>(&file, "condition")
+    {
+        let _ = settings.resolve().check();
+    }
+    if let Some(settings) = stage::<compare::CompareSettings>(&file, "compare") {
+        let _ = settings.resolve().check();
+    }
     if let Some(settings) = stage::<replan::ReplanSettings>(&file, "replan") {
         let _ = settings.resolve();
     }
