@@ -25,63 +25,25 @@ pub(crate) fn cameras(
     trajectory: &Trajectory,
     warnings: &mut Vec<String>,
 ) -> Result<Vec<Camera>, IngestError> {
-    let file_intrinsics = options
-        .settings
-        .camera_info_file
-        .as_deref()
-        .map(|path| {
-            calibration::from_calibration_file(path, &crate::settings::keys::camera_info_file)
-        })
+    let file = options.settings.camera_info_file.as_deref();
+    let file_intrinsics = file
+        .map(|path| calibration::from_calibration_file(path, &keys::camera_info_file))
         .transpose()?;
-    let mut first_frame: BTreeMap<&str, &Frame> = BTreeMap::new();
-    for f in &scan.frames {
-        first_frame.entry(f.topic.as_str()).or_insert(f);
-    }
-    let mut frame_topics: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
-    for (topic, f) in &first_frame {
-        frame_topics
-            .entry(f.frame_id.as_str())
-            .or_default()
-            .push(topic);
-    }
-    for (frame, topics) in &frame_topics {
-        if topics.len() > 1 {
-            warnings.push(format!(
-                "image topics {} share the camera frame {frame:?} (raw and compressed copies?); select one with {}",
-                topics.join(", "),
-                keys::image_topics
-            ));
-        }
-    }
+    let first_frame = first_frames(scan);
+    warnings.extend(shared_frame_warnings(&first_frame));
     let t0 = trajectory.time_span().map(|s| s.0).unwrap_or_default();
     let mut cameras = Vec::new();
     for (topic, frame) in first_frame {
-        let (intrinsics, source) = match (
-            &file_intrinsics,
-            match_camera_info(topic, &frame.frame_id, scan),
-        ) {
+        let recorded = match_camera_info(topic, &frame.frame_id, scan);
+        let (intrinsics, source) = match (&file_intrinsics, recorded) {
             (Some(i), recorded) => {
+                let file = file.unwrap_or(Path::new("")).display();
                 if let Some((t, _)) = recorded {
                     warnings.push(format!(
-                        "{topic}: using intrinsics from {} instead of the recorded {t}",
-                        options
-                            .settings
-                            .camera_info_file
-                            .as_deref()
-                            .unwrap_or(Path::new(""))
-                            .display()
+                        "{topic}: using intrinsics from {file} instead of the recorded {t}"
                     ));
                 }
-                let source = format!(
-                    "file {}",
-                    options
-                        .settings
-                        .camera_info_file
-                        .as_deref()
-                        .unwrap_or(Path::new(""))
-                        .display()
-                );
-                (i.clone(), source)
+                (i.clone(), format!("file {file}"))
             }
             (None, Some((t, info))) => {
                 let i = calibration::from_camera_info(info).map_err(|why| {
@@ -129,6 +91,38 @@ pub(crate) fn cameras(
         });
     }
     Ok(cameras)
+}
+
+/// Each image topic's first frame, by topic.
+fn first_frames(scan: &Scan) -> BTreeMap<&str, &Frame> {
+    let mut first_frame: BTreeMap<&str, &Frame> = BTreeMap::new();
+    for f in &scan.frames {
+        first_frame.entry(f.topic.as_str()).or_insert(f);
+    }
+    first_frame
+}
+
+/// A warning for each camera frame several image topics share (raw and
+/// compressed copies of one camera, most likely).
+fn shared_frame_warnings(first_frame: &BTreeMap<&str, &Frame>) -> Vec<String> {
+    let mut frame_topics: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+    for (topic, f) in first_frame {
+        frame_topics
+            .entry(f.frame_id.as_str())
+            .or_default()
+            .push(topic);
+    }
+    frame_topics
+        .into_iter()
+        .filter(|(_, topics)| topics.len() > 1)
+        .map(|(frame, topics)| {
+            format!(
+                "image topics {} share the camera frame {frame:?} (raw and compressed copies?); select one with {}",
+                topics.join(", "),
+                keys::image_topics
+            )
+        })
+        .collect()
 }
 
 /// The CameraInfo for an image topic: the same frame, else the same namespace,

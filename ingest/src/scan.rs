@@ -89,6 +89,74 @@ pub(crate) struct Scan {
     pub(crate) unknown: BTreeSet<(String, String)>,
 }
 
+/// A frame as its image header describes it; placed on the trajectory
+/// later.
+fn image_frame(
+    topic: &str,
+    kind: Kind,
+    wire: &Wire,
+    m: &RecordedMessage<'_>,
+) -> Result<Frame, DecodeError> {
+    let (header, size, encoding, image_status) = match kind {
+        Kind::CompressedImage => {
+            let (head, data) = wire.compressed_image(m.data)?;
+            let size = compressed_size(data);
+            let encoding = Compression::sniff(data).map_or_else(
+                || ImageEncoding::parse(&head.format),
+                ImageEncoding::Compressed,
+            );
+            let status = match size {
+                Some(_) => ImageStatus::Ok,
+                None => ImageStatus::Unreadable,
+            };
+            (head.header, size, encoding, status)
+        }
+        _ => {
+            let head = wire.image(m.data)?.0;
+            let status = if RAW_ENCODINGS.contains(&head.encoding.as_str()) {
+                ImageStatus::Ok
+            } else {
+                ImageStatus::UnsupportedEncoding
+            };
+            let size = Some((head.width, head.height));
+            (head.header, size, ImageEncoding::Raw(head.encoding), status)
+        }
+    };
+    let log_time_ns = m.log_time as i64;
+    Ok(Frame {
+        index: 0,
+        recording: 0,
+        time_ns: capture_time(&header, log_time_ns),
+        log_time_ns,
+        topic: topic.to_string(),
+        frame_id: header.frame_id,
+        width: size.map(|s| s.0),
+        height: size.map(|s| s.1),
+        encoding,
+        camera_pose: None,
+        pose_status: PoseStatus::Ok,
+        image_status,
+        location: ImageLocation::Message(m.location),
+        exposure_s: None,
+        position_std_m: None,
+    })
+}
+
+/// A GPS fix of `topic`, stamped by its header (or logged at `log_time_ns`).
+fn gnss_fix(topic: &str, fix: msg::NavSatFix, log_time_ns: i64) -> GnssFix {
+    GnssFix {
+        recording: 0,
+        time_ns: capture_time(&fix.header, log_time_ns),
+        topic: topic.to_string(),
+        position: Geodetic {
+            latitude_deg: fix.latitude,
+            longitude_deg: fix.longitude,
+            altitude_m: fix.altitude,
+        },
+        status: fix.status.status,
+    }
+}
+
 impl Scan {
     fn classify(&self, channel: &Channel, options: &IngestOptions) -> Kind {
         let chosen = |flag: &Option<String>| flag.as_ref().is_none_or(|t| *t == channel.topic);
@@ -230,54 +298,10 @@ impl Scan {
         m: &RecordedMessage<'_>,
     ) -> Result<(), DecodeError> {
         let log_time_ns = m.log_time as i64;
-        // A frame as its image header describes it; placed on the trajectory later.
-        let frame =
-            |header: &msg::Header, size: Option<(u32, u32)>, encoding, image_status| Frame {
-                index: 0,
-                recording: 0,
-                time_ns: capture_time(header, log_time_ns),
-                log_time_ns,
-                topic: topic.to_string(),
-                frame_id: header.frame_id.clone(),
-                width: size.map(|s| s.0),
-                height: size.map(|s| s.1),
-                encoding,
-                camera_pose: None,
-                pose_status: PoseStatus::Ok,
-                image_status,
-                location: ImageLocation::Message(m.location),
-                exposure_s: None,
-                position_std_m: None,
-            };
         match kind {
-            Kind::CompressedImage => {
-                let (head, data) = wire.compressed_image(m.data)?;
-                let size = compressed_size(data);
-                let encoding = Compression::sniff(data).map_or_else(
-                    || ImageEncoding::parse(&head.format),
-                    ImageEncoding::Compressed,
-                );
-                let status = match size {
-                    Some(_) => ImageStatus::Ok,
-                    None => ImageStatus::Unreadable,
-                };
-                self.frames
-                    .push(frame(&head.header, size, encoding, status));
-            }
-            Kind::Image => {
-                let head = wire.image(m.data)?.0;
-                let status = if RAW_ENCODINGS.contains(&head.encoding.as_str()) {
-                    ImageStatus::Ok
-                } else {
-                    ImageStatus::UnsupportedEncoding
-                };
-                let size = Some((head.width, head.height));
-                self.frames.push(frame(
-                    &head.header,
-                    size,
-                    ImageEncoding::Raw(head.encoding),
-                    status,
-                ));
+            Kind::CompressedImage | Kind::Image => {
+                let frame = image_frame(topic, kind, wire, m)?;
+                self.frames.push(frame);
             }
             Kind::CameraInfo => {
                 if !self.camera_infos.contains_key(topic) {
@@ -314,17 +338,7 @@ impl Scan {
             }
             Kind::NavSatFix => {
                 let fix: msg::NavSatFix = wire.decode(m.data)?;
-                self.fixes.push(GnssFix {
-                    recording: 0,
-                    time_ns: capture_time(&fix.header, log_time_ns),
-                    topic: topic.to_string(),
-                    position: Geodetic {
-                        latitude_deg: fix.latitude,
-                        longitude_deg: fix.longitude,
-                        altitude_m: fix.altitude,
-                    },
-                    status: fix.status.status,
-                });
+                self.fixes.push(gnss_fix(topic, fix, log_time_ns));
             }
             Kind::Ignored | Kind::Unknown => {}
         }

@@ -193,46 +193,15 @@ fn candidate(
         .copied()
         .filter(|i| !observations[*i].clipped)
         .collect();
+    // Placed by its complete views where it has any: a view the image
+    // border cuts places only part of the crack.
     let basis = if complete.is_empty() {
         &group
     } else {
         &complete
     };
-    // Component-wise medians: one view with a bad pose does not move it.
-    let position = Point3::from(Vector3::from_fn(|a, _| {
-        median(basis.iter().map(|i| placement(*i).centre[a]).collect()).expect("a member")
-    }));
-    let position_uncertainty_m =
-        position_uncertainty(basis.iter().map(|i| placement(*i)), &position);
-    let normal = basis
-        .iter()
-        .map(|i| placement(*i).hit.normal)
-        .sum::<Vector3<f64>>()
-        .normalize();
-    let extent = basis
-        .iter()
-        .fold(placement(basis[0]).extent, |[lo, hi], i| {
-            let e = placement(*i).extent;
-            [lo.inf(&e[0]), hi.sup(&e[1])]
-        });
-    let measuring = |views: &[usize], max_range: f64| -> Vec<usize> {
-        views
-            .iter()
-            .copied()
-            .filter(|i| placement(*i).hit.range <= max_range && placement(*i).length_m.is_some())
-            .collect()
-    };
-    // Every view shows at most the whole crack (faint or hidden stretches
-    // and the image border only shorten it), so the longest near view,
-    // complete or cut, is the estimate; complete views from farther count
-    // only when no near view measured it.
-    let mut measured = measuring(&group, options.length_range_m);
-    if !measured.iter().any(|i| complete.contains(i)) {
-        let far = measuring(&complete, f64::INFINITY);
-        if !far.is_empty() {
-            measured = far;
-        }
-    }
+    let place = Place::of(&basis.iter().map(|i| placement(*i)).collect::<Vec<_>>());
+    let measured = length_views(&group, &complete, options.length_range_m, &placement);
     let lines: Vec<ViewLine> = measured
         .iter()
         .map(|i| {
@@ -250,8 +219,98 @@ fn candidate(
     // not in the basis: the extent covers the trace too.
     let extent = fused
         .as_ref()
-        .map_or(extent, |f| covering(extent, &f.trace));
-    let best = *basis
+        .map_or(place.extent, |f| covering(place.extent, &f.trace));
+    let best = best_view(basis, &placement);
+    let status = length_status(&group, &measured, fused.as_ref(), &placement);
+    let per_frame = best_score_per_frame(observations, &group);
+    let mut scores: Vec<f64> = per_frame.values().copied().collect();
+    scores.sort_by(|a, b| b.total_cmp(a));
+    let off_surface: Vec<f64> = group
+        .iter()
+        .map(|i| (placement(*i).centre - place.position).dot(&place.normal))
+        .collect();
+    DefectCandidate {
+        id: String::new(),
+        position: place.position,
+        position_uncertainty_m: place.uncertainty_m,
+        normal: place.normal,
+        extent,
+        voxel: placement(best).hit.voxel,
+        face: FaceSide::nearest(&place.normal),
+        length_m: fused.as_ref().map(|f| f.length_m),
+        length_views: fused.as_ref().map_or(0, |f| f.views),
+        trace: fused.map(|f| f.trace).unwrap_or_default(),
+        frames: per_frame.len() as u32,
+        confidence: confidence(&scores, &off_surface),
+        max_score: scores[0],
+        best,
+        evidence: evidence(placement(best), status),
+        width: width(group.iter().filter_map(|i| placement(*i).width)),
+        observations: group,
+    }
+}
+
+/// Where a candidate is, from the views that place it.
+struct Place {
+    /// Component-wise medians: one view with a bad pose does not move it.
+    position: Point3<f64>,
+    uncertainty_m: Option<f64>,
+    normal: Vector3<f64>,
+    extent: [Point3<f64>; 2],
+}
+
+impl Place {
+    fn of(views: &[&Placement]) -> Self {
+        let position = Point3::from(Vector3::from_fn(|a, _| {
+            median(views.iter().map(|p| p.centre[a]).collect()).expect("a member")
+        }));
+        Self {
+            position,
+            uncertainty_m: position_uncertainty(views.iter().copied(), &position),
+            normal: views
+                .iter()
+                .map(|p| p.hit.normal)
+                .sum::<Vector3<f64>>()
+                .normalize(),
+            extent: views.iter().fold(views[0].extent, |[lo, hi], p| {
+                [lo.inf(&p.extent[0]), hi.sup(&p.extent[1])]
+            }),
+        }
+    }
+}
+
+/// The views a candidate's length is measured from. Every view shows at
+/// most the whole crack (faint or hidden stretches and the image border
+/// only shorten it), so the longest near view, complete or cut, is the
+/// estimate; complete views from farther count only when no near view
+/// measured it.
+fn length_views<'a>(
+    group: &[usize],
+    complete: &[usize],
+    length_range_m: f64,
+    placement: &dyn Fn(usize) -> &'a Placement,
+) -> Vec<usize> {
+    let measuring = |views: &[usize], max_range: f64| -> Vec<usize> {
+        views
+            .iter()
+            .copied()
+            .filter(|i| placement(*i).hit.range <= max_range && placement(*i).length_m.is_some())
+            .collect()
+    };
+    let measured = measuring(group, length_range_m);
+    if !measured.iter().any(|i| complete.contains(i)) {
+        let far = measuring(complete, f64::INFINITY);
+        if !far.is_empty() {
+            return far;
+        }
+    }
+    measured
+}
+
+/// The view to show and judge a candidate by: the fewest View model rules
+/// broken, then the finest GSD.
+fn best_view<'a>(basis: &[usize], placement: &dyn Fn(usize) -> &'a Placement) -> usize {
+    *basis
         .iter()
         .min_by(|a, b| {
             let (pa, pb) = (placement(**a), placement(**b));
@@ -260,44 +319,18 @@ fn candidate(
                 .cmp(&pb.view_faults.len())
                 .then(pa.oblique_gsd_mm.total_cmp(&pb.oblique_gsd_mm))
         })
-        .expect("a member");
-    let status = length_status(&group, &measured, fused.as_ref(), &placement);
-    // Best score per frame.
+        .expect("a member")
+}
+
+/// The best detection score in each frame that saw the candidate.
+fn best_score_per_frame(observations: &[Observation], group: &[usize]) -> BTreeMap<u32, f64> {
     let mut per_frame: BTreeMap<u32, f64> = BTreeMap::new();
-    for i in &group {
+    for i in group {
         let d = &observations[*i].detection;
         let s = per_frame.entry(d.frame).or_default();
         *s = s.max(f64::from(d.detection.score));
     }
-    let mut scores: Vec<f64> = per_frame.values().copied().collect();
-    scores.sort_by(|a, b| b.total_cmp(a));
-    let off_surface: Vec<f64> = group
-        .iter()
-        .map(|i| (placement(*i).centre - position).dot(&normal))
-        .collect();
-    let confidence = confidence(&scores, &off_surface);
-    let voxel = placement(best).hit.voxel;
-    let evidence = evidence(placement(best), status);
-    let width = width(group.iter().filter_map(|i| placement(*i).width));
-    DefectCandidate {
-        id: String::new(),
-        position,
-        position_uncertainty_m,
-        normal,
-        extent,
-        voxel,
-        face: FaceSide::nearest(&normal),
-        length_m: fused.as_ref().map(|f| f.length_m),
-        length_views: fused.as_ref().map_or(0, |f| f.views),
-        trace: fused.map(|f| f.trace).unwrap_or_default(),
-        frames: per_frame.len() as u32,
-        confidence,
-        max_score: scores[0],
-        best,
-        evidence,
-        width,
-        observations: group,
-    }
+    per_frame
 }
 
 /// How far off a candidate at `position` may be (one standard deviation)

@@ -4,6 +4,7 @@
 use postflight_core::geo::{GeoOrigin, geo_origin_values};
 use std::path::PathBuf;
 
+use postflight_core::InvalidSetting;
 use postflight_core::outputs::replan::GapChoice;
 use postflight_core::region::Region;
 use postflight_core::setting::point3;
@@ -121,5 +122,143 @@ postflight_core::settings! {
         /// (`replan.kmz`, WPML) are written for.
         #[arg(long, value_enum, value_name = "AIRCRAFT")]
         dji_aircraft: crate::wpml::DjiAircraft = crate::wpml::DjiAircraft::M3e,
+    }
+}
+
+/// The most clearance a follow-up flight may keep from the structure,
+/// metres: inspection drones keep 1 to 5 m, and the free space's distances
+/// are worked out that far round every occupied voxel.
+pub const MAX_CLEARANCE_M: f64 = 10.0;
+
+/// The most drones one follow-up is split between: teams fly a handful,
+/// and the tour's split grows with each.
+pub const MAX_DRONES: u32 = 50;
+
+impl ReplanConfig {
+    /// Refuse settings that cannot work, each named as given, with the
+    /// limits that keep the plan's work bounded.
+    pub fn check(&self) -> Result<(), InvalidSetting> {
+        self.check_flying()?;
+        self.check_team()?;
+        if let Some(o) = &self.geo_origin {
+            InvalidSetting::check(
+                o.check().is_ok(),
+                keys::geo_origin,
+                format!("{}, {}", o.position.latitude_deg, o.position.longitude_deg),
+                "a latitude within ±90 and a longitude within ±180 degrees, all finite",
+            )?;
+        }
+        Ok(())
+    }
+
+    /// How the drones fly: clearance, hover, battery, speed, sorties, the
+    /// gimbal and the ceiling.
+    fn check_flying(&self) -> Result<(), InvalidSetting> {
+        let s = self;
+        InvalidSetting::check(
+            (0.0..=MAX_CLEARANCE_M).contains(&s.clearance_m),
+            keys::clearance_m,
+            s.clearance_m,
+            &format!(
+                "0 to {MAX_CLEARANCE_M} metres (the free space is searched that far round the map)"
+            ),
+        )?;
+        InvalidSetting::check(
+            s.hover_s.is_finite() && s.hover_s >= 0.0,
+            keys::hover_s,
+            s.hover_s,
+            "0 or more seconds",
+        )?;
+        InvalidSetting::check(
+            s.battery_minutes.is_finite() && s.battery_minutes > 0.0,
+            keys::battery_minutes,
+            s.battery_minutes,
+            "a positive number of minutes",
+        )?;
+        InvalidSetting::check(
+            s.speed_m_s.is_finite() && s.speed_m_s > 0.0,
+            keys::speed_m_s,
+            s.speed_m_s,
+            "a positive number of metres per second",
+        )?;
+        if let Some(m) = s.max_sortie_length_m {
+            InvalidSetting::check(
+                m > 0.0,
+                keys::max_sortie_length_m,
+                m,
+                "a positive number of metres",
+            )?;
+        }
+        InvalidSetting::check(
+            (0.0..=90.0).contains(&s.max_gimbal_up_deg),
+            keys::max_gimbal_up_deg,
+            s.max_gimbal_up_deg,
+            "between 0 and 90 degrees",
+        )?;
+        if let Some(c) = s.ceiling_m {
+            InvalidSetting::check(
+                c > 0.0,
+                keys::ceiling_m,
+                c,
+                "a positive number of metres above the take-off point",
+            )?;
+        }
+        Ok(())
+    }
+
+    /// The team: how many drones, the home, and each `[[replan.drone]]`.
+    fn check_team(&self) -> Result<(), InvalidSetting> {
+        let s = self;
+        InvalidSetting::check(
+            (1..=MAX_DRONES).contains(&s.drones),
+            keys::drones,
+            s.drones,
+            &format!("1 to {MAX_DRONES} drones"),
+        )?;
+        if let Some(h) = s.home {
+            InvalidSetting::check(
+                h.iter().all(|v| v.is_finite()),
+                keys::home,
+                format!("[{}, {}, {}]", h[0], h[1], h[2]),
+                "a point [x, y, z] in the map frame, metres",
+            )?;
+        }
+        if !s.drone.is_empty() {
+            InvalidSetting::check(
+                s.drones == 1 || s.drones as usize == s.drone.len(),
+                keys::drones,
+                s.drones,
+                &format!(
+                    "1 or the number of {} entries ({}), which give the team",
+                    keys::drone,
+                    s.drone.len()
+                ),
+            )?;
+        }
+        InvalidSetting::check(
+            s.drone.len() <= MAX_DRONES as usize,
+            keys::drone,
+            format!("{} entries", s.drone.len()),
+            &format!("1 to {MAX_DRONES} drones"),
+        )?;
+        for d in &s.drone {
+            if let Some(h) = d.home {
+                InvalidSetting::check(
+                    h.iter().all(|v| v.is_finite()),
+                    keys::drone,
+                    format!("{}'s home [{}, {}, {}]", d.name, h[0], h[1], h[2]),
+                    "a point [x, y, z] in the map frame, metres",
+                )?;
+            }
+            let positive = |v: Option<f64>| v.is_none_or(|v| v.is_finite() && v > 0.0);
+            for (what, v) in [
+                ("speed_m_s", d.speed_m_s),
+                ("battery_minutes", d.battery_minutes),
+            ] {
+                let value = format!("{}'s {what} {}", d.name, v.unwrap_or_default());
+                InvalidSetting::check(positive(v), keys::drone, value, "positive")?;
+            }
+        }
+        Ok(())
     }
 }

@@ -82,113 +82,7 @@ impl ReplanOptions {
 
     /// Refuse settings that cannot work.
     fn check(&self) -> Result<(), InvalidSetting> {
-        let s = &self.settings;
-        InvalidSetting::check(
-            (0.0..=MAX_CLEARANCE_M).contains(&s.clearance_m),
-            keys::clearance_m,
-            s.clearance_m,
-            &format!(
-                "0 to {MAX_CLEARANCE_M} metres (the free space is searched that far round the map)"
-            ),
-        )?;
-        InvalidSetting::check(
-            s.hover_s.is_finite() && s.hover_s >= 0.0,
-            keys::hover_s,
-            s.hover_s,
-            "0 or more seconds",
-        )?;
-        InvalidSetting::check(
-            (1..=MAX_DRONES).contains(&s.drones),
-            keys::drones,
-            s.drones,
-            &format!("1 to {MAX_DRONES} drones"),
-        )?;
-        if let Some(h) = s.home {
-            InvalidSetting::check(
-                h.iter().all(|v| v.is_finite()),
-                keys::home,
-                format!("[{}, {}, {}]", h[0], h[1], h[2]),
-                "a point [x, y, z] in the map frame, metres",
-            )?;
-        }
-        InvalidSetting::check(
-            s.battery_minutes.is_finite() && s.battery_minutes > 0.0,
-            keys::battery_minutes,
-            s.battery_minutes,
-            "a positive number of minutes",
-        )?;
-        InvalidSetting::check(
-            s.speed_m_s.is_finite() && s.speed_m_s > 0.0,
-            keys::speed_m_s,
-            s.speed_m_s,
-            "a positive number of metres per second",
-        )?;
-        if let Some(m) = s.max_sortie_length_m {
-            InvalidSetting::check(
-                m > 0.0,
-                keys::max_sortie_length_m,
-                m,
-                "a positive number of metres",
-            )?;
-        }
-        InvalidSetting::check(
-            (0.0..=90.0).contains(&s.max_gimbal_up_deg),
-            keys::max_gimbal_up_deg,
-            s.max_gimbal_up_deg,
-            "between 0 and 90 degrees",
-        )?;
-        if let Some(o) = &s.geo_origin {
-            InvalidSetting::check(
-                o.check().is_ok(),
-                keys::geo_origin,
-                format!("{}, {}", o.position.latitude_deg, o.position.longitude_deg),
-                "a latitude within ±90 and a longitude within ±180 degrees, all finite",
-            )?;
-        }
-        if !s.drone.is_empty() {
-            InvalidSetting::check(
-                s.drones == 1 || s.drones as usize == s.drone.len(),
-                keys::drones,
-                s.drones,
-                &format!(
-                    "1 or the number of {} entries ({}), which give the team",
-                    keys::drone,
-                    s.drone.len()
-                ),
-            )?;
-        }
-        InvalidSetting::check(
-            s.drone.len() <= MAX_DRONES as usize,
-            keys::drone,
-            format!("{} entries", s.drone.len()),
-            &format!("1 to {MAX_DRONES} drones"),
-        )?;
-        for d in &s.drone {
-            if let Some(h) = d.home {
-                InvalidSetting::check(
-                    h.iter().all(|v| v.is_finite()),
-                    keys::drone,
-                    format!("{}'s home [{}, {}, {}]", d.name, h[0], h[1], h[2]),
-                    "a point [x, y, z] in the map frame, metres",
-                )?;
-            }
-            let positive = |v: Option<f64>| v.is_none_or(|v| v.is_finite() && v > 0.0);
-            for (what, v) in [
-                ("speed_m_s", d.speed_m_s),
-                ("battery_minutes", d.battery_minutes),
-            ] {
-                let value = format!("{}'s {what} {}", d.name, v.unwrap_or_default());
-                InvalidSetting::check(positive(v), keys::drone, value, "positive")?;
-            }
-        }
-        if let Some(c) = s.ceiling_m {
-            InvalidSetting::check(
-                c > 0.0,
-                keys::ceiling_m,
-                c,
-                "a positive number of metres above the take-off point",
-            )?;
-        }
+        self.settings.check()?;
         self.solver().map(|_| ())
     }
 }
@@ -214,20 +108,9 @@ pub fn replan(
     let airspace = airspace(options, summary.geo_origin.as_ref(), launch)?;
     summary.keep_out = airspace.zones().to_vec();
     summary.ceiling_z_m = airspace.ceiling_z();
-    let placement = summary.geo_origin.map(|origin| Placement {
-        origin,
-        launch,
-        hover_s: options.settings.hover_s,
-        speed_m_s: options.settings.speed_m_s,
-        min_takeoff_m: options.settings.clearance_m,
-        fence: airspace
-            .zones()
-            .iter()
-            .filter(|z| z.is_column())
-            .cloned()
-            .collect(),
-        dji_aircraft: options.settings.dji_aircraft,
-    });
+    let placement = summary
+        .geo_origin
+        .map(|origin| on_the_earth(options, origin, launch, &airspace));
     if placement.is_some() {
         summary.warnings.extend(unfenced(&airspace));
     }
@@ -277,23 +160,77 @@ pub fn replan(
     summary.solver = Some(tour.stats.clone());
 
     let phase = Instant::now();
-    if team.iter().all(|m| m.shares(&launch, &lens)) {
-        let shares = split_sorties(&team, &route, &space)?;
-        for (drone, (member, sorties)) in (0u32..).zip(team.iter().zip(&shares)) {
-            for indices in sorties {
-                summary
-                    .sorties
-                    .push(fly(member, drone, &route, &space, indices));
+    let shared = Shared {
+        scene: &scene,
+        route: &route,
+        team: &team,
+        chosen: &chosen,
+        launch,
+        lens: &lens,
+    };
+    shared.sorties(&mut summary)?;
+    summary.phases.paths_s = tour.stats.paths_seconds + phase.elapsed().as_secs_f64();
+    summarise(&mut summary, &team);
+    write(&run, summary, placement.as_ref(), started)
+}
+
+/// Where the follow-up is on the Earth, for the ground station's missions.
+fn on_the_earth(
+    options: &ReplanOptions,
+    origin: GeoOrigin,
+    launch: Point3<f64>,
+    airspace: &Airspace,
+) -> Placement {
+    Placement {
+        origin,
+        launch,
+        hover_s: options.settings.hover_s,
+        speed_m_s: options.settings.speed_m_s,
+        min_takeoff_m: options.settings.clearance_m,
+        fence: airspace
+            .zones()
+            .iter()
+            .filter(|z| z.is_column())
+            .cloned()
+            .collect(),
+        dji_aircraft: options.settings.dji_aircraft,
+    }
+}
+
+/// The route shared out to the team.
+struct Shared<'a> {
+    scene: &'a Scene<'a>,
+    route: &'a Route,
+    team: &'a [Member],
+    chosen: &'a ChosenGaps,
+    launch: Point3<f64>,
+    lens: &'a Intrinsics,
+}
+
+impl Shared<'_> {
+    /// The team's sorties into `summary`: the one tour cut into stretches
+    /// where every drone shares the launch and lens, else each drone's
+    /// gaps flown as a route of its own.
+    fn sorties(&self, summary: &mut ReplanSummary) -> Result<(), ReplanError> {
+        let (space, map) = (self.scene.space, self.scene.map);
+        if self.team.iter().all(|m| m.shares(&self.launch, self.lens)) {
+            let shares = split_sorties(self.team, self.route, space)?;
+            for (drone, (member, sorties)) in (0u32..).zip(self.team.iter().zip(&shares)) {
+                for indices in sorties {
+                    summary
+                        .sorties
+                        .push(fly(member, drone, self.route, space, indices));
+                }
             }
+            return Ok(());
         }
-    } else {
-        let (sorties, left) = own_routes(&scene, &route, &team, &chosen)?;
+        let (sorties, left) = own_routes(self.scene, self.route, self.team, self.chosen)?;
         summary.sorties = sorties;
         summary.uninspectable_gaps.extend(left);
         summary.uninspectable_gaps.sort_by_key(|u| u.voxel);
         summary.uninspectable_gaps.dedup_by_key(|u| u.voxel);
-        for member in team.iter().filter(|m| m.home != launch) {
-            let (_, by) = lift_home(&space, &map, member.home)?;
+        for member in self.team.iter().filter(|m| m.home != self.launch) {
+            let (_, by) = lift_home(space, map, member.home)?;
             if by > 0.0 {
                 summary.warnings.push(format!(
                     "{}'s home is within {} m of the map; its sorties start and end {by:.1} m above it",
@@ -301,10 +238,8 @@ pub fn replan(
                 ));
             }
         }
+        Ok(())
     }
-    summary.phases.paths_s = tour.stats.paths_seconds + phase.elapsed().as_secs_f64();
-    summarise(&mut summary, &team);
-    write(&run, summary, placement.as_ref(), started)
 }
 
 /// The flight's (first) camera's lens.
@@ -379,15 +314,6 @@ fn left_out(route: &Route) -> Vec<Uninspectable> {
 
 /// Rounds of [`own_routes`]' rebalancing.
 const REBALANCE_ROUNDS: usize = 3;
-
-/// The most clearance a follow-up flight may keep from the structure,
-/// metres: inspection drones keep 1 to 5 m, and the free space's distances
-/// are worked out that far round every occupied voxel.
-const MAX_CLEARANCE_M: f64 = 10.0;
-
-/// The most drones one follow-up is split between: teams fly a handful,
-/// and the tour's split grows with each.
-const MAX_DRONES: u32 = 50;
 
 /// Each drone's stretch of the team's route flown as a route of its own,
 /// from its home with its camera: the sorties, and the gaps the drones'
