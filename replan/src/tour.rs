@@ -80,25 +80,11 @@ pub fn plan_tour(
     space: &FreeSpace,
     options: &SolveOptions,
 ) -> Result<Tour, TourError> {
-    // Vertices: home, then one per (cluster, member): a candidate in several
-    // clusters is copied, its copies 0 apart.
-    let mut vertex_stop = vec![0usize];
-    let mut sets = vec![vec![0u32]];
     let essential = essential_clusters(stops.clusters);
-    for members in essential.iter().map(|&c| &stops.clusters[c]) {
-        let set = members
-            .iter()
-            .map(|&stop| {
-                vertex_stop.push(stop);
-                (vertex_stop.len() - 1) as u32
-            })
-            .collect();
-        sets.push(set);
-    }
+    let (vertex_stop, sets) = vertices(stops, &essential);
     let n = vertex_stop.len();
     // Known path lengths of legs between stops (both ways), metres.
     let mut flown: FlownLegs = HashMap::new();
-    let straight = |a: usize, b: usize| (stops.points[a] - stops.points[b]).norm();
     let mut stats = ReplanSolverStats {
         vertices: n,
         clusters: essential.len(),
@@ -113,15 +99,7 @@ pub fn plan_tour(
     let started = std::time::Instant::now();
     let mut last: Option<Vec<u32>> = None;
     loop {
-        let cost: Vec<i32> = (0..n * n)
-            .map(|k| {
-                let (a, b) = (vertex_stop[k / n], vertex_stop[k % n]);
-                let len = flown
-                    .get(&key(a, b))
-                    .map_or_else(|| straight(a, b), |(len, _)| *len);
-                (len * UNITS_PER_M).round() as i32
-            })
-            .collect();
+        let cost = costs(&vertex_stop, &flown, stops);
         let inst = Instance::new("replan", n, cost, sets.clone())
             .expect("clusters are disjoint and not empty");
         let solution = match &last {
@@ -135,39 +113,9 @@ pub fn plan_tour(
         let order = visits(&solution.tour, &vertex_stop);
         last = Some(solution.tour);
         let paths_started = std::time::Instant::now();
-        // Fly every leg not flown yet; re-cost those over the detour limit.
-        let mut recosted = 0;
-        let mut unreachable = Vec::new();
-        for i in 0..order.len() {
-            let (a, b) = (order[i], order[(i + 1) % order.len()]);
-            if a == b || flown.contains_key(&key(a, b)) {
-                continue;
-            }
-            let estimate = straight(a, b);
-            let path = space.path(&stops.points[a], &stops.points[b]);
-            stats.legs_checked += 1;
-            let Some(mut path) = path else {
-                unreachable.extend([a, b].into_iter().filter(|&s| {
-                    s != 0 && space.path(&stops.points[0], &stops.points[s]).is_none()
-                }));
-                flown.insert(key(a, b), (NO_PATH_M, Vec::new()));
-                continue;
-            };
-            let len = length(&path);
-            if key(a, b) != (a, b) {
-                path.reverse();
-            }
-            flown.insert(key(a, b), (len, path));
-            if len > DETOUR_LIMIT * estimate + 1e-9 {
-                recosted += 1;
-            }
-        }
+        let flying = fly_legs(&order, stops, space, &mut flown, &mut stats);
         stats.paths_seconds += paths_started.elapsed().as_secs_f64();
-        if !unreachable.is_empty() {
-            unreachable.sort_unstable();
-            unreachable.dedup();
-            return Err(TourError::Unreachable(unreachable));
-        }
+        let recosted = flying?;
         stats.legs_recosted += recosted;
         stats.converged = recosted == 0;
         // After MAX_ROUNDS the last tour is flown as it is: every leg has a
@@ -185,6 +133,87 @@ pub fn plan_tour(
             });
         }
     }
+}
+
+/// The GTSP's vertices: home, then one per (cluster, member), a candidate
+/// in several clusters copied (its copies 0 apart); each vertex's stop,
+/// and the sets of vertices, home's first.
+fn vertices(stops: &Stops, essential: &[usize]) -> (Vec<usize>, Vec<Vec<u32>>) {
+    let mut vertex_stop = vec![0usize];
+    let mut sets = vec![vec![0u32]];
+    for members in essential.iter().map(|&c| &stops.clusters[c]) {
+        let set = members
+            .iter()
+            .map(|&stop| {
+                vertex_stop.push(stop);
+                (vertex_stop.len() - 1) as u32
+            })
+            .collect();
+        sets.push(set);
+    }
+    (vertex_stop, sets)
+}
+
+/// Every leg's cost, centimetres: its path's length where flown, else the
+/// straight line.
+fn costs(vertex_stop: &[usize], flown: &FlownLegs, stops: &Stops) -> Vec<i32> {
+    let n = vertex_stop.len();
+    (0..n * n)
+        .map(|k| {
+            let (a, b) = (vertex_stop[k / n], vertex_stop[k % n]);
+            let len = flown.get(&key(a, b)).map_or_else(
+                || (stops.points[a] - stops.points[b]).norm(),
+                |(len, _)| *len,
+            );
+            (len * UNITS_PER_M).round() as i32
+        })
+        .collect()
+}
+
+/// Fly every leg of the tour `order` not flown yet, finding its
+/// collision-free path; the legs over the detour limit, re-costed, or the
+/// stops no path reaches from home.
+fn fly_legs(
+    order: &[usize],
+    stops: &Stops,
+    space: &FreeSpace,
+    flown: &mut FlownLegs,
+    stats: &mut ReplanSolverStats,
+) -> Result<usize, TourError> {
+    let mut recosted = 0;
+    let mut unreachable = Vec::new();
+    for i in 0..order.len() {
+        let (a, b) = (order[i], order[(i + 1) % order.len()]);
+        if a == b || flown.contains_key(&key(a, b)) {
+            continue;
+        }
+        let estimate = (stops.points[a] - stops.points[b]).norm();
+        let path = space.path(&stops.points[a], &stops.points[b]);
+        stats.legs_checked += 1;
+        let Some(mut path) = path else {
+            unreachable.extend(
+                [a, b].into_iter().filter(|&s| {
+                    s != 0 && space.path(&stops.points[0], &stops.points[s]).is_none()
+                }),
+            );
+            flown.insert(key(a, b), (NO_PATH_M, Vec::new()));
+            continue;
+        };
+        let len = length(&path);
+        if key(a, b) != (a, b) {
+            path.reverse();
+        }
+        flown.insert(key(a, b), (len, path));
+        if len > DETOUR_LIMIT * estimate + 1e-9 {
+            recosted += 1;
+        }
+    }
+    if !unreachable.is_empty() {
+        unreachable.sort_unstable();
+        unreachable.dedup();
+        return Err(TourError::Unreachable(unreachable));
+    }
+    Ok(recosted)
 }
 
 /// `options` with a time limit for `clusters` clusters.

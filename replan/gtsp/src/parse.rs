@@ -368,85 +368,137 @@ impl Metric {
 
 /// GTSPLIB/GLNS: TSPLIB header and sections plus `GTSP_SET_SECTION`.
 fn tsplib(file_stem: &str, lines: &[Line]) -> Result<Instance, ParseError> {
-    let mut name = file_stem.to_string();
-    let (mut n, mut m) = (None, None);
-    let (mut weight_type, mut weight_format) = (None, None);
-    let mut sections: Vec<(&str, usize, Vec<Token>)> = Vec::new();
-    let mut at = 0;
-    while let Some(&line) = lines.get(at) {
-        at += 1;
-        if let Some(section) = line.section() {
-            if section == "EOF" {
-                break;
-            }
-            let mut tokens = Vec::new();
-            while let Some(&data) = lines.get(at) {
-                if data.section().is_some() || data.key_value().is_some() {
-                    break;
-                }
-                tokens.extend(data.tokens());
-                at += 1;
-            }
-            sections.push((section, line.number, tokens));
-            continue;
-        }
-        let Some((key, value)) = line.key_value() else {
-            return fail(
-                line.number,
-                format!(
-                    "expected `KEY : value` or a section name, found `{}`",
-                    line.text
-                ),
-            );
-        };
-        match key.to_ascii_uppercase().as_str() {
-            "NAME" if name.is_empty() => name = value.to_string(),
-            "DIMENSION" => n = Some((count(value, line.number, "DIMENSION")?, line.number)),
-            "GTSP_SETS" => m = Some((count(value, line.number, "GTSP_SETS")?, line.number)),
-            "EDGE_WEIGHT_TYPE" => weight_type = Some((value.to_ascii_uppercase(), line.number)),
-            "EDGE_WEIGHT_FORMAT" => weight_format = Some((value.to_ascii_uppercase(), line.number)),
-            _ => {} // TYPE, COMMENT, DISPLAY_DATA_TYPE, NODE_COORD_TYPE: nothing to use
-        }
-    }
-    let Some((n, _)) = n else {
+    let file = Tsplib::read(file_stem, lines)?;
+    let Some((n, _)) = file.n else {
         return fail(0, "the header has no DIMENSION");
     };
-    let Some((weight_type, type_line)) = weight_type else {
-        return fail(0, "the header has no EDGE_WEIGHT_TYPE");
+    let cost = file.costs(n)?;
+    let Some((_, set_line, tokens)) = file.section("GTSP_SET_SECTION") else {
+        return fail(
+            0,
+            "there is no GTSP_SET_SECTION: this is a TSP, not a GTSP instance",
+        );
     };
-    let section = |wanted: &str| sections.iter().find(|(s, _, _)| *s == wanted);
-    let cost = if weight_type == "EXPLICIT" {
-        let Some((format, format_line)) = weight_format else {
-            return fail(
-                type_line,
-                "EDGE_WEIGHT_TYPE is EXPLICIT but there is no EDGE_WEIGHT_FORMAT",
-            );
+    let sets = set_section(tokens, n, *set_line)?;
+    if let Some((m, line)) = file.m
+        && m != sets.len()
+    {
+        return fail(
+            line,
+            format!(
+                "GTSP_SETS says {m} but GTSP_SET_SECTION lists {} sets",
+                sets.len()
+            ),
+        );
+    }
+    Ok(Instance::new(file.name, n, cost, sets)?)
+}
+
+/// A TSPLIB file as read: its header's keys (each with its line) and its
+/// sections' tokens.
+struct Tsplib<'a> {
+    name: String,
+    n: Option<(usize, usize)>,
+    m: Option<(usize, usize)>,
+    weight_type: Option<(String, usize)>,
+    weight_format: Option<(String, usize)>,
+    sections: Vec<(&'a str, usize, Vec<Token<'a>>)>,
+}
+
+impl<'a> Tsplib<'a> {
+    fn read(file_stem: &str, lines: &[Line<'a>]) -> Result<Self, ParseError> {
+        let mut file = Tsplib {
+            name: file_stem.to_string(),
+            n: None,
+            m: None,
+            weight_type: None,
+            weight_format: None,
+            sections: Vec::new(),
         };
-        let Some(layout) = Layout::from_name(&format) else {
-            return fail(
-                format_line,
-                format!(
-                    "EDGE_WEIGHT_FORMAT {format} is not supported; use FULL_MATRIX, UPPER_ROW, LOWER_ROW, UPPER_DIAG_ROW or LOWER_DIAG_ROW"
-                ),
-            );
+        let mut at = 0;
+        while let Some(&line) = lines.get(at) {
+            at += 1;
+            if let Some(section) = line.section() {
+                if section == "EOF" {
+                    break;
+                }
+                let mut tokens = Vec::new();
+                while let Some(&data) = lines.get(at) {
+                    if data.section().is_some() || data.key_value().is_some() {
+                        break;
+                    }
+                    tokens.extend(data.tokens());
+                    at += 1;
+                }
+                file.sections.push((section, line.number, tokens));
+                continue;
+            }
+            let Some((key, value)) = line.key_value() else {
+                return fail(
+                    line.number,
+                    format!(
+                        "expected `KEY : value` or a section name, found `{}`",
+                        line.text
+                    ),
+                );
+            };
+            let number = line.number;
+            match key.to_ascii_uppercase().as_str() {
+                "NAME" if file.name.is_empty() => file.name = value.to_string(),
+                "DIMENSION" => file.n = Some((count(value, number, "DIMENSION")?, number)),
+                "GTSP_SETS" => file.m = Some((count(value, number, "GTSP_SETS")?, number)),
+                "EDGE_WEIGHT_TYPE" => file.weight_type = Some((value.to_ascii_uppercase(), number)),
+                "EDGE_WEIGHT_FORMAT" => {
+                    file.weight_format = Some((value.to_ascii_uppercase(), number))
+                }
+                _ => {} // TYPE, COMMENT, DISPLAY_DATA_TYPE, NODE_COORD_TYPE: nothing to use
+            }
+        }
+        Ok(file)
+    }
+
+    fn section(&self, wanted: &str) -> Option<&(&'a str, usize, Vec<Token<'a>>)> {
+        self.sections.iter().find(|(s, _, _)| *s == wanted)
+    }
+
+    /// The `n` x `n` cost matrix: given (`EXPLICIT`), or from coordinates
+    /// under the edge weight type's metric.
+    fn costs(&self, n: usize) -> Result<Vec<i32>, ParseError> {
+        let Some((weight_type, type_line)) = &self.weight_type else {
+            return fail(0, "the header has no EDGE_WEIGHT_TYPE");
         };
-        let Some((_, line, tokens)) = section("EDGE_WEIGHT_SECTION") else {
+        if weight_type == "EXPLICIT" {
+            let Some((format, format_line)) = &self.weight_format else {
+                return fail(
+                    *type_line,
+                    "EDGE_WEIGHT_TYPE is EXPLICIT but there is no EDGE_WEIGHT_FORMAT",
+                );
+            };
+            let Some(layout) = Layout::from_name(format) else {
+                return fail(
+                    *format_line,
+                    format!(
+                        "EDGE_WEIGHT_FORMAT {format} is not supported; use FULL_MATRIX, UPPER_ROW, LOWER_ROW, UPPER_DIAG_ROW or LOWER_DIAG_ROW"
+                    ),
+                );
+            };
+            let Some((_, line, tokens)) = self.section("EDGE_WEIGHT_SECTION") else {
+                return fail(
+                    0,
+                    "EDGE_WEIGHT_TYPE is EXPLICIT but there is no EDGE_WEIGHT_SECTION",
+                );
+            };
+            return matrix(tokens, n, layout, *line);
+        }
+        let Some(metric) = Metric::from_name(weight_type) else {
             return fail(
-                0,
-                "EDGE_WEIGHT_TYPE is EXPLICIT but there is no EDGE_WEIGHT_SECTION",
-            );
-        };
-        matrix(tokens, n, layout, *line)?
-    } else {
-        let Some(metric) = Metric::from_name(&weight_type) else {
-            return fail(
-                type_line,
+                *type_line,
                 format!(
                     "EDGE_WEIGHT_TYPE {weight_type} is not supported; use EXPLICIT, EUC_2D, CEIL_2D, MAN_2D, ATT or GEO"
                 ),
             );
         };
-        let Some((_, line, tokens)) = section("NODE_COORD_SECTION") else {
+        let Some((_, line, tokens)) = self.section("NODE_COORD_SECTION") else {
             return fail(
                 0,
                 format!("EDGE_WEIGHT_TYPE is {weight_type} but there is no NODE_COORD_SECTION"),
@@ -461,27 +513,8 @@ fn tsplib(file_stem: &str, lines: &[Line]) -> Result<Instance, ParseError> {
                 }
             }
         }
-        cost
-    };
-    let Some((_, set_line, tokens)) = section("GTSP_SET_SECTION") else {
-        return fail(
-            0,
-            "there is no GTSP_SET_SECTION: this is a TSP, not a GTSP instance",
-        );
-    };
-    let sets = set_section(tokens, n, *set_line)?;
-    if let Some((m, line)) = m
-        && m != sets.len()
-    {
-        return fail(
-            line,
-            format!(
-                "GTSP_SETS says {m} but GTSP_SET_SECTION lists {} sets",
-                sets.len()
-            ),
-        );
+        Ok(cost)
     }
-    Ok(Instance::new(name, n, cost, sets)?)
 }
 
 /// `id x y` for every vertex, in any order.

@@ -253,17 +253,7 @@ fn trial(
 ) -> TrialResult {
     let m = inst.sets().len();
     let mut scratch = Scratch::default();
-    let mut current = match start {
-        Some(tour) => {
-            // A warm start: shake the best tour hard, then search near it.
-            let mut tour = tour.to_vec();
-            let k = (m * 3 / 10).max(1);
-            let removed = remove(inst, &mut tour, k, Removal::Random, &mut rng);
-            insert(inst, &mut tour, removed, 0.0, &mut rng);
-            tour
-        }
-        None => random_insertion(inst, &mut rng),
-    };
+    let mut current = starting_tour(inst, start, &mut rng);
     let initial_cost = inst.tour_cost(&current);
     let mut current_cost = improve(inst, near, &mut current, &mut scratch, None);
     let mut best = current.clone();
@@ -279,17 +269,7 @@ fn trial(
         };
     }
 
-    let arms: Vec<Arm> = Removal::ALL
-        .iter()
-        .flat_map(|&removal| {
-            NOISE_LEVELS
-                .iter()
-                .map(move |&noise| Arm { removal, noise })
-        })
-        .collect();
-    let mut weight = vec![1.0f64; arms.len()];
-    let mut score = vec![0.0f64; arms.len()];
-    let mut uses = vec![0u32; arms.len()];
+    let mut arms = Arms::new();
     let max_removals = ((0.3 * m as f64).round() as usize).clamp(1, 100).min(m - 1);
     let min_removals = if max_removals > 1 { 2 } else { 1 };
     let warm_scale = if start.is_some() { 0.3 } else { 1.0 };
@@ -306,47 +286,40 @@ fn trial(
         let worse = warm_scale * START_WORSE * (END_WORSE / START_WORSE).powf(progress);
         let temperature = worse * current_cost as f64 / std::f64::consts::LN_2;
 
-        let a = pick_arm(&weight, &mut rng);
+        let a = arms.pick(&mut rng);
         let k = min_removals + rng.below(max_removals - min_removals + 1);
         candidate.clear();
         candidate.extend_from_slice(&current);
-        let removed = remove(inst, &mut candidate, k, arms[a].removal, &mut rng);
+        let removed = remove(inst, &mut candidate, k, arms.arms[a].removal, &mut rng);
         let mean_edge = current_cost as f64 / m as f64;
         insert(
             inst,
             &mut candidate,
             removed,
-            arms[a].noise * mean_edge,
+            arms.arms[a].noise * mean_edge,
             &mut rng,
         );
         let touched = changed_sets(inst, &current, &candidate, &mut arcs);
         let cost = improve(inst, near, &mut candidate, &mut scratch, Some(&touched));
 
-        uses[a] += 1;
+        arms.uses[a] += 1;
         if cost < best_cost {
             best_cost = cost;
             best.clone_from(&candidate);
             found_s = clock.seconds();
             last_improvement = it;
-            score[a] += 3.0;
+            arms.score[a] += 3.0;
         }
         let accept = cost <= current_cost
             || (temperature > 0.0
                 && rng.unit() < (-((cost - current_cost) as f64) / temperature).exp());
         if accept {
-            score[a] += if cost < current_cost { 1.0 } else { 0.3 };
+            arms.score[a] += if cost < current_cost { 1.0 } else { 0.3 };
             std::mem::swap(&mut current, &mut candidate);
             current_cost = cost;
         }
         if (it + 1) % SEGMENT == 0 {
-            for i in 0..arms.len() {
-                if uses[i] > 0 {
-                    let recent = score[i] / uses[i] as f64;
-                    weight[i] = ((1.0 - REACTION) * weight[i] + REACTION * recent).max(0.05);
-                }
-                score[i] = 0.0;
-                uses[i] = 0;
-            }
+            arms.end_segment();
         }
     }
     TrialResult {
@@ -355,6 +328,67 @@ fn trial(
         found_s,
         initial_cost,
         iterations,
+    }
+}
+
+/// A trial's first tour: at random, or for a warm start the best tour
+/// shaken hard (the search then stays near it).
+fn starting_tour(inst: &Instance, start: Option<&[u32]>, rng: &mut Rng) -> Vec<u32> {
+    match start {
+        Some(tour) => {
+            let mut tour = tour.to_vec();
+            let k = (inst.sets().len() * 3 / 10).max(1);
+            let removed = remove(inst, &mut tour, k, Removal::Random, rng);
+            insert(inst, &mut tour, removed, 0.0, rng);
+            tour
+        }
+        None => random_insertion(inst, rng),
+    }
+}
+
+/// The removal and noise arms of the adaptive search, each picked in
+/// proportion to its weight; a segment's scores move the weights.
+struct Arms {
+    arms: Vec<Arm>,
+    weight: Vec<f64>,
+    score: Vec<f64>,
+    uses: Vec<u32>,
+}
+
+impl Arms {
+    fn new() -> Self {
+        let arms: Vec<Arm> = Removal::ALL
+            .iter()
+            .flat_map(|&removal| {
+                NOISE_LEVELS
+                    .iter()
+                    .map(move |&noise| Arm { removal, noise })
+            })
+            .collect();
+        let n = arms.len();
+        Self {
+            arms,
+            weight: vec![1.0; n],
+            score: vec![0.0; n],
+            uses: vec![0; n],
+        }
+    }
+
+    fn pick(&self, rng: &mut Rng) -> usize {
+        pick_arm(&self.weight, rng)
+    }
+
+    /// A segment's end: each used arm's weight moves toward its recent
+    /// score per use.
+    fn end_segment(&mut self) {
+        for i in 0..self.arms.len() {
+            if self.uses[i] > 0 {
+                let recent = self.score[i] / self.uses[i] as f64;
+                self.weight[i] = ((1.0 - REACTION) * self.weight[i] + REACTION * recent).max(0.05);
+            }
+            self.score[i] = 0.0;
+            self.uses[i] = 0;
+        }
     }
 }
 
