@@ -91,12 +91,12 @@ impl RunDir {
     }
 
     /// Remove a file if present (a stage clears its summary before writing,
-    /// so an interrupted stage never looks complete).
-    /// Whatever is there and is not a file (a user's folder) is in the
-    /// way: refused, never deleted.
+    /// so an interrupted stage never looks complete). Whatever is there and
+    /// is not a file (a user's folder) is in the way: refused, never
+    /// deleted.
     pub fn remove(&self, name: &str) -> Result<(), Error> {
         let path = self.file(name);
-        if std::fs::symlink_metadata(&path).is_ok_and(|m| !m.is_file() && !m.is_symlink()) {
+        if in_the_way(&path) {
             return Err(Error::InTheWay { path });
         }
         match std::fs::remove_file(path) {
@@ -147,15 +147,15 @@ impl RunDir {
     /// when nothing else is in it. Nothing else: a user's file stays.
     pub fn clear(&self, stage: Stage) -> Result<(), Error> {
         // A folder of one of the names is the user's (see `remove`).
-        let a_file = |name: &str| {
-            std::fs::symlink_metadata(self.file(name)).is_ok_and(|m| m.is_file() || m.is_symlink())
+        let ours = |name: &str| {
+            self.file(name).symlink_metadata().is_ok() && !in_the_way(&self.file(name))
         };
         let summary = stage.summary_file();
-        if a_file(summary) {
+        if ours(summary) {
             self.remove(summary)?;
         }
         for entry in self.entries()? {
-            if stage.writes(&entry) && a_file(&entry) {
+            if stage.writes(&entry) && ours(&entry) {
                 self.remove(&entry)?;
             }
         }
@@ -216,7 +216,7 @@ impl RunDir {
         write: impl FnOnce(&mut File) -> Result<(), Error>,
     ) -> Result<(), Error> {
         let target = self.file(name);
-        if std::fs::symlink_metadata(&target).is_ok_and(|m| !m.is_file() && !m.is_symlink()) {
+        if in_the_way(&target) {
             return Err(Error::InTheWay { path: target });
         }
         let tmp = self.file(&format!(".{name}.tmp"));
@@ -314,6 +314,12 @@ impl RunDir {
             .and_then(|df| parse(&df))
             .map_err(|cause| Error::Table { path, cause })
     }
+}
+
+/// Whether something is at `path` that postflight would not write there: a
+/// folder, a device, a pipe (a link or a file is one of its own names).
+fn in_the_way(path: &Path) -> bool {
+    std::fs::symlink_metadata(path).is_ok_and(|m| !m.is_file() && !m.is_symlink())
 }
 
 #[cfg(test)]
