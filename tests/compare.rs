@@ -23,16 +23,20 @@ const REPEAT: [&str; 7] = [
 
 /// `postflight compare --before a --after b`.
 fn compare(a: &Path, b: &Path) -> std::process::Output {
-    postflight(
-        &[
-            "compare",
-            "--before",
-            a.to_str().unwrap(),
-            "--after",
-            b.to_str().unwrap(),
-        ],
-        a.parent().unwrap(),
-    )
+    compare_with(a, b, &[])
+}
+
+/// The same, with more arguments.
+fn compare_with(a: &Path, b: &Path, more: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "compare",
+        "--before",
+        a.to_str().unwrap(),
+        "--after",
+        b.to_str().unwrap(),
+    ];
+    args.extend(more);
+    postflight(&args, a.parent().unwrap())
 }
 
 /// The flight `simulate` makes with `sim_args` through detect (shared with
@@ -347,29 +351,8 @@ fn a_link_distance_that_cannot_match_is_refused_as_given() {
     let config = dir.path().join("postflight.toml");
     std::fs::write(&config, "[compare]\nlink_distance_m = inf\n").unwrap();
     let (a, b) = (dir.path().join("a"), dir.path().join("b"));
-    let out = postflight(
-        &[
-            "compare",
-            "--before",
-            a.to_str().unwrap(),
-            "--after",
-            b.to_str().unwrap(),
-            "--config",
-            config.to_str().unwrap(),
-        ],
-        dir.path(),
-    );
+    let out = compare_with(&a, &b, &["--config", config.to_str().unwrap()]);
     assert_fails_in_one_line(&out, "[compare] link_distance_m");
-    let out = postflight(
-        &[
-            "compare",
-            "--before",
-            a.to_str().unwrap(),
-            "--after",
-            b.to_str().unwrap(),
-            "--link-distance=-0.5",
-        ],
-        dir.path(),
-    );
+    let out = compare_with(&a, &b, &["--link-distance=-0.5"]);
     assert_fails_in_one_line(&out, "--link-distance must be 0 or more metres");
 }
