@@ -5,6 +5,7 @@
 //! coverage.
 
 pub mod boxes;
+mod coco;
 pub mod convention;
 pub mod decode;
 pub mod error;

@@ -3,7 +3,7 @@
 //! reference detector's), or from instance prototypes and a detection's
 //! coefficients (Ultralytics `-seg` models).
 
-use postflight_core::detection::BoxXyxy;
+use postflight_core::detection::{BoxXyxy, Detection};
 use postflight_core::mask::Mask;
 
 use crate::letterbox::Placement;
@@ -231,6 +231,38 @@ pub fn components(plane: &Plane, threshold: f32, min_pixels: usize) -> Vec<(BoxX
         }
     }
     out
+}
+
+/// Model pixels whose crack probability is above this are crack (Ultralytics'
+/// mask threshold, a sigmoid of 0.5).
+pub(crate) const MASK_THRESHOLD: f32 = 0.5;
+/// Connected crack pixels of a semantic map fewer than this are noise, not
+/// a finding (model pixels).
+const MIN_COMPONENT_PX: usize = 8;
+
+/// A semantic map's connected crack regions scoring at least `confidence`,
+/// as detections in model input pixels.
+pub(crate) fn regions(probability: &Plane, confidence: f32) -> Vec<(Detection, Vec<f32>)> {
+    let s = probability.stride;
+    components(probability, MASK_THRESHOLD, MIN_COMPONENT_PX)
+        .into_iter()
+        .filter(|(_, score)| *score >= confidence)
+        .map(|(b, score)| {
+            let detection = Detection {
+                bbox: BoxXyxy {
+                    x0: b.x0 * s,
+                    y0: b.y0 * s,
+                    x1: b.x1 * s,
+                    y1: b.y1 * s,
+                },
+                score,
+                class: 0,
+                tile: -1,
+                mask: None,
+            };
+            (detection, Vec::new())
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -20,12 +20,13 @@ use postflight_core::{Flight, Frame, ImageStatus, InvalidSetting, Key, RunDir};
 use rayon::prelude::*;
 
 use crate::boxes::{merge_touching, nms, nms_with};
+use crate::coco;
 use crate::convention::{self, Declared};
 use crate::decode::decode;
 use crate::error::DetectError;
 use crate::letterbox::{InputSize, PAD, Placement, letterbox};
 use crate::masks::{
-    Plane, ProbabilityMap, Prototypes, ViewPlace, components, finest_first, from_maps,
+    MASK_THRESHOLD, Plane, ProbabilityMap, Prototypes, ViewPlace, finest_first, from_maps, regions,
 };
 use crate::prompts::Embeddings;
 use crate::runtime::{Runtime, locate};
@@ -787,13 +788,6 @@ impl Output<'_, '_> {
     }
 }
 
-/// Model pixels whose crack probability is above this are crack (Ultralytics'
-/// mask threshold, a sigmoid of 0.5).
-const MASK_THRESHOLD: f32 = 0.5;
-/// Connected crack pixels of a semantic map fewer than this are noise, not
-/// a finding (model pixels).
-const MIN_COMPONENT_PX: usize = 8;
-
 /// A semantic map's crack probability: the softmax of background and crack
 /// logits (two channels), or the one channel: the sigmoid of its logits
 /// where its values leave 0..1, else the channel itself.
@@ -815,31 +809,6 @@ fn crack_probability(output: &Output<'_, '_>, name: &str) -> Result<Plane, Strin
         p.values.iter_mut().for_each(|v| *v = sigmoid(*v));
     }
     Ok(p)
-}
-
-/// A semantic map's connected crack regions scoring at least `confidence`,
-/// as detections in model input pixels.
-fn regions(probability: &Plane, confidence: f32) -> Vec<(Detection, Vec<f32>)> {
-    let s = probability.stride;
-    components(probability, MASK_THRESHOLD, MIN_COMPONENT_PX)
-        .into_iter()
-        .filter(|(_, score)| *score >= confidence)
-        .map(|(b, score)| {
-            let detection = Detection {
-                bbox: BoxXyxy {
-                    x0: b.x0 * s,
-                    y0: b.y0 * s,
-                    x1: b.x1 * s,
-                    y1: b.y1 * s,
-                },
-                score,
-                class: 0,
-                tile: -1,
-                mask: None,
-            };
-            (detection, Vec::new())
-        })
-        .collect()
 }
 
 /// What a frame's views found, until the frame is finished.
@@ -922,66 +891,7 @@ fn write_outputs(
         .map(|d| DetectionRow::of(d, classes, sizes.get(&d.frame).copied().unwrap_or((0, 0))))
         .collect();
     run.write_rows(files::DETECTIONS, &rows)?;
-    run.write_json(files::COCO, &coco(frames, found, &rows, classes))?;
+    run.write_json(files::COCO, &coco::results(frames, found, &rows, classes))?;
     run.write_json(files::SUMMARY, summary)?;
     Ok(())
-}
-
-/// COCO detection results with their images and categories (ids from 1):
-/// the detections `found`, with `rows` their table rows (masks encoded).
-fn coco(
-    frames: &[Frame],
-    found: &[FrameDetection],
-    rows: &[DetectionRow],
-    classes: &[String],
-) -> serde_json::Value {
-    let images: Vec<serde_json::Value> = frames
-        .iter()
-        .map(|f| {
-            serde_json::json!({
-                "id": f.index + 1,
-                "file_name": format!("frame_{:06}.jpg", f.index),
-                "width": f.width,
-                "height": f.height,
-                "time_ns": f.time_ns,
-            })
-        })
-        .collect();
-    let annotations: Vec<serde_json::Value> = rows
-        .iter()
-        .zip(found)
-        .enumerate()
-        .map(|(i, (row, d))| {
-            let b = row.detection.bbox();
-            let mut annotation = serde_json::json!({
-                "id": i + 1,
-                "image_id": row.detection.frame + 1,
-                "category_id": row.class + 1,
-                "bbox": [b.x0, b.y0, b.width(), b.height()],
-                "area": b.area(),
-                "score": row.detection.score,
-                "iscrowd": 0,
-            });
-            // Crack pixels as COCO RLE over the frame; the area is theirs.
-            if let Some((counts, mask)) = row.mask.as_ref().zip(d.detection.mask.as_ref()) {
-                annotation["segmentation"] = serde_json::json!({
-                    "size": [row.frame_height, row.frame_width],
-                    "counts": counts,
-                });
-                annotation["area"] = mask.area().into();
-            }
-            annotation
-        })
-        .collect();
-    let categories: Vec<serde_json::Value> = classes
-        .iter()
-        .enumerate()
-        .map(|(i, c)| serde_json::json!({"id": i + 1, "name": c, "supercategory": "defect"}))
-        .collect();
-    serde_json::json!({
-        "info": {"description": "postflight detections", "version": env!("CARGO_PKG_VERSION")},
-        "images": images,
-        "annotations": annotations,
-        "categories": categories,
-    })
 }
