@@ -3,7 +3,7 @@
 //! incidence, occlusion, image quality) against the plan.
 //!
 //! Coverage is counted on the exposed faces of the target voxels ([`face`]).
-//! [`cover`] puts the shots (flight frames with a pose, or a plan's
+//! [`cover`] puts the [`shots`] (flight frames with a pose, or a plan's
 //! viewpoints) in a KD-tree of camera centres; each face, in parallel,
 //! takes the shots within the band's outer distance and runs the [`view`]
 //! rules in order, keeping the view count, the finest-GSD view and, when it
@@ -16,7 +16,7 @@
 //! uninspectable; the `structure` crate says which voxels are the structure
 //! and its elements. The
 //! stage ([`stage`]) writes `coverage.parquet` and `coverage.json` (laid
-//! out in `postflight_core::outputs::coverage`). The follow-up flight for
+//! out in `postflight_core::outputs::coverage`; its counts, `summary`). The follow-up flight for
 //! the gaps is the `replan` crate's; it asks these same rules which gaps a
 //! viewpoint inspects.
 
@@ -27,7 +27,9 @@ pub mod focus;
 pub mod reach;
 pub mod records;
 pub mod settings;
+pub mod shots;
 pub mod stage;
+mod summary;
 pub mod view;
 
 pub use cover::{FaceCover, Shot, cover, cover_naive};
@@ -35,6 +37,7 @@ pub use error::CoverageError;
 pub use face::{Face, exposed_faces};
 pub use postflight_core::ViewSettings;
 pub use settings::{CoverageConfig, CoverageSettings};
-pub use stage::{CoverageOptions, FlightShots, coverage, flight_shots, lenses};
+pub use shots::{FlightShots, flight_shots, lenses};
+pub use stage::{CoverageOptions, coverage};
 pub use structure::Targets;
 pub use view::{Miss, Sight};

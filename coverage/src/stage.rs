@@ -7,18 +7,15 @@ use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
 use std::time::Instant;
 
-use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Point3, Vector3};
 use postflight_core::map::{SlamMap, VoxelGrid, VoxelIndex};
-use postflight_core::motion::frame_blur_px;
 use postflight_core::outputs::coverage::{
-    self as outputs, CoverageSummary, FocusCoverage, ReasonCounts, VoxelRecord, files,
+    self as outputs, CoverageSummary, FocusCoverage, VoxelRecord, files,
 };
 use postflight_core::outputs::localise::read_defects;
 use postflight_core::region::FocusModel;
 use postflight_core::structure::Place;
-use postflight_core::{
-    Flight, FlownPlan, Intrinsics, PlanFile, RunDir, Stage, ViewModel, Viewpoint,
-};
+use postflight_core::{Flight, FlownPlan, Intrinsics, PlanFile, RunDir, Stage, ViewModel};
 use rayon::prelude::*;
 pub use structure::plan_targets;
 use structure::targets::span;
@@ -30,7 +27,9 @@ use crate::face::{Face, exposed_faces};
 use crate::focus::{self, FaceModels};
 use crate::reach::inspectable;
 use crate::records::voxel_records;
-use crate::settings::{CoverageConfig, keys};
+use crate::settings::CoverageConfig;
+use crate::shots::{FlightShots, camera_mount, flight_shots, lenses, viewpoint_shots};
+use crate::summary::{Counts, summarise};
 use crate::view::Miss;
 use postflight_core::ViewSettings;
 
@@ -70,43 +69,6 @@ impl CoverageOptions {
             settings: CoverageConfig::default(),
         }
     }
-}
-
-/// How far down the camera mounted by `extrinsic` looks, radians.
-pub fn mount_pitch(extrinsic: &Isometry3<f64>) -> f64 {
-    let axis = extrinsic.rotation * Vector3::z();
-    (-axis.z).clamp(-1.0, 1.0).asin()
-}
-
-/// Camera pose for a plan viewpoint: the body at the viewpoint, the camera
-/// mounted by `extrinsic` turned where it is mounted, about the body's y
-/// axis, to the viewpoint's gimbal pitch.
-pub fn viewpoint_camera(v: &Viewpoint, extrinsic: &Isometry3<f64>) -> Isometry3<f64> {
-    let body = Isometry3::from_parts(
-        Translation3::from(Vector3::from(v.position)),
-        UnitQuaternion::from_axis_angle(&Vector3::z_axis(), v.yaw),
-    );
-    let tilt = UnitQuaternion::from_axis_angle(
-        &Vector3::y_axis(),
-        v.gimbal_pitch - mount_pitch(extrinsic),
-    );
-    body * Isometry3::from_parts(extrinsic.translation, tilt * extrinsic.rotation)
-}
-
-/// How the flight's first camera is mounted on the body (plan viewpoints
-/// are shots of it). Without a recorded mounting, a camera at the body
-/// origin looking forward (optical z along body x, y down).
-pub fn camera_mount(flight: &Flight) -> Isometry3<f64> {
-    flight
-        .cameras
-        .first()
-        .and_then(|c| c.extrinsic)
-        .unwrap_or_else(|| {
-            Isometry3::from_parts(
-                Translation3::identity(),
-                UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(0.5, -0.5, 0.5, -0.5)),
-            )
-        })
 }
 
 /// Faces per progress step.
@@ -169,19 +131,19 @@ pub fn coverage(
 
 /// What is judged: the map, the target voxels and their exposed faces, and
 /// the flight's lenses.
-struct Scene {
-    grid: VoxelGrid,
-    map: SlamMap,
-    targets: Vec<VoxelIndex>,
-    target_set: HashSet<VoxelIndex>,
+pub(crate) struct Scene {
+    pub(crate) grid: VoxelGrid,
+    pub(crate) map: SlamMap,
+    pub(crate) targets: Vec<VoxelIndex>,
+    pub(crate) target_set: HashSet<VoxelIndex>,
     /// Where the targets came from, for the summary.
-    targets_name: String,
+    pub(crate) targets_name: String,
     /// The targets grouped into the structure's elements.
-    elements: Segmentation,
+    pub(crate) elements: Segmentation,
     /// Each target's place on them.
-    places: Vec<Place>,
-    faces: Vec<Face>,
-    lenses: Vec<Intrinsics>,
+    pub(crate) places: Vec<Place>,
+    pub(crate) faces: Vec<Face>,
+    pub(crate) lenses: Vec<Intrinsics>,
 }
 
 impl Scene {
@@ -275,85 +237,6 @@ fn cameras_in_reach(
         ),
         targets: span(scene.targets.iter().map(|v| scene.grid.center(*v))),
     })
-}
-
-/// What `coverage.json` says.
-fn summarise(
-    options: &CoverageOptions,
-    view: ViewModel,
-    scene: &Scene,
-    counts: Counts,
-    shots: &FlightShots,
-    need: &[u32],
-    seconds: f64,
-) -> CoverageSummary {
-    let n = scene.targets.len();
-    let faces = scene.faces.len();
-    let shots_blurred = shots
-        .shots
-        .iter()
-        .filter(|s| view.blur_miss(s.blur_px).is_some())
-        .count();
-    CoverageSummary {
-        run: options.run.clone(),
-        shots: options
-            .viewpoints
-            .as_ref()
-            .map_or("flight".into(), |p| p.path.display().to_string()),
-        view,
-        resolution_m: scene.grid.resolution,
-        grid_origin: scene.grid.origin.coords.into(),
-        map: options.map.clone(),
-        targets: scene.targets_name.clone(),
-        structure: scene.elements.structure.clone(),
-        target_voxels: n,
-        planned_voxels: counts.planned,
-        inspected_voxels: counts.inspected,
-        inspected_pct: pct(counts.inspected, n),
-        planned_inspected_pct: counts.planned.map(|p| pct(counts.planned_inspected, p)),
-        planned_missed_voxels: counts.planned.map(|p| p - counts.planned_inspected),
-        gap_voxels: n - counts.inspected - counts.uninspectable,
-        uninspectable_voxels: counts.uninspectable,
-        exposed_faces: faces,
-        inspected_faces: counts.inspected_faces,
-        // Every face of a voxel grid has the same area.
-        face_area_coverage_pct: pct(counts.inspected_faces, faces),
-        obstacle_voxels: scene
-            .map
-            .voxels
-            .voxels()
-            .filter(|v| !scene.target_set.contains(v))
-            .count(),
-        reasons: counts.reasons,
-        shots_total: shots.shots.len(),
-        shots_usable: shots.shots.len() - shots_blurred,
-        shots_blurred,
-        frames_without_pose: shots.without_pose,
-        frames_without_exposure: shots.without_exposure,
-        faces_needing_more_views: need
-            .iter()
-            .filter(|n| **n > view.views_required.max(1))
-            .count(),
-        focus: Vec::new(),
-        seconds,
-        warnings: shot_warnings(shots)
-            .into_iter()
-            .chain(scene.map.cloud.coarsened())
-            .collect(),
-    }
-}
-
-/// The flight's lenses, one per camera (in cameras.json's order).
-pub fn lenses(flight: &Flight) -> Result<Vec<Intrinsics>, CoverageError> {
-    if flight.cameras.is_empty() {
-        return Err(CoverageError::NoCamera);
-    }
-    flight
-        .cameras
-        .iter()
-        .map(|c| c.intrinsics.clone())
-        .collect::<Option<Vec<_>>>()
-        .ok_or(CoverageError::NoIntrinsics)
 }
 
 /// Views each face needs: its View model's, and more around defect
@@ -469,66 +352,6 @@ fn focus_coverage(focus: Vec<FocusModel>, records: &[VoxelRecord]) -> Vec<FocusC
         .collect()
 }
 
-/// Voxel and face counts of the judged targets.
-struct Counts {
-    inspected: usize,
-    planned: Option<usize>,
-    planned_inspected: usize,
-    uninspectable: usize,
-    reasons: ReasonCounts,
-    inspected_faces: usize,
-}
-
-impl Counts {
-    fn of(records: &[VoxelRecord], flown: &[FaceCover], has_plan: bool) -> Self {
-        let mut reasons = ReasonCounts::new();
-        for r in records {
-            if let Some(m) = r.reason {
-                *reasons.entry(m).or_default() += 1;
-            }
-        }
-        Self {
-            inspected: records.iter().filter(|r| r.inspected).count(),
-            planned: has_plan.then(|| records.iter().filter(|r| r.planned == Some(true)).count()),
-            planned_inspected: records
-                .iter()
-                .filter(|r| r.planned == Some(true) && r.inspected)
-                .count(),
-            uninspectable: records.iter().filter(|r| r.uninspectable).count(),
-            reasons,
-            inspected_faces: flown.iter().filter(|c| c.miss.is_none()).count(),
-        }
-    }
-}
-
-/// `a` as a percentage of `b` (0 of nothing).
-fn pct(a: usize, b: usize) -> f64 {
-    if b == 0 {
-        0.0
-    } else {
-        100.0 * a as f64 / b as f64
-    }
-}
-
-/// What the summary warns of frames that count for less.
-fn shot_warnings(shots: &FlightShots) -> Vec<String> {
-    let mut warnings = Vec::new();
-    if shots.without_pose > 0 {
-        warnings.push(format!(
-            "{} frames have no pose and count for nothing (ingest.json says why)",
-            shots.without_pose
-        ));
-    }
-    if shots.without_exposure > 0 {
-        warnings.push(format!(
-            "{} frames recorded no exposure time, so their blur was not judged; pass {} SECONDS",
-            shots.without_exposure,
-            keys::exposure_s
-        ));
-    }
-    warnings
-}
-
 /// Each target's place on its element, facing the way its exposed faces
 /// do together (up when they cancel out).
 fn places(
@@ -553,68 +376,4 @@ fn places(
             elements.structure.place(e, &grid.center(*v), &normal)
         })
         .collect()
-}
-
-/// A plan's viewpoints as shots of the flight's first camera (sharp: a
-/// plan is flown hovering).
-fn viewpoint_shots(plan: &FlownPlan, extrinsic: &Isometry3<f64>) -> Vec<Shot> {
-    plan.viewpoints(mount_pitch(extrinsic))
-        .iter()
-        .enumerate()
-        .map(|(i, v)| Shot {
-            id: i as u32,
-            camera: viewpoint_camera(v, extrinsic),
-            lens: 0,
-            blur_px: Some(0.0),
-        })
-        .collect()
-}
-
-/// The flight's frames as shots, and the frames that could not be.
-pub struct FlightShots {
-    pub shots: Vec<Shot>,
-    /// Frames without a camera pose (or of a camera not in cameras.json).
-    pub without_pose: usize,
-    /// Frames whose blur cannot be judged: no exposure time recorded or given.
-    pub without_exposure: usize,
-}
-
-/// Every frame with a pose, with its motion blur (`exposure_s` for frames
-/// that recorded none); their lenses are [`lenses`]'s.
-pub fn flight_shots(
-    flight: &Flight,
-    lenses: &[Intrinsics],
-    map: &SlamMap,
-    exposure_s: Option<f64>,
-) -> FlightShots {
-    let mut out = FlightShots {
-        shots: Vec::new(),
-        without_pose: 0,
-        without_exposure: 0,
-    };
-    for frame in &flight.frames {
-        let (Some(camera), Some(lens)) = (
-            frame.camera_pose,
-            flight
-                .cameras
-                .iter()
-                .position(|c| c.recording == frame.recording && c.topic == frame.topic),
-        ) else {
-            out.without_pose += 1;
-            continue;
-        };
-        let exposure = frame.exposure_s.or(exposure_s);
-        if exposure.is_none() {
-            out.without_exposure += 1;
-        }
-        let blur =
-            exposure.and_then(|e| frame_blur_px(flight, frame, &lenses[lens], e, &map.voxels));
-        out.shots.push(Shot {
-            id: frame.index,
-            camera,
-            lens,
-            blur_px: blur,
-        });
-    }
-    out
 }

@@ -6,7 +6,7 @@ use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use coverage::stage::camera_mount;
+use coverage::shots::camera_mount;
 use gtsp::SolveOptions;
 use nalgebra::{Point3, Vector3};
 use postflight_core::geo::GeoOrigin;

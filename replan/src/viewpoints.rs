@@ -13,7 +13,7 @@ use std::collections::{BinaryHeap, HashMap, HashSet};
 use coverage::cover::{Shot, judge};
 use coverage::face::Face;
 use coverage::reach::standpoints;
-use coverage::stage::viewpoint_camera;
+use coverage::shots::viewpoint_camera;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::{Isometry3, Point3};
 use postflight_core::FaceSide;
