@@ -19,6 +19,9 @@ use nalgebra::Point3;
 use postflight_core::geo::{GeoOrigin, Geodetic};
 use postflight_core::region::Region;
 
+use crate::error::ReplanError;
+use crate::settings::{ReplanConfig, keys};
+
 /// The keep-out zones and the ceiling, in the map frame.
 #[derive(Debug, Clone, Default)]
 pub struct Airspace {
@@ -234,6 +237,66 @@ impl Heights {
             upper: height("upperLimit", "upperVerticalReference")?,
         })
     }
+}
+
+/// The keep-out zones of the settings and the zones file (placed by the
+/// geo origin), and the ceiling above the take-off point; refused when a
+/// zone cannot be used or holds the take-off point.
+pub(crate) fn airspace(
+    s: &ReplanConfig,
+    origin: Option<&GeoOrigin>,
+    launch: Point3<f64>,
+) -> Result<Airspace, ReplanError> {
+    let mut zones = Vec::new();
+    for zone in &s.keep_out {
+        zone.check(keys::keep_out)?;
+        zones.push(zone.clone());
+    }
+    if let Some(path) = &s.keep_out_file {
+        let origin =
+            origin.ok_or_else(|| ReplanError::KeepOutWithoutGeoOrigin { path: path.clone() })?;
+        let from_file =
+            read_zones(path, origin, &launch).map_err(|why| ReplanError::KeepOutFile {
+                path: path.clone(),
+                why,
+            })?;
+        for zone in from_file {
+            zone.check(keys::keep_out_file)?;
+            zones.push(zone);
+        }
+    }
+    let airspace = Airspace::new(zones, s.ceiling_m.map(|c| launch.z + c));
+    if let Some(zone) = airspace.zone_at(&launch) {
+        return Err(ReplanError::HomeInKeepOut {
+            home: launch.coords.into(),
+            zone: zone.name.clone(),
+        });
+    }
+    Ok(airspace)
+}
+
+/// What the ground station's geofence cannot hold: a zone with heights
+/// (fences are polygons at every altitude; writing it as one would bar the
+/// flight from passing over or under it), and the ceiling (the vehicle's
+/// own setting, PX4's `GF_MAX_VER_DIST` or ArduPilot's `FENCE_ALT_MAX`).
+pub(crate) fn unfenced(airspace: &Airspace) -> Vec<String> {
+    let mut warnings: Vec<String> = airspace
+        .zones()
+        .iter()
+        .filter(|z| !z.is_column())
+        .map(|z| {
+            format!(
+                "keep-out zone '{}' has an altitude band, which a QGroundControl geofence (polygons at every altitude) cannot hold: the plan keeps out of it, the missions' geofence does not",
+                z.name
+            )
+        })
+        .collect();
+    if let Some(z) = airspace.ceiling_z() {
+        warnings.push(format!(
+            "the ceiling (map z {z:.1} m) is kept by the plan; set it on the vehicle too (PX4 GF_MAX_VER_DIST, ArduPilot FENCE_ALT_MAX): a QGroundControl plan file cannot hold it"
+        ));
+    }
+    warnings
 }
 
 #[cfg(test)]

@@ -2,15 +2,18 @@
 //! every occupied voxel (as a box, not its centre), with mapped ground
 //! below, outside the keep-out zones and below the ceiling
 //! ([`Airspace`]), and collision-free paths between them (A* over the 26-connected
-//! free voxels, then shortened by line of sight, as theta* paths are).
+//! free voxels, then shortened by line of sight, as theta* paths are);
+//! home lifted clear of the map where it is too near it.
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
 
 use nalgebra::{Point3, Vector3};
-use postflight_core::map::{VoxelIndex, VoxelMap};
+use postflight_core::map::{SlamMap, VoxelIndex, VoxelMap};
+use postflight_core::outputs::replan::ReplanSummary;
 
 use crate::airspace::Airspace;
+use crate::error::ReplanError;
 
 /// Free space around a voxel map, with a required clearance.
 pub struct FreeSpace<'a> {
@@ -393,6 +396,42 @@ fn cube(reach: i32) -> impl Iterator<Item = [i32; 3]> {
 /// Length of a polyline.
 pub fn length(points: &[Point3<f64>]) -> f64 {
     points.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
+}
+
+/// Home itself when it keeps the clearance; else the first clear point
+/// straight above it (a take-off point on the ground is too near the map).
+pub(crate) fn clear_home(
+    space: &FreeSpace,
+    map: &SlamMap,
+    home: Point3<f64>,
+    summary: &mut ReplanSummary,
+) -> Result<Point3<f64>, ReplanError> {
+    let (lifted, by) = lift_home(space, map, home)?;
+    if by > 0.0 {
+        summary.warnings.push(format!(
+            "home ({:.1}, {:.1}, {:.1}) is within {} m of the map; sorties start and end {by:.1} m above it",
+            home.x, home.y, home.z, space.clearance_m
+        ));
+        summary.home = lifted.coords.into();
+    }
+    Ok(lifted)
+}
+
+/// `home`, or the first clear point straight above it, and how far above.
+pub(crate) fn lift_home(
+    space: &FreeSpace,
+    map: &SlamMap,
+    home: Point3<f64>,
+) -> Result<(Point3<f64>, f64), ReplanError> {
+    let step = map.voxels.grid.resolution / 2.0;
+    (0..=(20.0 / step) as usize)
+        .map(|k| k as f64 * step)
+        .find(|by| space.point_is_clear(&(home + Vector3::z() * *by)))
+        .map(|by| (home + Vector3::z() * by, by))
+        .ok_or(ReplanError::HomeBlocked {
+            home: home.coords.into(),
+            clearance_m: space.clearance_m,
+        })
 }
 
 #[cfg(test)]

@@ -4,7 +4,8 @@
 //! stretch flown in battery sorties from home. Stretches of one tour keep
 //! the drones' areas apart: they meet only near home, where [`stagger`]
 //! spaces their take-offs. A drone with its own camera or home then flies
-//! its stretch's gaps on a route of its own ([`Member`]).
+//! its stretch's gaps on a route of its own ([`Member`], resolved from the
+//! `[[replan.drone]]` entries by [`members`]).
 
 use std::path::PathBuf;
 
@@ -12,6 +13,8 @@ use nalgebra::Point3;
 use postflight_core::Intrinsics;
 use postflight_core::outputs::replan::{Sortie, Waypoint};
 
+use crate::error::ReplanError;
+use crate::settings::{ReplanConfig, keys};
 use crate::tour::{Budget, Cutter, Tour};
 
 /// A drone of the team, as its route and sorties are planned.
@@ -237,6 +240,54 @@ fn closest_approach(timelines: &[Timeline], takeoff: &[f64]) -> f64 {
         t += STEP_S;
     }
     closest
+}
+
+/// The team: the `[[replan.drone]]` entries, each resolved over the
+/// `[replan]` settings, or `drones` drones alike.
+pub(crate) fn members(
+    s: &ReplanConfig,
+    budget: Budget,
+    launch: Point3<f64>,
+    lens: &Intrinsics,
+) -> Result<Vec<Member>, ReplanError> {
+    if s.drone.is_empty() {
+        return Ok((1..=s.drones)
+            .map(|k| Member {
+                name: format!("drone {k}"),
+                home: launch,
+                budget,
+                battery_minutes: s.battery_minutes,
+                lens: lens.clone(),
+                camera: None,
+            })
+            .collect());
+    }
+    s.drone
+        .iter()
+        .map(|d| {
+            let speed = d.speed_m_s.unwrap_or(s.speed_m_s);
+            let minutes = d.battery_minutes.unwrap_or(s.battery_minutes);
+            let lens = match &d.camera_info_file {
+                Some(path) => ingest::calibration::from_calibration_file(
+                    path,
+                    &format!("{}'s camera_info_file in {}", d.name, keys::drone),
+                )?,
+                None => lens.clone(),
+            };
+            Ok(Member {
+                name: d.name.clone(),
+                home: d.home.map_or(launch, Point3::from),
+                budget: Budget {
+                    max_time_s: minutes * 60.0,
+                    speed_m_s: speed,
+                    ..budget
+                },
+                battery_minutes: minutes,
+                lens,
+                camera: d.camera_info_file.clone(),
+            })
+        })
+        .collect()
 }
 
 #[cfg(test)]
