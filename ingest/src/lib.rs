@@ -15,8 +15,12 @@
 pub mod bag;
 pub mod calibration;
 mod cameras;
+mod combine;
+mod earth;
 pub mod error;
 pub mod image;
+mod ingested;
+mod photo_frame;
 pub mod photos;
 mod placement;
 pub mod reconstruction;
@@ -30,6 +34,7 @@ mod slam_frames;
 pub mod source;
 pub mod stage;
 pub mod tf;
+mod topics;
 
 pub use error::IngestError;
 pub use photos::PhotoFolder;

@@ -15,7 +15,8 @@ use postflight_core::run_log::sha256;
 use serde::{Deserialize, Serialize};
 
 use crate::error::IngestError;
-use crate::stage::{IngestOptions, Ingested};
+use crate::ingested::Ingested;
+use crate::stage::IngestOptions;
 
 /// The run directory's folder of recordings ingested before.
 pub(crate) const DIR: &str = "recordings";

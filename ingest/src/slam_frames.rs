@@ -9,12 +9,19 @@
 //! taken to be in the reference's frame.
 
 use nalgebra::{Isometry3, Point3, Vector3};
+use postflight_core::InvalidSetting;
 use postflight_core::geo::GeoAlignment;
 use postflight_core::map::register::{RegisterOptions, register};
 use postflight_core::map::{PointCloud, SlamMap, VoxelGrid};
 use postflight_core::outputs::ingest::{PlacedBy, Placement};
 
+use crate::earth::{fixes_on, photos_on_earth};
 use crate::error::IngestError;
+use crate::ingested::Ingested;
+use crate::reopen::recorded_map_of;
+use crate::settings::{RecordingFrame, keys};
+use crate::source::Source;
+use crate::stage::IngestOptions;
 
 /// A registration closer to the identity than this is the same SLAM frame
 /// (one session's map at two times): metres, and degrees.
@@ -135,4 +142,72 @@ fn by_gps(recording: &RecordedFrame, reference: &RecordedFrame) -> Option<Placem
 /// without points.
 fn slam_map(recording: &RecordedFrame) -> Option<SlamMap> {
     SlamMap::on_grid(recording.map?.clone(), VoxelGrid::default())
+}
+
+/// Every recording's poses in the run's map frame ([`slam_frames`], by
+/// the maps recorded in them); the warnings that gives.
+pub(crate) fn place_recordings(
+    ingested: &mut [Ingested],
+    sources: &mut [Source],
+    options: &IngestOptions,
+) -> Result<Vec<String>, IngestError> {
+    let mut maps = Vec::new();
+    for (one, source) in ingested.iter().zip(sources) {
+        maps.push(match source {
+            Source::Recording(recording) => recorded_map_of(recording, &one.summary)?,
+            Source::Photos(_) => None,
+        });
+    }
+    let names: Vec<String> = ingested.iter().map(|i| i.summary.name()).collect();
+    let given = given_frames(&options.settings.recording_frame, &names, &maps)?;
+    let max_gap_ns = (options.settings.max_pose_gap_s * 1e9) as i64;
+    let frames: Vec<RecordedFrame> = ingested
+        .iter()
+        .zip(&maps)
+        .zip(given)
+        .map(|((i, map), given)| RecordedFrame {
+            name: i.summary.name(),
+            map: map.as_ref().filter(|c| !c.is_empty()),
+            given,
+            on_earth: photos_on_earth(i).or_else(|| {
+                fixes_on(&i.fixes, |_| Some(&i.trajectory), max_gap_ns)
+                    .and_then(|(local, geodetic)| GeoAlignment::fit(&local, &geodetic).ok())
+            }),
+        })
+        .collect();
+    let (placements, warnings) = place(&frames)?;
+    for (one, placement) in ingested.iter_mut().zip(placements) {
+        one.place(placement);
+    }
+    Ok(warnings)
+}
+
+/// Each recording's frame as the settings give it (by file name); refused
+/// when one names no recording of the flight, or the reference recording
+/// (the first with a map), whose frame is the map frame.
+fn given_frames(
+    given: &[RecordingFrame],
+    names: &[String],
+    maps: &[Option<PointCloud>],
+) -> Result<Vec<Option<Isometry3<f64>>>, IngestError> {
+    let reference = maps
+        .iter()
+        .position(|m| m.as_ref().is_some_and(|c| !c.is_empty()))
+        .unwrap_or(0);
+    let mut out = vec![None; names.len()];
+    for frame in given {
+        let expected = match names.iter().position(|n| *n == frame.recording) {
+            None => format!("a recording of the flight ({})", names.join(", ")),
+            Some(i) if i == reference => format!(
+                "a recording other than {}, the reference, whose frame is the map frame",
+                names[i]
+            ),
+            Some(i) => {
+                out[i] = Some(frame.isometry());
+                continue;
+            }
+        };
+        return Err(InvalidSetting::new(keys::recording_frame, &frame.recording, expected).into());
+    }
+    Ok(out)
 }

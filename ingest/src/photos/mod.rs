@@ -29,8 +29,9 @@ use postflight_core::{
 use rayon::prelude::*;
 
 use crate::error::IngestError;
+use crate::ingested::Ingested;
 use crate::reconstruction::Placed;
-use crate::stage::{Ingested, Progress};
+use crate::stage::Progress;
 use tags::{LensSource, PhotoTags};
 
 /// The body frame photo folders are posed as: the camera's gimbal.
