@@ -54,6 +54,33 @@ fn defaults(table: &Table) -> Vec<(String, String)> {
         .collect()
 }
 
+/// docs/cli.md's settings reference: a table per `postflight.toml` table,
+/// each key with its flag, its default and the first line of its doc, all
+/// from the declarations (a test keeps docs/cli.md's copy equal to it).
+pub fn reference() -> String {
+    let mut out = String::new();
+    for table in tables() {
+        out.push_str(&format!(
+            "\n### `[{}]`\n\n| key | flag | default | what |\n|---|---|---|---|\n",
+            table.name
+        ));
+        let defaults: std::collections::BTreeMap<String, String> =
+            defaults(&table).into_iter().collect();
+        for arg in table.args.get_arguments() {
+            let id = arg.get_id().to_string();
+            let help = arg.get_help().map(|h| h.to_string()).unwrap_or_default();
+            let cell = |text: &str| text.replace('|', "\\|");
+            out.push_str(&format!(
+                "| `{id}` | `--{}` | {} | {} |\n",
+                arg.get_long().unwrap_or_default(),
+                defaults.get(&id).map_or(String::new(), |d| cell(d)),
+                cell(help.lines().next().unwrap_or_default()),
+            ));
+        }
+    }
+    out
+}
+
 /// A default as typed on the command line; `None` for none (null, empty).
 fn value_text(value: &serde_json::Value) -> Option<String> {
     use serde_json::Value;
@@ -80,6 +107,31 @@ fn value_text(value: &serde_json::Value) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use clap::CommandFactory;
+
+    /// Where docs/cli.md's settings reference starts and ends.
+    const BEGIN: &str = "<!-- settings reference: generated from the declarations; the test the_settings_reference_in_docs_is_the_declarations rewrites it when run with POSTFLIGHT_BLESS=1 -->\n";
+    const END: &str = "<!-- end of the settings reference -->";
+
+    #[test]
+    fn the_settings_reference_in_docs_is_the_declarations() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/cli.md");
+        let docs = std::fs::read_to_string(path).unwrap();
+        let (start, end) = (
+            docs.find(BEGIN).expect("docs/cli.md has the settings reference") + BEGIN.len(),
+            docs.find(END).expect("docs/cli.md ends the settings reference"),
+        );
+        let generated = super::reference();
+        if std::env::var_os("POSTFLIGHT_BLESS").is_some() {
+            let text = format!("{}{generated}\n{}", &docs[..start], &docs[end..]);
+            std::fs::write(path, text).unwrap();
+            return;
+        }
+        assert_eq!(
+            docs[start..end].trim(),
+            generated.trim(),
+            "docs/cli.md's settings reference differs from the declarations: rerun with POSTFLIGHT_BLESS=1"
+        );
+    }
 
     #[test]
     fn help_shows_each_default_as_declared() {

@@ -30,6 +30,7 @@ use postflight_core::outputs::changes::files as changes_files;
 use postflight_core::outputs::ingest::{
     PhotoFolderSummary, ReconstructionFormat, ReconstructionPlacedBy, SkippedPhoto,
 };
+use postflight_core::Stage;
 use postflight_core::outputs::report::{DEFAULT_REVIEW_ADDR, RunSummary};
 
 use page::{STYLE, document, readable_time};
@@ -193,11 +194,9 @@ fn files_section(r: &RunResults) -> Markup {
 
 fn run_section(s: &RunSummary) -> Markup {
     // Pipeline order, then anything else.
-    const ORDER: [&str; 6] = [
-        "ingest", "detect", "localise", "coverage", "replan", "report",
-    ];
+    let order = |name: &str| Stage::ALL.iter().position(|s| s.name() == name);
     let mut stages: Vec<(&String, &f64)> = s.timings_s.iter().collect();
-    stages.sort_by_key(|(name, _)| ORDER.iter().position(|o| o == name).unwrap_or(ORDER.len()));
+    stages.sort_by_key(|(name, _)| order(name).unwrap_or(Stage::ALL.len()));
     let v = &s.versions;
     html! {
         h2 { "The run" }
