@@ -57,6 +57,7 @@ fn defaults(table: &Table) -> Vec<(String, String)> {
 /// docs/cli.md's settings reference: a table per `postflight.toml` table,
 /// each key with its flag, its default and the first line of its doc, all
 /// from the declarations (a test keeps docs/cli.md's copy equal to it).
+#[cfg(test)]
 pub fn reference() -> String {
     let mut out = String::new();
     for table in tables() {
@@ -117,8 +118,11 @@ mod tests {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/cli.md");
         let docs = std::fs::read_to_string(path).unwrap();
         let (start, end) = (
-            docs.find(BEGIN).expect("docs/cli.md has the settings reference") + BEGIN.len(),
-            docs.find(END).expect("docs/cli.md ends the settings reference"),
+            docs.find(BEGIN)
+                .expect("docs/cli.md has the settings reference")
+                + BEGIN.len(),
+            docs.find(END)
+                .expect("docs/cli.md ends the settings reference"),
         );
         let generated = super::reference();
         if std::env::var_os("POSTFLIGHT_BLESS").is_some() {

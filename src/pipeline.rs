@@ -130,7 +130,7 @@ fn check_inputs(inputs: &RunInputs) -> anyhow::Result<()> {
     if let Some(plan) = &inputs.plan {
         let plan = plan.load()?;
         if inputs.targets == coverage::Targets::Plan {
-            structure::plan_targets(Some(&plan))?;
+            targets::plan_targets(Some(&plan))?;
         }
     }
     Ok(())

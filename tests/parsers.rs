@@ -364,13 +364,11 @@ fn waypoint_paths_and_target_boxes_cut_or_flipped_read_or_fail_in_one_line() {
     let path = dir.path().join("boxes.json");
     attack(boxes, 1, &mut rng, |b| {
         std::fs::write(&path, b).unwrap();
-        if let Err(e) = structure::targets::load_boxes(&path) {
+        if let Err(e) = targets::source::load_boxes(&path) {
             assert!(!e.to_string().contains('\n'), "{e}");
         }
     });
     std::fs::write(&path, "[{\"min\": [0, 0, 0],\n \"max\": [1, 2]}]").unwrap();
-    let err = structure::targets::load_boxes(&path)
-        .unwrap_err()
-        .to_string();
+    let err = targets::source::load_boxes(&path).unwrap_err().to_string();
     assert!(err.contains("line 2 column"), "{err}");
 }

@@ -1,6 +1,6 @@
 //! The structure as inspectors name it: elements (deck, girders, piers, a
 //! tower) and places on them in the field's words ("pier 2, east face,
-//! 1.4 m above its base"). The `structure` crate finds the elements from
+//! 1.4 m above its base"). The `targets` crate finds the elements from
 //! the target voxels; these are the types the tables and pages share.
 //!
 //! The map frame is taken as ROS's: x east, y north, z up (REP 103), so

@@ -11,7 +11,7 @@ pub enum CoverageError {
     #[error(transparent)]
     Flight(#[from] ingest::IngestError),
     #[error(transparent)]
-    Structure(#[from] structure::StructureError),
+    Structure(#[from] targets::StructureError),
     #[error(
         "the flight has no camera (no image topic was ingested); check `postflight ingest`'s image topics"
     )]

@@ -13,7 +13,7 @@
 //! is not stopped by the voxel. `postflight_core::motion` judges blur
 //! from the fitted camera velocity; [`reach`] tries standpoints across the band and the
 //! incidence limit for faces nobody inspected, to tell gaps from the
-//! uninspectable; the `structure` crate says which voxels are the structure
+//! uninspectable; the `targets` crate says which voxels are the structure
 //! and its elements. The
 //! stage ([`stage`]) writes `coverage.parquet` and `coverage.json` (laid
 //! out in `postflight_core::outputs::coverage`; its counts, `summary`). The follow-up flight for
@@ -39,5 +39,5 @@ pub use postflight_core::ViewSettings;
 pub use settings::{CoverageConfig, CoverageSettings};
 pub use shots::{FlightShots, flight_shots, lenses};
 pub use stage::{CoverageOptions, coverage};
-pub use structure::Targets;
+pub use targets::Targets;
 pub use view::{Miss, Sight};

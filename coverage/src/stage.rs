@@ -17,9 +17,9 @@ use postflight_core::region::FocusModel;
 use postflight_core::structure::Place;
 use postflight_core::{Flight, FlownPlan, Intrinsics, PlanFile, RunDir, Stage, ViewModel};
 use rayon::prelude::*;
-pub use structure::plan_targets;
-use structure::targets::span;
-use structure::{Found, Segmentation, TargetVoxels, Targets};
+pub use targets::plan_targets;
+use targets::source::span;
+use targets::{Found, Segmentation, TargetVoxels, Targets};
 
 use crate::cover::{FaceCover, Shot};
 use crate::error::CoverageError;

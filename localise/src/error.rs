@@ -9,7 +9,7 @@ pub enum LocaliseError {
     #[error(transparent)]
     Flight(#[from] ingest::IngestError),
     #[error(transparent)]
-    Structure(#[from] structure::StructureError),
+    Structure(#[from] targets::StructureError),
     #[error(
         "detections.parquet names frame {frame} which the ingest has no record of; rerun `postflight detect` after `postflight ingest`"
     )]

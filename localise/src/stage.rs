@@ -32,7 +32,7 @@ use crate::settings::{LocaliseConfig, keys};
 use crate::trace::{trace, trace_mask};
 use crate::width::widths;
 use postflight_core::structure::ElementMap;
-use structure::{Found, Targets};
+use targets::{Found, Targets};
 
 /// What localise runs on and how. Serialised, it is what the stage's
 /// result depends on besides its input files (`postflight run`'s

@@ -26,11 +26,11 @@ use self::recordings::recordings_section;
 use self::replan::replan_section;
 
 use maud::{Markup, PreEscaped, html};
+use postflight_core::Stage;
 use postflight_core::outputs::changes::files as changes_files;
 use postflight_core::outputs::ingest::{
     PhotoFolderSummary, ReconstructionFormat, ReconstructionPlacedBy, SkippedPhoto,
 };
-use postflight_core::Stage;
 use postflight_core::outputs::report::{DEFAULT_REVIEW_ADDR, RunSummary};
 
 use page::{STYLE, document, readable_time};

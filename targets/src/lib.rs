@@ -8,7 +8,7 @@
 
 pub mod error;
 pub mod segment;
-pub mod targets;
+pub mod source;
 
 use postflight_core::FlownPlan;
 use postflight_core::map::SlamMap;
@@ -16,7 +16,7 @@ use postflight_core::structure::ElementMap;
 
 pub use error::StructureError;
 pub use segment::{Segmentation, segment};
-pub use targets::{TargetVoxels, Targets, plan_targets};
+pub use source::{TargetVoxels, Targets, plan_targets};
 
 /// The structure's target voxels and their elements.
 #[derive(Debug, Clone)]
