@@ -409,8 +409,8 @@ struct SimulateArgs {
     #[arg(long)]
     gimbal: bool,
     /// Compression of the camera frames.
-    #[arg(long, value_enum, default_value_t = ImageFormatArg::Jpeg)]
-    image_format: ImageFormatArg,
+    #[arg(long, value_enum, default_value_t = sim::ImageFormat::Jpeg)]
+    image_format: sim::ImageFormat,
     /// Position noise of the recorded poses, metres (1 sigma, per pose).
     #[arg(long, default_value_t = sim::flight::POSITION_NOISE, value_name = "METRES")]
     pose_noise: f64,
@@ -473,12 +473,6 @@ struct SimulateArgs {
     /// and 0.5 m up) on /gps/fix, the world frame's origin here.
     #[arg(long, value_name = "LAT,LON,ALT[,YAW_DEG]", allow_hyphen_values = true)]
     gps: Option<postflight_core::geo::GeoOrigin>,
-}
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum ImageFormatArg {
-    Jpeg,
-    Png,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -621,10 +615,7 @@ fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
             position_m: args.pose_noise,
             yaw_rad: args.yaw_noise.to_radians(),
         },
-        image_format: match args.image_format {
-            ImageFormatArg::Jpeg => sim::ImageFormat::Jpeg,
-            ImageFormatArg::Png => sim::ImageFormat::Png,
-        },
+        image_format: args.image_format,
         repeat: args.repeat_of.as_ref().map(|of| sim::repeat::Repeat {
             of: of.clone(),
             grow: args.grow,

@@ -95,7 +95,7 @@ pub struct SimOptions {
 }
 
 /// Compression of recorded camera frames (`sensor_msgs/CompressedImage` format).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ImageFormat {
     /// JPEG quality 92, as camera drivers record.
     Jpeg,
