@@ -120,11 +120,7 @@ pub(crate) fn ingest_one(
         messages,
         frames: frames.len() as u64,
         poses: trajectory.len() as u64,
-        pose_source: PoseSource {
-            topic: trajectory.source.clone(),
-            frame_id: trajectory.frame_id.clone(),
-            child_frame_id: trajectory.child_frame_id.clone(),
-        },
+        pose_source: PoseSource::of(&trajectory),
         start_time_ns: start as i64,
         end_time_ns: end as i64,
         truncated: report.truncated,

@@ -15,6 +15,7 @@
 use nalgebra::Point3;
 use postflight_core::geo::{GeoOrigin, Geodetic};
 use postflight_core::outputs::replan::{Sortie, Waypoint};
+use postflight_core::plan::PointKind;
 use postflight_core::region::Region;
 use serde_json::{Value, json};
 
@@ -272,10 +273,11 @@ pub fn path_csv(sorties: &[Sortie], frame_id: &str) -> String {
         let last = steps.len().saturating_sub(1);
         for (i, step) in steps.iter().enumerate() {
             let kind = match step.waypoint {
-                Some(_) => "waypoint",
-                None if i == 0 || i == last => "home",
-                None => "transit",
-            };
+                Some(_) => PointKind::Waypoint,
+                None if i == 0 || i == last => PointKind::Home,
+                None => PointKind::Transit,
+            }
+            .as_str();
             let [x, y, z] = step.point;
             text += &format!(
                 "{x},{y},{z},{},{},{},{kind}\n",

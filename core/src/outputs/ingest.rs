@@ -53,6 +53,17 @@ pub struct PoseSource {
     pub child_frame_id: String,
 }
 
+impl PoseSource {
+    /// Where `trajectory`'s poses came from.
+    pub fn of(trajectory: &crate::Trajectory) -> Self {
+        Self {
+            topic: trajectory.source.clone(),
+            frame_id: trajectory.frame_id.clone(),
+            child_frame_id: trajectory.child_frame_id.clone(),
+        }
+    }
+}
+
 /// The SLAM map found in the recording.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct RecordedMap {

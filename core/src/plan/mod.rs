@@ -134,6 +134,19 @@ pub struct PathPoint {
     pub gimbal_pitch: Option<f64>,
 }
 
+crate::kind! {
+    /// What a point of a path is, as its `Point` column names it
+    /// (`replan.csv` writes one; a path may have none).
+    pub enum PointKind("point") {
+        /// Where a sortie takes off and lands.
+        Home = "home",
+        /// On the collision-free path between waypoints.
+        Transit = "transit",
+        /// Where the vehicle hovers and the camera shoots.
+        Waypoint = "waypoint",
+    }
+}
+
 /// The plan that was flown, as the inspector has it.
 #[derive(Debug, Clone, PartialEq)]
 pub enum FlownPlan {

@@ -8,7 +8,7 @@
 
 use csv::{ReaderBuilder, StringRecord, Trim};
 
-use super::{PathPoint, YawUnit};
+use super::{PathPoint, PointKind, YawUnit};
 use crate::setting::inputs;
 
 const COLUMNS: [&str; 4] = ["x", "y", "z", "yaw"];
@@ -33,7 +33,10 @@ pub fn parse(text: &str, yaw: YawUnit) -> Result<Vec<PathPoint>, String> {
             extra = Extra::of(&record);
             continue;
         }
-        if extra.point.is_some_and(|k| &record[k] != "waypoint") {
+        if extra
+            .point
+            .is_some_and(|k| &record[k] != PointKind::Waypoint.as_str())
+        {
             continue;
         }
         let mut p = point(&record, line, columns, yaw)?;

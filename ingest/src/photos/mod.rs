@@ -303,11 +303,7 @@ impl PhotoFolder {
             messages: BTreeMap::new(),
             frames: frames.len() as u64,
             poses: posed.len() as u64,
-            pose_source: PoseSource {
-                topic: trajectory.source.clone(),
-                frame_id: trajectory.frame_id.clone(),
-                child_frame_id: trajectory.child_frame_id.clone(),
-            },
+            pose_source: PoseSource::of(&trajectory),
             start_time_ns: start,
             end_time_ns: end,
             truncated: false,
