@@ -105,18 +105,21 @@ pub fn coverage(options: &coverage::CoverageOptions, quiet: bool) -> anyhow::Res
         tracing::warn!("{w}");
     }
     if !quiet {
-        let planned = match (summary.planned_voxels, summary.planned_inspected_pct) {
+        let planned = match (
+            summary.figures.planned_voxels,
+            summary.figures.planned_inspected_pct,
+        ) {
             (Some(p), Some(pct)) => format!(", {pct:.1}% of {p} planned"),
             _ => String::new(),
         };
         println!(
             "inspected {} of {} target voxels ({:.1}%{planned}); {} gaps to replan, {} uninspectable; face area {:.1}% into {}",
-            summary.inspected_voxels,
-            summary.target_voxels,
-            summary.inspected_pct,
-            summary.gap_voxels,
-            summary.uninspectable_voxels,
-            summary.face_area_coverage_pct,
+            summary.figures.inspected_voxels,
+            summary.figures.target_voxels,
+            summary.figures.inspected_pct,
+            summary.figures.gap_voxels,
+            summary.figures.uninspectable_voxels,
+            summary.figures.face_area_coverage_pct,
             options.run.display()
         );
     }

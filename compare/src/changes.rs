@@ -71,7 +71,7 @@ impl Inspected {
             mm_per_px: r.best.map(|b| b.gsd_mm),
         };
         Self {
-            grid: VoxelGrid::new(summary.resolution_m, summary.grid_origin.into()),
+            grid: VoxelGrid::new(summary.figures.resolution_m, summary.grid_origin.into()),
             looks: records.iter().map(|r| (r.voxel, look(r))).collect(),
             elements: postflight_core::outputs::coverage::element_map(summary, records),
         }

@@ -3,13 +3,16 @@
 
 use crate::mask::Mask;
 
-/// A box in pixels: `x0, y0` top-left, `x1, y1` bottom-right (exclusive edges).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BoxXyxy {
-    pub x0: f32,
-    pub y0: f32,
-    pub x1: f32,
-    pub y1: f32,
+crate::table! {
+    /// A box in pixels: `x0, y0` top-left, `x1, y1` bottom-right (exclusive
+    /// edges); its columns are named so.
+    #[derive(Copy)]
+    pub struct BoxXyxy {
+        x0: f32,
+        y0: f32,
+        x1: f32,
+        y1: f32,
+    }
 }
 
 impl BoxXyxy {

@@ -6,14 +6,44 @@
 use std::str::FromStr;
 
 use nalgebra::{Isometry3, Point3};
+use polars::prelude::{Column, PolarsResult, polars_err};
 use serde::{Deserialize, Serialize};
 use wkt::types::{Coord, Dimension, LineString, MultiLineString};
+
+use crate::table::Cell;
 
 /// The polylines of a crack's centre line, world frame, metres; empty when
 /// no view traced it.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(transparent)]
 pub struct Trace(pub Vec<Vec<[f64; 3]>>);
+
+/// A trace's column holds its WKT (null when empty), the form DuckDB's
+/// spatial extension and GeoPandas read.
+impl Cell for Trace {
+    fn column(name: &str, values: &[&Self]) -> Column {
+        let wkt: Vec<Option<String>> = values.iter().map(|t| t.wkt()).collect();
+        Column::new(name.into(), wkt)
+    }
+
+    fn values(column: &Column) -> PolarsResult<Vec<Self>> {
+        let texts = <Option<String> as Cell>::values(column)?;
+        texts
+            .into_iter()
+            .enumerate()
+            .map(|(i, text)| match text {
+                Some(text) => Self::from_wkt(&text).map_err(
+                    |why| polars_err!(ComputeError: "column {} in row {i} is no trace: {why}", column.name()),
+                ),
+                None => Ok(Self::default()),
+            })
+            .collect()
+    }
+
+    fn absent() -> Option<Self> {
+        Some(Self::default())
+    }
+}
 
 impl Trace {
     pub fn is_empty(&self) -> bool {

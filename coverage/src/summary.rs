@@ -2,7 +2,9 @@
 //! why faces were missed, and the shots that counted.
 
 use postflight_core::ViewModel;
-use postflight_core::outputs::coverage::{CoverageSummary, ReasonCounts, VoxelRecord};
+use postflight_core::outputs::coverage::{
+    CoverageFigures, CoverageSummary, ReasonCounts, VoxelRecord,
+};
 
 use crate::cover::FaceCover;
 use crate::shots::FlightShots;
@@ -32,23 +34,27 @@ pub(crate) fn summarise(
             .as_ref()
             .map_or("flight".into(), |p| p.path.display().to_string()),
         view,
-        resolution_m: scene.grid.resolution,
         grid_origin: scene.grid.origin.coords.into(),
         map: options.map.clone(),
         targets: scene.targets_name.clone(),
         structure: scene.elements.structure.clone(),
-        target_voxels: n,
-        planned_voxels: counts.planned,
-        inspected_voxels: counts.inspected,
-        inspected_pct: pct(counts.inspected, n),
-        planned_inspected_pct: counts.planned.map(|p| pct(counts.planned_inspected, p)),
-        planned_missed_voxels: counts.planned.map(|p| p - counts.planned_inspected),
-        gap_voxels: n - counts.inspected - counts.uninspectable,
-        uninspectable_voxels: counts.uninspectable,
-        exposed_faces: faces,
-        inspected_faces: counts.inspected_faces,
-        // Every face of a voxel grid has the same area.
-        face_area_coverage_pct: pct(counts.inspected_faces, faces),
+        figures: CoverageFigures {
+            resolution_m: scene.grid.resolution,
+            target_voxels: n,
+            planned_voxels: counts.planned,
+            inspected_voxels: counts.inspected,
+            inspected_pct: pct(counts.inspected, n),
+            planned_inspected_pct: counts.planned.map(|p| pct(counts.planned_inspected, p)),
+            planned_missed_voxels: counts.planned.map(|p| p - counts.planned_inspected),
+            gap_voxels: n - counts.inspected - counts.uninspectable,
+            uninspectable_voxels: counts.uninspectable,
+            exposed_faces: faces,
+            inspected_faces: counts.inspected_faces,
+            // Every face of a voxel grid has the same area.
+            face_area_coverage_pct: pct(counts.inspected_faces, faces),
+            shots_total: shots.shots.len(),
+            shots_usable: shots.shots.len() - shots_blurred,
+        },
         obstacle_voxels: scene
             .map
             .voxels
@@ -56,8 +62,6 @@ pub(crate) fn summarise(
             .filter(|v| !scene.target_set.contains(v))
             .count(),
         reasons: counts.reasons,
-        shots_total: shots.shots.len(),
-        shots_usable: shots.shots.len() - shots_blurred,
         shots_blurred,
         frames_without_pose: shots.without_pose,
         frames_without_exposure: shots.without_exposure,

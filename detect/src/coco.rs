@@ -30,7 +30,7 @@ pub(crate) fn results(
         .zip(found)
         .enumerate()
         .map(|(i, (row, d))| {
-            let b = row.detection.bbox();
+            let b = row.detection.bbox;
             let mut annotation = serde_json::json!({
                 "id": i + 1,
                 "image_id": row.detection.frame + 1,

@@ -18,8 +18,8 @@
 use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
-use postflight_core::outputs::coverage::CoverageSummary;
-use postflight_core::outputs::localise::{DefectRow, files as localise_files};
+use postflight_core::outputs::coverage::{CoverageFigures, CoverageSummary};
+use postflight_core::outputs::localise::{DefectRecord, files as localise_files};
 use postflight_core::outputs::report::RunSummary;
 use postflight_core::run_log::RUN_LOG;
 use postflight_core::table::Row;
@@ -374,43 +374,7 @@ postflight_core::table! {
     /// stage completed, its `coverage.json` in figures.
     pub struct CoverageRow {
         flight: FlightId,
-        resolution_m: f64,
-        target_voxels: u64,
-        planned_voxels: Option<u64>,
-        inspected_voxels: u64,
-        inspected_pct: f64,
-        planned_inspected_pct: Option<f64>,
-        planned_missed_voxels: Option<u64>,
-        gap_voxels: u64,
-        uninspectable_voxels: u64,
-        exposed_faces: u64,
-        inspected_faces: u64,
-        face_area_coverage_pct: f64,
-        shots_total: u64,
-        shots_usable: u64,
-    }
-}
-
-impl CoverageRow {
-    fn of(run: &FleetRun, c: &CoverageSummary) -> Self {
-        let count = |n: usize| n as u64;
-        Self {
-            flight: FlightId::of(run),
-            resolution_m: c.resolution_m,
-            target_voxels: count(c.target_voxels),
-            planned_voxels: c.planned_voxels.map(count),
-            inspected_voxels: count(c.inspected_voxels),
-            inspected_pct: c.inspected_pct,
-            planned_inspected_pct: c.planned_inspected_pct,
-            planned_missed_voxels: c.planned_missed_voxels.map(count),
-            gap_voxels: count(c.gap_voxels),
-            uninspectable_voxels: count(c.uninspectable_voxels),
-            exposed_faces: count(c.exposed_faces),
-            inspected_faces: count(c.inspected_faces),
-            face_area_coverage_pct: c.face_area_coverage_pct,
-            shots_total: count(c.shots_total),
-            shots_usable: count(c.shots_usable),
-        }
+        coverage: CoverageFigures,
     }
 }
 
@@ -419,7 +383,7 @@ postflight_core::table! {
     /// own `defects.parquet` holds it.
     pub struct FleetDefectRow {
         flight: FlightId,
-        defect: DefectRow,
+        defect: DefectRecord,
     }
 }
 
@@ -433,7 +397,12 @@ fn flights_table(runs: &[FleetRun]) -> PolarsResult<DataFrame> {
 fn coverage_table(runs: &[FleetRun]) -> PolarsResult<DataFrame> {
     let rows: Vec<CoverageRow> = runs
         .iter()
-        .filter_map(|r| r.coverage.as_ref().map(|c| CoverageRow::of(r, c)))
+        .filter_map(|r| {
+            r.coverage.as_ref().map(|c| CoverageRow {
+                flight: FlightId::of(r),
+                coverage: c.figures.clone(),
+            })
+        })
         .collect();
     CoverageRow::frame(&rows)
 }
@@ -446,7 +415,7 @@ fn defects_table(runs: &[FleetRun]) -> Result<DataFrame, Error> {
         .iter()
         .filter_map(|r| RunDir::open(&r.dir, Stage::Localise).ok().map(|d| (r, d)));
     for (run, dir) in localised {
-        let defects: Vec<DefectRow> =
+        let defects: Vec<DefectRecord> =
             dir.read_rows(localise_files::DEFECTS)
                 .map_err(|e| Error::Fleet {
                     path: run.dir.join(localise_files::DEFECTS),

@@ -97,7 +97,10 @@ pub fn replan(
     run.remove(files::SUMMARY)?;
     let coverage: CoverageSummary = run.read_json(Stage::Coverage.summary_file())?;
     coverage.view.check()?;
-    let grid = VoxelGrid::new(coverage.resolution_m, Point3::from(coverage.grid_origin));
+    let grid = VoxelGrid::new(
+        coverage.figures.resolution_m,
+        Point3::from(coverage.grid_origin),
+    );
     let chosen = choose_gaps(&run, options.settings.gaps)?;
     let (targets, gaps) = (&chosen.targets, &chosen.voxels);
     let launch = take_off(options, &flight)?;

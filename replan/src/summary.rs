@@ -19,7 +19,7 @@ pub(crate) fn empty_plan(
 ) -> ReplanSummary {
     ReplanSummary {
         frame_id: "map".into(),
-        resolution: coverage.resolution_m,
+        resolution: coverage.figures.resolution_m,
         origin: coverage.grid_origin,
         target_voxels: Vec::new(),
         viewpoints: Vec::new(),

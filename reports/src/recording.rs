@@ -109,7 +109,10 @@ fn log_map(out: &Out, results: &RunResults) -> Result<(), ReportError> {
 
 /// The target voxels, one entity per coverage status.
 fn log_coverage(out: &Out, results: &RunResults) -> Result<(), ReportError> {
-    let resolution = results.coverage.as_ref().map_or(0.5, |c| c.resolution_m);
+    let resolution = results
+        .coverage
+        .as_ref()
+        .map_or(0.5, |c| c.figures.resolution_m);
     for status in VoxelStatus::ALL {
         let centres: Vec<[f32; 3]> = results
             .voxels

@@ -8,7 +8,6 @@ use std::path::{Path, PathBuf};
 use postflight_core::outputs::changes::{ChangeKind, ChangeRecord, ChangesSummary, read_changes};
 use postflight_core::outputs::coverage::{self, CoverageSummary, VoxelRecord};
 use postflight_core::outputs::detect::DetectSummary;
-use postflight_core::outputs::localise::DefectRow;
 use postflight_core::outputs::localise::{DefectRecord, LocaliseSummary, read_defects};
 use postflight_core::outputs::replan::ReplanSummary;
 use postflight_core::outputs::report::CandidateRow;
@@ -278,7 +277,7 @@ impl RunResults {
             .into_iter()
             .enumerate()
             .map(|(i, d)| {
-                let mut defect = DefectRow::of(d);
+                let mut defect = d.clone();
                 // Runs localised before localise named places: coverage's.
                 if let (None, Some(place)) = (&defect.place, self.place(d)) {
                     defect.element = Some(place.element.clone());
@@ -365,7 +364,7 @@ pub struct ElementArea {
 
 impl ElementArea {
     fn of(c: &CoverageSummary, records: &[VoxelRecord]) -> Vec<Self> {
-        let face = c.resolution_m * c.resolution_m;
+        let face = c.figures.resolution_m * c.figures.resolution_m;
         let mut areas: Vec<Self> = c
             .structure
             .elements

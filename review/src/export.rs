@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use postflight_core::RunDir;
 use postflight_core::condition::ConditionState;
 use postflight_core::outputs::csv_text;
-use postflight_core::outputs::localise::DefectRow;
+use postflight_core::outputs::localise::DefectRecord;
 use postflight_core::table::Row;
 use serde::Serialize;
 
@@ -72,7 +72,7 @@ postflight_core::table! {
     /// `defects.parquet` holds it.
     pub struct AcceptedDefect {
         decision: DecisionCells,
-        defect: DefectRow,
+        defect: DefectRecord,
     }
 }
 
@@ -86,7 +86,7 @@ pub fn accepted_defects(queue: &Queue, places: &HashMap<String, String>) -> Vec<
             if d.verdict == Verdict::Rejected {
                 return None;
             }
-            let mut defect = DefectRow::of(e.defect);
+            let mut defect = e.defect.clone();
             // Runs localised before localise named places: coverage's.
             defect.place = defect.place.or_else(|| places.get(&defect.id).cloned());
             Some(AcceptedDefect {
@@ -199,7 +199,8 @@ pub fn export_run(run: &Path, db: &Path, out: &Path) -> Result<Vec<PathBuf>, Rev
 #[cfg(test)]
 mod tests {
     use postflight_core::FaceSide;
-    use postflight_core::outputs::localise::LengthStatus;
+    use postflight_core::outputs::localise::{Evidence, LengthStatus, ViewRecord, WidthRecord};
+    use postflight_core::trace::Trace;
     use postflight_core::view::Miss;
 
     use super::*;
@@ -246,58 +247,61 @@ mod tests {
                 reviewer: "ann".into(),
                 decided_at: "2026-11-23T10:00:00.000000000Z".into(),
             },
-            defect: DefectRow {
+            defect: DefectRecord {
                 id: id.into(),
                 element: Some("pier 2".into()),
                 place: Some("pier 2, east face, 1.4 m above its base".into()),
-                x: 1.5,
-                y: -2.25,
-                z: 3.0,
+                position: [1.5, -2.25, 3.0],
                 position_uncertainty_m: Some(0.04),
-                nx: 0.0,
-                ny: 0.0,
-                nz: 1.0,
-                min_x: 1.4,
-                min_y: -2.5,
-                min_z: 3.0,
-                max_x: 1.6,
-                max_y: -2.0,
-                max_z: 3.0,
-                voxel_x: 7,
-                voxel_y: -12,
-                voxel_z: 15,
+                normal: [0.0, 0.0, 1.0],
+                extent_min: [1.4, -2.5, 3.0],
+                extent_max: [1.6, -2.0, 3.0],
+                voxel: [7, -12, 15],
                 face: FaceSide::PosZ,
                 length_m,
                 length_views: u32::from(length_m.is_some()),
-                trace: length_m.map(|_| "MULTILINESTRING Z((1.4 -2.5 3,1.6 -2 3))".into()),
+                trace: Trace(
+                    length_m
+                        .map(|_| vec![vec![[1.4, -2.5, 3.0], [1.6, -2.0, 3.0]]])
+                        .unwrap_or_default(),
+                ),
                 frames: 4,
                 confidence: 0.9,
                 max_score: 0.7,
-                view_faults: vec![Miss::TooFar],
-                view_gsd_mm: 2.9,
-                blur_px: None,
-                length_status: if length_m.is_some() {
-                    LengthStatus::Measured
-                } else {
-                    LengthStatus::TooOblique
+                evidence: Evidence {
+                    view_faults: vec![Miss::TooFar],
+                    view_gsd_mm: 2.9,
+                    blur_px: None,
+                    length: if length_m.is_some() {
+                        LengthStatus::Measured
+                    } else {
+                        LengthStatus::TooOblique
+                    },
+                    min_measurable_width_mm: 6.4,
+                    reshoot: length_m.is_none(),
                 },
-                min_measurable_width_mm: 6.4,
-                reshoot: length_m.is_none(),
-                best_frame: 17,
-                best_range_m: 3.9,
-                best_incidence_deg: 21.0,
-                best_gsd_mm: 3.2,
-                best_x0: 10.0,
-                best_y0: 20.0,
-                best_x1: 110.5,
-                best_y1: 60.0,
-                max_width_mm: length_m.map(|_| 1.2),
-                median_width_mm: length_m.map(|_| 0.7),
-                width_uncertainty_mm: length_m.map(|_| 0.2),
-                narrower_than_mm: None,
-                width_mm_per_px: length_m.map(|_| 0.9),
-                condition_state: length_m.map(|_| ConditionState::Fair),
+                // The columns hold the best view's frame, geometry and box.
+                best: ViewRecord {
+                    frame: 17,
+                    range_m: 3.9,
+                    incidence_deg: 21.0,
+                    oblique_gsd_mm: 3.2,
+                    bbox: [10.0, 20.0, 110.5, 60.0],
+                    time_ns: 0,
+                    score: 0.0,
+                    length_m: None,
+                    clipped: false,
+                },
+                width: length_m.map(|_| WidthRecord {
+                    max_mm: Some(1.2),
+                    median_mm: Some(0.7),
+                    uncertainty_mm: Some(0.2),
+                    narrower_than_mm: None,
+                    mm_per_px: 0.9,
+                }),
+                condition: length_m.map(|_| ConditionState::Fair),
                 crop: Some(format!("defects/{id}.jpg")),
+                views: Vec::new(),
             },
         };
         let rows = vec![

@@ -6,10 +6,37 @@ use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::side::FaceSide;
+use crate::table::{Column, Columns, DataFrame, PolarsResult, axes_names, read_axes, write_axes};
 
 /// Integer coordinates of a voxel in a grid.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub struct VoxelIndex(pub [i32; 3]);
+
+/// A voxel index's columns: `{name}_x`, `{name}_y`, `{name}_z`.
+impl Columns for VoxelIndex {
+    fn write(prefix: &str, name: &str, values: &[&Self], out: &mut Vec<Column>) {
+        let indices: Vec<&[i32; 3]> = values.iter().map(|v| &v.0).collect();
+        write_axes(
+            prefix,
+            axes(name).each_ref().map(String::as_str),
+            &indices,
+            out,
+        );
+    }
+
+    fn read(prefix: &str, name: &str, table: &DataFrame) -> PolarsResult<Vec<Self>> {
+        let indices = read_axes(prefix, axes(name).each_ref().map(String::as_str), table)?;
+        Ok(indices.into_iter().map(VoxelIndex).collect())
+    }
+
+    fn names(prefix: &str, name: &str, out: &mut Vec<String>) {
+        axes_names::<i32>(prefix, &axes(name).each_ref().map(String::as_str), out);
+    }
+}
+
+fn axes(name: &str) -> [String; 3] {
+    ["x", "y", "z"].map(|axis| format!("{name}_{axis}"))
+}
 
 impl VoxelIndex {
     /// The 6 face-sharing neighbours.

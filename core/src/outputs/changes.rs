@@ -116,55 +116,57 @@ impl ChangeKind {
     }
 }
 
-/// One candidate's change.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct ChangeRecord {
-    pub change: ChangeKind,
-    /// The candidate in this run, and its match in the earlier one.
-    pub after: Option<String>,
-    pub before: Option<String>,
-    /// Where it is, this run's frame.
-    pub position: [f64; 3],
-    /// The structure element there, as this run's coverage names it.
-    pub element: Option<String>,
-    pub length_before_m: Option<f64>,
-    pub length_after_m: Option<f64>,
-    /// Growth, and the spread it is judged against, metres: in length
-    /// (the spread the sum of each candidate's), or, where that shows it
-    /// more, how far its trace now runs on beyond the earlier one (the
-    /// spread how far a hairline tip's end differs between views, plus the
-    /// link distance the two traces may lie apart).
-    pub growth_m: Option<f64>,
-    pub spread_m: Option<f64>,
-    /// Its widest before and now, millimetres (each flight's `max_width_mm`;
-    /// none where it was below resolution or not measured).
-    #[serde(default)]
-    pub width_before_mm: Option<f64>,
-    #[serde(default)]
-    pub width_after_mm: Option<f64>,
-    /// How much wider it is now, and the spread that is judged against
-    /// (both flights' width uncertainties combined, root of the sum of
-    /// squares, at least a fifth of the earlier width), millimetres.
-    #[serde(default)]
-    pub widening_mm: Option<f64>,
-    #[serde(default)]
-    pub width_spread_mm: Option<f64>,
-    /// For a candidate seen now only: whether the earlier flight inspected
-    /// its place (`false`: first seen; none: the earlier run has no
-    /// coverage there, so first seen too).
-    pub earlier_inspected: Option<bool>,
-    /// For a candidate seen now only: the earlier flight's finest view of
-    /// its place, millimetres per pixel (the View model's GSD); a crack
-    /// narrower than half of it is first seen, not new: that flight could
-    /// not have seen it.
-    #[serde(default)]
-    pub earlier_mm_per_px: Option<f64>,
+crate::table! {
+    /// One candidate's change: a row of `changes.parquet`, and of
+    /// `changes.json`'s `changes`.
+    #[derive(Serialize, Deserialize)]
+    pub struct ChangeRecord {
+        change: ChangeKind,
+        /// The candidate in this run, and its match in the earlier one.
+        after: Option<String>,
+        before: Option<String>,
+        /// Where it is, this run's frame.
+        position: [f64; 3] as [x, y, z],
+        /// The structure element there, as this run's coverage names it.
+        element: Option<String>,
+        length_before_m: Option<f64>,
+        length_after_m: Option<f64>,
+        /// Growth, and the spread it is judged against, metres: in length
+        /// (the spread the sum of each candidate's), or, where that shows it
+        /// more, how far its trace now runs on beyond the earlier one (the
+        /// spread how far a hairline tip's end differs between views, plus the
+        /// link distance the two traces may lie apart).
+        growth_m: Option<f64>,
+        spread_m: Option<f64>,
+        /// Its widest before and now, millimetres (each flight's `max_width_mm`;
+        /// none where it was below resolution or not measured).
+        #[serde(default)]
+        width_before_mm: Option<f64>,
+        #[serde(default)]
+        width_after_mm: Option<f64>,
+        /// How much wider it is now, and the spread that is judged against
+        /// (both flights' width uncertainties combined, root of the sum of
+        /// squares, at least a fifth of the earlier width), millimetres.
+        #[serde(default)]
+        widening_mm: Option<f64>,
+        #[serde(default)]
+        width_spread_mm: Option<f64>,
+        /// For a candidate seen now only: whether the earlier flight inspected
+        /// its place (`false`: first seen; none: the earlier run has no
+        /// coverage there, so first seen too).
+        earlier_inspected: Option<bool>,
+        /// For a candidate seen now only: the earlier flight's finest view of
+        /// its place, millimetres per pixel (the View model's GSD); a crack
+        /// narrower than half of it is first seen, not new: that flight could
+        /// not have seen it.
+        #[serde(default)]
+        earlier_mm_per_px: Option<f64>,
+    }
 }
 
 /// Write `changes.parquet` and, last, `changes.json`.
 pub fn write_changes(run: &RunDir, summary: &ChangesSummary) -> Result<(), Error> {
-    let rows: Vec<ChangeRow> = summary.changes.iter().map(ChangeRow::of).collect();
-    run.write_rows(files::TABLE, &rows)?;
+    run.write_rows(files::TABLE, &summary.changes)?;
     run.write_json(files::SUMMARY, summary)
 }
 
@@ -174,55 +176,6 @@ pub fn read_changes(run: &RunDir) -> Result<Option<ChangesSummary>, Error> {
         return Ok(None);
     }
     run.read_json(files::SUMMARY).map(Some)
-}
-
-crate::table! {
-    /// One row of `changes.parquet`: a candidate's change.
-    pub struct ChangeRow {
-        change: ChangeKind,
-        after: Option<String>,
-        before: Option<String>,
-        /// This run's frame, metres.
-        x: f64,
-        y: f64,
-        z: f64,
-        element: Option<String>,
-        length_before_m: Option<f64>,
-        length_after_m: Option<f64>,
-        growth_m: Option<f64>,
-        spread_m: Option<f64>,
-        width_before_mm: Option<f64>,
-        width_after_mm: Option<f64>,
-        widening_mm: Option<f64>,
-        width_spread_mm: Option<f64>,
-        earlier_inspected: Option<bool>,
-        earlier_mm_per_px: Option<f64>,
-    }
-}
-
-impl ChangeRow {
-    fn of(c: &ChangeRecord) -> Self {
-        let [x, y, z] = c.position;
-        Self {
-            change: c.change,
-            after: c.after.clone(),
-            before: c.before.clone(),
-            x,
-            y,
-            z,
-            element: c.element.clone(),
-            length_before_m: c.length_before_m,
-            length_after_m: c.length_after_m,
-            growth_m: c.growth_m,
-            spread_m: c.spread_m,
-            width_before_mm: c.width_before_mm,
-            width_after_mm: c.width_after_mm,
-            widening_mm: c.widening_mm,
-            width_spread_mm: c.width_spread_mm,
-            earlier_inspected: c.earlier_inspected,
-            earlier_mm_per_px: c.earlier_mm_per_px,
-        }
-    }
 }
 
 #[cfg(test)]

@@ -69,7 +69,6 @@ pub struct CoverageSummary {
     /// `flight`, or the viewpoints file judged instead.
     pub shots: String,
     pub view: ViewModel,
-    pub resolution_m: f64,
     /// World position of the corner of voxel `[0, 0, 0]`.
     pub grid_origin: [f64; 3],
     /// The map judged against: a file, or `None` for the flight's recorded map.
@@ -77,27 +76,13 @@ pub struct CoverageSummary {
     pub targets: String,
     /// The targets' elements (coverage.parquet names each voxel's).
     pub structure: Structure,
-    pub target_voxels: usize,
-    pub planned_voxels: Option<usize>,
-    pub inspected_voxels: usize,
-    pub inspected_pct: f64,
-    /// Of the planned voxels, the share inspected.
-    pub planned_inspected_pct: Option<f64>,
-    /// Planned voxels not inspected.
-    pub planned_missed_voxels: Option<usize>,
-    /// Target voxels not inspected that a follow-up flight could inspect.
-    pub gap_voxels: usize,
-    /// Target voxels no free standpoint can inspect under the View model.
-    pub uninspectable_voxels: usize,
-    pub exposed_faces: usize,
-    pub inspected_faces: usize,
-    pub face_area_coverage_pct: f64,
+    /// How much was inspected.
+    #[serde(flatten)]
+    pub figures: CoverageFigures,
     /// Occupied map voxels that are not targets (GATSBI's V_O).
     pub obstacle_voxels: usize,
     /// Not-inspected voxels by the furthest rule any frame reached.
     pub reasons: ReasonCounts,
-    pub shots_total: usize,
-    pub shots_usable: usize,
     pub shots_blurred: usize,
     pub frames_without_pose: usize,
     pub frames_without_exposure: usize,
@@ -108,6 +93,32 @@ pub struct CoverageSummary {
     pub focus: Vec<FocusCoverage>,
     pub seconds: f64,
     pub warnings: Vec<String>,
+}
+
+crate::table! {
+    /// How much a flight inspected: `coverage.json`'s figures, and a row of
+    /// the fleet's `coverage.parquet` after its flight's columns.
+    #[derive(Serialize, Deserialize)]
+    pub struct CoverageFigures {
+        resolution_m: f64,
+        target_voxels: usize,
+        planned_voxels: Option<usize>,
+        inspected_voxels: usize,
+        inspected_pct: f64,
+        /// Of the planned voxels, the share inspected.
+        planned_inspected_pct: Option<f64>,
+        /// Planned voxels not inspected.
+        planned_missed_voxels: Option<usize>,
+        /// Target voxels not inspected that a follow-up flight could inspect.
+        gap_voxels: usize,
+        /// Target voxels no free standpoint can inspect under the View model.
+        uninspectable_voxels: usize,
+        exposed_faces: usize,
+        inspected_faces: usize,
+        face_area_coverage_pct: f64,
+        shots_total: usize,
+        shots_usable: usize,
+    }
 }
 
 /// A focus region's View model, and its target voxels judged under it.
@@ -191,7 +202,7 @@ pub fn element_map(summary: &CoverageSummary, records: &[VoxelRecord]) -> Elemen
         .iter()
         .filter_map(|r| index.get(r.element.as_str()).map(|&e| (r.voxel, e)))
         .collect();
-    let grid = VoxelGrid::new(summary.resolution_m, summary.grid_origin.into());
+    let grid = VoxelGrid::new(summary.figures.resolution_m, summary.grid_origin.into());
     ElementMap::new(summary.structure.clone(), grid, voxels)
 }
 

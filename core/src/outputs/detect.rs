@@ -128,10 +128,7 @@ crate::table! {
     pub struct DetectionCells {
         frame: u32,
         time_ns: i64,
-        x0: f32,
-        y0: f32,
-        x1: f32,
-        y1: f32,
+        bbox: BoxXyxy,
         score: f32,
     }
 }
@@ -141,20 +138,8 @@ impl DetectionCells {
         Self {
             frame,
             time_ns,
-            x0: bbox.x0,
-            y0: bbox.y0,
-            x1: bbox.x1,
-            y1: bbox.y1,
+            bbox,
             score,
-        }
-    }
-
-    pub fn bbox(&self) -> BoxXyxy {
-        BoxXyxy {
-            x0: self.x0,
-            y0: self.y0,
-            x1: self.x1,
-            y1: self.y1,
         }
     }
 }
@@ -217,7 +202,7 @@ impl DetectionRow {
             frame: cells.frame,
             time_ns: cells.time_ns,
             detection: Detection {
-                bbox: cells.bbox(),
+                bbox: cells.bbox,
                 score: cells.score,
                 class: self.class,
                 tile: self.tile,

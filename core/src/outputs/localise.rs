@@ -15,7 +15,6 @@ use std::path::PathBuf;
 use polars::prelude::{PolarsResult, polars_err};
 use serde::{Deserialize, Serialize};
 
-use super::detect::DetectionCells;
 use crate::condition::ConditionState;
 use crate::detection::BoxXyxy;
 use crate::error::Error;
@@ -107,61 +106,70 @@ pub enum SetAsideReason {
     Joint,
 }
 
-/// One detection as `observations.parquet` holds it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ObservationRecord {
-    pub frame: u32,
-    pub time_ns: i64,
-    /// The detection's box, frame pixels.
-    pub bbox: BoxXyxy,
-    /// The detector's score.
-    pub score: f32,
-    pub outcome: Outcome,
-    /// Where it lies on the structure, for a placed detection.
-    pub placed: Option<PlacedRecord>,
-    /// Centre-line pixels traced in the image (0: placed by its box).
-    pub traced_px: u32,
-    /// The box or the traced crack touches the image border.
-    pub clipped: bool,
-    /// The candidate it supports.
-    pub defect: Option<String>,
+crate::table! {
+    /// One detection as `observations.parquet` holds it: placed or not,
+    /// with the reason; the placement's columns are null for one not
+    /// placed.
+    pub struct ObservationRecord {
+        frame: u32,
+        time_ns: i64,
+        /// The detection's box, frame pixels.
+        bbox: BoxXyxy,
+        /// The detector's score.
+        score: f32,
+        outcome: Outcome,
+        /// Where it lies on the structure, for a placed detection.
+        placed: Option<PlacedRecord> as ?,
+        /// Centre-line pixels traced in the image (0: placed by its box).
+        traced_px: u32,
+        /// The box or the traced crack touches the image border.
+        clipped: bool,
+        /// The candidate it supports.
+        defect: Option<String>,
+    }
 }
 
-/// A placed detection's crack on the surface.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PlacedRecord {
-    /// Centroid of the crack on the surface, world frame, metres.
-    pub centre: [f64; 3],
-    /// Unit normal of the surface, facing the camera.
-    pub normal: [f64; 3],
-    pub voxel: VoxelIndex,
-    pub face: FaceSide,
-    pub range_m: f64,
-    pub incidence_deg: f64,
-    /// See [`ViewRecord::oblique_gsd_mm`].
-    pub oblique_gsd_mm: f64,
-    pub length_m: Option<f64>,
-    /// Farthest crack point from the centre, metres.
-    pub radius_m: f64,
+crate::table! {
+    /// A placed detection's crack on the surface.
+    #[derive(Copy)]
+    pub struct PlacedRecord {
+        /// Centroid of the crack on the surface, world frame, metres.
+        centre: [f64; 3] as [x, y, z],
+        /// Unit normal of the surface, facing the camera.
+        normal: [f64; 3] as [nx, ny, nz],
+        voxel: VoxelIndex,
+        face: FaceSide,
+        range_m: f64,
+        incidence_deg: f64,
+        /// See [`ViewRecord::oblique_gsd_mm`].
+        oblique_gsd_mm: f64 as gsd_mm,
+        length_m: Option<f64>,
+        /// Farthest crack point from the centre, metres.
+        radius_m: f64,
+    }
 }
 
-/// One view of a defect candidate.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct ViewRecord {
-    pub frame: u32,
-    pub time_ns: i64,
-    /// `[x0, y0, x1, y1]`, frame pixels.
-    pub bbox: [f32; 4],
-    pub score: f32,
-    pub range_m: f64,
-    pub incidence_deg: f64,
-    /// The view's oblique GSD: the pixel's footprint on the surface along
-    /// its most stretched direction, millimetres (`gsd_mm` in the files).
-    #[serde(rename = "gsd_mm")]
-    pub oblique_gsd_mm: f64,
-    pub length_m: Option<f64>,
-    /// The box touches the image border.
-    pub clipped: bool,
+crate::table! {
+    /// One view of a defect candidate. As a group of columns (a
+    /// candidate's best view in `defects.parquet`), its frame, geometry
+    /// and box; the rest is in `observations.parquet`.
+    #[derive(Serialize, Deserialize)]
+    pub struct ViewRecord {
+        frame: u32,
+        range_m: f64,
+        incidence_deg: f64,
+        /// The view's oblique GSD: the pixel's footprint on the surface along
+        /// its most stretched direction, millimetres (`gsd_mm` in the files).
+        #[serde(rename = "gsd_mm")]
+        oblique_gsd_mm: f64 as gsd_mm,
+        /// `[x0, y0, x1, y1]`, frame pixels.
+        bbox: [f32; 4] as [x0, y0, x1, y1],
+        time_ns: i64 as _,
+        score: f32 as _,
+        length_m: Option<f64> as _,
+        /// The box touches the image border.
+        clipped: bool as _,
+    }
 }
 
 crate::kind! {
@@ -195,27 +203,29 @@ impl LengthStatus {
     }
 }
 
-/// How far a candidate's evidence can be trusted, and what it lacks.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct Evidence {
-    /// The View model's rules the best view breaks; empty when it meets them.
-    pub view_faults: Vec<Miss>,
-    /// The best view's GSD as the View model measures it (fronto-parallel
-    /// at its range), millimetres; see [`ViewRecord::oblique_gsd_mm`] for
-    /// the footprint along the surface.
-    pub view_gsd_mm: f64,
-    /// The best frame's motion blur, pixels; `None` when its exposure time
-    /// is unknown (blur not judged).
-    pub blur_px: Option<f64>,
-    pub length: LengthStatus,
-    /// Narrowest crack width the best view can measure, millimetres: two
-    /// of its pixels along the surface. A narrower crack (a hairline at a
-    /// few mm/px) shows as a line below a pixel wide, and its width is not
-    /// measured from this flight.
-    pub min_measurable_width_mm: f64,
-    /// Weak evidence (the best view breaks the View model, or no length):
-    /// the spot belongs in the follow-up flight.
-    pub reshoot: bool,
+crate::table! {
+    /// How far a candidate's evidence can be trusted, and what it lacks.
+    #[derive(Serialize, Deserialize)]
+    pub struct Evidence {
+        /// The View model's rules the best view breaks; empty when it meets them.
+        view_faults: Vec<Miss>,
+        /// The best view's GSD as the View model measures it (fronto-parallel
+        /// at its range), millimetres; see [`ViewRecord::oblique_gsd_mm`] for
+        /// the footprint along the surface.
+        view_gsd_mm: f64,
+        /// The best frame's motion blur, pixels; `None` when its exposure time
+        /// is unknown (blur not judged).
+        blur_px: Option<f64>,
+        length: LengthStatus as length_status,
+        /// Narrowest crack width the best view can measure, millimetres: two
+        /// of its pixels along the surface. A narrower crack (a hairline at a
+        /// few mm/px) shows as a line below a pixel wide, and its width is not
+        /// measured from this flight.
+        min_measurable_width_mm: f64,
+        /// Weak evidence (the best view breaks the View model, or no length):
+        /// the spot belongs in the follow-up flight.
+        reshoot: bool,
+    }
 }
 
 impl Evidence {
@@ -223,77 +233,87 @@ impl Evidence {
     pub const MIN_WIDTH_PX: f64 = 2.0;
 }
 
-/// One defect candidate in `defects.json`.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct DefectRecord {
-    pub id: String,
-    /// The structure element it is on (`pier 2`), as coverage names the
-    /// voxels there; none without targets, or off them.
-    pub element: Option<String>,
-    /// Where it is: `pier 2, east face, 1.4 m above its base`.
-    pub place: Option<String>,
-    /// World frame, metres.
-    pub position: [f64; 3],
-    /// How far off `position` may be, metres (one standard deviation):
-    /// its views' scatter about it over the square root of their number,
-    /// and their cameras' position accuracy (a photo's RTK accuracy) in
-    /// full, as RTK errors run from photo to photo; none from one view of
-    /// a camera whose accuracy is unknown.
-    #[serde(default)]
-    pub position_uncertainty_m: Option<f64>,
-    pub normal: [f64; 3],
-    pub extent_min: [f64; 3],
-    pub extent_max: [f64; 3],
-    pub voxel: [i32; 3],
-    pub face: FaceSide,
-    pub length_m: Option<f64>,
-    /// Views its trace (and length) is made of.
-    pub length_views: u32,
-    /// Its centre line on the structure, from its views' traces (empty
-    /// where no view traced it); `length_m` is its length.
-    #[serde(default)]
-    pub trace: Trace,
-    pub frames: u32,
-    pub confidence: f64,
-    pub max_score: f64,
-    pub evidence: Evidence,
-    /// Its width, where a view could measure across its centre line.
-    #[serde(default)]
-    pub width: Option<WidthRecord>,
-    /// The condition state its width puts its length in (`[condition]`'s
-    /// limits); none where the width is unknown or its bound straddles a
-    /// limit.
-    #[serde(default)]
-    pub condition: Option<ConditionState>,
-    /// JPEG of the best view, relative to the run directory (none when its
-    /// image could not be decoded).
-    pub crop: Option<String>,
-    pub best: ViewRecord,
-    /// Every supporting view, in frame order.
-    pub views: Vec<ViewRecord>,
+crate::table! {
+    /// One defect candidate: a row of `defects.parquet` (its best view
+    /// inline, `best_*`; the same columns in `candidates.csv`, the review's
+    /// `accepted-defects` and the fleet's `defects.parquet`) and, with
+    /// every supporting view, of `defects.json`.
+    #[derive(Serialize, Deserialize)]
+    pub struct DefectRecord {
+        id: String,
+        /// The structure element it is on (`pier 2`), as coverage names the
+        /// voxels there; none without targets, or off them.
+        element: Option<String>,
+        /// Where it is: `pier 2, east face, 1.4 m above its base`.
+        place: Option<String>,
+        /// World frame, metres.
+        position: [f64; 3] as [x, y, z],
+        /// How far off `position` may be, metres (one standard deviation):
+        /// its views' scatter about it over the square root of their number,
+        /// and their cameras' position accuracy (a photo's RTK accuracy) in
+        /// full, as RTK errors run from photo to photo; none from one view of
+        /// a camera whose accuracy is unknown.
+        #[serde(default)]
+        position_uncertainty_m: Option<f64>,
+        normal: [f64; 3] as [nx, ny, nz],
+        /// The extent of its views' cracks and its trace on the surface.
+        extent_min: [f64; 3] as [min_x, min_y, min_z],
+        extent_max: [f64; 3] as [max_x, max_y, max_z],
+        voxel: [i32; 3] as [voxel_x, voxel_y, voxel_z],
+        face: FaceSide,
+        length_m: Option<f64>,
+        /// Views its trace (and length) is made of.
+        length_views: u32,
+        /// Its centre line on the structure, from its views' traces (empty
+        /// where no view traced it); `length_m` is its length. WKT in the
+        /// tables (`MULTILINESTRING Z`, metres).
+        #[serde(default)]
+        trace: Trace,
+        frames: u32,
+        confidence: f64,
+        max_score: f64,
+        evidence: Evidence,
+        best: ViewRecord as "best_",
+        /// Its width, where a view could measure across its centre line.
+        #[serde(default)]
+        width: Option<WidthRecord> as ?,
+        /// The condition state its width puts its length in (`[condition]`'s
+        /// limits); none where the width is unknown or its bound straddles a
+        /// limit.
+        #[serde(default)]
+        condition: Option<ConditionState> as condition_state,
+        /// JPEG of the best view, relative to the run directory (none when its
+        /// image could not be decoded).
+        crop: Option<String>,
+        /// Every supporting view, in frame order (in the tables, the
+        /// placed rows of `observations.parquet` that name it).
+        views: Vec<ViewRecord> as _,
+    }
 }
 
-/// A crack's width as one view measures it; a candidate's is that of its
-/// view with the fewest millimetres per pixel that measured it.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
-pub struct WidthRecord {
-    /// Widest (95th percentile along its centre line) and median width,
-    /// millimetres; none when the crack is below the view's resolution.
-    pub max_mm: Option<f64>,
-    pub median_mm: Option<f64>,
-    /// How far off `max_mm` may be, millimetres.
-    pub uncertainty_mm: Option<f64>,
-    /// Below resolution: narrower than this, millimetres.
-    pub narrower_than_mm: Option<f64>,
-    /// The view's millimetres on the surface per pixel across the crack.
-    pub mm_per_px: f64,
+crate::table! {
+    /// A crack's width as one view measures it; a candidate's is that of its
+    /// view with the fewest millimetres per pixel that measured it. Its
+    /// columns are null where no view measured across the crack.
+    #[derive(Copy, Serialize, Deserialize)]
+    pub struct WidthRecord {
+        /// Widest (95th percentile along its centre line) and median width,
+        /// millimetres; none when the crack is below the view's resolution.
+        max_mm: Option<f64> as max_width_mm,
+        median_mm: Option<f64> as median_width_mm,
+        /// How far off `max_mm` may be, millimetres.
+        uncertainty_mm: Option<f64> as width_uncertainty_mm,
+        /// Below resolution: narrower than this, millimetres.
+        narrower_than_mm: Option<f64>,
+        /// The view's millimetres on the surface per pixel across the crack.
+        mm_per_px: f64 as width_mm_per_px,
+    }
 }
 
 /// Write `defects.parquet` and `defects.json` (the same candidates; the
 /// JSON with every supporting view).
 pub fn write_defects(run: &RunDir, defects: &[DefectRecord]) -> Result<(), Error> {
-    let rows: Vec<DefectRow> = defects.iter().map(DefectRow::of).collect();
-    run.write_rows(files::DEFECTS, &rows)?;
+    run.write_rows(files::DEFECTS, defects)?;
     // Through a JSON value, whose numbers are f64: a score (f32) is written
     // as the f64 it widens to, the value a reader of the Parquet tables sees.
     run.write_json(
@@ -312,11 +332,12 @@ pub fn read_defects_table(run: &RunDir) -> Result<Vec<DefectRecord>, Error> {
             views.entry(defect.clone()).or_default().push(view);
         }
     }
-    let rows: Vec<DefectRow> = run.read_rows(files::DEFECTS)?;
-    rows.into_iter()
-        .map(|row| {
-            let views = views.remove(&row.id).unwrap_or_default();
-            row.record(views)
+    let defects: Vec<DefectRecord> = run.read_rows(files::DEFECTS)?;
+    defects
+        .into_iter()
+        .map(|defect| {
+            let views = views.remove(&defect.id).unwrap_or_default();
+            defect.with_views(views)
         })
         .collect::<PolarsResult<_>>()
         .map_err(|cause| Error::Table {
@@ -357,308 +378,29 @@ struct DefectsFile {
 
 /// Write `observations.parquet`.
 pub fn write_observations(run: &RunDir, observations: &[ObservationRecord]) -> Result<(), Error> {
-    let rows: Vec<ObservationRow> = observations.iter().map(ObservationRow::of).collect();
-    run.write_rows(files::OBSERVATIONS, &rows)
+    run.write_rows(files::OBSERVATIONS, observations)
 }
 
 /// Read `observations.parquet`.
 pub fn read_observations(run: &RunDir) -> Result<Vec<ObservationRecord>, Error> {
-    let rows: Vec<ObservationRow> = run.read_rows(files::OBSERVATIONS)?;
-    rows.into_iter()
-        .map(ObservationRow::record)
-        .collect::<PolarsResult<_>>()
-        .map_err(|cause| Error::Table {
-            path: run.file(files::OBSERVATIONS),
-            cause,
-        })
+    run.read_rows(files::OBSERVATIONS)
 }
 
-crate::table! {
-    /// One row of `observations.parquet`: a detection, placed or not, with
-    /// the reason. The placement's columns are null for one not placed.
-    pub struct ObservationRow {
-        detection: DetectionCells,
-        outcome: Outcome,
-        /// The crack's centroid on the surface, world frame, metres.
-        x: Option<f64>,
-        y: Option<f64>,
-        z: Option<f64>,
-        /// The surface's unit normal, facing the camera.
-        nx: Option<f64>,
-        ny: Option<f64>,
-        nz: Option<f64>,
-        voxel_x: Option<i32>,
-        voxel_y: Option<i32>,
-        voxel_z: Option<i32>,
-        face: Option<FaceSide>,
-        range_m: Option<f64>,
-        incidence_deg: Option<f64>,
-        /// See [`ViewRecord::oblique_gsd_mm`].
-        gsd_mm: Option<f64>,
-        length_m: Option<f64>,
-        radius_m: Option<f64>,
-        traced_px: u32,
-        clipped: bool,
-        /// The candidate it supports.
-        defect: Option<String>,
-    }
-}
-
-impl ObservationRow {
-    fn of(o: &ObservationRecord) -> Self {
-        let p = o.placed.as_ref();
-        let axis = |v: &dyn Fn(&PlacedRecord) -> [f64; 3], a: usize| p.map(|p| v(p)[a]);
-        let voxel = |a: usize| p.map(|p| p.voxel.0[a]);
-        Self {
-            detection: DetectionCells::of(o.frame, o.time_ns, o.bbox, o.score),
-            outcome: o.outcome,
-            x: axis(&|p| p.centre, 0),
-            y: axis(&|p| p.centre, 1),
-            z: axis(&|p| p.centre, 2),
-            nx: axis(&|p| p.normal, 0),
-            ny: axis(&|p| p.normal, 1),
-            nz: axis(&|p| p.normal, 2),
-            voxel_x: voxel(0),
-            voxel_y: voxel(1),
-            voxel_z: voxel(2),
-            face: p.map(|p| p.face),
-            range_m: p.map(|p| p.range_m),
-            incidence_deg: p.map(|p| p.incidence_deg),
-            gsd_mm: p.map(|p| p.oblique_gsd_mm),
-            length_m: p.and_then(|p| p.length_m),
-            radius_m: p.map(|p| p.radius_m),
-            traced_px: o.traced_px,
-            clipped: o.clipped,
-            defect: o.defect.clone(),
-        }
-    }
-
-    fn record(self) -> PolarsResult<ObservationRecord> {
-        let placed = match (self.x, self.y, self.z, self.face) {
-            (Some(x), Some(y), Some(z), Some(face)) => {
-                let frame = self.detection.frame;
-                let need = |v: Option<f64>, what: &str| {
-                    v.ok_or_else(|| {
-                        polars_err!(ComputeError: "a detection of frame {frame} is placed but has no {what}")
-                    })
-                };
-                let voxel = |v: Option<i32>| {
-                    v.ok_or_else(|| {
-                        polars_err!(ComputeError: "a detection of frame {frame} is placed but has no voxel")
-                    })
-                };
-                Some(PlacedRecord {
-                    centre: [x, y, z],
-                    normal: [
-                        need(self.nx, "normal")?,
-                        need(self.ny, "normal")?,
-                        need(self.nz, "normal")?,
-                    ],
-                    voxel: VoxelIndex([
-                        voxel(self.voxel_x)?,
-                        voxel(self.voxel_y)?,
-                        voxel(self.voxel_z)?,
-                    ]),
-                    face,
-                    range_m: need(self.range_m, "range_m")?,
-                    incidence_deg: need(self.incidence_deg, "incidence_deg")?,
-                    oblique_gsd_mm: need(self.gsd_mm, "gsd_mm")?,
-                    length_m: self.length_m,
-                    radius_m: need(self.radius_m, "radius_m")?,
-                })
-            }
-            _ => None,
-        };
-        let d = self.detection;
-        Ok(ObservationRecord {
-            frame: d.frame,
-            time_ns: d.time_ns,
-            bbox: d.bbox(),
-            score: d.score,
-            outcome: self.outcome,
-            placed,
-            traced_px: self.traced_px,
-            clipped: self.clipped,
-            defect: self.defect,
-        })
-    }
-}
-
-crate::table! {
-    /// One row of `defects.parquet`: a candidate, its best view inline
-    /// (`best_*`); the same names in `candidates.csv`, the review's
-    /// `accepted-defects` and the fleet's `defects.parquet`.
-    pub struct DefectRow {
-        id: String,
-        /// See [`DefectRecord::element`].
-        element: Option<String>,
-        place: Option<String>,
-        /// World frame, metres.
-        x: f64,
-        y: f64,
-        z: f64,
-        /// See [`DefectRecord::position_uncertainty_m`].
-        position_uncertainty_m: Option<f64>,
-        nx: f64,
-        ny: f64,
-        nz: f64,
-        /// The extent of its views' cracks and its trace on the surface.
-        min_x: f64,
-        min_y: f64,
-        min_z: f64,
-        max_x: f64,
-        max_y: f64,
-        max_z: f64,
-        voxel_x: i32,
-        voxel_y: i32,
-        voxel_z: i32,
-        face: FaceSide,
-        length_m: Option<f64>,
-        length_views: u32,
-        /// See [`DefectRecord::trace`]: WKT, `MULTILINESTRING Z`, metres.
-        trace: Option<String>,
-        frames: u32,
-        confidence: f64,
-        max_score: f64,
-        view_faults: Vec<Miss>,
-        view_gsd_mm: f64,
-        blur_px: Option<f64>,
-        length_status: LengthStatus,
-        min_measurable_width_mm: f64,
-        reshoot: bool,
-        best_frame: u32,
-        best_range_m: f64,
-        best_incidence_deg: f64,
-        /// The best view's oblique GSD.
-        best_gsd_mm: f64,
-        best_x0: f32,
-        best_y0: f32,
-        best_x1: f32,
-        best_y1: f32,
-        /// See [`WidthRecord`]; all null where no view measured across it.
-        max_width_mm: Option<f64>,
-        median_width_mm: Option<f64>,
-        width_uncertainty_mm: Option<f64>,
-        narrower_than_mm: Option<f64>,
-        width_mm_per_px: Option<f64>,
-        /// See [`DefectRecord::condition`].
-        condition_state: Option<ConditionState>,
-        crop: Option<String>,
-    }
-}
-
-impl DefectRow {
-    /// A candidate as its row.
-    pub fn of(d: &DefectRecord) -> Self {
-        let [x, y, z] = d.position;
-        let [nx, ny, nz] = d.normal;
-        let [min_x, min_y, min_z] = d.extent_min;
-        let [max_x, max_y, max_z] = d.extent_max;
-        let [voxel_x, voxel_y, voxel_z] = d.voxel;
-        let [best_x0, best_y0, best_x1, best_y1] = d.best.bbox;
-        let e = &d.evidence;
-        Self {
-            id: d.id.clone(),
-            element: d.element.clone(),
-            place: d.place.clone(),
-            x,
-            y,
-            z,
-            position_uncertainty_m: d.position_uncertainty_m,
-            nx,
-            ny,
-            nz,
-            min_x,
-            min_y,
-            min_z,
-            max_x,
-            max_y,
-            max_z,
-            voxel_x,
-            voxel_y,
-            voxel_z,
-            face: d.face,
-            length_m: d.length_m,
-            length_views: d.length_views,
-            trace: d.trace.wkt(),
-            frames: d.frames,
-            confidence: d.confidence,
-            max_score: d.max_score,
-            view_faults: e.view_faults.clone(),
-            view_gsd_mm: e.view_gsd_mm,
-            blur_px: e.blur_px,
-            length_status: e.length,
-            min_measurable_width_mm: e.min_measurable_width_mm,
-            reshoot: e.reshoot,
-            best_frame: d.best.frame,
-            best_range_m: d.best.range_m,
-            best_incidence_deg: d.best.incidence_deg,
-            best_gsd_mm: d.best.oblique_gsd_mm,
-            best_x0,
-            best_y0,
-            best_x1,
-            best_y1,
-            max_width_mm: d.width.and_then(|w| w.max_mm),
-            median_width_mm: d.width.and_then(|w| w.median_mm),
-            width_uncertainty_mm: d.width.and_then(|w| w.uncertainty_mm),
-            narrower_than_mm: d.width.and_then(|w| w.narrower_than_mm),
-            width_mm_per_px: d.width.map(|w| w.mm_per_px),
-            condition_state: d.condition,
-            crop: d.crop.clone(),
-        }
-    }
-
-    /// The candidate, with its supporting `views` (its best view among them).
-    fn record(self, views: Vec<ViewRecord>) -> PolarsResult<DefectRecord> {
-        let bbox = [self.best_x0, self.best_y0, self.best_x1, self.best_y1];
-        let trace = match &self.trace {
-            Some(text) => Trace::from_wkt(text)
-                .map_err(|why| polars_err!(ComputeError: "candidate {}'s trace: {why}", self.id))?,
-            None => Trace::default(),
-        };
+impl DefectRecord {
+    /// The candidate as its table row reads, with its supporting `views`
+    /// (its best view among them).
+    fn with_views(self, views: Vec<ViewRecord>) -> PolarsResult<Self> {
         let best = views
             .iter()
-            .find(|v| v.frame == self.best_frame && v.bbox == bbox)
+            .find(|v| v.frame == self.best.frame && v.bbox == self.best.bbox)
             .cloned()
             .ok_or_else(|| {
                 polars_err!(ComputeError: "candidate {}'s best view is not among its observations", self.id)
             })?;
-        Ok(DefectRecord {
-            id: self.id,
-            element: self.element,
-            place: self.place,
-            position: [self.x, self.y, self.z],
-            position_uncertainty_m: self.position_uncertainty_m,
-            normal: [self.nx, self.ny, self.nz],
-            extent_min: [self.min_x, self.min_y, self.min_z],
-            extent_max: [self.max_x, self.max_y, self.max_z],
-            voxel: [self.voxel_x, self.voxel_y, self.voxel_z],
-            face: self.face,
-            length_m: self.length_m,
-            length_views: self.length_views,
-            trace,
-            frames: self.frames,
-            confidence: self.confidence,
-            max_score: self.max_score,
-            evidence: Evidence {
-                view_faults: self.view_faults,
-                view_gsd_mm: self.view_gsd_mm,
-                blur_px: self.blur_px,
-                length: self.length_status,
-                min_measurable_width_mm: self.min_measurable_width_mm,
-                reshoot: self.reshoot,
-            },
-            width: self.width_mm_per_px.map(|mm_per_px| WidthRecord {
-                max_mm: self.max_width_mm,
-                median_mm: self.median_width_mm,
-                uncertainty_mm: self.width_uncertainty_mm,
-                narrower_than_mm: self.narrower_than_mm,
-                mm_per_px,
-            }),
-            condition: self.condition_state,
-            crop: self.crop,
+        Ok(Self {
             best,
             views,
+            ..self
         })
     }
 }

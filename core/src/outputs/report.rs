@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::localise::DefectRow;
+use super::localise::DefectRecord;
 use crate::error::Error;
 use crate::run_dir::RunDir;
 use crate::table::Row;
@@ -89,7 +89,7 @@ crate::table! {
         /// Place in the review order, from 1.
         rank: u32,
         review_priority: f64,
-        defect: DefectRow,
+        defect: DefectRecord,
     }
 }
 

@@ -50,7 +50,7 @@ fn view_model(c: &CoverageSummary) -> Markup {
     html! {
         p {
             "Under the View model: " (view_rules(&c.view))
-            (format!("; {:.2} m voxels, targets from ", c.resolution_m))
+            (format!("; {:.2} m voxels, targets from ", c.figures.resolution_m))
             (c.targets) "."
         }
         @if !c.focus.is_empty() {
@@ -92,13 +92,13 @@ fn coverage_table(c: &CoverageSummary) -> Markup {
             format!("{:.1}%", 100.0 * n as f64 / of as f64)
         }
     };
-    let t = c.target_voxels;
+    let t = c.figures.target_voxels;
     // Each column one denominator: the targets, then the planned voxels.
     let row = |what: &str, n: usize, of_planned: Option<usize>| {
         html! {
             tr {
                 td { (what) } td.n { (n) } td.n { (pct(n, t)) }
-                @if let Some(p) = c.planned_voxels {
+                @if let Some(p) = c.figures.planned_voxels {
                     td.n { (of_planned.map_or("\u{2013}".into(), |n| pct(n, p))) }
                 }
             }
@@ -108,20 +108,20 @@ fn coverage_table(c: &CoverageSummary) -> Markup {
         table {
             tr {
                 th { "voxels" } th.n { "count" } th.n { "of target" }
-                @if c.planned_voxels.is_some() { th.n { "of planned" } }
+                @if c.figures.planned_voxels.is_some() { th.n { "of planned" } }
             }
             (row("target", t, None))
-            @if let Some(p) = c.planned_voxels { (row("planned", p, Some(p))) }
-            (row("inspected", c.inspected_voxels, None))
-            @if let (Some(p), Some(missed)) = (c.planned_voxels, c.planned_missed_voxels) {
+            @if let Some(p) = c.figures.planned_voxels { (row("planned", p, Some(p))) }
+            (row("inspected", c.figures.inspected_voxels, None))
+            @if let (Some(p), Some(missed)) = (c.figures.planned_voxels, c.figures.planned_missed_voxels) {
                 (row("planned and inspected", p - missed, Some(p - missed)))
                 (row("planned but missed", missed, Some(missed)))
             }
-            (row("gaps (a follow-up flight can inspect them)", c.gap_voxels, None))
-            (row("uninspectable (no free viewpoint satisfies the View)", c.uninspectable_voxels, None))
+            (row("gaps (a follow-up flight can inspect them)", c.figures.gap_voxels, None))
+            (row("uninspectable (no free viewpoint satisfies the View)", c.figures.uninspectable_voxels, None))
         }
         p.sub {
-            (format!("{:.1}% of the exposed face area was inspected.", c.face_area_coverage_pct))
+            (format!("{:.1}% of the exposed face area was inspected.", c.figures.face_area_coverage_pct))
         }
     }
 }
@@ -217,13 +217,13 @@ fn coverage_views(r: &RunResults, c: &CoverageSummary) -> Markup {
         ..Overlay::default()
     };
     // Every side at one scale: the widest 500 px.
-    let widths = Side::ALL.map(|side| width_m(&r.voxels, c.resolution_m, side));
+    let widths = Side::ALL.map(|side| width_m(&r.voxels, c.figures.resolution_m, side));
     let widest = widths.iter().copied().fold(1e-9, f64::max);
     html! {
         div.views {
             @for (side, w) in Side::ALL.into_iter().zip(widths) {
                 figure {
-                    (PreEscaped(view(&r.voxels, c.resolution_m, side, &overlay, (500.0 * w / widest).max(160.0))))
+                    (PreEscaped(view(&r.voxels, c.figures.resolution_m, side, &overlay, (500.0 * w / widest).max(160.0))))
                     figcaption { "Target voxels " (side.title()) }
                 }
             }

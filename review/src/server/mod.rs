@@ -187,7 +187,10 @@ pub fn serve(options: ServeOptions, on_ready: impl FnOnce(&Listening)) -> Result
         None => (Some(access::new_token()?), true),
     };
     let order = results.review_order();
-    let resolution = results.coverage.as_ref().map_or(0.1, |c| c.resolution_m);
+    let resolution = results
+        .coverage
+        .as_ref()
+        .map_or(0.1, |c| c.figures.resolution_m);
     let flight = results.flight.summary.recording_names();
     let run_root = std::fs::canonicalize(&options.run).map_err(ReviewError::Server)?;
     let app = Arc::new(App {
