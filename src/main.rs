@@ -53,7 +53,7 @@ enum Command {
     Ingest(IngestArgs),
     /// Simulate an inspection flight with ground truth (flight.mcap, map.ply,
     /// plan.json, truth.json).
-    Simulate(SimulateArgs),
+    Simulate(sim::SimOptions),
     /// Run the crack detector (ONNX) over every frame of an ingested run.
     Detect(DetectArgs),
     /// Place each detection on the SLAM map and fuse views into defect candidates.
@@ -353,135 +353,6 @@ struct DetectArgs {
 }
 
 #[derive(Args)]
-struct SimulateArgs {
-    /// Directory to write the flight into (created if missing).
-    #[arg(long)]
-    out: PathBuf,
-    /// Built-in structure to fly around.
-    #[arg(long, value_enum, default_value_t = SceneArg::GirderBridge)]
-    scene: SceneArg,
-    /// Fly around this triangle mesh instead (Wavefront OBJ, z up, metres).
-    #[arg(long, value_name = "STRUCTURE.obj", conflicts_with = "scene")]
-    mesh: Option<PathBuf>,
-    /// Seed: the same seed gives byte-identical files.
-    #[arg(long, default_value_t = sim::SimOptions::DEFAULT_SEED)]
-    seed: u64,
-    /// Number of camera frames (a few are dropped, as recorders do).
-    #[arg(long, default_value_t = sim::SimOptions::DEFAULT_FRAMES)]
-    frames: u32,
-    #[arg(long, default_value_t = sim::SimOptions::DEFAULT_WIDTH)]
-    width: u32,
-    #[arg(long, default_value_t = sim::SimOptions::DEFAULT_HEIGHT)]
-    height: u32,
-    /// Number of cracks drawn on the structure.
-    #[arg(long, default_value_t = sim::SimOptions::DEFAULT_CRACKS)]
-    cracks: usize,
-    /// Record an ideal lens instead of plumb_bob distortion.
-    #[arg(long)]
-    no_distortion: bool,
-    /// The lens's focal length, pixels (default: 1.5 times --width, a 37
-    /// degree view across).
-    #[arg(long, value_name = "PIXELS")]
-    focal: Option<f64>,
-    /// How far in front of the structure the plan flies, metres.
-    #[arg(long, default_value_t = sim::planner::STANDOFF, value_name = "METRES")]
-    standoff: f64,
-    /// Cracks open and close along their length between these widths
-    /// (widest mid-way, hairline at the tips), drawn by the share of each
-    /// pixel they cover, so width can be measured; truth.json gives the
-    /// width along each crack and its condition state. Without it every
-    /// crack has one width, 1 to 5 mm.
-    #[arg(long, value_name = "MIN_MM,MAX_MM", value_parser = sim::crack::WidthRange::parse, conflicts_with = "repeat_of")]
-    crack_widths: Option<sim::crack::WidthRange>,
-    /// Draw what a real surface shows besides cracks: formwork joints,
-    /// stains, rust streaks and shadow edges (listed in truth.json).
-    #[arg(long)]
-    distractors: bool,
-    /// Give the concrete the texture real concrete shows at centimetre
-    /// scale (aggregate, formwork board grain, weathering streaks), which
-    /// structure-from-motion matches from frame to frame; without it the
-    /// surfaces are as the default flights have always been.
-    #[arg(long)]
-    textured: bool,
-    /// Carry the camera on a gimbal (its pitch on /tf) and also plan a
-    /// viewpoint looking straight down over each patch of faces pointing
-    /// up, such as a deck's top (a fixed camera sees those only grazing).
-    #[arg(long)]
-    gimbal: bool,
-    /// Compression of the camera frames.
-    #[arg(long, value_enum, default_value_t = sim::ImageFormat::Jpeg)]
-    image_format: sim::ImageFormat,
-    /// Position noise of the recorded poses, metres (1 sigma, per pose).
-    #[arg(long, default_value_t = sim::flight::POSITION_NOISE, value_name = "METRES")]
-    pose_noise: f64,
-    /// Yaw noise of the recorded poses, degrees (1 sigma, per pose).
-    #[arg(long, default_value_t = sim::flight::YAW_NOISE.to_degrees(), value_name = "DEGREES")]
-    yaw_noise: f64,
-    /// Fly an earlier simulated flight's structure and cracks again (its
-    /// directory), changed by --grow and --new and recorded in another SLAM
-    /// frame (--frame-offset); truth.json lists every change.
-    #[arg(long, value_name = "FLIGHT_DIR")]
-    repeat_of: Option<PathBuf>,
-    /// With --repeat-of: the share of cracks that grow (each by a quarter
-    /// to three quarters of its length).
-    #[arg(
-        long,
-        default_value_t = 0.2,
-        value_name = "SHARE",
-        requires = "repeat_of"
-    )]
-    grow: f64,
-    /// With --repeat-of: the share of cracks that open wider (each 1.4 to
-    /// 2.2 times; the earlier flight needs --crack-widths).
-    #[arg(
-        long,
-        default_value_t = 0.0,
-        value_name = "SHARE",
-        requires = "repeat_of"
-    )]
-    widen: f64,
-    /// With --repeat-of: new cracks.
-    #[arg(long, default_value_t = 5, value_name = "N", requires = "repeat_of")]
-    new: usize,
-    /// With --repeat-of: this flight's SLAM frame against the earlier one's:
-    /// a shift (metres) and a yaw (degrees).
-    #[arg(long, default_value = "0,0,0,0", value_name = "X,Y,Z,YAW_DEG", value_parser = sim::repeat::FrameOffset::parse, allow_hyphen_values = true, requires = "repeat_of")]
-    frame_offset: sim::repeat::FrameOffset,
-    /// Record the flight as this many sorties, cut at battery changes
-    /// (frames shared out evenly): sortie-1.mcap and on, the map in the
-    /// last; truth.json says which frames each holds.
-    #[arg(long, default_value_t = 1, value_name = "K")]
-    sorties: u32,
-    /// Fly the flight as a team of this many drones at once, a stretch of
-    /// the plan each (drone-1.mcap and on, each recording's clock from the
-    /// same start): with --sortie-offset each drone in a SLAM frame of its
-    /// own (the offset once more for each), and with --camera-only the
-    /// first drone alone mapping.
-    #[arg(long, value_name = "N", conflicts_with = "sorties")]
-    drones: Option<u32>,
-    /// With --sorties: the later sorties record in another SLAM frame,
-    /// this far from the first's (a shift in metres and a yaw in degrees),
-    /// each with its own map.
-    #[arg(long, value_name = "X,Y,Z,YAW_DEG", value_parser = sim::repeat::FrameOffset::parse, allow_hyphen_values = true)]
-    sortie_offset: Option<sim::repeat::FrameOffset>,
-    /// With --sortie-offset: the later sorties (or drones) record no map,
-    /// as a drone with a camera and odometry only (the map is the first
-    /// sortie's).
-    #[arg(long, requires = "sortie_offset")]
-    camera_only: bool,
-    /// Record GPS fixes (sensor_msgs/NavSatFix, 5 Hz, 0.3 m noise across
-    /// and 0.5 m up) on /gps/fix, the world frame's origin here.
-    #[arg(long, value_name = "LAT,LON,ALT[,YAW_DEG]", allow_hyphen_values = true)]
-    gps: Option<postflight_core::geo::GeoOrigin>,
-}
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum SceneArg {
-    GirderBridge,
-    Tower,
-}
-
-#[derive(Args)]
 struct IngestArgs {
     #[command(flatten)]
     flight: FlightArgs,
@@ -562,7 +433,7 @@ fn init_logging(verbose: u8) {
 fn run(cli: &Cli) -> anyhow::Result<()> {
     match &cli.command {
         Command::Ingest(args) => ingest(args, cli.quiet),
-        Command::Simulate(args) => simulate(args, cli.quiet),
+        Command::Simulate(options) => stages::simulate(options, cli.quiet),
         Command::Detect(args) => detect(args, cli.quiet),
         Command::Localise(args) => localise(args, cli.quiet),
         Command::Coverage(args) => coverage(args, cli.quiet),
@@ -586,53 +457,6 @@ fn ingest(args: &IngestArgs, quiet: bool) -> anyhow::Result<()> {
     let config = args.config.under(flags)?;
     let recordings = args.flight.recordings()?;
     stages::ingest(&config.ingest_options(&recordings, &args.out), quiet)
-}
-
-fn simulate(args: &SimulateArgs, quiet: bool) -> anyhow::Result<()> {
-    let scene = match (&args.mesh, args.scene) {
-        (Some(mesh), _) => sim::SceneChoice::Mesh(mesh.clone()),
-        (None, SceneArg::GirderBridge) => sim::SceneChoice::GirderBridge,
-        (None, SceneArg::Tower) => sim::SceneChoice::Tower,
-    };
-    let options = sim::SimOptions {
-        scene,
-        seed: args.seed,
-        frames: args.frames,
-        width: args.width,
-        height: args.height,
-        cracks: args.cracks,
-        distortion: !args.no_distortion,
-        focal_px: args.focal,
-        standoff_m: args.standoff,
-        crack_widths: args.crack_widths,
-        distractors: args.distractors,
-        surface: match args.textured {
-            true => sim::render::Surface::Textured,
-            false => sim::render::Surface::Smooth,
-        },
-        gimbal: args.gimbal,
-        pose_noise: sim::truth::PoseNoise {
-            position_m: args.pose_noise,
-            yaw_rad: args.yaw_noise.to_radians(),
-        },
-        image_format: args.image_format,
-        repeat: args.repeat_of.as_ref().map(|of| sim::repeat::Repeat {
-            of: of.clone(),
-            grow: args.grow,
-            widen: args.widen,
-            new: args.new,
-            frame_offset: args.frame_offset,
-        }),
-        sorties: sim::sortie::SortieOptions {
-            count: args.drones.unwrap_or(args.sorties),
-            offset: args.sortie_offset,
-            camera_only: args.camera_only,
-            drones: args.drones.is_some(),
-        },
-        gps: args.gps,
-        ..sim::SimOptions::new(args.out.clone())
-    };
-    stages::simulate(&options, quiet)
 }
 
 fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {

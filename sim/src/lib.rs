@@ -27,6 +27,7 @@ pub mod section;
 pub mod sortie;
 pub mod truth;
 
+use std::ffi::OsString;
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
@@ -46,51 +47,98 @@ use crate::truth::{CrackTruth, FrameTruth, Truth};
 pub use error::SimError;
 use postflight_core::serde_pose::PoseJson;
 
-/// Which structure to fly around.
-#[derive(Debug, Clone)]
-pub enum SceneChoice {
+/// A built-in structure to fly around.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum BuiltIn {
+    /// A steel-girder bridge: a deck on three girders on two piers, with a
+    /// tree and a lamp pole nearby.
     GirderBridge,
+    /// A concrete silo tower with a pole beside it.
     Tower,
-    Mesh(PathBuf),
 }
 
-#[derive(Debug, Clone)]
+/// What to simulate: each option is its `postflight simulate` flag (its
+/// doc the flag's help, its default the flag's), and [`SimOptions::new`]
+/// is the flight the flags give by default.
+#[derive(Debug, Clone, clap::Args)]
 pub struct SimOptions {
+    /// Directory to write the flight into (created if missing).
+    #[arg(long)]
     pub out: PathBuf,
-    pub scene: SceneChoice,
+    /// Built-in structure to fly around.
+    #[arg(long, value_enum, default_value_t = BuiltIn::GirderBridge)]
+    pub scene: BuiltIn,
+    /// Fly around this triangle mesh instead (Wavefront OBJ, z up, metres).
+    #[arg(long, value_name = "STRUCTURE.obj", conflicts_with = "scene")]
+    pub mesh: Option<PathBuf>,
+    /// Seed: the same seed gives byte-identical files.
+    #[arg(long, default_value_t = Self::DEFAULT_SEED)]
     pub seed: u64,
+    /// Number of camera frames (a few are dropped, as recorders do).
+    #[arg(long, default_value_t = Self::DEFAULT_FRAMES)]
     pub frames: u32,
+    /// Frame width, pixels.
+    #[arg(long, default_value_t = Self::DEFAULT_WIDTH)]
     pub width: u32,
+    /// Frame height, pixels.
+    #[arg(long, default_value_t = Self::DEFAULT_HEIGHT)]
     pub height: u32,
+    /// Number of cracks drawn on the structure.
+    #[arg(long, default_value_t = Self::DEFAULT_CRACKS)]
     pub cracks: usize,
-    /// Record plumb_bob lens distortion (and render with it).
+    /// Record an ideal lens instead of plumb_bob distortion (and render
+    /// without it).
+    #[arg(long = "no-distortion", action = clap::ArgAction::SetFalse)]
     pub distortion: bool,
-    /// How camera frames are compressed.
+    /// The lens's focal length, pixels (default: 1.5 times --width, a 37
+    /// degree view across).
+    #[arg(long = "focal", value_name = "PIXELS")]
+    pub focal_px: Option<f64>,
+    /// How far in front of the structure the plan flies, metres.
+    #[arg(long = "standoff", default_value_t = planner::STANDOFF, value_name = "METRES")]
+    pub standoff_m: f64,
+    /// Cracks open and close along their length between these widths
+    /// (widest mid-way, hairline at the tips), drawn by the share of each
+    /// pixel they cover, so width can be measured; truth.json gives the
+    /// width along each crack and its condition state. Without it every
+    /// crack has one width, 1 to 5 mm.
+    #[arg(long, value_name = "MIN_MM,MAX_MM", value_parser = crack::WidthRange::parse, conflicts_with = "repeat_of")]
+    pub crack_widths: Option<crack::WidthRange>,
+    /// Draw what a real surface shows besides cracks: formwork joints,
+    /// stains, rust streaks and shadow edges (listed in truth.json).
+    #[arg(long)]
+    pub distractors: bool,
+    /// Give the concrete the texture real concrete shows at centimetre
+    /// scale (aggregate, formwork board grain, weathering streaks), which
+    /// structure-from-motion matches from frame to frame; without it the
+    /// surfaces are as the default flights have always been.
+    #[arg(
+        long = "textured",
+        action = clap::ArgAction::SetTrue,
+        value_parser = clap::builder::TypedValueParser::map(clap::builder::BoolishValueParser::new(), render::Surface::textured_if),
+    )]
+    pub surface: render::Surface,
+    /// Carry the camera on a gimbal (its pitch on /tf) and also plan a
+    /// viewpoint looking straight down over each patch of faces pointing
+    /// up, such as a deck's top (a fixed camera sees those only grazing).
+    #[arg(long)]
+    pub gimbal: bool,
+    /// Compression of the camera frames.
+    #[arg(long, value_enum, default_value_t = ImageFormat::Jpeg)]
     pub image_format: ImageFormat,
     /// Noise of the recorded SLAM poses.
+    #[command(flatten)]
     pub pose_noise: truth::PoseNoise,
     /// Fly an earlier flight's structure and cracks again, changed.
+    #[command(flatten)]
     pub repeat: Option<repeat::Repeat>,
-    /// The lens's focal length, pixels (default: 1.5 times the width, a
-    /// 37 degree view across).
-    pub focal_px: Option<f64>,
-    /// How far from the structure the plan flies, metres.
-    pub standoff_m: f64,
-    /// Cracks that open and close along their length within these widths,
-    /// drawn by the share of each pixel they cover (default: each crack
-    /// one width, 1 to 5 mm, as the default flights always were).
-    pub crack_widths: Option<crack::WidthRange>,
-    /// Draw joints, stains, rust streaks and shadow edges on the structure.
-    pub distractors: bool,
-    /// How the concrete looks at centimetre scale.
-    pub surface: render::Surface,
-    /// Carry the camera on a gimbal (its pitch recorded on `/tf`), and plan
-    /// a viewpoint looking straight down over each patch of faces pointing
-    /// up, as an inspection of a deck's top flies.
-    pub gimbal: bool,
-    /// Record the flight as sorties, one recording per battery.
+    /// Record the flight as sorties, one recording per battery, or flown by
+    /// a team.
+    #[command(flatten)]
     pub sorties: sortie::SortieOptions,
-    /// Record GPS fixes, the world frame placed on the Earth here.
+    /// Record GPS fixes (sensor_msgs/NavSatFix, 5 Hz, 0.3 m noise across
+    /// and 0.5 m up) on /gps/fix, the world frame's origin here.
+    #[arg(long, value_name = "LAT,LON,ALT[,YAW_DEG]", allow_hyphen_values = true)]
     pub gps: Option<postflight_core::geo::GeoOrigin>,
 }
 
@@ -110,31 +158,21 @@ impl SimOptions {
     pub const DEFAULT_HEIGHT: u32 = 480;
     pub const DEFAULT_CRACKS: usize = 40;
 
+    /// The default flight, written into `out`: every option its flag's
+    /// default.
     pub fn new(out: PathBuf) -> Self {
-        Self {
-            out,
-            scene: SceneChoice::GirderBridge,
-            seed: Self::DEFAULT_SEED,
-            frames: Self::DEFAULT_FRAMES,
-            width: Self::DEFAULT_WIDTH,
-            height: Self::DEFAULT_HEIGHT,
-            cracks: Self::DEFAULT_CRACKS,
-            distortion: true,
-            image_format: ImageFormat::Jpeg,
-            pose_noise: truth::PoseNoise {
-                position_m: flight::POSITION_NOISE,
-                yaw_rad: flight::YAW_NOISE,
-            },
-            repeat: None,
-            focal_px: None,
-            standoff_m: planner::STANDOFF,
-            crack_widths: None,
-            distractors: false,
-            surface: render::Surface::Smooth,
-            gimbal: false,
-            sorties: sortie::SortieOptions::default(),
-            gps: None,
-        }
+        let command = <Self as clap::Args>::augment_args(clap::Command::new("simulate"));
+        let args = [
+            OsString::from("simulate"),
+            "--out".into(),
+            out.into_os_string(),
+        ];
+        // The declared defaults are options: a unit test parses them.
+        let matches = command
+            .try_get_matches_from(args)
+            .expect("the defaults parse");
+        <Self as clap::FromArgMatches>::from_arg_matches(&matches)
+            .expect("the defaults are options")
     }
 }
 
@@ -270,9 +308,9 @@ fn check(options: &SimOptions) -> Result<(), SimError> {
     if options.frames < 2 || options.width < 16 || options.height < 16 {
         return Err(SimError::FlightTooSmall);
     }
-    if options.sorties.count == 0 || options.sorties.count > options.frames {
+    if options.sorties.recordings() == 0 || options.sorties.recordings() > options.frames {
         return Err(SimError::Sorties {
-            sorties: options.sorties.count,
+            sorties: options.sorties.recordings(),
             frames: options.frames,
         });
     }
@@ -311,13 +349,13 @@ struct World {
 
 impl World {
     fn new(options: &SimOptions) -> Result<Self, SimError> {
-        let scene = match &options.scene {
-            SceneChoice::GirderBridge => Scene::girder_bridge(),
-            SceneChoice::Tower => Scene::tower(),
-            SceneChoice::Mesh(path) => Scene::from_obj(path).map_err(|reason| SimError::Mesh {
+        let scene = match (&options.mesh, options.scene) {
+            (Some(path), _) => Scene::from_obj(path).map_err(|reason| SimError::Mesh {
                 path: path.clone(),
                 reason,
             })?,
+            (None, BuiltIn::GirderBridge) => Scene::girder_bridge(),
+            (None, BuiltIn::Tower) => Scene::tower(),
         };
         let seed = options.seed;
         let mut crack_widths = options.crack_widths;
@@ -730,4 +768,70 @@ fn map_points(scene: &Scene, rng: &mut Rng) -> Vec<Point3<f64>> {
         }
     }
     points
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(flags: &[&str]) -> Result<SimOptions, clap::Error> {
+        let command = <SimOptions as clap::Args>::augment_args(clap::Command::new("simulate"));
+        let args = ["simulate", "--out", "flight"].iter().chain(flags);
+        let matches = command.try_get_matches_from(args)?;
+        <SimOptions as clap::FromArgMatches>::from_arg_matches(&matches)
+    }
+
+    #[test]
+    fn the_default_flight_is_the_flags_defaults() {
+        let o = SimOptions::new("flight".into());
+        assert_eq!(o.out, Path::new("flight"));
+        assert_eq!((o.scene, o.mesh.as_ref()), (BuiltIn::GirderBridge, None));
+        assert_eq!(
+            (o.seed, o.frames, o.width, o.height, o.cracks),
+            (1, 300, 640, 480, 40)
+        );
+        assert!(o.distortion && !o.distractors && !o.gimbal);
+        assert_eq!((o.focal_px, o.standoff_m), (None, planner::STANDOFF));
+        assert_eq!(o.image_format, ImageFormat::Jpeg);
+        assert_eq!(o.surface, render::Surface::Smooth);
+        // The yaw noise given in degrees comes back to the radians exactly.
+        assert_eq!(o.pose_noise.position_m, flight::POSITION_NOISE);
+        assert_eq!(o.pose_noise.yaw_rad, flight::YAW_NOISE);
+        assert!(o.repeat.is_none() && o.crack_widths.is_none() && o.gps.is_none());
+        assert_eq!(o.sorties.recordings(), 1);
+        assert!(!o.sorties.team() && o.sorties.offset.is_none() && !o.sorties.camera_only);
+    }
+
+    #[test]
+    fn flags_set_their_options_and_need_what_they_say() {
+        let o = parse(&[
+            "--textured",
+            "--no-distortion",
+            "--drones",
+            "3",
+            "--yaw-noise",
+            "90",
+        ])
+        .unwrap();
+        assert_eq!(o.surface, render::Surface::Textured);
+        assert!(!o.distortion);
+        assert_eq!((o.sorties.recordings(), o.sorties.team()), (3, true));
+        assert_eq!(o.pose_noise.yaw_rad, std::f64::consts::FRAC_PI_2);
+        let o = parse(&["--repeat-of", "earlier", "--new", "2"]).unwrap();
+        let repeat = o.repeat.expect("a repeat");
+        assert_eq!(
+            (repeat.of.as_path(), repeat.grow, repeat.new),
+            (Path::new("earlier"), 0.2, 2)
+        );
+        assert!(
+            parse(&["--grow", "0.5"]).is_err(),
+            "--grow needs --repeat-of"
+        );
+        assert!(parse(&["--drones", "2", "--sorties", "3"]).is_err());
+        assert!(
+            parse(&["--camera-only"]).is_err(),
+            "--camera-only needs --sortie-offset"
+        );
+        assert!(parse(&["--scene", "tower", "--mesh", "m.obj"]).is_err());
+    }
 }

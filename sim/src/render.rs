@@ -54,6 +54,17 @@ pub enum Surface {
     Textured,
 }
 
+impl Surface {
+    /// `Textured` when `textured`, else `Smooth` (the `--textured` flag).
+    pub fn textured_if(textured: bool) -> Self {
+        if textured {
+            Self::Textured
+        } else {
+            Self::Smooth
+        }
+    }
+}
+
 /// Render the view of a camera at `camera` (`T_world_camera`, optical frame).
 pub fn render(
     scene: &Scene,

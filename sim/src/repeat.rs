@@ -14,20 +14,52 @@ use crate::error::SimError;
 use crate::rng::Rng;
 use crate::scene::Scene;
 
-/// A repeat of an earlier simulated flight.
-#[derive(Debug, Clone)]
+/// A repeat of an earlier simulated flight: given by `--repeat-of`, which
+/// the other flags here need.
+#[derive(Debug, Clone, clap::Args)]
 pub struct Repeat {
-    /// The earlier flight's directory (its `truth.json`).
+    /// Fly an earlier simulated flight's structure and cracks again (its
+    /// directory), changed by --grow and --new and recorded in another SLAM
+    /// frame (--frame-offset); truth.json lists every change.
+    // Not required on its own: the repeat is there when one of its flags is.
+    #[arg(
+        id = "repeat_of",
+        long = "repeat-of",
+        value_name = "FLIGHT_DIR",
+        required = false
+    )]
     pub of: PathBuf,
-    /// Share of the earlier cracks that grow (0 to 1).
+    /// With --repeat-of: the share of cracks that grow (each by a quarter
+    /// to three quarters of its length).
+    #[arg(
+        long,
+        default_value_t = 0.2,
+        value_name = "SHARE",
+        requires = "repeat_of"
+    )]
     pub grow: f64,
-    /// Share of the earlier cracks that open wider (0 to 1; cracks that
-    /// taper only).
+    /// With --repeat-of: the share of cracks that open wider (each 1.4 to
+    /// 2.2 times; the earlier flight needs --crack-widths).
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        value_name = "SHARE",
+        requires = "repeat_of"
+    )]
     pub widen: f64,
-    /// New cracks.
+    /// With --repeat-of: new cracks.
+    #[arg(long, default_value_t = 5, value_name = "N", requires = "repeat_of")]
     pub new: usize,
-    /// Where this flight's SLAM frame records what the earlier one recorded
-    /// at the origin.
+    /// With --repeat-of: this flight's SLAM frame against the earlier one's:
+    /// a shift (metres) and a yaw (degrees).
+    #[arg(
+        long,
+        default_value = "0,0,0,0",
+        value_name = "X,Y,Z,YAW_DEG",
+        value_parser = FrameOffset::parse,
+        allow_hyphen_values = true,
+        requires = "repeat_of"
+    )]
     pub frame_offset: FrameOffset,
 }
 

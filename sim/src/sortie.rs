@@ -18,32 +18,44 @@ use crate::record::Recorder;
 use crate::repeat::FrameOffset;
 use postflight_core::serde_pose::PoseJson;
 
-/// How a flight is cut into sorties.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// How a flight is cut into sorties, or shared by a team.
+#[derive(Debug, Clone, Copy, PartialEq, clap::Args)]
 pub struct SortieOptions {
-    /// Recordings, one per battery; 1 records the flight whole.
+    /// Record the flight as this many sorties, cut at battery changes
+    /// (frames shared out evenly): sortie-1.mcap and on, the map in the
+    /// last; truth.json says which frames each holds.
+    #[arg(long = "sorties", default_value_t = 1, value_name = "K")]
     pub count: u32,
-    /// The later sorties' SLAM frame against the first's; `None`: the
-    /// first's.
+    /// Fly the flight as a team of this many drones at once, a stretch of
+    /// the plan each (drone-1.mcap and on, each recording's clock from the
+    /// same start): with --sortie-offset each drone in a SLAM frame of its
+    /// own (the offset once more for each), and with --camera-only the
+    /// first drone alone mapping.
+    #[arg(long, value_name = "N", conflicts_with = "count")]
+    pub drones: Option<u32>,
+    /// With --sorties: the later sorties record in another SLAM frame,
+    /// this far from the first's (a shift in metres and a yaw in degrees),
+    /// each with its own map.
+    #[arg(long = "sortie-offset", value_name = "X,Y,Z,YAW_DEG", value_parser = FrameOffset::parse, allow_hyphen_values = true)]
     pub offset: Option<FrameOffset>,
-    /// With an offset: the later sorties record no map (a drone with a
-    /// camera and odometry only).
+    /// With --sortie-offset: the later sorties (or drones) record no map,
+    /// as a drone with a camera and odometry only (the map is the first
+    /// sortie's).
+    #[arg(long, requires = "offset")]
     pub camera_only: bool,
-    /// The stretches are flown at once by a team, a drone each, each
-    /// recording's clock from the same start; with an offset each drone
-    /// after the first has a SLAM frame of its own (the offset once more
-    /// for each).
-    pub drones: bool,
 }
 
-impl Default for SortieOptions {
-    fn default() -> Self {
-        Self {
-            count: 1,
-            offset: None,
-            camera_only: false,
-            drones: false,
-        }
+impl SortieOptions {
+    /// Recordings: one per sortie, or per drone of a team.
+    pub fn recordings(&self) -> u32 {
+        self.drones.unwrap_or(self.count)
+    }
+
+    /// The stretches are flown at once by a team, a drone each, each
+    /// recording's clock from the same start; with an offset each drone
+    /// after the first has a SLAM frame of its own.
+    pub fn team(&self) -> bool {
+        self.drones.is_some()
     }
 }
 
@@ -130,24 +142,24 @@ impl Sorties {
         (moving_tf, gps): (bool, bool),
     ) -> Result<Self, SimError> {
         // `count` is 1 to the frames (checked before anything is written).
-        let count = options.count as usize;
+        let count = options.recordings() as usize;
         let later = options.offset.map(|o| o.isometry());
         // A team's drone k is offset k times; sorties after the first, once.
-        let slam = |i: usize| match (later, options.drones) {
+        let slam = |i: usize| match (later, options.team()) {
             (Some(o), true) => (0..i).fold(Isometry3::identity(), |t, _| o * t),
             (Some(o), false) if i > 0 => o,
             _ => Isometry3::identity(),
         };
-        let sorties: Vec<Sortie> = stretches(frame_times, duration_s, options.count)
+        let sorties: Vec<Sortie> = stretches(frame_times, duration_s, options.recordings())
             .into_iter()
             .enumerate()
             .map(|(i, stretch)| Sortie {
-                name: match (count, options.drones) {
+                name: match (count, options.team()) {
                     (1, _) => "flight.mcap".to_string(),
                     (_, true) => format!("drone-{}.mcap", i + 1),
                     (_, false) => format!("sortie-{}.mcap", i + 1),
                 },
-                shift_s: if options.drones { stretch.start_s } else { 0.0 },
+                shift_s: if options.team() { stretch.start_s } else { 0.0 },
                 stretch,
                 slam: slam(i),
                 with_map: match (later.is_some(), options.camera_only) {

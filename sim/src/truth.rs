@@ -274,8 +274,23 @@ pub struct Truth {
 }
 
 /// White noise added to each recorded pose, 1 sigma.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, clap::Args)]
 pub struct PoseNoise {
+    /// Position noise of the recorded poses, metres (1 sigma, per pose).
+    #[arg(long = "pose-noise", default_value_t = crate::flight::POSITION_NOISE, value_name = "METRES")]
     pub position_m: f64,
+    /// Yaw noise of the recorded poses, degrees (1 sigma, per pose).
+    #[arg(
+        long = "yaw-noise",
+        default_value_t = crate::flight::YAW_NOISE.to_degrees(),
+        value_name = "DEGREES",
+        value_parser = radians,
+    )]
     pub yaw_rad: f64,
+}
+
+/// An angle given in degrees, in radians.
+fn radians(degrees: &str) -> Result<f64, String> {
+    let degrees: f64 = degrees.parse().map_err(|e| format!("{e}"))?;
+    Ok(degrees.to_radians())
 }
