@@ -16,6 +16,7 @@ use nalgebra::Point3;
 use postflight_core::geo::{GeoOrigin, Geodetic};
 use postflight_core::outputs::replan::{Sortie, Waypoint};
 use postflight_core::plan::PointKind;
+use postflight_core::plan::path_csv::PathRow;
 use postflight_core::region::Region;
 use serde_json::{Value, json};
 
@@ -250,44 +251,41 @@ pub(crate) fn steps(sortie: &Sortie) -> Vec<Step<'_>> {
     steps
 }
 
-/// The columns of `replan.csv`: GATSBI's four, then the gimbal, the
-/// sortie and what the point is.
-pub const PATH_CSV_HEADER: &str = "X,Y,Z,Yaw,GimbalPitch,Sortie,Point";
-
-/// `replan.csv`: every point of every sortie's path, home to home: GATSBI's
-/// `X,Y,Z,Yaw` inspection path (the yaw of the waypoint being flown to),
-/// then the gimbal pitch, the sortie (from 1) and the point's kind (`home`,
-/// `transit` on the collision-free path, `waypoint` to hover and shoot at).
-/// Comment lines above the header give the frame and the units.
+/// `replan.csv`: every point of every sortie's path, home to home
+/// ([`PathRow`]: GATSBI's `X,Y,Z,Yaw` inspection path, then the gimbal
+/// pitch, the sortie and what the point is). Comment lines above the
+/// header give the frame and the units.
 pub fn path_csv(sorties: &[Sortie], frame_id: &str) -> String {
-    let mut text = format!(
+    let comments = format!(
         "# postflight follow-up flight: {} sortie{}, taking off from and landing at home\n\
          # frame: {frame_id} (the SLAM map's), z up; X, Y, Z in metres\n\
-         # Yaw: radians, counter-clockwise from the x axis (REP 103); GimbalPitch: degrees, negative looking down\n\
-         {PATH_CSV_HEADER}\n",
+         # Yaw: radians, counter-clockwise from the x axis (REP 103); GimbalPitch: degrees, negative looking down\n",
         sorties.len(),
         if sorties.len() == 1 { "" } else { "s" },
     );
-    for (n, sortie) in sorties.iter().enumerate() {
-        let steps = steps(sortie);
+    let mut rows = Vec::new();
+    for (sortie, flown) in (1..).zip(sorties) {
+        let steps = steps(flown);
         let last = steps.len().saturating_sub(1);
-        for (i, step) in steps.iter().enumerate() {
-            let kind = match step.waypoint {
-                Some(_) => PointKind::Waypoint,
-                None if i == 0 || i == last => PointKind::Home,
-                None => PointKind::Transit,
-            }
-            .as_str();
+        rows.extend(steps.iter().enumerate().map(|(i, step)| {
             let [x, y, z] = step.point;
-            text += &format!(
-                "{x},{y},{z},{},{},{},{kind}\n",
-                step.yaw,
-                -step.gimbal_pitch.to_degrees(),
-                n + 1
-            );
-        }
+            PathRow {
+                x,
+                y,
+                z,
+                yaw: step.yaw,
+                gimbal_pitch_deg: -step.gimbal_pitch.to_degrees(),
+                sortie,
+                point: match step.waypoint {
+                    Some(_) => PointKind::Waypoint,
+                    None if i == 0 || i == last => PointKind::Home,
+                    None => PointKind::Transit,
+                },
+            }
+        }));
     }
-    text
+    // Numbers, and kinds by their names, always make a table.
+    postflight_core::plan::path_csv::path_csv(&comments, &rows).expect("a path's rows are a table")
 }
 
 /// Whether the sorties are a team's (flown by more than one drone).

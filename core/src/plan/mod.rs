@@ -3,7 +3,7 @@
 //! or a waypoint path of `X,Y,Z,Yaw` rows (GATSBI's), which holds only where
 //! the vehicle went.
 
-mod path_csv;
+pub mod path_csv;
 
 use std::path::{Path, PathBuf};
 

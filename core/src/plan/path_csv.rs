@@ -7,11 +7,78 @@
 //! are `waypoint`s (not `home` or `transit`), as `replan.csv` writes them.
 
 use csv::{ReaderBuilder, StringRecord, Trim};
+use polars::prelude::{DataType, PolarsResult};
 
 use super::{PathPoint, PointKind, YawUnit};
 use crate::setting::inputs;
+use crate::table::Row;
 
-const COLUMNS: [&str; 4] = ["x", "y", "z", "yaw"];
+crate::table! {
+    /// One row of `replan.csv`: a point of a sortie's path, home to home.
+    /// Its first four columns are GATSBI's inspection path.
+    pub struct PathRow {
+        /// World frame (the SLAM map's), z up, metres.
+        x: f64 as X,
+        y: f64 as Y,
+        z: f64 as Z,
+        /// Radians, counter-clockwise from the x axis (REP 103): the yaw of
+        /// the waypoint being flown to.
+        yaw: f64 as Yaw,
+        /// Degrees, negative looking down (as DJI gives it).
+        gimbal_pitch_deg: f64 as GimbalPitch,
+        /// The sortie, from 1.
+        sortie: u32 as Sortie,
+        /// What the point is: where the sortie takes off and lands, on the
+        /// collision-free path, or a waypoint to hover and shoot at.
+        point: PointKind as Point,
+    }
+}
+
+/// The columns every waypoint path has: GATSBI's `X,Y,Z,Yaw`.
+const COLUMNS: usize = 4;
+
+/// A path's rows as CSV, each number as Rust writes it (the shortest text
+/// that reads back as the same number, never an exponent), as GATSBI's
+/// paths are; after `comments` (each line starting with `#`).
+pub fn path_csv(comments: &str, rows: &[PathRow]) -> PolarsResult<String> {
+    let table = PathRow::frame(rows)?;
+    let mut text = comments.to_string();
+    text += &PathRow::column_names().join(",");
+    text.push('\n');
+    let cells = table
+        .columns()
+        .iter()
+        .map(|c| cell_texts(c.as_materialized_series()))
+        .collect::<PolarsResult<Vec<_>>>()?;
+    for row in 0..table.height() {
+        let line: Vec<&str> = cells.iter().map(|c| c[row].as_str()).collect();
+        text += &line.join(",");
+        text.push('\n');
+    }
+    Ok(text)
+}
+
+/// A column's values as `path_csv` writes them.
+fn cell_texts(column: &polars::prelude::Series) -> PolarsResult<Vec<String>> {
+    let text = |v: Option<String>| v.unwrap_or_default();
+    Ok(match column.dtype() {
+        DataType::Float64 => column
+            .f64()?
+            .iter()
+            .map(|v| text(v.map(|v| v.to_string())))
+            .collect(),
+        DataType::UInt32 => column
+            .u32()?
+            .iter()
+            .map(|v| text(v.map(|v| v.to_string())))
+            .collect(),
+        _ => column
+            .str()?
+            .iter()
+            .map(|v| text(v.map(str::to_string)))
+            .collect(),
+    })
+}
 
 /// The waypoints of a path, or a one-line error naming the line and column.
 pub fn parse(text: &str, yaw: YawUnit) -> Result<Vec<PathPoint>, String> {
@@ -22,7 +89,7 @@ pub fn parse(text: &str, yaw: YawUnit) -> Result<Vec<PathPoint>, String> {
         .comment(Some(b'#'))
         .from_reader(text.as_bytes());
     let mut points = Vec::new();
-    let mut columns = COLUMNS.len();
+    let mut columns = COLUMNS;
     let mut extra = Extra::default();
     for (i, record) in reader.records().enumerate() {
         let record = record.map_err(|e| format!("not a CSV file: {e}"))?;
@@ -61,16 +128,18 @@ struct Extra {
 
 impl Extra {
     fn of(header: &StringRecord) -> Self {
+        let names = PathRow::column_names();
         let find = |name: &str| {
             header
                 .iter()
-                .skip(COLUMNS.len())
+                .skip(COLUMNS)
                 .position(|f| f.eq_ignore_ascii_case(name))
-                .map(|k| k + COLUMNS.len())
+                .map(|k| k + COLUMNS)
         };
+        // PathRow's `GimbalPitch` and `Point`, in any place after the four.
         Self {
-            gimbal_pitch: find("gimbalpitch"),
-            point: find("point"),
+            gimbal_pitch: find(&names[4]),
+            point: find(&names[6]),
         }
     }
 }
@@ -81,12 +150,9 @@ fn is_header(record: &StringRecord) -> bool {
 }
 
 fn check_header(record: &StringRecord, line: u64) -> Result<(), String> {
-    let named: Vec<String> = record
-        .iter()
-        .take(COLUMNS.len())
-        .map(str::to_ascii_lowercase)
-        .collect();
-    if named != COLUMNS {
+    let named = record.iter().take(COLUMNS).map(str::to_ascii_lowercase);
+    let declared = PathRow::column_names().into_iter().take(COLUMNS);
+    if !named.eq(declared.map(|n| n.to_ascii_lowercase())) {
         return Err(format!(
             "line {line}: the header names the columns {}; a waypoint path has the columns X,Y,Z,Yaw in this order",
             shown(&record.iter().collect::<Vec<_>>().join(","))
@@ -106,7 +172,7 @@ fn point(
         return Err(format!(
             "line {line}: {} columns where a waypoint has {columns} (X,Y,Z,Yaw{})",
             record.len(),
-            if columns > COLUMNS.len() {
+            if columns > COLUMNS {
                 " and the header's others"
             } else {
                 ""
@@ -115,7 +181,7 @@ fn point(
     }
     let mut values = [0.0; 4];
     for (column, (field, value)) in record.iter().take(4).zip(&mut values).enumerate() {
-        *value = number(field, line, column, &COLUMNS[column].to_uppercase())?;
+        *value = number(field, line, column, &PathRow::column_names()[column])?;
     }
     let [x, y, z, yaw] = values;
     let yaw = match yaw_unit {
@@ -185,6 +251,30 @@ mod tests {
         assert!((flown[0].gimbal_pitch.unwrap() - 30f64.to_radians()).abs() < 1e-12);
         assert_eq!(path_without_pitch(with), None);
         assert!((degrees[0].yaw - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_written_path_reads_back_as_its_waypoints() {
+        let row = |x: f64, point| PathRow {
+            x,
+            y: 0.0,
+            z: 2.5,
+            yaw: 0.5,
+            gimbal_pitch_deg: -30.0,
+            sortie: 1,
+            point,
+        };
+        let rows = [row(0.0, PointKind::Home), row(1.0e-7, PointKind::Waypoint)];
+        let text = path_csv("# frame: map\n", &rows).unwrap();
+        // Numbers as GATSBI's paths give them: no exponent, no trailing `.0`.
+        assert_eq!(
+            text,
+            "# frame: map\nX,Y,Z,Yaw,GimbalPitch,Sortie,Point\n0,0,2.5,0.5,-30,1,home\n0.0000001,0,2.5,0.5,-30,1,waypoint\n"
+        );
+        let flown = parse(&text, YawUnit::Radians).unwrap();
+        assert_eq!(flown.len(), 1);
+        assert_eq!(flown[0].position, [1.0e-7, 0.0, 2.5]);
+        assert!((flown[0].gimbal_pitch.unwrap() - 30f64.to_radians()).abs() < 1e-12);
     }
 
     fn path_without_pitch(text: &str) -> Option<f64> {
