@@ -227,7 +227,7 @@ pub fn simulated(args: &[&str]) -> PathBuf {
 /// flight asked for with its defaults spelled out is the same flight.
 fn flight_key<'a>(args: &[&'a str]) -> Vec<&'a str> {
     let defaults = [
-        // The binary's default scene (its `SceneArg`).
+        // The default scene (`sim::BuiltIn`'s first).
         ("--scene", "girder-bridge".to_string()),
         ("--seed", sim::SimOptions::DEFAULT_SEED.to_string()),
         ("--frames", sim::SimOptions::DEFAULT_FRAMES.to_string()),
