@@ -100,13 +100,16 @@ pub fn parse(text: &str, yaw: YawUnit) -> Result<Vec<PathPoint>, String> {
             extra = Extra::of(&record);
             continue;
         }
+        // Before any column is read: the header's columns past the four
+        // may be missing from a short row.
+        check_width(&record, line, columns)?;
         if extra
             .point
             .is_some_and(|k| &record[k] != PointKind::Waypoint.as_str())
         {
             continue;
         }
-        let mut p = point(&record, line, columns, yaw)?;
+        let mut p = point(&record, line, yaw)?;
         if let Some(k) = extra.gimbal_pitch {
             let pitch = number(&record[k], line, k, "GimbalPitch, degrees")?;
             p.gimbal_pitch = Some(-pitch.to_radians());
@@ -161,13 +164,8 @@ fn check_header(record: &StringRecord, line: u64) -> Result<(), String> {
     Ok(())
 }
 
-/// A row of a path with `columns` columns, the first four `X,Y,Z,Yaw`.
-fn point(
-    record: &StringRecord,
-    line: u64,
-    columns: usize,
-    yaw_unit: YawUnit,
-) -> Result<PathPoint, String> {
+/// A row has the path's `columns` columns, or an error naming its line.
+fn check_width(record: &StringRecord, line: u64, columns: usize) -> Result<(), String> {
     if record.len() != columns {
         return Err(format!(
             "line {line}: {} columns where a waypoint has {columns} (X,Y,Z,Yaw{})",
@@ -179,6 +177,11 @@ fn point(
             }
         ));
     }
+    Ok(())
+}
+
+/// A row of a path whose width is checked, the first four `X,Y,Z,Yaw`.
+fn point(record: &StringRecord, line: u64, yaw_unit: YawUnit) -> Result<PathPoint, String> {
     let mut values = [0.0; 4];
     for (column, (field, value)) in record.iter().take(4).zip(&mut values).enumerate() {
         *value = number(field, line, column, &PathRow::column_names()[column])?;
@@ -275,6 +278,18 @@ mod tests {
         assert_eq!(flown.len(), 1);
         assert_eq!(flown[0].position, [1.0e-7, 0.0, 2.5]);
         assert!((flown[0].gimbal_pitch.unwrap() - 30f64.to_radians()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_row_shorter_than_its_header_is_named_not_read_past_its_end() {
+        // Found by the `plan` fuzz target: a row without the header's
+        // `Point` column was indexed past its end.
+        let text = "X,Y,Z,Yaw,GimbalPitch,Sortie,Point\n0,0,1,0,0,1,home\n1,2,3,0\n";
+        let e = parse(text, YawUnit::Radians).unwrap_err();
+        assert!(
+            e.starts_with("line 3: 4 columns where a waypoint has 7"),
+            "{e}"
+        );
     }
 
     fn path_without_pitch(text: &str) -> Option<f64> {
