@@ -8,6 +8,11 @@ pub enum SimError {
     FlightTooSmall,
     #[error("pose noise must be at least 0 (and below 10 m, 57 degrees)")]
     PoseNoise,
+    #[error(
+        "--lens-blur {px}: give 0 (a perfect lens) to {} pixels",
+        crate::MAX_LENS_BLUR_PX
+    )]
+    LensBlur { px: f64 },
     /// The OBJ file could not be read or is not a mesh; `reason` is the
     /// parser's, with the line where it applies.
     #[error("mesh {}: {reason}", path.display())]

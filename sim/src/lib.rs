@@ -118,6 +118,14 @@ pub struct SimOptions {
         value_parser = clap::builder::TypedValueParser::map(clap::builder::BoolishValueParser::new(), render::Surface::textured_if),
     )]
     pub surface: render::Surface,
+    /// The lens's point-spread function, a Gaussian's standard deviation in
+    /// pixels (0: a perfect lens): a line thinner than a pixel is spread
+    /// over two or three, as a real camera spreads it. With the pixel's
+    /// own area, postflight measures a thin crack's profile 2 px wide at
+    /// half depth, as the crack-width gauge readings' photos show
+    /// (docs/evaluation.md).
+    #[arg(long = "lens-blur", value_name = "PIXELS", default_value_t = Self::DEFAULT_LENS_BLUR_PX)]
+    pub lens_blur_px: f64,
     /// Carry the camera on a gimbal (its pitch on /tf) and also plan a
     /// viewpoint looking straight down over each patch of faces pointing
     /// up, such as a deck's top (a fixed camera sees those only grazing).
@@ -157,6 +165,7 @@ impl SimOptions {
     pub const DEFAULT_WIDTH: u32 = 640;
     pub const DEFAULT_HEIGHT: u32 = 480;
     pub const DEFAULT_CRACKS: usize = 40;
+    pub const DEFAULT_LENS_BLUR_PX: f64 = 0.6;
 
     /// The default flight, written into `out`: every option its flag's
     /// default.
@@ -322,8 +331,17 @@ fn check(options: &SimOptions) -> Result<(), SimError> {
     {
         return Err(SimError::PoseNoise);
     }
+    if !(0.0..=MAX_LENS_BLUR_PX).contains(&options.lens_blur_px) {
+        return Err(SimError::LensBlur {
+            px: options.lens_blur_px,
+        });
+    }
     Ok(())
 }
+
+/// The widest lens blur simulated, pixels: a camera this far out of focus
+/// records no crack.
+pub const MAX_LENS_BLUR_PX: f64 = 10.0;
 
 /// What the flight is made of: the structure with its cracks, the plan,
 /// the flight flown and the camera.
@@ -556,6 +574,7 @@ fn record_frames(
                     &camera,
                     i,
                     options.surface,
+                    options.lens_blur_px,
                 ),
                 blur.0,
                 blur.1,
@@ -794,6 +813,7 @@ mod tests {
         assert_eq!((o.focal_px, o.standoff_m), (None, planner::STANDOFF));
         assert_eq!(o.image_format, ImageFormat::Jpeg);
         assert_eq!(o.surface, render::Surface::Smooth);
+        assert_eq!(o.lens_blur_px, 0.6);
         // The yaw noise given in degrees comes back to the radians exactly.
         assert_eq!(o.pose_noise.position_m, flight::POSITION_NOISE);
         assert_eq!(o.pose_noise.yaw_rad, flight::YAW_NOISE);
@@ -811,8 +831,11 @@ mod tests {
             "3",
             "--yaw-noise",
             "90",
+            "--lens-blur",
+            "0",
         ])
         .unwrap();
+        assert_eq!(o.lens_blur_px, 0.0);
         assert_eq!(o.surface, render::Surface::Textured);
         assert!(!o.distortion);
         assert_eq!((o.sorties.recordings(), o.sorties.team()), (3, true));

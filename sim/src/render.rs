@@ -1,6 +1,7 @@
 //! Rendering a frame: one ray per pixel through the lens model into the
 //! scene, concrete shading with the cracks drawn at their true width (so a
-//! crack fades with distance), then motion blur along the image motion.
+//! crack fades with distance), the lens's point-spread function, the
+//! sensor's noise, then motion blur along the image motion.
 
 use image::RgbImage;
 use nalgebra::{Isometry3, Point2, Point3, Vector3};
@@ -65,7 +66,13 @@ impl Surface {
     }
 }
 
-/// Render the view of a camera at `camera` (`T_world_camera`, optical frame).
+/// Render the view of a camera at `camera` (`T_world_camera`, optical frame)
+/// as a camera records it: the scene through the lens, spread by its
+/// point-spread function (a Gaussian of `lens_blur_px`, one standard
+/// deviation in pixels; 0 none), each pixel the light over its area (a
+/// crack drawn by the share of the pixel it covers), then the sensor's
+/// noise.
+#[allow(clippy::too_many_arguments)]
 pub fn render(
     scene: &Scene,
     cracks: &Cracks,
@@ -74,32 +81,75 @@ pub fn render(
     camera: &Isometry3<f64>,
     frame: u32,
     surface: Surface,
+    lens_blur_px: f64,
 ) -> RgbImage {
     let origin = Point3::from(camera.translation.vector);
+    let (w, h) = (rays.width as usize, rays.height as usize);
+    let mut light = vec![[0.0f32; 3]; w * h];
+    light.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (x, px) in row.iter_mut().enumerate() {
+            let dir = camera.rotation * rays.rays[y * w + x];
+            let rgb = shade(
+                scene,
+                cracks,
+                marks,
+                &origin,
+                &dir,
+                rays.pixel_angle,
+                surface,
+            );
+            *px = rgb.map(|c| c as f32);
+        }
+    });
+    let light = lens_blur(light, w, h, lens_blur_px);
     let mut img = RgbImage::new(rays.width, rays.height);
-    let row_len = rays.width as usize * 3;
-    img.par_chunks_mut(row_len)
-        .enumerate()
-        .for_each(|(y, row)| {
-            for x in 0..rays.width as usize {
-                let dir = camera.rotation * rays.rays[y * rays.width as usize + x];
-                let rgb = shade(
-                    scene,
-                    cracks,
-                    marks,
-                    &origin,
-                    &dir,
-                    rays.pixel_angle,
-                    surface,
-                );
-                // Sensor noise, fixed per pixel and frame so output is deterministic.
-                let n = (hash3(x as i64, y as i64, i64::from(frame), 17) - 0.5) * 6.0;
-                for c in 0..3 {
-                    row[x * 3 + c] = (rgb[c] + n).clamp(0.0, 255.0) as u8;
+    img.par_chunks_mut(w * 3).enumerate().for_each(|(y, row)| {
+        for x in 0..w {
+            // Sensor noise, fixed per pixel and frame so output is deterministic.
+            let n = (hash3(x as i64, y as i64, i64::from(frame), 17) - 0.5) * 6.0;
+            for c in 0..3 {
+                row[x * 3 + c] = (f64::from(light[y * w + x][c]) + n).clamp(0.0, 255.0) as u8;
+            }
+        }
+    });
+    img
+}
+
+/// The lens's point-spread function: `light` (a `w` x `h` image) blurred
+/// by a Gaussian of `sigma_px`, along rows then columns, the border
+/// repeated.
+fn lens_blur(light: Vec<[f32; 3]>, w: usize, h: usize, sigma_px: f64) -> Vec<[f32; 3]> {
+    if sigma_px <= 0.0 {
+        return light;
+    }
+    let r = (3.0 * sigma_px).ceil() as isize;
+    let weights: Vec<f32> = (-r..=r)
+        .map(|i| (-(i as f64).powi(2) / (2.0 * sigma_px * sigma_px)).exp() as f32)
+        .collect();
+    let total: f32 = weights.iter().sum();
+    let pass = |from: &[[f32; 3]], along_rows: bool| -> Vec<[f32; 3]> {
+        let mut out = vec![[0.0f32; 3]; w * h];
+        out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, px) in row.iter_mut().enumerate() {
+                let mut acc = [0.0f32; 3];
+                for (k, weight) in weights.iter().enumerate() {
+                    let d = k as isize - r;
+                    let (sx, sy) = if along_rows {
+                        ((x as isize + d).clamp(0, w as isize - 1) as usize, y)
+                    } else {
+                        (x, (y as isize + d).clamp(0, h as isize - 1) as usize)
+                    };
+                    let v = from[sy * w + sx];
+                    for c in 0..3 {
+                        acc[c] += weight * v[c];
+                    }
                 }
+                *px = acc.map(|a| a / total);
             }
         });
-    img
+        out
+    };
+    pass(&pass(&light, true), false)
 }
 
 fn shade(
@@ -237,6 +287,22 @@ pub fn motion_blur(img: RgbImage, dx: f64, dy: f64) -> RgbImage {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_lens_spreads_a_line_and_keeps_its_light() {
+        // A dark line one pixel wide down column 10 of a 21 x 5 image.
+        let (w, h) = (21, 5);
+        let light: Vec<[f32; 3]> = (0..w * h)
+            .map(|i| if i % w == 10 { [0.0; 3] } else { [100.0; 3] })
+            .collect();
+        let blurred = lens_blur(light, w, h, 0.6);
+        let row: Vec<f32> = (0..w).map(|x| blurred[2 * w + x][0]).collect();
+        // The light it takes away is kept, spread over its neighbours.
+        let taken: f32 = row.iter().map(|v| 100.0 - v).sum();
+        assert!((taken - 100.0).abs() < 0.01, "{row:?}");
+        assert!(row[10] > 30.0 && row[9] < 95.0 && row[11] < 95.0, "{row:?}");
+        assert_eq!(lens_blur(vec![[7.0; 3]; 4], 2, 2, 0.0), vec![[7.0; 3]; 4]);
+    }
 
     #[test]
     fn a_band_covers_the_share_of_a_pixel_it_overlaps() {
