@@ -80,43 +80,13 @@ def cell(i):
 
 
 def write(args):
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "fixtures"))
-    from mcap.writer import CompressionType
-    from write_flight import stamp, write_messages  # the tests' ROS 2 writer
-
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     photos = photos_in(args.photos, args.limit)
     if not photos:
         sys.exit(f"real_cracks: no photos in {args.photos}")
     f = HEIGHT_M * 1000.0 / args.gsd
-    messages = []
-    frames = []
-
-    def add(topic, typ, msg, ns):
-        messages.append((ns, topic, typ, msg))
-
-    identity = {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}
-    add("/tf_static", "tf2_msgs/TFMessage", {"transforms": [{
-        "header": {"stamp": stamp(T0_NS), "frame_id": "base_link"}, "child_frame_id": "camera_optical",
-        "transform": {"translation": {"x": 0.0, "y": 0.0, "z": 0.0}, "rotation": identity}}]}, T0_NS)
-    # Looking straight down: the optical frame's x east, y south, z down.
-    down = {"x": 1.0, "y": 0.0, "z": 0.0, "w": 0.0}
-    end_s = FRAME_S * (len(photos) + 1)
-    for k in range(int(end_s / 0.05) + 1):
-        t = 0.05 * k
-        # Hovering over cell i from (i + 0.5 - 0.2) s to (i + 0.5 + 0.2) s, flying between.
-        s = t / FRAME_S - 0.5
-        i = min(max(math.floor(s), 0), len(photos) - 1)
-        j = min(i + 1, len(photos) - 1)
-        frac = min(max((s - i - 0.4) / 0.2, 0.0), 1.0) if s > i else 0.0
-        (x0, y0), (x1, y1) = cell(i), cell(j)
-        pos = {"x": x0 + frac * (x1 - x0), "y": y0 + frac * (y1 - y0), "z": HEIGHT_M}
-        ns = T0_NS + round(t * 1e9)
-        add("/slam/pose", "geometry_msgs/PoseStamped", {
-            "header": {"stamp": stamp(ns), "frame_id": "map"},
-            "pose": {"position": pos, "orientation": down}}, ns)
-    for i, photo in enumerate(photos):
+    shots = []
+    for photo in photos:
         img = Image.open(photo).convert("RGB")
         if args.downsample > 1:
             k = args.downsample
@@ -128,28 +98,85 @@ def write(args):
             data, fmt = buffer.getvalue(), "png"
         else:
             data, fmt = photo.read_bytes(), "rgb8; jpeg compressed bgr8"
-        w, h = img.size
+        shots.append(Shot(data, fmt, img.size, HEIGHT_M, {
+            "photo": str(photo.resolve()), "downsample": args.downsample, "gsd_mm": args.gsd}))
+    fly(out, f, shots)
+    (out / "photos.json").write_text(json.dumps({"gsd_mm": args.gsd, "frames": [
+        s.meta for s in shots]}, indent=1))
+    print(f"real_cracks: {len(photos)} photos at {args.gsd} mm per pixel (f = {f:.0f} px) in {out}",
+          file=sys.stderr)
+
+
+class Shot:
+    """One photo of a flight over a flat surface: its encoded bytes and
+    their format (a CompressedImage's), its size, the camera's height above
+    the surface, and what the scorer is to know of it (`meta`, to which
+    `fly` adds the frame's time, camera and lens)."""
+
+    def __init__(self, data, fmt, size, height_m, meta):
+        self.data, self.fmt, self.size, self.height_m, self.meta = data, fmt, size, height_m, meta
+
+
+def fly(out, f, shots):
+    """Write `out/flight.mcap`: each shot taken looking straight down from
+    its height over its own 1 m cell (no two frames share ground), through
+    one lens of focal length `f` pixels (so a pixel spans height / f on the
+    surface); ROS 2 messages (the photos as CompressedImage, CameraInfo,
+    PoseStamped, /tf_static, the surface as a PointCloud2 map) with the
+    official `mcap-ros2-support` writer."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "fixtures"))
+    from mcap.writer import CompressionType
+    from write_flight import stamp, write_messages  # the tests' ROS 2 writer
+
+    out.mkdir(parents=True, exist_ok=True)
+    messages = []
+
+    def add(topic, typ, msg, ns):
+        messages.append((ns, topic, typ, msg))
+
+    identity = {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}
+    add("/tf_static", "tf2_msgs/TFMessage", {"transforms": [{
+        "header": {"stamp": stamp(T0_NS), "frame_id": "base_link"}, "child_frame_id": "camera_optical",
+        "transform": {"translation": {"x": 0.0, "y": 0.0, "z": 0.0}, "rotation": identity}}]}, T0_NS)
+    # Looking straight down: the optical frame's x east, y south, z down.
+    down = {"x": 1.0, "y": 0.0, "z": 0.0, "w": 0.0}
+    end_s = FRAME_S * (len(shots) + 1)
+    for k in range(int(end_s / 0.05) + 1):
+        t = 0.05 * k
+        # Hovering over cell i from (i + 0.5 - 0.2) s to (i + 0.5 + 0.2) s, flying between.
+        s = t / FRAME_S - 0.5
+        i = min(max(math.floor(s), 0), len(shots) - 1)
+        j = min(i + 1, len(shots) - 1)
+        frac = min(max((s - i - 0.4) / 0.2, 0.0), 1.0) if s > i else 0.0
+        (x0, y0), (x1, y1) = cell(i), cell(j)
+        z0, z1 = shots[i].height_m, shots[j].height_m
+        pos = {"x": x0 + frac * (x1 - x0), "y": y0 + frac * (y1 - y0), "z": z0 + frac * (z1 - z0)}
+        ns = T0_NS + round(t * 1e9)
+        add("/slam/pose", "geometry_msgs/PoseStamped", {
+            "header": {"stamp": stamp(ns), "frame_id": "map"},
+            "pose": {"position": pos, "orientation": down}}, ns)
+    for i, shot in enumerate(shots):
+        w, h = shot.size
         t = FRAME_S * (i + 0.5)
         ns = T0_NS + round(t * 1e9)
         header = {"stamp": stamp(ns), "frame_id": "camera_optical"}
         cx, cy = w / 2.0, h / 2.0
         add("/camera/image/compressed", "sensor_msgs/CompressedImage",
-            {"header": header, "format": fmt, "data": data}, ns + 1000)
+            {"header": header, "format": shot.fmt, "data": shot.data}, ns + 1000)
         add("/camera/camera_info", "sensor_msgs/CameraInfo", {
             "header": header, "height": h, "width": w, "distortion_model": "plumb_bob",
             "d": [0.0] * 5, "k": [f, 0, cx, 0, f, cy, 0, 0, 1], "r": [1, 0, 0, 0, 1, 0, 0, 0, 1],
             "p": [f, 0, cx, 0, 0, f, cy, 0, 0, 0, 1, 0], "binning_x": 0, "binning_y": 0,
             "roi": {"x_offset": 0, "y_offset": 0, "height": 0, "width": 0, "do_rectify": False}}, ns + 1000)
         x, y = cell(i)
-        frames.append({"photo": str(photo.resolve()), "time_ns": ns, "camera": [x, y, HEIGHT_M],
-                       "focal_px": f, "centre_px": [cx, cy], "width": w, "height": h,
-                       "downsample": args.downsample, "gsd_mm": args.gsd})
+        shot.meta.update({"time_ns": ns, "camera": [x, y, shot.height_m], "focal_px": f,
+                          "centre_px": [cx, cy], "width": w, "height": h})
     # The surface: a 1.2 m square of points 2 cm apart under each camera.
     grid = np.arange(-0.6, 0.6001, 0.02)
     gx, gy = np.meshgrid(grid, grid)
     points = np.concatenate([
         np.stack([gx.ravel() + cell(i)[0], gy.ravel() + cell(i)[1], np.zeros(gx.size)], axis=1)
-        for i in range(len(photos))]).astype("<f4")
+        for i in range(len(shots))]).astype("<f4")
     add("/map", "sensor_msgs/PointCloud2", {
         "header": {"stamp": stamp(T0_NS), "frame_id": "map"}, "height": 1, "width": len(points),
         "fields": [{"name": n, "offset": 4 * k, "datatype": 7, "count": 1} for k, n in enumerate("xyz")],
@@ -157,9 +184,6 @@ def write(args):
         "data": points.tobytes(), "is_dense": True}, T0_NS + round(end_s * 1e9))
     messages.sort(key=lambda m: m[0])
     write_messages(out / "flight.mcap", messages, compression=CompressionType.ZSTD)
-    (out / "photos.json").write_text(json.dumps({"gsd_mm": args.gsd, "frames": frames}, indent=1))
-    print(f"real_cracks: {len(photos)} photos at {args.gsd} mm per pixel (f = {f:.0f} px) in {out}",
-          file=sys.stderr)
 
 
 # --- score ---------------------------------------------------------------
