@@ -473,6 +473,7 @@ mod tests {
             uncertainty_mm: max_mm.map(|_| uncertainty_mm),
             narrower_than_mm,
             mm_per_px: 0.5,
+            ..WidthRecord::default()
         }
     }
 

@@ -110,15 +110,89 @@ impl CrackLimits {
         (below_mm <= self.insignificant_below_mm).then_some(ConditionState::Good)
     }
 
-    /// The state a candidate's measured `width` puts it in: by its widest
-    /// where measured, by its bound where below resolution; `None` when
+    /// The state a candidate's measured `width` puts it in, and how sure
+    /// that is: by its widest where measured (its uncertainty one standard
+    /// deviation of a normal error), by its bound where below resolution
+    /// (sure: the bound is below the insignificant limit); `None` when
     /// nothing was measured or the bound straddles a limit.
-    pub fn state_of(&self, width: &WidthRecord) -> Option<ConditionState> {
+    pub fn state_of(&self, width: &WidthRecord) -> Option<StateCall> {
         match (width.max_mm, width.narrower_than_mm) {
-            (Some(max), _) => Some(self.state(max)),
-            (None, Some(below)) => self.state_below(below),
+            (Some(max), _) => Some(self.call(max, width.uncertainty_mm.unwrap_or(0.0))),
+            (None, Some(below)) => self.state_below(below).map(|state| StateCall {
+                state,
+                probability: 1.0,
+                other: None,
+            }),
             (None, None) => None,
         }
+    }
+
+    /// The state of a width `mm` good to `sigma_mm` (one standard
+    /// deviation), with the state across a limit within `sigma_mm` of it.
+    pub fn call(&self, mm: f64, sigma_mm: f64) -> StateCall {
+        let state = self.state(mm);
+        // How likely the width is below each limit.
+        let below = |limit: f64| {
+            if sigma_mm > 0.0 {
+                0.5 * (1.0 + libm::erf((limit - mm) / (sigma_mm * std::f64::consts::SQRT_2)))
+            } else if mm < limit {
+                1.0
+            } else {
+                0.0
+            }
+        };
+        let (insignificant, wide) = (
+            below(self.insignificant_below_mm),
+            below(self.wide_above_mm),
+        );
+        let likely = |s: ConditionState| match s {
+            ConditionState::Good => insignificant,
+            ConditionState::Fair => wide - insignificant,
+            _ => 1.0 - wide,
+        };
+        let straddled = [
+            (
+                self.insignificant_below_mm,
+                [ConditionState::Good, ConditionState::Fair],
+            ),
+            (
+                self.wide_above_mm,
+                [ConditionState::Fair, ConditionState::Poor],
+            ),
+        ];
+        let other = straddled
+            .into_iter()
+            .filter(|(limit, _)| (mm - limit).abs() <= sigma_mm)
+            .flat_map(|(_, sides)| sides)
+            .filter(|s| *s != state)
+            .max_by(|a, b| likely(*a).total_cmp(&likely(*b)));
+        StateCall {
+            state,
+            probability: likely(state),
+            other,
+        }
+    }
+}
+
+crate::table! {
+    /// The condition state a crack's width puts it in, and how sure that is:
+    /// where its width's interval (its uncertainty either side) straddles a
+    /// limit, the state on the other side too, so an inspector knows which
+    /// cracks to gauge on site.
+    #[derive(Copy, serde::Serialize, serde::Deserialize)]
+    pub struct StateCall {
+        /// The state its width puts its length in.
+        #[serde(rename = "condition")]
+        state: ConditionState as condition_state,
+        /// How likely its width is within that state's limits, its
+        /// uncertainty one standard deviation of a normal error.
+        #[serde(rename = "condition_probability")]
+        probability: f64 as condition_probability,
+        /// The state across a limit its width's interval straddles (as likely
+        /// as what `probability` leaves, or nearly); none where the interval
+        /// lies within one state.
+        #[serde(rename = "other_condition")]
+        other: Option<ConditionState> as other_condition_state,
     }
 }
 
@@ -200,6 +274,59 @@ mod tests {
         assert_eq!(psc.state(0.3), ConditionState::Poor);
         assert_eq!(rc.state_below(0.25), Some(ConditionState::Good));
         assert_eq!(rc.state_below(0.5), None);
+    }
+
+    #[test]
+    fn a_width_within_its_uncertainty_of_a_limit_names_both_states() {
+        let rc = Material::ReinforcedConcrete.limits();
+        // 0.28 mm, good to 0.05 mm: 1 good, but within reach of 0.3048 mm.
+        let near = rc.call(0.28, 0.05);
+        assert_eq!(
+            (near.state, near.other),
+            (ConditionState::Good, Some(ConditionState::Fair))
+        );
+        // P(below 0.3048) for a normal error: Phi(0.496) = 0.69.
+        assert!((near.probability - 0.690).abs() < 0.002, "{near:?}");
+        // 0.31 mm, just over: 2 fair, about as likely as 1 good.
+        let over = rc.call(0.31, 0.05);
+        assert_eq!(
+            (over.state, over.other),
+            (ConditionState::Fair, Some(ConditionState::Good))
+        );
+        assert!(over.probability > 0.5 && over.probability < 0.6, "{over:?}");
+        // Far from either limit: sure.
+        let far = rc.call(0.8, 0.05);
+        assert_eq!((far.state, far.other), (ConditionState::Fair, None));
+        assert!(far.probability > 0.999, "{far:?}");
+        // Near the wide limit: 3 poor or 2 fair.
+        let wide = rc.call(1.3, 0.1);
+        assert_eq!(
+            (wide.state, wide.other),
+            (ConditionState::Poor, Some(ConditionState::Fair))
+        );
+        // Without an uncertainty, sure of its side.
+        assert_eq!(rc.call(0.3, 0.0).probability, 1.0);
+        // A bound below the limit is sure; a measured width's record gives its call.
+        let below = WidthRecord {
+            narrower_than_mm: Some(0.2),
+            mm_per_px: 0.5,
+            ..WidthRecord::default()
+        };
+        assert_eq!(
+            rc.state_of(&below),
+            Some(StateCall {
+                state: ConditionState::Good,
+                probability: 1.0,
+                other: None
+            })
+        );
+        let measured = WidthRecord {
+            max_mm: Some(0.28),
+            uncertainty_mm: Some(0.05),
+            narrower_than_mm: None,
+            ..below
+        };
+        assert_eq!(rc.state_of(&measured), Some(near));
     }
 
     #[test]

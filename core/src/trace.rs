@@ -107,6 +107,32 @@ impl Trace {
         distance_to_lines(p, self.0.iter().map(|l| l.iter().map(|q| Point3::from(*q))))
     }
 
+    /// How far along it the point nearest `p` is, metres: from its first
+    /// polyline's first point, each polyline after the last; `None` when
+    /// empty.
+    pub fn along(&self, p: &Point3<f64>) -> Option<f64> {
+        let mut nearest: Option<(f64, f64)> = None;
+        let mut walked = 0.0;
+        for line in &self.0 {
+            let points: Vec<Point3<f64>> = line.iter().map(|q| Point3::from(*q)).collect();
+            if let [only] = points.as_slice() {
+                let d = (p - only).norm();
+                if nearest.is_none_or(|(best, _)| d < best) {
+                    nearest = Some((d, walked));
+                }
+            }
+            for w in points.windows(2) {
+                let on = closest_on_segment(p, &w[0], &w[1]);
+                let d = (p - on).norm();
+                if nearest.is_none_or(|(best, _)| d < best) {
+                    nearest = Some((d, walked + (on - w[0]).norm()));
+                }
+                walked += (w[1] - w[0]).norm();
+            }
+        }
+        nearest.map(|(_, along)| along)
+    }
+
     /// Length of its lines farther than `apart` from `other`, counting only
     /// the stretches `counted` accepts (each judged at its middle), metres.
     pub fn length_beyond(

@@ -245,7 +245,7 @@ fn main() {
     let start = Instant::now();
     let observations: Vec<Observation> = work
         .par_iter()
-        .map(|(pose, d, t)| scene.place(d.clone(), pose, &k, Some(t), &[], None))
+        .map(|(pose, d, t)| scene.place(d.clone(), pose, &k, Some(t), Vec::new(), None))
         .collect();
     let placing = start.elapsed().as_secs_f64();
     let start = Instant::now();

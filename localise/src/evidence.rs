@@ -92,6 +92,7 @@ mod tests {
             blur_px: Some(0.5),
             view_faults: Vec::new(),
             width: None,
+            crossed: None,
             camera_std_m: None,
             trace: Trace::default(),
             cut: Vec::new(),
@@ -106,6 +107,7 @@ mod tests {
             sight: Default::default(),
             view_faults: vec![Miss::TooFar],
             width: None,
+            crossed: None,
             camera_std_m: None,
             ..sharp
         };

@@ -528,6 +528,7 @@ mod tests {
                 blur_px: None,
                 view_faults: Vec::new(),
                 width: None,
+                crossed: None,
                 camera_std_m: None,
                 trace: Trace(vec![vec![
                     (centre - along * radius).coords.into(),

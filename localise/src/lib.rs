@@ -9,8 +9,11 @@
 //! reads the flight and the detections from the run directory, and frames'
 //! images from the recording through `ingest`.
 
+pub mod blur;
 pub mod centre_line;
+pub mod contrast;
 pub mod crop;
+pub mod crossing;
 pub mod error;
 pub mod evidence;
 pub mod fused_line;
@@ -24,6 +27,7 @@ pub mod stats;
 pub mod surface;
 pub mod trace;
 pub mod union_find;
+pub mod view_width;
 pub mod width;
 
 pub use error::LocaliseError;

@@ -17,11 +17,14 @@ use postflight_core::{Intrinsics, ViewModel};
 use crate::centre_line;
 use crate::evidence::view_faults;
 
+use crate::blur::Blur;
+use crate::contrast::Contrast;
+use crate::crossing::Crossing;
 use crate::joint::Line;
-use crate::stats::{median, quantile};
 use crate::surface::{self, SurfaceHit};
 use crate::trace::CrackTrace;
-use crate::width::{PointWidth, Width};
+use crate::view_width::{Footing, view_width};
+use crate::width::widths;
 
 /// A detection and where it lies on the structure.
 #[derive(Debug, Clone)]
@@ -73,94 +76,36 @@ pub struct Placement {
     /// The View model's rules the view breaks.
     pub view_faults: Vec<Miss>,
     /// The crack's width on the surface as this view measures it (`None`:
-    /// no centre line to measure across).
+    /// no centre line to measure across, or not yet measured).
     pub width: Option<WidthRecord>,
+    /// The crack's crossings, where this view measures its width, waiting
+    /// for the contrast their darkness divides by: the flight's cracks
+    /// decide it ([`crate::contrast`]); then its `width`.
+    pub crossed: Option<Crossed>,
     /// How far off the camera's position may be, metres (its frame's
     /// `position_std_m`: a photo's RTK accuracy).
     pub camera_std_m: Option<f64>,
 }
 
-/// A view's width of the crack from its points measured across it, each
-/// with its millimetres per pixel on the surface: the widest (95th
-/// percentile) and median of the points measured, good to
-/// [`WIDTH_UNCERTAINTY_PX`] where most show both edges, else to a third of
-/// the noise limit, within a tenth of a pixel and that, to the mask's
-/// whole-pixel edges where a mask measured it, and to how irregular the
-/// crack is (how far its mask and its profile, or a sloping profile's
-/// levels, disagree; half the spread of its widest stretches) besides;
-/// with none measured, narrower than the points' median limit.
-fn view_width(points: &[(Width, f64)]) -> Option<WidthRecord> {
-    let mm = |keep: fn(&Width) -> bool| -> Vec<f64> {
-        points
-            .iter()
-            .filter(|(w, _)| keep(w))
-            .map(|(w, scale)| w.px() * scale)
-            .collect()
-    };
-    let mm_per_px = median(points.iter().map(|p| p.1).collect())?;
-    let measured = mm(|w| !matches!(w, Width::Below { .. }));
-    let limit_mm = median(mm(|w| matches!(w, Width::Below { .. })));
-    if measured.is_empty() {
-        return Some(WidthRecord {
-            max_mm: None,
-            median_mm: None,
-            uncertainty_mm: None,
-            narrower_than_mm: limit_mm,
-            mm_per_px,
-        });
-    }
-    let resolved = points.iter().filter(|(w, _)| w.spans()).count();
-    let most_px = WIDTH_UNCERTAINTY_PX * mm_per_px;
-    let limit = if 2 * resolved >= measured.len() {
-        most_px
-    } else {
-        (limit_mm.unwrap_or(0.0) / 3.0).clamp(mm_per_px / 10.0, most_px)
-    };
-    // How irregular the crack is: where the mask and the profile, or a
-    // sloping profile's levels, disagree on its width, and how much its
-    // widest stretches differ.
-    let disagreement = median(
-        points
-            .iter()
-            .filter_map(|(w, scale)| Some(w.spread()? * scale))
-            .collect(),
-    )
-    .unwrap_or(0.0);
-    let tail = match (
-        quantile(measured.clone(), 0.98),
-        quantile(measured.clone(), 0.9),
-    ) {
-        (Some(high), Some(low)) => (high - low) / 2.0,
-        _ => 0.0,
-    };
-    // A mask's edges are whole pixels: each side is good to half of one.
-    let quantised = if points
-        .iter()
-        .any(|(w, _)| matches!(w, Width::Masked { .. }))
-    {
-        MASK_EDGES_PX * mm_per_px
-    } else {
-        0.0
-    };
-    let uncertainty_mm =
-        (limit.powi(2) + quantised.powi(2) + disagreement.powi(2) + tail.powi(2)).sqrt();
-    Some(WidthRecord {
-        max_mm: quantile(measured.clone(), 0.95),
-        median_mm: median(measured),
-        uncertainty_mm: Some(uncertainty_mm),
-        narrower_than_mm: None,
-        mm_per_px,
-    })
+/// A view's crossings of its crack, each with where it lies on the surface.
+#[derive(Debug, Clone)]
+pub struct Crossed {
+    /// At each centre-line pixel of the trace (`None` where no profile fits).
+    pub crossings: Vec<Option<Crossing>>,
+    /// Each centre-line pixel's neighbours along the line.
+    pub neighbours: Vec<Vec<usize>>,
+    /// Where each crossing lies on the surface (`None` off it).
+    pub footing: Vec<Option<Footing>>,
 }
 
-/// How far a view's widest is off at most, pixels: on the fine-GSD
-/// flights (docs/evaluation.md) two thirds of widths came within 0.14 to
-/// 0.23 px, and below 2 px nine in ten within 0.28 px.
-const WIDTH_UNCERTAINTY_PX: f64 = 1.0 / 3.0;
-/// How far a width read from a mask is off for its pixel edges alone:
-/// each edge anywhere within half a pixel, so their difference within
-/// sqrt 2 halves.
-const MASK_EDGES_PX: f64 = std::f64::consts::FRAC_1_SQRT_2;
+impl Crossed {
+    /// Its width, its darkness read over `contrast`, its walls as the
+    /// camera's `blur` spreads them.
+    pub fn width(&self, contrast: &Contrast, blur: Option<Blur>) -> Option<WidthRecord> {
+        let points = widths(&self.crossings, *contrast, blur);
+        view_width(&points, &self.footing, &self.neighbours, contrast)
+    }
+}
 
 /// What a detection is placed against.
 pub struct Scene<'a> {
@@ -232,7 +177,7 @@ impl Scene<'_> {
         pose: &Isometry3<f64>,
         k: &Intrinsics,
         trace: Option<&CrackTrace>,
-        widths: &[PointWidth],
+        crossings: Vec<Option<Crossing>>,
         blur_px: Option<f64>,
     ) -> Observation {
         let b = detection.detection.bbox;
@@ -276,15 +221,23 @@ impl Scene<'_> {
             let points: Vec<Point3<f64>> = t.pixels.iter().filter_map(|p| on_plane(*p)).collect();
             Line::fit(&points)
         });
-        let width = (sharp && surface.incidence.to_degrees() <= MAX_WIDTH_INCIDENCE_DEG)
-            .then(|| {
-                let points: Vec<(Width, f64)> = widths
-                    .iter()
-                    .filter_map(|p| Some((p.width, surface_mm_per_px(p, &on_plane)?)))
-                    .collect();
-                view_width(&points)
-            })
-            .flatten();
+        let measures_width = sharp
+            && surface.incidence.to_degrees() <= MAX_WIDTH_INCIDENCE_DEG
+            && !crossings.is_empty();
+        let crossed = trace.filter(|_| measures_width).map(|t| Crossed {
+            footing: crossings
+                .iter()
+                .map(|c| {
+                    let c = c.as_ref()?;
+                    Some(Footing {
+                        mm_per_px: surface_mm_per_px(c, &on_plane)?,
+                        at: on_plane(c.at)?,
+                    })
+                })
+                .collect(),
+            crossings,
+            neighbours: crate::crossing::adjacency(t.pixels.len(), &t.edges),
+        });
         // The hit at the crack's centre, for its voxel, face, range and angle.
         let hit = SurfaceHit::new(self.map, &eye.origin(), footprint.centre, surface.normal);
         observation.outcome = match self.structure {
@@ -318,7 +271,8 @@ impl Scene<'_> {
             trace,
             cut,
             line,
-            width,
+            width: None,
+            crossed,
             camera_std_m: None,
         });
         observation
@@ -456,7 +410,7 @@ fn cut_ends(
 /// a pixel's step across the line, on the surface, less its part along
 /// the crack there (an oblique view slants the image's normal).
 fn surface_mm_per_px(
-    p: &PointWidth,
+    p: &Crossing,
     on_plane: &impl Fn(Point2<f64>) -> Option<Point3<f64>>,
 ) -> Option<f64> {
     let along = nalgebra::Vector2::new(p.across.y, -p.across.x);
@@ -638,7 +592,7 @@ mod tests {
             corner[0] < 120.0 && corner[1] < 120.0,
             "crack not in a corner: {corner:?}"
         );
-        let o = scene.place(detection(corner), &pose, &k, Some(&t), &[], None);
+        let o = scene.place(detection(corner), &pose, &k, Some(&t), Vec::new(), None);
         assert_eq!(o.outcome, Outcome::Placed);
         let p = o.placement.unwrap();
         let mid = Point3::from((a.coords + b.coords) / 2.0);
@@ -654,11 +608,25 @@ mod tests {
             distortion: Distortion::None,
             ..k.clone()
         };
-        let wrong = scene.place(detection(corner), &pose, &pinhole, Some(&t), &[], None);
+        let wrong = scene.place(
+            detection(corner),
+            &pose,
+            &pinhole,
+            Some(&t),
+            Vec::new(),
+            None,
+        );
         assert!((wrong.placement.unwrap().centre - mid).norm() > 0.05);
         // So would ignoring the mounting.
         let body_only = pose * Isometry3::translation(0.0, 0.12, -0.25);
-        let wrong = scene.place(detection(corner), &body_only, &k, Some(&t), &[], None);
+        let wrong = scene.place(
+            detection(corner),
+            &body_only,
+            &k,
+            Some(&t),
+            Vec::new(),
+            None,
+        );
         assert!((wrong.placement.unwrap().centre - mid).norm() > 0.1);
     }
 
@@ -681,7 +649,7 @@ mod tests {
             view: &ViewModel::default(),
         };
         assert_eq!(
-            near.place(detection(b), &pose, &k, Some(&t), &[], None)
+            near.place(detection(b), &pose, &k, Some(&t), Vec::new(), None)
                 .outcome,
             Outcome::NoSurface
         );
@@ -695,12 +663,12 @@ mod tests {
         };
         assert_eq!(
             scene
-                .place(detection(b), &pose, &k, Some(&t), &[], None)
+                .place(detection(b), &pose, &k, Some(&t), Vec::new(), None)
                 .outcome,
             Outcome::Obstacle
         );
         // Without a trace the box's centre and diagonals place it.
-        let o = scene.place(detection(b), &pose, &k, None, &[], None);
+        let o = scene.place(detection(b), &pose, &k, None, Vec::new(), None);
         assert_eq!(o.traced_px, 0);
         assert!(o.placement.unwrap().length_m.is_none());
     }
@@ -718,22 +686,43 @@ mod tests {
         let (pose, k) = camera();
         let (a, b) = (Point3::new(3.0, 0.2, 2.4), Point3::new(3.0, 0.5, 2.7));
         let t = imaged_crack(&pose, &k, a, b);
-        let widths: Vec<PointWidth> = t
+        // A crack 3 px wide, flat-bottomed and 60 grey levels deep.
+        let crossings: Vec<Option<Crossing>> = t
             .pixels
             .iter()
-            .map(|p| PointWidth {
-                at: *p,
-                across: nalgebra::Vector2::new(1.0, 0.0),
-                width: Width::Resolved {
-                    px: 3.0,
-                    depth: 40.0,
-                },
+            .map(|p| {
+                Some(Crossing {
+                    at: *p,
+                    across: nalgebra::Vector2::new(1.0, 0.0),
+                    surface: 150.0,
+                    depth: 120.0,
+                    darkness: 360.0,
+                    noise_limit: 10.0,
+                    walls: Some(crate::crossing::Walls {
+                        half: 3.0,
+                        quarter: 3.2,
+                    }),
+                    half: Some(3.0),
+                    flat: true,
+                })
             })
             .collect();
         let place = |blur| {
-            let o = scene.place(detection(bounds(&t)), &pose, &k, Some(&t), &widths, blur);
+            let o = scene.place(
+                detection(bounds(&t)),
+                &pose,
+                &k,
+                Some(&t),
+                crossings.clone(),
+                blur,
+            );
             assert_eq!(o.outcome, Outcome::Placed);
-            o.placement.unwrap()
+            let mut p = o.placement.unwrap();
+            p.width = p
+                .crossed
+                .take()
+                .and_then(|c| c.width(&Contrast::given(0.85), None));
+            p
         };
         for sharp in [None, Some(0.5 * view.max_blur_px)] {
             let p = place(sharp);

@@ -2,9 +2,11 @@
 //! `postflight_core::outputs::localise`): a candidate with its views, and
 //! each detection with where it was placed.
 
+use nalgebra::Point3;
 use postflight_core::outputs::localise::{
-    DefectRecord, ObservationRecord, PlacedRecord, ViewRecord,
+    DefectRecord, ObservationRecord, PlacedRecord, ViewRecord, WidthRecord,
 };
+use postflight_core::trace::Trace;
 
 use postflight_core::condition::CrackLimits;
 use postflight_core::structure::Place;
@@ -44,7 +46,7 @@ pub fn defect_record(
         confidence: c.confidence,
         max_score: c.max_score,
         evidence: c.evidence.clone(),
-        width: c.width,
+        width: c.width.map(|w| along_the_trace(w, &c.trace)),
         condition: c.width.as_ref().and_then(|w| limits.state_of(w)),
         crop,
         best: view(&observations[c.best]).expect("a candidate's views are placed"),
@@ -54,6 +56,14 @@ pub fn defect_record(
             .filter_map(|i| view(&observations[*i]))
             .collect(),
     }
+}
+
+/// `width` with its widest stretch placed along the candidate's `trace`.
+fn along_the_trace(mut width: WidthRecord, trace: &Trace) -> WidthRecord {
+    if let Some(w) = &mut width.widest {
+        w.along_m = trace.along(&Point3::from(w.at));
+    }
+    width
 }
 
 /// A detection as `observations.parquet` holds it; `defect` is the

@@ -22,15 +22,17 @@ use postflight_core::{
 };
 use rayon::prelude::*;
 
+use crate::blur::Blur;
+use crate::contrast::{self, Contrast};
 use crate::crop::write_crop;
+use crate::crossing::{adjacency, crossings};
 use crate::error::LocaliseError;
 use crate::fusion::{DefectCandidate, fuse};
 use crate::joint;
-use crate::observation::{Observation, Scene};
+use crate::observation::{Crossed, Observation, Scene};
 use crate::records::{defect_record, observation_record};
 use crate::settings::{LocaliseConfig, keys};
 use crate::trace::{trace, trace_mask};
-use crate::width::widths;
 use postflight_core::structure::ElementMap;
 use targets::{Found, Targets};
 
@@ -135,14 +137,8 @@ pub fn localise(
     let recording = Recordings::reopen(&flight)?;
 
     let by_frame = detections_by_frame(&flight, detections)?;
-    let (observations, mut warnings) = place(
-        &flight,
-        &recording,
-        by_frame,
-        &scene,
-        &options.settings,
-        progress,
-    );
+    let (mut observations, mut warnings) = place(&flight, &recording, by_frame, &scene, progress);
+    measure_widths(&mut observations, options.settings.crack_darkness);
     let outcomes: Outcomes = observations.iter().map(|o| o.outcome).collect();
     let total = observations.len() as u64;
     let count = |outcome| outcomes.get(outcome);
@@ -224,7 +220,6 @@ fn place(
     recording: &Recordings,
     by_frame: Vec<(u32, Vec<FrameDetection>)>,
     scene: &Scene,
-    options: &LocaliseConfig,
     progress: &mut dyn FnMut(u64, u64),
 ) -> (Vec<Observation>, Vec<String>) {
     let total = by_frame.iter().map(|(_, d)| d.len()).sum::<usize>() as u64;
@@ -236,7 +231,7 @@ fn place(
             .par_iter()
             .map(|(index, dets)| {
                 let frame = flight.frame(*index).expect("frames were checked");
-                place_frame(flight, recording, frame, dets, scene, options)
+                place_frame(flight, recording, frame, dets, scene)
             })
             .collect();
         for (obs, warning) in placed {
@@ -246,6 +241,43 @@ fn place(
         progress(observations.len() as u64, total);
     }
     (observations, warnings)
+}
+
+/// Each view's width, once every crack of the flight has been crossed:
+/// its darkness over the contrast its own resolved stretches show, else
+/// the other cracks of its photo, else the flight's, else `given`; its
+/// walls as the camera's blur, which the flight's thin cracks show,
+/// spreads them.
+fn measure_widths(observations: &mut [Observation], given: f64) {
+    fn crossed(o: &Observation) -> Option<&Crossed> {
+        o.placement.as_ref()?.crossed.as_ref()
+    }
+    let mut by_photo: BTreeMap<u32, Vec<f64>> = BTreeMap::new();
+    for o in observations.iter() {
+        if let Some(i) = crossed(o).and_then(|c| contrast::interior(&c.crossings)) {
+            by_photo.entry(o.detection.frame).or_default().push(i);
+        }
+    }
+    let flight: Vec<f64> = by_photo.values().flatten().copied().collect();
+    let blur = Blur::of(
+        observations
+            .iter()
+            .filter_map(crossed)
+            .flat_map(|c| c.crossings.iter().flatten()),
+        Contrast::nearest(None, &[], &flight, given).share,
+    );
+    observations.par_iter_mut().for_each(|o| {
+        let photo = by_photo
+            .get(&o.detection.frame)
+            .map_or(&[][..], Vec::as_slice);
+        if let Some(p) = o.placement.as_mut()
+            && let Some(crossed) = p.crossed.take()
+        {
+            let own = contrast::interior(&crossed.crossings);
+            let contrast = Contrast::nearest(own, photo, &flight, given);
+            p.width = crossed.width(&contrast, blur);
+        }
+    });
 }
 
 /// What the summary says of detections that could not be placed.
@@ -276,7 +308,6 @@ fn place_frame(
     frame: &Frame,
     detections: &[FrameDetection],
     scene: &Scene,
-    options: &LocaliseConfig,
 ) -> (Vec<Observation>, Option<String>) {
     let unplaced = |outcome: Outcome| {
         detections
@@ -323,17 +354,16 @@ fn place_frame(
                 .as_ref()
                 .and_then(|g| trace(g, [b.x0, b.y0, b.x1, b.y1]))
                 .or_else(|| d.detection.mask.as_ref().and_then(trace_mask));
-            let widths = match (&gray, &crack) {
-                (Some(g), Some(t)) => widths(
+            let crossings = match (&gray, &crack) {
+                (Some(g), Some(t)) => crossings(
                     g,
                     d.detection.mask.as_ref(),
                     &t.pixels,
-                    &t.edges,
-                    options.crack_darkness,
+                    &adjacency(t.pixels.len(), &t.edges),
                 ),
                 _ => Vec::new(),
             };
-            let mut placed = scene.place(d.clone(), &pose, k, crack.as_ref(), &widths, blur_px);
+            let mut placed = scene.place(d.clone(), &pose, k, crack.as_ref(), crossings, blur_px);
             // Placing does not use the camera's accuracy; its candidate's
             // uncertainty does.
             if let Some(p) = &mut placed.placement {

@@ -4,8 +4,10 @@
 //! are worded for people.
 
 use maud::{DOCTYPE, Markup, html};
-use postflight_core::condition::ConditionState;
-use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
+use postflight_core::condition::{ConditionState, StateCall};
+use postflight_core::outputs::localise::{
+    ContrastSource, DefectRecord, LengthStatus, WidthMethod, WidthRecord,
+};
 use postflight_core::table::Named;
 
 /// The pages' styles.
@@ -60,8 +62,9 @@ pub fn length_text(d: &DefectRecord) -> String {
     }
 }
 
-/// A candidate's width, for people: its widest and median with their
-/// uncertainty, the bound it is below, or why it is unknown.
+/// A candidate's width, for people: its widest (and where along the crack
+/// that stretch is) and median with their uncertainty, how they were read,
+/// the bound it is below, or why it is unknown.
 pub fn width_text(d: &DefectRecord) -> String {
     let Some(w) = d.width else {
         return "not measured: no view traced the crack's line".into();
@@ -73,12 +76,41 @@ pub fn width_text(d: &DefectRecord) -> String {
             let spread = w
                 .uncertainty_mm
                 .map_or(String::new(), |u| format!(" \u{b1} {u:.2} mm"));
-            format!("{max:.2} mm at its widest{spread}{median} ({scale})")
+            let widest = match w.widest {
+                Some(s) => match s.along_m {
+                    Some(along) => format!("at its widest, {along:.2} m along its trace"),
+                    None => "at its widest".into(),
+                },
+                None => "along its length".into(),
+            };
+            let how = method_text(&w);
+            format!("{max:.2} mm {widest}{spread}{median} ({how}; {scale})")
         }
         (None, _, Some(below)) => {
             format!("below resolution: narrower than {below:.2} mm ({scale})")
         }
         (None, _, None) => format!("not measured ({scale})"),
+    }
+}
+
+/// How a width was read, for people.
+fn method_text(w: &WidthRecord) -> String {
+    let contrast = w.contrast_from.map(|from| match from {
+        ContrastSource::Crack => "its own wider stretches",
+        ContrastSource::Photo => "the photo's wider cracks",
+        ContrastSource::Flight => "the flight's wider cracks",
+        ContrastSource::Setting => "the crack_darkness setting",
+    });
+    let darkness = |contrast: Option<&str>| {
+        format!(
+            "its darkness over a crack's interior{}",
+            contrast.map_or(String::new(), |c| format!(" as {c} show it"))
+        )
+    };
+    match w.method {
+        Some(WidthMethod::Walls) | None => "across its walls".into(),
+        Some(WidthMethod::Darkness) => darkness(contrast),
+        Some(WidthMethod::WallsAndDarkness) => format!("its walls and {}", darkness(contrast)),
     }
 }
 
@@ -90,6 +122,37 @@ pub fn width_cell(d: &DefectRecord) -> String {
         Some((None, Some(below))) => format!("< {below:.2} mm"),
         _ => "\u{2013}".into(),
     }
+}
+
+/// A measured condition state as inspectors write it, and where its
+/// width's interval straddles a limit, the state across it and how likely
+/// each is: `2 fair (62%) or 1 good (38%)`; a dash for none.
+pub fn state_text(call: Option<StateCall>) -> String {
+    match call {
+        None => "\u{2013}".into(),
+        Some(c) => match c.other {
+            None => condition_text(Some(c.state)),
+            Some(other) => format!(
+                "{} ({:.0}%) or {} ({:.0}%)",
+                condition_text(Some(c.state)),
+                100.0 * c.probability,
+                condition_text(Some(other)),
+                100.0 * (1.0 - c.probability),
+            ),
+        },
+    }
+}
+
+/// Why an inspector should gauge a candidate on site, where its state is
+/// unsure; `None` where it is sure.
+pub fn gauge_text(call: Option<StateCall>) -> Option<String> {
+    let c = call?;
+    let other = c.other?;
+    Some(format!(
+        "gauge on site: its width is within its uncertainty of the limit between {} and {}",
+        condition_text(Some(c.state.min(other))),
+        condition_text(Some(c.state.max(other)))
+    ))
 }
 
 /// A condition state as inspectors write it: `2 fair`; a dash for none.

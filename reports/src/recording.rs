@@ -10,7 +10,7 @@ use std::path::Path;
 
 use ingest::Recordings;
 use nalgebra::Isometry3;
-use page::condition_text;
+use page::state_text;
 use postflight_core::detection::FrameDetection;
 use postflight_core::frame::{Compression, ImageEncoding};
 use postflight_core::mask::Mask;
@@ -175,7 +175,7 @@ fn log_defects(out: &Out, results: &RunResults) -> Result<(), ReportError> {
             .with_labels(review.iter().enumerate().map(|(i, d)| {
                 let length = d.length_m.map_or(String::new(), |l| format!(", {l:.2} m"));
                 let state = d.condition.map_or(String::new(), |s| {
-                    format!(", state {}", condition_text(Some(s)))
+                    format!(", state {}", state_text(Some(s)))
                 });
                 format!("#{} {}{length}{state}", i + 1, d.id)
             })),
@@ -183,7 +183,7 @@ fn log_defects(out: &Out, results: &RunResults) -> Result<(), ReportError> {
     let lines: Vec<(Vec<[f32; 3]>, rerun::Color)> = review
         .iter()
         .flat_map(|d| {
-            let colour = rgb(state_colour(d.condition));
+            let colour = rgb(state_colour(d.state()));
             d.trace
                 .0
                 .iter()

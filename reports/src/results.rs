@@ -329,7 +329,7 @@ impl ElementCracks {
             };
             let e = &mut by[i];
             e.cracks += 1;
-            match (d.length_m, d.condition) {
+            match (d.length_m, d.state()) {
                 (None, _) => e.unmeasured += 1,
                 (Some(l), Some(state)) => e.state_m[usize::from(state.number() - 1)] += l,
                 (Some(l), None) => e.no_state_m += l,

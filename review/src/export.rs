@@ -199,6 +199,7 @@ pub fn export_run(run: &Path, db: &Path, out: &Path) -> Result<Vec<PathBuf>, Rev
 #[cfg(test)]
 mod tests {
     use postflight_core::FaceSide;
+    use postflight_core::condition::StateCall;
     use postflight_core::outputs::localise::{Evidence, LengthStatus, ViewRecord, WidthRecord};
     use postflight_core::trace::Trace;
     use postflight_core::view::Miss;
@@ -298,8 +299,13 @@ mod tests {
                     uncertainty_mm: Some(0.2),
                     narrower_than_mm: None,
                     mm_per_px: 0.9,
+                    ..WidthRecord::default()
                 }),
-                condition: length_m.map(|_| ConditionState::Fair),
+                condition: length_m.map(|_| StateCall {
+                    state: ConditionState::Fair,
+                    probability: 1.0,
+                    other: None,
+                }),
                 crop: Some(format!("defects/{id}.jpg")),
                 views: Vec::new(),
             },

@@ -9,7 +9,8 @@ use std::fmt::Write;
 
 use maud::{Markup, PreEscaped, html};
 use page::{
-    condition_text, evidence_text, length_text, place_text, readable_time, width_cell, width_text,
+    condition_text, evidence_text, gauge_text, length_text, place_text, readable_time, state_text,
+    width_cell, width_text,
 };
 use postflight_core::condition::ConditionState;
 use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
@@ -266,9 +267,14 @@ fn condition_cell(e: &Entry) -> Markup {
         @match reviewed_condition(e) {
             Some(state) => {
                 (condition_text(Some(state))) " "
-                span.sub title=(format!("measured: {}", condition_text(e.defect.condition))) { "(reviewer)" }
+                span.sub title=(format!("measured: {}", state_text(e.defect.condition))) { "(reviewer)" }
             },
-            None => (condition_text(e.defect.condition)),
+            None => {
+                (state_text(e.defect.condition))
+                @if let Some(why) = gauge_text(e.defect.condition) {
+                    br; span.flag title=(why) { "gauge on site" }
+                }
+            },
         }
     }
 }
@@ -469,8 +475,9 @@ fn facts(ctx: &Context, d: &DefectRecord) -> Markup {
             tr {
                 th { "condition state" }
                 td {
-                    (condition_text(d.condition))
+                    (state_text(d.condition))
                     @if d.condition.is_some() { " " span.sub { "(from its widest)" } }
+                    @if let Some(why) = gauge_text(d.condition) { br; b.flag { (why) } }
                 }
             }
             tr {
@@ -533,7 +540,7 @@ fn decision_form(ctx: &Context, entry: &Entry, v: &CandidateView) -> Markup {
                     "Condition state "
                     select name="condition" #condition {
                         option value="" selected[condition.is_none()] {
-                            "as measured (" (condition_text(measured)) ")"
+                            "as measured (" (state_text(measured)) ")"
                         }
                         @for state in ConditionState::ALL {
                             option value=(state.name()) selected[condition == Some(*state)] {

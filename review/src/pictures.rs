@@ -80,7 +80,7 @@ pub fn position_svgs(
                     position: defect.position,
                     normal,
                     trace: &defect.trace,
-                    condition: defect.condition,
+                    condition: defect.state(),
                 }],
                 grey: true,
                 ..Overlay::default()

@@ -15,7 +15,7 @@ use std::path::PathBuf;
 use polars::prelude::{PolarsResult, polars_err};
 use serde::{Deserialize, Serialize};
 
-use crate::condition::ConditionState;
+use crate::condition::{ConditionState, StateCall};
 use crate::detection::BoxXyxy;
 use crate::error::Error;
 use crate::map::{FaceSide, VoxelIndex};
@@ -278,10 +278,10 @@ crate::table! {
         #[serde(default)]
         width: Option<WidthRecord> as ?,
         /// The condition state its width puts its length in (`[condition]`'s
-        /// limits); none where the width is unknown or its bound straddles a
-        /// limit.
-        #[serde(default)]
-        condition: Option<ConditionState> as condition_state,
+        /// limits), and how sure that is; none where the width is unknown or
+        /// its bound straddles a limit.
+        #[serde(flatten)]
+        condition: Option<StateCall> as ?,
         /// JPEG of the best view, relative to the run directory (none when its
         /// image could not be decoded).
         crop: Option<String>,
@@ -295,18 +295,93 @@ crate::table! {
     /// A crack's width as one view measures it; a candidate's is that of its
     /// view with the fewest millimetres per pixel that measured it. Its
     /// columns are null where no view measured across the crack.
-    #[derive(Copy, Serialize, Deserialize)]
+    #[derive(Copy, Default, Serialize, Deserialize)]
     pub struct WidthRecord {
-        /// Widest (95th percentile along its centre line) and median width,
+        /// Its widest stretch's width (see [`WidestStretch`]; the median
+        /// where no stretch is surely wider) and its median width,
         /// millimetres; none when the crack is below the view's resolution.
         max_mm: Option<f64> as max_width_mm,
         median_mm: Option<f64> as median_width_mm,
-        /// How far off `max_mm` may be, millimetres.
+        /// How far off `max_mm` may be, millimetres (one standard
+        /// deviation): the pixel's share, the image's noise, the contrast a
+        /// darkness width divides by, a mask's whole-pixel edges and how
+        /// irregular the crack is.
         uncertainty_mm: Option<f64> as width_uncertainty_mm,
         /// Below resolution: narrower than this, millimetres.
         narrower_than_mm: Option<f64>,
         /// The view's millimetres on the surface per pixel across the crack.
         mm_per_px: f64 as width_mm_per_px,
+        /// How the widest stretch was read: across its walls, from its
+        /// darkness, or both (none below resolution).
+        #[serde(default)]
+        method: Option<WidthMethod> as width_method,
+        /// Where the contrast its darkness was divided by came from (none
+        /// where its walls alone measured it).
+        #[serde(default)]
+        contrast_from: Option<ContrastSource> as width_contrast_from,
+        /// That contrast: the share of the surface's brightness a crack's
+        /// interior lacks.
+        #[serde(default)]
+        interior_darkness: Option<f64> as width_interior_darkness,
+        /// Where its widest stretch is; none where no stretch is surely
+        /// wider than the crack's median (it is as wide along its length).
+        #[serde(default)]
+        widest: Option<WidestStretch> as ?,
+    }
+}
+
+crate::table! {
+    /// Where along a crack its widest stretch is: the stretch an inspector
+    /// would put a gauge on.
+    #[derive(Copy, Serialize, Deserialize)]
+    pub struct WidestStretch {
+        /// Its middle, world frame, metres.
+        at: [f64; 3] as [widest_x, widest_y, widest_z],
+        /// How far along the candidate's trace it is from the trace's first
+        /// point, metres (none on a view's own width, or without a trace).
+        #[serde(default)]
+        along_m: Option<f64> as widest_along_m,
+    }
+}
+
+crate::kind! {
+    /// How a crack's width was read across it.
+    pub enum WidthMethod("width method") {
+        /// Across its walls: where its grey levels cross a quarter of its
+        /// depth, less what the camera's blur spreads a wall there (at least
+        /// its width at half depth): a crack wider than the blur.
+        Walls = "walls",
+        /// From its darkness: the light it takes away, summed across it,
+        /// over the contrast between the surface and a crack's interior: a
+        /// crack thinner than the blur, which never shows its interior's
+        /// darkness.
+        Darkness = "darkness",
+        /// Both, each weighed by how far the crack resolves: a crack about
+        /// as wide as the blur.
+        WallsAndDarkness = "walls_and_darkness",
+    }
+}
+
+crate::kind! {
+    /// Where the contrast a darkness width divides by came from: cracks
+    /// that resolve (wide enough to show a flat, dark interior), nearest
+    /// first.
+    pub enum ContrastSource("contrast source") {
+        /// The crack's own resolved stretches.
+        Crack = "crack",
+        /// Other cracks of the same photo.
+        Photo = "photo",
+        /// The flight's cracks.
+        Flight = "flight",
+        /// None resolved: `[localise] crack_darkness`.
+        Setting = "setting",
+    }
+}
+
+impl DefectRecord {
+    /// The condition state its width puts it in, if any.
+    pub fn state(&self) -> Option<ConditionState> {
+        self.condition.map(|c| c.state)
     }
 }
 
@@ -408,6 +483,7 @@ impl DefectRecord {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::table::Row;
 
     fn observation(frame: u32, placed: bool, defect: Option<&str>) -> ObservationRecord {
         ObservationRecord {
@@ -498,15 +574,35 @@ mod tests {
                     min_measurable_width_mm: 7.6,
                     reshoot: best == 3,
                 },
-                // One measured, one below resolution.
+                // One measured, its widest stretch at a place along it and
+                // its state unsure, one below resolution.
                 width: Some(WidthRecord {
                     max_mm: (best == 3).then_some(1.4),
                     median_mm: (best == 3).then_some(0.6),
                     uncertainty_mm: (best == 3).then_some(0.2),
                     narrower_than_mm: (best != 3).then_some(0.3),
                     mm_per_px: 1.1,
+                    method: (best == 3).then_some(WidthMethod::WallsAndDarkness),
+                    contrast_from: (best == 3).then_some(ContrastSource::Flight),
+                    interior_darkness: (best == 3).then_some(0.9),
+                    widest: (best == 3).then_some(WidestStretch {
+                        at: [1.0, 2.05, 2.45],
+                        along_m: Some(0.2),
+                    }),
                 }),
-                condition: (best == 3).then_some(ConditionState::Poor),
+                condition: Some(if best == 3 {
+                    StateCall {
+                        state: ConditionState::Poor,
+                        probability: 0.66,
+                        other: Some(ConditionState::Fair),
+                    }
+                } else {
+                    StateCall {
+                        state: ConditionState::Good,
+                        probability: 1.0,
+                        other: None,
+                    }
+                }),
                 crop: Some(format!("defects/{id}.jpg")),
                 best: views.iter().find(|v| v.frame == best).unwrap().clone(),
                 views,
@@ -516,5 +612,34 @@ mod tests {
         write_defects(&run, &defects).unwrap();
         assert_eq!(read_defects(&run).unwrap(), defects);
         assert_eq!(read_defects_table(&run).unwrap(), defects);
+        // The state and how sure it is are columns of their own, and keys
+        // of the candidate in the JSON, as the state always was.
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(run.file(files::DEFECTS_JSON)).unwrap()).unwrap();
+        let first = &json["defects"][0];
+        assert_eq!(
+            (
+                &first["condition"],
+                &first["condition_probability"],
+                &first["other_condition"]
+            ),
+            (
+                &serde_json::json!("poor"),
+                &serde_json::json!(0.66),
+                &serde_json::json!("fair")
+            )
+        );
+        let table = DefectRecord::frame(&defects).unwrap();
+        for column in [
+            "condition_state",
+            "condition_probability",
+            "other_condition_state",
+            "width_method",
+            "width_contrast_from",
+            "widest_x",
+            "widest_along_m",
+        ] {
+            assert!(table.column(column).is_ok(), "{column}");
+        }
     }
 }

@@ -209,7 +209,7 @@ fn coverage_views(r: &RunResults, c: &CoverageSummary) -> Markup {
             position: d.position,
             normal: d.normal,
             trace: &d.trace,
-            condition: d.condition,
+            condition: d.state(),
         })
         .collect();
     let overlay = Overlay {

@@ -1,0 +1,458 @@
+//! One crossing of a crack: the grey levels across its centre line at one
+//! point in the numbers a width is read from. The profile is sampled on the
+//! line's normal at sub-pixel steps, out to a reach that grows with the
+//! crack (the detector's mask, where it segments, or the crack's own dark
+//! extent) so the surface is read outside it.
+//!
+//! A camera spreads a line thinner than its blur over a couple of pixels:
+//! such a crack's profile never reaches its interior's darkness, and its
+//! width at half depth is the blur's. What the blur keeps is the light the
+//! crack takes away, summed across it ([`Crossing::darkness`]); its walls
+//! ([`Crossing::walls`]) say its width only where it is wider than the
+//! blur. [`crate::width`] weighs the two.
+
+use image::GrayImage;
+use nalgebra::{Point2, Vector2};
+use postflight_core::mask::Mask;
+
+use crate::stats::median;
+
+/// Samples per pixel across the crack.
+const STEP: f64 = 0.25;
+/// A crossing is flat-bottomed and resolved this many pixels wide or more
+/// at half depth.
+pub const RESOLVED_PX: f64 = 3.0;
+/// Half-depth width from which a profile shows a crack's two walls apart,
+/// not a thinner line's blur, pixels.
+pub const WALLS_APART_PX: f64 = 2.0;
+/// Noise sigmas a crack's depth must pass for its half depth to be read
+/// where the detector's mask spans it (the mask already says a crack is
+/// there).
+const CONFIRM_SIGMAS: f64 = 3.0;
+/// Noise sigmas a crack's depth must pass where nothing else says one is
+/// there.
+const FOUND_SIGMAS: f64 = 6.0;
+/// Half the profile's span across the line, pixels, unless the crack
+/// reaches further.
+const REACH: f64 = 8.0;
+/// The farthest a profile reaches, pixels.
+const MAX_REACH: f64 = 64.0;
+/// The darkness is summed this far either side of the line at least,
+/// pixels: a thin line's blur (on the gauge readings' photos about 2 px
+/// at half depth, a Gaussian of 0.85 px) lies within it.
+const DARKNESS_REACH_PX: f64 = 2.5;
+/// And this far beyond a wider crack's walls at half depth, pixels: a
+/// blurred wall's darkness falls to a fiftieth there.
+const DARKNESS_MARGIN_PX: f64 = 1.5;
+
+/// What the profile across a crack at one centre-line point shows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Crossing {
+    /// The centre-line pixel.
+    pub at: Point2<f64>,
+    /// Unit normal of the centre line there, image pixels.
+    pub across: Vector2<f64>,
+    /// The surface's brightness beside the crack, grey levels.
+    pub surface: f64,
+    /// The crack's darkness below the surface at the line (the deepest
+    /// within half a pixel), grey levels.
+    pub depth: f64,
+    /// The darkness summed across the crack: the light it takes away,
+    /// grey levels times pixels. A crack `w` pixels wide whose interior
+    /// lacks `C` grey levels of the surface's sums to `w C`, however the
+    /// lens, the sensor and motion blur spread it.
+    pub darkness: f64,
+    /// What the image's noise alone may sum to over that span (3 sigma),
+    /// grey levels times pixels.
+    pub noise_limit: f64,
+    /// Where the profile shows the crack's walls on the line (deeper than
+    /// [`FOUND_SIGMAS`] noise sigmas).
+    pub walls: Option<Walls>,
+    /// Its width at half depth: its walls', else, where the detector's mask
+    /// spans it, around its darkest line within the mask (deeper than
+    /// [`CONFIRM_SIGMAS`]), pixels.
+    pub half: Option<f64>,
+    /// Whether it is flat-bottomed and at least [`RESOLVED_PX`] wide at
+    /// half depth: its depth is its interior's darkness.
+    pub flat: bool,
+}
+
+/// Where a crack's walls are: its widths between them at half and at a
+/// quarter of its depth, pixels. A blurred wall's half depth lies on the
+/// wall; its quarter depth further out by what the blur spreads it. A V or
+/// U section's walls slope from its opening, so its half depth reads only
+/// part of it (half of a V's), its quarter depth three quarters of a V's
+/// and all of a U's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Walls {
+    pub half: f64,
+    pub quarter: f64,
+}
+
+impl Crossing {
+    /// The share of the surface's brightness its interior lacks, where it
+    /// shows its interior (flat-bottomed and resolved).
+    pub fn interior(&self) -> Option<f64> {
+        (self.flat && self.surface > 0.0).then(|| self.depth / self.surface)
+    }
+}
+
+/// The crack's crossings at each of `centre` (a traced centre line, frame
+/// pixels, with `neighbours` along it), measured in `gray` and `mask` (the
+/// detector's crack pixels, where it segments); `None` where no profile
+/// fits in the image or the line has no direction.
+pub fn crossings(
+    gray: &GrayImage,
+    mask: Option<&Mask>,
+    centre: &[Point2<f64>],
+    neighbours: &[Vec<usize>],
+) -> Vec<Option<Crossing>> {
+    let inside = mask.map(Inside::of);
+    (0..centre.len())
+        .map(|i| {
+            let across = normal(centre, neighbours, i)?;
+            let mask_px = inside.as_ref().and_then(|m| m.width(centre[i], across));
+            // The profile reaches well past the crack: past its mask's
+            // extent, or (without one) past its own dark extent.
+            let reach = mask_px.map_or(REACH, |px| REACH.max(1.5 * px + 4.0));
+            let profile = reached(gray, centre[i], across, reach)?;
+            Some(profile.crossing(centre[i], across, mask_px))
+        })
+        .collect()
+}
+
+/// The profile across the crack at one centre-line pixel.
+struct Profile {
+    /// Offsets across the line, pixels, `STEP` apart, centred on 0.
+    t: Vec<f64>,
+    /// Darkness below the surface at each offset, grey levels (negative
+    /// where brighter).
+    dark: Vec<f64>,
+    /// The surface's brightness and noise (robust sigma), grey levels.
+    surface: f64,
+    noise: f64,
+}
+
+impl Profile {
+    /// What it shows; `mask_px` the detector's mask's width across it,
+    /// where it segments.
+    fn crossing(&self, at: Point2<f64>, across: Vector2<f64>, mask_px: Option<f64>) -> Crossing {
+        let found = found(self, FOUND_SIGMAS);
+        let centre = self.t.iter().position(|t| t.abs() < STEP / 2.0);
+        let depth = centre.map_or(0.0, |c| self.deepest_near(c, 2));
+        let walls = found.as_ref().and_then(|f| {
+            Some(Walls {
+                half: f.width,
+                quarter: edges_at_half(self, f.centre, f.depth / 2.0, 0.0)?,
+            })
+        });
+        // Where the mask spans the crack, its darkest line may lie off the
+        // traced one: its half depth there.
+        let half = walls.map(|w| w.half).or_else(|| {
+            mask_px
+                .filter(|px| *px >= RESOLVED_PX)
+                .and_then(|px| half_depth(self, px / 2.0))
+        });
+        // The darkness summed over the crack's half-depth width and its
+        // blur each side, signed (the noise sums to nothing).
+        let reach = half.map_or(DARKNESS_REACH_PX, |h| {
+            (h / 2.0 + DARKNESS_MARGIN_PX).max(DARKNESS_REACH_PX)
+        });
+        let darkness: f64 = self
+            .t
+            .iter()
+            .zip(&self.dark)
+            .filter(|(t, _)| t.abs() <= reach)
+            .map(|(_, d)| d * STEP)
+            .sum();
+        // What noise alone sums to over that span: 3 sigma of the sum of
+        // its independent pixels.
+        let noise_limit = 3.0 * self.noise * (2.0 * reach).sqrt();
+        Crossing {
+            at,
+            across,
+            surface: self.surface,
+            depth,
+            darkness,
+            noise_limit,
+            walls,
+            half,
+            flat: found.as_ref().is_some_and(|f| self.flat(f)),
+        }
+    }
+
+    /// The darkest sample within `samples` of sample `i`.
+    fn deepest_near(&self, i: usize, samples: usize) -> f64 {
+        self.dark[i.saturating_sub(samples)..=(i + samples).min(self.dark.len() - 1)]
+            .iter()
+            .copied()
+            .fold(0.0, f64::max)
+    }
+
+    /// A flat bottom at least [`RESOLVED_PX`] wide: the middle two thirds
+    /// of the crack nearly as dark as its deepest (a V's darkness falls to
+    /// two thirds there).
+    fn flat(&self, f: &Found) -> bool {
+        f.width >= RESOLVED_PX
+            && self
+                .t
+                .iter()
+                .zip(&self.dark)
+                .filter(|(t, _)| t.abs() <= f.width / 3.0)
+                .all(|(_, d)| *d >= 0.8 * f.depth)
+    }
+}
+
+/// How deep inside the detector's mask each of its pixels is: the distance
+/// from its centre to the nearest pixel off the mask, pixels.
+struct Inside {
+    mask: Mask,
+    distance: image::ImageBuffer<image::Luma<f64>, Vec<f64>>,
+}
+
+impl Inside {
+    fn of(mask: &Mask) -> Self {
+        // A pixel of background round the window: the crack ends there.
+        let (w, h) = (mask.width + 2, mask.height + 2);
+        let off = image::GrayImage::from_fn(w, h, |x, y| {
+            let on = x > 0 && y > 0 && mask.at(mask.x0 + x - 1, mask.y0 + y - 1);
+            image::Luma([if on { 0 } else { 255 }])
+        });
+        Self {
+            mask: mask.clone(),
+            distance: imageproc::distance_transform::euclidean_squared_distance_transform(&off),
+        }
+    }
+
+    /// The distance at frame pixel `(x, y)`; 0 off the mask.
+    fn at(&self, x: u32, y: u32) -> f64 {
+        if !self.mask.at(x, y) {
+            return 0.0;
+        }
+        let (u, v) = (x - self.mask.x0 + 1, y - self.mask.y0 + 1);
+        self.distance.get_pixel(u, v).0[0].sqrt()
+    }
+
+    /// The crack's width where the line through `at` along `across` crosses
+    /// the mask (`None` when no crack pixel lies within a pixel and a half
+    /// of `at` on it): the widest disc inside the mask on that crossing, as
+    /// `2 r - 1` pixels for `r` the distance between pixel centres (a line
+    /// one pixel wide is 1), the measure people's masks are scored by.
+    fn width(&self, at: Point2<f64>, across: Vector2<f64>) -> Option<f64> {
+        let depth = |t: f64| {
+            let p = at + across * t;
+            if p.x < 0.0 || p.y < 0.0 {
+                0.0
+            } else {
+                self.at(p.x as u32, p.y as u32)
+            }
+        };
+        let start = [0.0, 0.5, -0.5, 1.0, -1.0, 1.5, -1.5]
+            .into_iter()
+            .find(|t| depth(*t) > 0.0)?;
+        let deepest = |step: f64| {
+            let (mut t, mut most) = (start, depth(start));
+            while (t - start).abs() < MAX_REACH && depth(t + step) > 0.0 {
+                t += step;
+                most = most.max(depth(t));
+            }
+            most
+        };
+        Some(2.0 * deepest(STEP).max(deepest(-STEP)) - 1.0)
+    }
+}
+
+/// The profile at `at` out to `reach` pixels each side, reaching further
+/// (up to [`MAX_REACH`]) while the crack's darkness runs past half of it,
+/// so the surface is read outside the crack.
+fn reached(gray: &GrayImage, at: Point2<f64>, across: Vector2<f64>, reach: f64) -> Option<Profile> {
+    let mut reach = reach.min(MAX_REACH);
+    loop {
+        let p = profile(gray, at, across, reach)?;
+        if reach >= MAX_REACH || dark_extent(&p) < 0.5 * reach {
+            return Some(p);
+        }
+        reach = (2.0 * reach).min(MAX_REACH);
+    }
+}
+
+/// How far from the line the crack's darkness runs, pixels: the farther of
+/// the two sides where the profile, walking out from the line, first comes
+/// back within three noise sigmas of the surface.
+fn dark_extent(p: &Profile) -> f64 {
+    let Some(centre) = p.t.iter().position(|t| t.abs() < STEP / 2.0) else {
+        return 0.0;
+    };
+    let floor = 3.0 * p.noise;
+    if p.dark[centre] <= floor {
+        return 0.0;
+    }
+    let side = |step: isize| {
+        let mut i = centre as isize;
+        while i + step >= 0 && ((i + step) as usize) < p.dark.len() && p.dark[i as usize] > floor {
+            i += step;
+        }
+        p.t[i as usize].abs()
+    };
+    side(1).max(side(-1))
+}
+
+/// A crack the profile shows on the line, deeper than so many noise
+/// sigmas.
+struct Found {
+    /// The sample on the line.
+    centre: usize,
+    /// The darkest within two samples of it, grey levels.
+    depth: f64,
+    /// Full width at half that depth, pixels.
+    width: f64,
+}
+
+fn found(p: &Profile, sigmas: f64) -> Option<Found> {
+    let centre = p.t.iter().position(|t| t.abs() < STEP / 2.0)?;
+    let depth = p.deepest_near(centre, 2);
+    let width = edges_at_half(p, centre, depth, sigmas)?;
+    Some(Found {
+        centre,
+        depth,
+        width,
+    })
+}
+
+/// The distance between the two places, walking out from sample `from`,
+/// where the profile's darkness falls below half of `depth`, found
+/// between samples by interpolation; `None` where the crack is no darker
+/// than `sigmas` noise sigmas or runs past the profile.
+fn edges_at_half(p: &Profile, from: usize, depth: f64, sigmas: f64) -> Option<f64> {
+    if depth < sigmas * p.noise.max(1.0) {
+        return None;
+    }
+    let half = depth / 2.0;
+    let edge = |step: isize| -> Option<f64> {
+        let mut i = from as isize;
+        loop {
+            let next = i + step;
+            if next < 0 || next as usize >= p.dark.len() {
+                return None;
+            }
+            let (a, b) = (p.dark[i as usize], p.dark[next as usize]);
+            if b < half {
+                let f = ((a - half) / (a - b)).clamp(0.0, 1.0);
+                return Some(p.t[i as usize] + f * (p.t[next as usize] - p.t[i as usize]));
+            }
+            i = next;
+        }
+    };
+    Some(edge(1)? - edge(-1)?)
+}
+
+/// Full width at half depth around the darkest point within `search`
+/// pixels of the line (its depth the mean over half a pixel each side of
+/// it); `None` where the crack is no darker than [`CONFIRM_SIGMAS`] noise
+/// sigmas or runs past the profile.
+fn half_depth(p: &Profile, search: f64) -> Option<f64> {
+    let deepest = (0..p.t.len())
+        .filter(|i| p.t[*i].abs() <= search.max(STEP))
+        .max_by(|a, b| p.dark[*a].total_cmp(&p.dark[*b]))?;
+    let near = deepest.saturating_sub(2)..=(deepest + 2).min(p.dark.len() - 1);
+    let depth = p.dark[near.clone()].iter().sum::<f64>() / near.count() as f64;
+    edges_at_half(p, deepest, depth, CONFIRM_SIGMAS)
+}
+
+/// The grey levels across the crack at `at` along `across`, out to `reach`
+/// pixels each side, the surface read from the outer two fifths.
+fn profile(gray: &GrayImage, at: Point2<f64>, across: Vector2<f64>, reach: f64) -> Option<Profile> {
+    let n = (reach / STEP) as i64;
+    let t: Vec<f64> = (-n..=n).map(|k| k as f64 * STEP).collect();
+    let values: Vec<f64> = t
+        .iter()
+        .map(|t| sample(gray, at + across * *t))
+        .collect::<Option<_>>()?;
+    let outer: Vec<f64> = t
+        .iter()
+        .zip(&values)
+        .filter(|(t, _)| t.abs() >= reach * 0.6)
+        .map(|(_, v)| *v)
+        .collect();
+    let deviations = |surface: f64| outer.iter().map(|v| (v - surface).abs()).collect();
+    let surface = median(outer.clone())?;
+    let noise = 1.4826 * median(deviations(surface))?;
+    let dark = values.iter().map(|v| surface - v).collect();
+    Some(Profile {
+        t,
+        dark,
+        surface,
+        noise: noise.max(0.5),
+    })
+}
+
+/// Bilinear grey level at `p` (pixel-centre coordinates: pixel `(x, y)`
+/// spans `x..x+1`); `None` outside the image.
+fn sample(gray: &GrayImage, p: Point2<f64>) -> Option<f64> {
+    let (u, v) = (p.x - 0.5, p.y - 0.5);
+    let (w, h) = (f64::from(gray.width()), f64::from(gray.height()));
+    if u < 0.0 || v < 0.0 || u > w - 1.0 || v > h - 1.0 {
+        return None;
+    }
+    let (x0, y0) = (u.floor() as u32, v.floor() as u32);
+    let (x1, y1) = (
+        (x0 + 1).min(gray.width() - 1),
+        (y0 + 1).min(gray.height() - 1),
+    );
+    let (fx, fy) = (u - f64::from(x0), v - f64::from(y0));
+    let at = |x: u32, y: u32| f64::from(gray.get_pixel(x, y).0[0]);
+    let top = at(x0, y0) * (1.0 - fx) + at(x1, y0) * fx;
+    let bottom = at(x0, y1) * (1.0 - fx) + at(x1, y1) * fx;
+    Some(top * (1.0 - fy) + bottom * fy)
+}
+
+/// Centre-line pixels on either side that give the line's local direction.
+const DIRECTION_REACH: usize = 3;
+
+/// Each centre-line pixel's neighbours along the line, from its `edges`.
+pub fn adjacency(n: usize, edges: &[(u32, u32)]) -> Vec<Vec<usize>> {
+    let mut out = vec![Vec::new(); n];
+    for &(a, b) in edges {
+        out[a as usize].push(b as usize);
+        out[b as usize].push(a as usize);
+    }
+    out
+}
+
+/// Centre-line pixels within `steps` steps of pixel `i` along the line,
+/// `i` among them.
+pub fn within(neighbours: &[Vec<usize>], i: usize, steps: usize) -> Vec<usize> {
+    let mut near = vec![i];
+    let mut frontier = vec![i];
+    for _ in 0..steps {
+        let mut next: Vec<usize> = frontier
+            .iter()
+            .flat_map(|j| neighbours[*j].iter().copied())
+            .filter(|j| !near.contains(j))
+            .collect();
+        next.sort_unstable();
+        next.dedup();
+        near.extend(&next);
+        frontier = next;
+    }
+    near
+}
+
+/// Unit normal of the centre line at pixel `i`: across the main direction
+/// of the pixels within `DIRECTION_REACH` steps along the line.
+fn normal(centre: &[Point2<f64>], neighbours: &[Vec<usize>], i: usize) -> Option<Vector2<f64>> {
+    let near = within(neighbours, i, DIRECTION_REACH);
+    if near.len() < 3 {
+        return None;
+    }
+    let mean = near.iter().map(|j| centre[*j].coords).sum::<Vector2<f64>>() / near.len() as f64;
+    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+    for j in &near {
+        let d = centre[*j].coords - mean;
+        sxx += d.x * d.x;
+        sxy += d.x * d.y;
+        syy += d.y * d.y;
+    }
+    let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+    Some(Vector2::new(-angle.sin(), angle.cos()))
+}
