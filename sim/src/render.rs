@@ -85,7 +85,7 @@ pub fn render(
 ) -> RgbImage {
     let origin = Point3::from(camera.translation.vector);
     let (w, h) = (rays.width as usize, rays.height as usize);
-    let mut light = vec![[0.0f32; 3]; w * h];
+    let mut light = vec![[0.0f64; 3]; w * h];
     light.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         for (x, px) in row.iter_mut().enumerate() {
             let dir = camera.rotation * rays.rays[y * w + x];
@@ -98,7 +98,7 @@ pub fn render(
                 rays.pixel_angle,
                 surface,
             );
-            *px = rgb.map(|c| c as f32);
+            *px = rgb;
         }
     });
     let light = lens_blur(light, w, h, lens_blur_px);
@@ -108,7 +108,7 @@ pub fn render(
             // Sensor noise, fixed per pixel and frame so output is deterministic.
             let n = (hash3(x as i64, y as i64, i64::from(frame), 17) - 0.5) * 6.0;
             for c in 0..3 {
-                row[x * 3 + c] = (f64::from(light[y * w + x][c]) + n).clamp(0.0, 255.0) as u8;
+                row[x * 3 + c] = (light[y * w + x][c] + n).clamp(0.0, 255.0) as u8;
             }
         }
     });
@@ -118,20 +118,20 @@ pub fn render(
 /// The lens's point-spread function: `light` (a `w` x `h` image) blurred
 /// by a Gaussian of `sigma_px`, along rows then columns, the border
 /// repeated.
-fn lens_blur(light: Vec<[f32; 3]>, w: usize, h: usize, sigma_px: f64) -> Vec<[f32; 3]> {
+fn lens_blur(light: Vec<[f64; 3]>, w: usize, h: usize, sigma_px: f64) -> Vec<[f64; 3]> {
     if sigma_px <= 0.0 {
         return light;
     }
     let r = (3.0 * sigma_px).ceil() as isize;
-    let weights: Vec<f32> = (-r..=r)
-        .map(|i| (-(i as f64).powi(2) / (2.0 * sigma_px * sigma_px)).exp() as f32)
+    let weights: Vec<f64> = (-r..=r)
+        .map(|i| (-(i as f64).powi(2) / (2.0 * sigma_px * sigma_px)).exp())
         .collect();
-    let total: f32 = weights.iter().sum();
-    let pass = |from: &[[f32; 3]], along_rows: bool| -> Vec<[f32; 3]> {
-        let mut out = vec![[0.0f32; 3]; w * h];
+    let total: f64 = weights.iter().sum();
+    let pass = |from: &[[f64; 3]], along_rows: bool| -> Vec<[f64; 3]> {
+        let mut out = vec![[0.0f64; 3]; w * h];
         out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
             for (x, px) in row.iter_mut().enumerate() {
-                let mut acc = [0.0f32; 3];
+                let mut acc = [0.0f64; 3];
                 for (k, weight) in weights.iter().enumerate() {
                     let d = k as isize - r;
                     let (sx, sy) = if along_rows {
@@ -292,13 +292,13 @@ mod tests {
     fn the_lens_spreads_a_line_and_keeps_its_light() {
         // A dark line one pixel wide down column 10 of a 21 x 5 image.
         let (w, h) = (21, 5);
-        let light: Vec<[f32; 3]> = (0..w * h)
+        let light: Vec<[f64; 3]> = (0..w * h)
             .map(|i| if i % w == 10 { [0.0; 3] } else { [100.0; 3] })
             .collect();
         let blurred = lens_blur(light, w, h, 0.6);
-        let row: Vec<f32> = (0..w).map(|x| blurred[2 * w + x][0]).collect();
+        let row: Vec<f64> = (0..w).map(|x| blurred[2 * w + x][0]).collect();
         // The light it takes away is kept, spread over its neighbours.
-        let taken: f32 = row.iter().map(|v| 100.0 - v).sum();
+        let taken: f64 = row.iter().map(|v| 100.0 - v).sum();
         assert!((taken - 100.0).abs() < 0.01, "{row:?}");
         assert!(row[10] > 30.0 && row[9] < 95.0 && row[11] < 95.0, "{row:?}");
         assert_eq!(lens_blur(vec![[7.0; 3]; 4], 2, 2, 0.0), vec![[7.0; 3]; 4]);
