@@ -122,6 +122,7 @@ impl CrackLimits {
                 state,
                 probability: 1.0,
                 other: None,
+                other_probability: None,
             }),
             (None, None) => None,
         }
@@ -170,6 +171,7 @@ impl CrackLimits {
             state,
             probability: likely(state),
             other,
+            other_probability: other.map(likely),
         }
     }
 }
@@ -188,11 +190,13 @@ crate::table! {
         /// uncertainty one standard deviation of a normal error.
         #[serde(rename = "condition_probability")]
         probability: f64 as condition_probability,
-        /// The state across a limit its width's interval straddles (as likely
-        /// as what `probability` leaves, or nearly); none where the interval
-        /// lies within one state.
+        /// The likelier state across a limit its width's interval straddles;
+        /// none where the interval lies within one state.
         #[serde(rename = "other_condition")]
         other: Option<ConditionState> as other_condition_state,
+        /// How likely its width is within that state's limits.
+        #[serde(rename = "other_condition_probability")]
+        other_probability: Option<f64> as other_condition_probability,
     }
 }
 
@@ -287,6 +291,10 @@ mod tests {
         );
         // P(below 0.3048) for a normal error: Phi(0.496) = 0.69.
         assert!((near.probability - 0.690).abs() < 0.002, "{near:?}");
+        assert!(
+            (near.other_probability.unwrap() - 0.310).abs() < 0.002,
+            "{near:?}"
+        );
         // 0.31 mm, just over: 2 fair, about as likely as 1 good.
         let over = rc.call(0.31, 0.05);
         assert_eq!(
@@ -317,7 +325,8 @@ mod tests {
             Some(StateCall {
                 state: ConditionState::Good,
                 probability: 1.0,
-                other: None
+                other: None,
+                other_probability: None,
             })
         );
         let measured = WidthRecord {

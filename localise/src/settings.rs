@@ -26,10 +26,11 @@ postflight_core::settings! {
         /// unless no near view is complete).
         #[arg(long = "length-range", value_name = "METRES")]
         length_range_m: f64 = 5.0,
-        /// Share of the surface's brightness a crack's interior lacks, for
-        /// a crack too thin in every view to show its interior: its width
-        /// is its darkness summed across it over this depth (a crack
-        /// with wider stretches reads the share from them instead).
+        /// Share of the surface's brightness a crack's interior lacks, where
+        /// no crack of the flight resolves to show it: a crack thinner than
+        /// the camera's blur is its darkness summed across it over this
+        /// depth (resolved cracks, its own stretches, its photo's or the
+        /// flight's, give the share instead).
         #[arg(long = "crack-darkness", value_name = "SHARE")]
         crack_darkness: f64 = 0.85,
     }

@@ -95,22 +95,20 @@ pub fn width_text(d: &DefectRecord) -> String {
 
 /// How a width was read, for people.
 fn method_text(w: &WidthRecord) -> String {
-    let contrast = w.contrast_from.map(|from| match from {
-        ContrastSource::Crack => "its own wider stretches",
-        ContrastSource::Photo => "the photo's wider cracks",
-        ContrastSource::Flight => "the flight's wider cracks",
-        ContrastSource::Setting => "the crack_darkness setting",
-    });
-    let darkness = |contrast: Option<&str>| {
-        format!(
-            "its darkness over a crack's interior{}",
-            contrast.map_or(String::new(), |c| format!(" as {c} show it"))
-        )
+    let interior = match w.contrast_from {
+        Some(ContrastSource::Crack) => "its own wider stretches show",
+        Some(ContrastSource::Photo) => "this photo's wider cracks show",
+        Some(ContrastSource::Flight) => "the flight's wider cracks show",
+        Some(ContrastSource::Setting) | None => {
+            "the crack_darkness setting says (no crack of the flight is wide enough to show it)"
+        }
     };
+    let darkness =
+        format!("from the light it takes away, a crack's interior as dark as {interior}");
     match w.method {
         Some(WidthMethod::Walls) | None => "across its walls".into(),
-        Some(WidthMethod::Darkness) => darkness(contrast),
-        Some(WidthMethod::WallsAndDarkness) => format!("its walls and {}", darkness(contrast)),
+        Some(WidthMethod::Darkness) => darkness,
+        Some(WidthMethod::WallsAndDarkness) => format!("across its walls and {darkness}"),
     }
 }
 
@@ -130,15 +128,15 @@ pub fn width_cell(d: &DefectRecord) -> String {
 pub fn state_text(call: Option<StateCall>) -> String {
     match call {
         None => "\u{2013}".into(),
-        Some(c) => match c.other {
-            None => condition_text(Some(c.state)),
-            Some(other) => format!(
+        Some(c) => match (c.other, c.other_probability) {
+            (Some(other), Some(p)) => format!(
                 "{} ({:.0}%) or {} ({:.0}%)",
                 condition_text(Some(c.state)),
                 100.0 * c.probability,
                 condition_text(Some(other)),
-                100.0 * (1.0 - c.probability),
+                100.0 * p,
             ),
+            _ => condition_text(Some(c.state)),
         },
     }
 }
@@ -197,6 +195,23 @@ pub fn evidence_text(d: &DefectRecord) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_state_near_a_limit_names_both_states_and_asks_for_a_gauge() {
+        use postflight_core::condition::Material;
+        let limits = Material::ReinforcedConcrete.limits();
+        let near = limits.call(0.28, 0.05);
+        assert_eq!(state_text(Some(near)), "1 good (69%) or 2 fair (31%)");
+        assert!(
+            gauge_text(Some(near))
+                .unwrap()
+                .contains("between 1 good and 2 fair")
+        );
+        let sure = limits.call(0.8, 0.05);
+        assert_eq!(state_text(Some(sure)), "2 fair");
+        assert_eq!(gauge_text(Some(sure)), None);
+        assert_eq!(state_text(None), "\u{2013}");
+    }
 
     #[test]
     fn times_read_in_utc_and_other_text_stays() {

@@ -305,6 +305,7 @@ mod tests {
                     state: ConditionState::Fair,
                     probability: 1.0,
                     other: None,
+                    other_probability: None,
                 }),
                 crop: Some(format!("defects/{id}.jpg")),
                 views: Vec::new(),

@@ -595,12 +595,14 @@ mod tests {
                         state: ConditionState::Poor,
                         probability: 0.66,
                         other: Some(ConditionState::Fair),
+                        other_probability: Some(0.34),
                     }
                 } else {
                     StateCall {
                         state: ConditionState::Good,
                         probability: 1.0,
                         other: None,
+                        other_probability: None,
                     }
                 }),
                 crop: Some(format!("defects/{id}.jpg")),
@@ -634,6 +636,7 @@ mod tests {
             "condition_state",
             "condition_probability",
             "other_condition_state",
+            "other_condition_probability",
             "width_method",
             "width_contrast_from",
             "widest_x",
