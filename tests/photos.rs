@@ -363,7 +363,7 @@ fn a_colmap_reconstruction_fitted_to_the_photos_gps_places_the_cracks() {
         f(&r["similarity"]["scale"])
     );
     let (on_cracks, off) = candidates_by_crack(&run, &sim, 0.15);
-    assert!(on_cracks >= 3, "{on_cracks} candidates of cracks");
+    assert!(on_cracks >= 2, "{on_cracks} candidates of cracks");
     // Without a map, the reconstruction's points are the map.
     let out = postflight(&["localise", "--run", run.to_str().unwrap()], dir.path());
     assert!(out.status.success(), "{}", stderr(&out));

@@ -6,9 +6,9 @@
 //! cracks of the same photo, else the flight's, else the setting
 //! (`[localise] crack_darkness`). A crack's interior is dark because its
 //! bottom is out of the light, so cracks under one light share it: on the
-//! gauge readings' photos (docs/evaluation.md) resolved cracks lack 0.89 to
-//! 0.94 of the surface's brightness, and thin ones' darkness sums to their
-//! gauge width over about the same.
+//! crack-width gauge readings' two sites (docs/evaluation.md) the flights'
+//! resolved cracks lack 0.90 and 0.92 of the surface's brightness, and the
+//! thin ones' darkness summed over that reads their gauge widths.
 
 use postflight_core::outputs::localise::ContrastSource;
 
@@ -22,8 +22,9 @@ const MIN_RESOLVED_SHARE: f64 = 0.1;
 const MIN_RESOLVED: usize = 5;
 /// How far one crack's interior may differ from another's under the same
 /// light, as a share of it (one standard deviation), where too few cracks
-/// resolve to say: the resolved cracks of the gauge readings' two sites
-/// scatter by 5 to 9% about their median.
+/// resolve to say: the flat-bottomed profiles of the gauge readings' two
+/// sites scatter by 2 and 5% about their medians; an unknown flight's
+/// setting is further off.
 const GIVEN_SPREAD: f64 = 0.08;
 /// Resolved cracks that say how far one crack's interior differs from
 /// another's.

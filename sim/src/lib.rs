@@ -560,8 +560,14 @@ fn record_frames(
         let is_dropped = i > 0 && i + 1 < n && drops.uniform() < DROP_RATE;
         let blur = blur_vector(world, t);
         let blur_px = blur.0.hypot(blur.1);
-        let in_view =
-            truth::cracks_in_view(&world.scene, &world.cracks.0, &world.k, &camera, blur_px);
+        let in_view = truth::cracks_in_view(
+            &world.scene,
+            &world.cracks.0,
+            &world.k,
+            &camera,
+            blur_px,
+            options.lens_blur_px,
+        );
         if is_dropped {
             recorded.dropped += 1;
         } else {

@@ -115,6 +115,29 @@ pub fn render(
     img
 }
 
+/// The lens's point-spread function sampled on the pixel grid: weights of
+/// a Gaussian of `sigma_px` at -r..=r pixels (r = 3σ), summing to 1; one
+/// weight of 1 without blur.
+fn lens_weights(sigma_px: f64) -> Vec<f64> {
+    if sigma_px <= 0.0 {
+        return vec![1.0];
+    }
+    let r = (3.0 * sigma_px).ceil() as isize;
+    let weights: Vec<f64> = (-r..=r)
+        .map(|i| (-(i as f64).powi(2) / (2.0 * sigma_px * sigma_px)).exp())
+        .collect();
+    let total: f64 = weights.iter().sum();
+    weights.into_iter().map(|w| w / total).collect()
+}
+
+/// How many pixels the lens spreads a thin line's darkness over: the
+/// reciprocal of the share of its light that stays in the pixel it crosses
+/// (1.51 px at σ = 0.6 px; 1 without blur).
+pub fn lens_spread_px(sigma_px: f64) -> f64 {
+    let weights = lens_weights(sigma_px);
+    1.0 / weights[weights.len() / 2]
+}
+
 /// The lens's point-spread function: `light` (a `w` x `h` image) blurred
 /// by a Gaussian of `sigma_px`, along rows then columns, the border
 /// repeated.
@@ -122,11 +145,8 @@ fn lens_blur(light: Vec<[f64; 3]>, w: usize, h: usize, sigma_px: f64) -> Vec<[f6
     if sigma_px <= 0.0 {
         return light;
     }
-    let r = (3.0 * sigma_px).ceil() as isize;
-    let weights: Vec<f64> = (-r..=r)
-        .map(|i| (-(i as f64).powi(2) / (2.0 * sigma_px * sigma_px)).exp())
-        .collect();
-    let total: f64 = weights.iter().sum();
+    let weights = lens_weights(sigma_px);
+    let r = (weights.len() / 2) as isize;
     let pass = |from: &[[f64; 3]], along_rows: bool| -> Vec<[f64; 3]> {
         let mut out = vec![[0.0f64; 3]; w * h];
         out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
@@ -144,7 +164,7 @@ fn lens_blur(light: Vec<[f64; 3]>, w: usize, h: usize, sigma_px: f64) -> Vec<[f6
                         acc[c] += weight * v[c];
                     }
                 }
-                *px = acc.map(|a| a / total);
+                *px = acc;
             }
         });
         out
@@ -301,6 +321,10 @@ mod tests {
         let taken: f64 = row.iter().map(|v| 100.0 - v).sum();
         assert!((taken - 100.0).abs() < 0.01, "{row:?}");
         assert!(row[10] > 30.0 && row[9] < 95.0 && row[11] < 95.0, "{row:?}");
+        // The line keeps 1 / lens_spread_px of its darkness where it is.
+        let kept = (100.0 - row[10]) / 100.0;
+        assert!((kept * lens_spread_px(0.6) - 1.0).abs() < 1e-9, "{kept}");
+        assert_eq!(lens_spread_px(0.0), 1.0);
         assert_eq!(lens_blur(vec![[7.0; 3]; 4], 2, 2, 0.0), vec![[7.0; 3]; 4]);
     }
 

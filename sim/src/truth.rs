@@ -8,10 +8,11 @@ use serde::Serialize;
 
 use crate::crack::{Crack, Opening, WidthRange};
 use crate::distractor::{Distractor, DistractorKind};
+use crate::render;
 use crate::scene::Scene;
 
-/// Fraction of a pixel a crack must cover (after motion blur spreads it) to
-/// show as a dark line.
+/// Fraction of a pixel a crack must cover (after the motion blur or the lens
+/// spreads it) to show as a dark line.
 pub const MIN_CRACK_CONTRAST: f64 = 0.25;
 
 #[derive(Debug, Clone, Serialize)]
@@ -120,7 +121,8 @@ pub struct CrackInFrame {
     /// Share of the crack's length in view, unoccluded and wide enough to show.
     pub visible_fraction: f64,
     /// Crack width over pixel footprint at the crack's centre (1 = fills a
-    /// pixel), divided by the blur streak length when that exceeds a pixel.
+    /// pixel), divided by how many pixels the blur streak or the lens
+    /// spreads a thin line over, when that exceeds one ([`spread_px`]).
     pub contrast: f64,
     /// Its widest visible point's width across the crack, pixels (cracks
     /// that open and close along their length).
@@ -144,6 +146,13 @@ pub struct FrameTruth {
     pub cracks: Vec<CrackInFrame>,
 }
 
+/// How many pixels a thin line's darkness is spread over: a blur streak's
+/// length or the lens's spread ([`render::lens_spread_px`]), whichever is
+/// more; the pixel grid alone spreads it over one pixel.
+pub fn spread_px(blur_px: f64, lens_blur_px: f64) -> f64 {
+    blur_px.max(render::lens_spread_px(lens_blur_px)).max(1.0)
+}
+
 /// Which cracks a camera sees and where, by projecting points 5 mm apart
 /// along each crack and casting a ray to each.
 pub fn cracks_in_view(
@@ -152,9 +161,9 @@ pub fn cracks_in_view(
     k: &Intrinsics,
     camera: &Isometry3<f64>,
     blur_px: f64,
+    lens_blur_px: f64,
 ) -> Vec<CrackInFrame> {
-    // A blur streak spreads a thin line over about its length.
-    let spread = blur_px.max(1.0);
+    let spread = spread_px(blur_px, lens_blur_px);
     let origin = Point3::from(camera.translation.vector);
     let world_to_camera = camera.inverse();
     let margin = 2.0;
