@@ -11,6 +11,8 @@
 //! ([`Crossing::walls`]) say its width only where it is wider than the
 //! blur. [`crate::width`] weighs the two.
 
+use std::collections::HashMap;
+
 use image::GrayImage;
 use nalgebra::{Point2, Vector2};
 use postflight_core::mask::Mask;
@@ -100,7 +102,8 @@ impl Crossing {
 /// The crack's crossings at each of `centre` (a traced centre line, frame
 /// pixels, with `neighbours` along it), measured in `gray` and `mask` (the
 /// detector's crack pixels, where it segments); `None` where no profile
-/// fits in the image or the line has no direction.
+/// fits in the image, the line has no direction, or the crossing takes in
+/// another stretch of the crack ([`Apart`]).
 pub fn crossings(
     gray: &GrayImage,
     mask: Option<&Mask>,
@@ -108,6 +111,7 @@ pub fn crossings(
     neighbours: &[Vec<usize>],
 ) -> Vec<Option<Crossing>> {
     let inside = mask.map(Inside::of);
+    let apart = Apart::of(centre, neighbours);
     (0..centre.len())
         .map(|i| {
             let across = normal(centre, neighbours, i)?;
@@ -116,9 +120,63 @@ pub fn crossings(
             // extent, or (without one) past its own dark extent.
             let reach = mask_px.map_or(REACH, |px| REACH.max(1.5 * px + 4.0));
             let profile = reached(gray, centre[i], across, reach)?;
-            Some(profile.crossing(centre[i], across, mask_px))
+            let crossing = profile.crossing(centre[i], across, mask_px);
+            apart.alone(i, &crossing).then_some(crossing)
         })
         .collect()
+}
+
+/// Centre-line steps beyond a crossing's summed reach within which a fork
+/// still bends its normal.
+const FORK_MARGIN: usize = DIRECTION_REACH;
+
+/// Which crossings take in only their own stretch of the crack. Near a
+/// fork the line's direction bends into the branch, and across a bend, a
+/// branch or a parallel piece the crossing's sum takes in that stretch's
+/// darkness too: a branched crack would read twice its width where its
+/// branches meet, and that would be its widest.
+struct Apart<'a> {
+    neighbours: &'a [Vec<usize>],
+    /// The centre-line pixel at each frame pixel.
+    at: HashMap<(i64, i64), usize>,
+}
+
+impl<'a> Apart<'a> {
+    fn of(centre: &'a [Point2<f64>], neighbours: &'a [Vec<usize>]) -> Self {
+        let at = centre
+            .iter()
+            .enumerate()
+            .map(|(i, p)| ((p.x.floor() as i64, p.y.floor() as i64), i))
+            .collect();
+        Self { neighbours, at }
+    }
+
+    /// Whether `crossing`, at centre-line pixel `i`, is clear of every fork
+    /// and every other stretch of the line over the span it sums.
+    fn alone(&self, i: usize, crossing: &Crossing) -> bool {
+        let reach = darkness_reach(crossing.half);
+        let own = within(self.neighbours, i, reach.ceil() as usize + FORK_MARGIN);
+        if own.iter().any(|j| self.neighbours[*j].len() >= 3) {
+            return false;
+        }
+        let steps = (2.0 * reach / STEP).ceil() as usize;
+        (0..=steps).all(|k| {
+            let p = crossing.at + crossing.across * (k as f64 * STEP - reach);
+            let (x, y) = (p.x.floor() as i64, p.y.floor() as i64);
+            [(0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)]
+                .iter()
+                .filter_map(|(dx, dy)| self.at.get(&(x + dx, y + dy)))
+                .all(|j| own.contains(j))
+        })
+    }
+}
+
+/// How far either side of the line a crossing's darkness is summed, its
+/// width at half depth `half` where known, pixels.
+fn darkness_reach(half: Option<f64>) -> f64 {
+    half.map_or(DARKNESS_REACH_PX, |h| {
+        (h / 2.0 + DARKNESS_MARGIN_PX).max(DARKNESS_REACH_PX)
+    })
 }
 
 /// The profile across the crack at one centre-line pixel.
@@ -155,9 +213,7 @@ impl Profile {
         });
         // The darkness summed over the crack's half-depth width and its
         // blur each side, signed (the noise sums to nothing).
-        let reach = half.map_or(DARKNESS_REACH_PX, |h| {
-            (h / 2.0 + DARKNESS_MARGIN_PX).max(DARKNESS_REACH_PX)
-        });
+        let reach = darkness_reach(half);
         let darkness: f64 = self
             .t
             .iter()
@@ -455,4 +511,62 @@ fn normal(centre: &[Point2<f64>], neighbours: &[Vec<usize>], i: usize) -> Option
     }
     let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
     Some(Vector2::new(-angle.sin(), angle.cos()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A crack 3 px wide down column 32 of a 64 x 64 image, and a branch of
+    /// it from (32, 32) up and to the right; the traced line follows both,
+    /// the fork at (32, 32).
+    fn branched() -> (GrayImage, Vec<Point2<f64>>, Vec<(u32, u32)>) {
+        let on_line = |x: f64, y: f64, (ax, ay): (f64, f64), (bx, by): (f64, f64)| {
+            let (dx, dy) = (bx - ax, by - ay);
+            let t = (((x - ax) * dx + (y - ay) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
+            (x - ax - t * dx).hypot(y - ay - t * dy) <= 1.0
+        };
+        let main = ((32.5, 2.0), (32.5, 62.0));
+        let branch = ((32.5, 32.5), (56.5, 8.5));
+        let img = GrayImage::from_fn(64, 64, |x, y| {
+            let (px, py) = (f64::from(x) + 0.5, f64::from(y) + 0.5);
+            let dark = on_line(px, py, main.0, main.1) || on_line(px, py, branch.0, branch.1);
+            image::Luma([if dark { 30 } else { 150 }])
+        });
+        let mut centre: Vec<Point2<f64>> = (4..60)
+            .map(|y| Point2::new(32.5, f64::from(y) + 0.5))
+            .collect();
+        let mut edges: Vec<(u32, u32)> = (0..55).map(|k| (k, k + 1)).collect();
+        let fork = 28; // (32.5, 32.5)
+        for k in 1..=22 {
+            centre.push(Point2::new(32.5 + f64::from(k), 32.5 - f64::from(k)));
+            let i = centre.len() as u32 - 1;
+            edges.push((if k == 1 { fork } else { i - 1 }, i));
+        }
+        (img, centre, edges)
+    }
+
+    #[test]
+    fn a_crossing_where_branches_meet_is_not_read() {
+        let (img, centre, edges) = branched();
+        let neighbours = adjacency(centre.len(), &edges);
+        let found = crossings(&img, None, &centre, &neighbours);
+        // Near the fork the sum takes in the branch: no crossing there.
+        for (i, p) in centre.iter().enumerate().take(56) {
+            let from_fork = (p.y - 32.5).abs();
+            if from_fork <= 3.0 {
+                assert!(found[i].is_none(), "{p} is {from_fork} px from the fork");
+            }
+            if from_fork >= 12.0 && (8.0..=56.0).contains(&p.y) {
+                assert!(found[i].is_some(), "{p} is clear of the fork");
+            }
+        }
+        // Every crossing of the main line read sums one crack 3 px wide, 120
+        // grey levels deep.
+        let sums: Vec<f64> = found[..56].iter().flatten().map(|c| c.darkness).collect();
+        assert!(sums.len() >= 40, "{}", sums.len());
+        for s in sums {
+            assert!((s / 120.0 - 3.0).abs() < 0.4, "{s}");
+        }
+    }
 }
