@@ -363,6 +363,7 @@ fn a_colmap_reconstruction_fitted_to_the_photos_gps_places_the_cracks() {
         f(&r["similarity"]["scale"])
     );
     let (on_cracks, off) = candidates_by_crack(&run, &sim, 0.15);
+    // The lens's blur hides the faintest of the photos' cracks.
     assert!(on_cracks >= 2, "{on_cracks} candidates of cracks");
     // Without a map, the reconstruction's points are the map.
     let out = postflight(&["localise", "--run", run.to_str().unwrap()], dir.path());
