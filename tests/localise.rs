@@ -596,6 +596,21 @@ fn check_places(sim: &Path, run: &Path) -> (usize, usize) {
     (named, voxels_named)
 }
 
+/// The camera's blur the flight's thin cracks show is the simulator's lens
+/// (a Gaussian of 0.6 px by default) spread over a pixel's area (a box of
+/// 1 px, 0.29 px as a standard deviation): 0.67 px, within a quarter
+/// (motion adds to it along the track).
+fn check_blur(sim: &Path, summary: &Value) {
+    let lens = sim::SimOptions::DEFAULT_LENS_BLUR_PX;
+    let truth = lens.hypot(1.0 / 12.0_f64.sqrt());
+    let read = summary["widths"]["blur_px"].as_f64();
+    assert!(
+        read.is_some_and(|b| (b / truth - 1.0).abs() <= 0.25),
+        "{}: blur {read:?} px, the lens and pixel {truth:.2} px",
+        sim.display()
+    );
+}
+
 /// Default flights: plumb_bob lens, a camera mounted 25 cm ahead of and
 /// below the body and pitched 12 degrees (not an identity extrinsic), and
 /// 2 cm / 0.17 degree pose noise. Each flight's candidates are scored
@@ -607,6 +622,7 @@ fn defect_candidates_match_truth(scene: &str, seed: &str) {
     let (sim, run) = detected_flight(dir.path(), &name, &["--scene", scene, "--seed", seed]);
     let summary = localise_ok(&sim, &run);
     check_outputs(&run, &summary);
+    check_blur(&sim, &summary);
     let s = score(&sim, &run);
     s.print(&name);
     assert_meets_targets(&s);

@@ -15,7 +15,8 @@ use postflight_core::map::{SlamMap, VoxelIndex};
 use postflight_core::motion::frame_blur_px;
 use postflight_core::outputs::detect::read_detections;
 use postflight_core::outputs::localise::{
-    self as outputs, LocaliseSummary, Outcome, Outcomes, SetAside, SetAsideReason, files,
+    self as outputs, FlightWidths, LocaliseSummary, Outcome, Outcomes, SetAside, SetAsideReason,
+    files,
 };
 use postflight_core::{
     Flight, FlownPlan, Frame, InvalidSetting, PlanFile, RunDir, Stage, ViewSettings,
@@ -138,7 +139,7 @@ pub fn localise(
 
     let by_frame = detections_by_frame(&flight, detections)?;
     let (mut observations, mut warnings) = place(&flight, &recording, by_frame, &scene, progress);
-    measure_widths(&mut observations, options.settings.crack_darkness);
+    let widths = measure_widths(&mut observations, options.settings.crack_darkness);
     let outcomes: Outcomes = observations.iter().map(|o| o.outcome).collect();
     let total = observations.len() as u64;
     let count = |outcome| outcomes.get(outcome);
@@ -174,6 +175,7 @@ pub fn localise(
         },
         defects: candidates.len() as u64,
         set_aside: joints.iter().map(set_aside_joint).collect(),
+        widths: Some(widths),
         seconds: start.elapsed().as_secs_f64(),
         warnings,
     };
@@ -248,7 +250,7 @@ fn place(
 /// the other cracks of its photo, else the flight's, else `given`; its
 /// walls as the camera's blur, which the flight's thin cracks show,
 /// spreads them.
-fn measure_widths(observations: &mut [Observation], given: f64) {
+fn measure_widths(observations: &mut [Observation], given: f64) -> FlightWidths {
     fn crossed(o: &Observation) -> Option<&Crossed> {
         o.placement.as_ref()?.crossed.as_ref()
     }
@@ -259,12 +261,13 @@ fn measure_widths(observations: &mut [Observation], given: f64) {
         }
     }
     let flight: Vec<f64> = by_photo.values().flatten().copied().collect();
+    let flight_contrast = Contrast::nearest(None, &[], &flight, given);
     let blur = Blur::of(
         observations
             .iter()
             .filter_map(crossed)
             .flat_map(|c| c.crossings.iter().flatten()),
-        Contrast::nearest(None, &[], &flight, given).share,
+        flight_contrast.share,
     );
     observations.par_iter_mut().for_each(|o| {
         let photo = by_photo
@@ -278,6 +281,12 @@ fn measure_widths(observations: &mut [Observation], given: f64) {
             p.width = crossed.width(&contrast, blur);
         }
     });
+    FlightWidths {
+        interior_darkness: flight_contrast.share,
+        contrast_from: flight_contrast.from,
+        resolved_cracks: flight.len(),
+        blur_px: blur.map(|b| b.sigma_px),
+    }
 }
 
 /// What the summary says of detections that could not be placed.

@@ -80,8 +80,31 @@ pub struct LocaliseSummary {
     /// in `defects`.
     #[serde(default)]
     pub set_aside: Vec<SetAside>,
+    /// What the flight's widths were read against; none in runs from
+    /// before it was written.
+    #[serde(default)]
+    pub widths: Option<FlightWidths>,
     pub seconds: f64,
     pub warnings: Vec<String>,
+}
+
+/// What a flight's crack widths were read against: the interior contrast
+/// its resolved cracks show (a crack thinner than the blur is read by its
+/// darkness over it, where neither it nor its photo has its own) and the
+/// camera's blur its thinnest cracks show.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct FlightWidths {
+    /// The share of the surface's brightness a crack's interior lacks: the
+    /// median of the flight's resolved cracks' (`flight`), else the
+    /// setting's (`setting`).
+    pub interior_darkness: f64,
+    pub contrast_from: ContrastSource,
+    /// Cracks (detections) whose resolved stretches said it.
+    pub resolved_cracks: usize,
+    /// The camera's blur, one standard deviation, pixels; none where the
+    /// flight has too few thin cracks to say (their walls are then read
+    /// without taking it off).
+    pub blur_px: Option<f64>,
 }
 
 /// A group of views localise set aside: something a crack detector finds
