@@ -13,7 +13,7 @@
 use postflight_core::outputs::localise::ContrastSource;
 
 use crate::crossing::Crossing;
-use crate::stats::median;
+use crate::stats::{median, robust_sigma};
 
 /// A crack has resolved stretches when this share of its crossings (and
 /// [`MIN_RESOLVED`] at least) are resolved.
@@ -57,7 +57,7 @@ impl Contrast {
     pub fn of(interiors: &[f64], from: ContrastSource) -> Option<Self> {
         let share = median(interiors.to_vec())?;
         let spread = if interiors.len() >= MIN_CRACKS_FOR_SPREAD && share > 0.0 {
-            1.4826 * median(interiors.iter().map(|i| (i - share).abs()).collect())? / share
+            robust_sigma(interiors.iter().map(|i| (i - share).abs()).collect())? / share
         } else {
             GIVEN_SPREAD
         };

@@ -17,7 +17,7 @@ use image::GrayImage;
 use nalgebra::{Point2, Vector2};
 use postflight_core::mask::Mask;
 
-use crate::stats::median;
+use crate::stats::{median, robust_sigma};
 
 /// Samples per pixel across the crack.
 const STEP: f64 = 0.25;
@@ -432,7 +432,7 @@ fn profile(gray: &GrayImage, at: Point2<f64>, across: Vector2<f64>, reach: f64) 
         .collect();
     let deviations = |surface: f64| outer.iter().map(|v| (v - surface).abs()).collect();
     let surface = median(outer.clone())?;
-    let noise = 1.4826 * median(deviations(surface))?;
+    let noise = robust_sigma(deviations(surface))?;
     let dark = values.iter().map(|v| surface - v).collect();
     Some(Profile {
         t,

@@ -14,6 +14,13 @@ pub fn median(mut values: Vec<f64>) -> Option<f64> {
     })
 }
 
+/// A normal error's standard deviation from its absolute `deviations`
+/// about the centre: 1.4826 times their median (robust to outliers);
+/// `None` for none.
+pub fn robust_sigma(deviations: Vec<f64>) -> Option<f64> {
+    median(deviations).map(|d| 1.4826 * d)
+}
+
 /// The value at quantile `q` (0 to 1) by nearest rank; `None` for none.
 pub fn quantile(mut values: Vec<f64>, q: f64) -> Option<f64> {
     values.sort_by(f64::total_cmp);
@@ -34,5 +41,7 @@ mod tests {
         assert_eq!(quantile(hundred.clone(), 0.95), Some(95.0));
         assert_eq!(quantile(hundred, 0.0), Some(0.0));
         assert_eq!(quantile(Vec::new(), 0.5), None);
+        assert_eq!(robust_sigma(vec![1.0, 3.0, 2.0]), Some(1.4826 * 2.0));
+        assert_eq!(robust_sigma(Vec::new()), None);
     }
 }

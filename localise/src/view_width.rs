@@ -12,7 +12,7 @@ use postflight_core::outputs::localise::{WidestStretch, WidthMethod, WidthRecord
 
 use crate::contrast::Contrast;
 use crate::crossing::within;
-use crate::stats::median;
+use crate::stats::{median, robust_sigma};
 use crate::width::{PointWidth, Read, Width};
 
 /// Centre-line points either side of a point that make its stretch.
@@ -73,15 +73,9 @@ pub fn view_width(
             Width::Read(_) => None,
         });
         return Some(WidthRecord {
-            max_mm: None,
-            median_mm: None,
-            uncertainty_mm: None,
             narrower_than_mm: median(limits.collect()),
             mm_per_px,
-            method: None,
-            contrast_from: None,
-            interior_darkness: None,
-            widest: None,
+            ..WidthRecord::default()
         });
     };
     // A point is good to a third of a pixel at best: steadier neighbours
@@ -94,7 +88,7 @@ pub fn view_width(
         Some(s) => (s.mm, s.sigma, s.points.clone()),
         None => (
             median_mm,
-            1.25 * noise / (measured.len() as f64).sqrt(),
+            median_error(noise, measured.len()),
             (0..mm.len()).filter(|i| mm[*i].is_some()).collect(),
         ),
     };
@@ -166,16 +160,20 @@ fn widest_stretch(mm: &[Option<f64>], neighbours: &[Vec<usize>], noise: f64) -> 
                 return None;
             }
             let width = median(points.iter().filter_map(|j| mm[*j]).collect())?;
-            // A median's standard error: 1.25 sigma over the root of the count.
-            let sigma = 1.25 * noise / (points.len() as f64).sqrt();
             Some(Stretch {
+                sigma: median_error(noise, points.len()),
                 points,
                 middle: i,
                 mm: width,
-                sigma,
             })
         })
         .max_by(|a, b| a.mm.total_cmp(&b.mm))
+}
+
+/// The standard error of the median of `n` points each off by `noise`
+/// (one standard deviation): 1.25 of the mean's.
+fn median_error(noise: f64, n: usize) -> f64 {
+    1.25 * noise / (n as f64).sqrt()
 }
 
 /// How far one point's width scatters about its neighbours', millimetres
@@ -188,7 +186,7 @@ fn point_noise(mm: &[Option<f64>], neighbours: &[Vec<usize>]) -> f64 {
         .filter(|(i, j)| i < j)
         .filter_map(|(i, j)| Some((mm[i]? - mm[j]?).abs()))
         .collect();
-    median(differences).map_or(0.0, |d| 1.4826 * d / std::f64::consts::SQRT_2)
+    robust_sigma(differences).map_or(0.0, |d| d / std::f64::consts::SQRT_2)
 }
 
 #[cfg(test)]

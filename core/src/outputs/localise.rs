@@ -326,9 +326,9 @@ crate::table! {
         max_mm: Option<f64> as max_width_mm,
         median_mm: Option<f64> as median_width_mm,
         /// How far off `max_mm` may be, millimetres (one standard
-        /// deviation): the pixel's share, the image's noise, the contrast a
-        /// darkness width divides by, a mask's whole-pixel edges and how
-        /// irregular the crack is.
+        /// deviation): the pixel grid's share, the walls' slope, the
+        /// contrast a darkness width divides by, and the scatter of the
+        /// points it is the median of.
         uncertainty_mm: Option<f64> as width_uncertainty_mm,
         /// Below resolution: narrower than this, millimetres.
         narrower_than_mm: Option<f64>,
