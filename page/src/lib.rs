@@ -141,6 +141,15 @@ pub fn state_text(call: Option<StateCall>) -> String {
     }
 }
 
+/// A table cell's condition state: [`state_text`], flagged "gauge on
+/// site" (its reason on hover) where the state is unsure.
+pub fn state_cell(call: Option<StateCall>) -> Markup {
+    html! {
+        (state_text(call))
+        @if let Some(why) = gauge_text(call) { br; span.flag title=(why) { "gauge on site" } }
+    }
+}
+
 /// Why an inspector should gauge a candidate on site, where its state is
 /// unsure; `None` where it is sure.
 pub fn gauge_text(call: Option<StateCall>) -> Option<String> {

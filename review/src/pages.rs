@@ -9,8 +9,8 @@ use std::fmt::Write;
 
 use maud::{Markup, PreEscaped, html};
 use page::{
-    condition_text, evidence_text, gauge_text, length_text, place_text, readable_time, state_text,
-    width_cell, width_text,
+    condition_text, evidence_text, gauge_text, length_text, place_text, readable_time, state_cell,
+    state_text, width_cell, width_text,
 };
 use postflight_core::condition::ConditionState;
 use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
@@ -269,12 +269,7 @@ fn condition_cell(e: &Entry) -> Markup {
                 (condition_text(Some(state))) " "
                 span.sub title=(format!("measured: {}", state_text(e.defect.condition))) { "(reviewer)" }
             },
-            None => {
-                (state_text(e.defect.condition))
-                @if let Some(why) = gauge_text(e.defect.condition) {
-                    br; span.flag title=(why) { "gauge on site" }
-                }
-            },
+            None => (state_cell(e.defect.condition)),
         }
     }
 }

@@ -6,7 +6,7 @@ use base64::Engine;
 use maud::{Markup, html};
 use postflight_core::outputs::localise::DefectRecord;
 
-use page::{evidence_text, gauge_text, length_text, place_text, state_text, width_cell};
+use page::{evidence_text, length_text, place_text, state_cell, width_cell};
 
 use crate::results::{RunResults, review_priority};
 
@@ -67,10 +67,7 @@ fn defect_row(r: &RunResults, rank: usize, d: &DefectRecord) -> Markup {
             }
             td.n { (length_text(d)) }
             td.n { (width_cell(d)) }
-            td {
-                (state_text(d.condition))
-                @if let Some(why) = gauge_text(d.condition) { br; span.flag title=(why) { "gauge on site" } }
-            }
+            td { (state_cell(d.condition)) }
             td.n { (format!("{:.1} mm/px", d.best.oblique_gsd_mm)) }
             td.n { (format!("{:.1} m", d.best.range_m)) }
             td.n {
