@@ -26,6 +26,15 @@ pub trait Named: Sized + Copy + 'static {
     }
 }
 
+/// A kind given on the command line by its name (a flag's `value_parser`):
+/// an unknown name's error lists the names there are.
+pub fn parse_named<K: Named>(text: &str) -> Result<K, String> {
+    K::named(text).ok_or_else(|| {
+        let names: Vec<&str> = K::ALL.iter().map(|k| k.name()).collect();
+        format!("'{text}' is none of {}", names.join(", "))
+    })
+}
+
 /// Declare a kind: a fieldless enum, each variant with its doc and name.
 /// Gives `Debug`, `Clone`, `Copy`, equality, order (by declaration),
 /// `Hash`, `as_str`, [`Named`] and serde by name; `$what` words an unknown

@@ -12,6 +12,7 @@ pub mod coverage;
 pub mod detect;
 pub mod ingest;
 pub mod localise;
+pub mod record;
 pub mod replan;
 pub mod report;
 
@@ -23,16 +24,18 @@ pub enum Stage {
     Localise,
     Coverage,
     Replan,
+    Record,
     Report,
 }
 
 impl Stage {
-    pub const ALL: [Self; 6] = [
+    pub const ALL: [Self; 7] = [
         Self::Ingest,
         Self::Detect,
         Self::Localise,
         Self::Coverage,
         Self::Replan,
+        Self::Record,
         Self::Report,
     ];
 
@@ -44,6 +47,7 @@ impl Stage {
             Self::Localise => "localise",
             Self::Coverage => "coverage",
             Self::Replan => "replan",
+            Self::Record => "record",
             Self::Report => "report",
         }
     }
@@ -74,6 +78,10 @@ impl Stage {
                     || is_mission(name)
                     || is_drone_path_csv(name)
             }
+            Self::Record => {
+                use record::files::*;
+                named(&[ELEMENTS, NBE_XML, SNBI_JSON, SUMMARY])
+            }
             Self::Report => {
                 use report::files::*;
                 named(&[REPORT, CANDIDATES, RECORDING, SUMMARY])
@@ -98,6 +106,7 @@ impl Stage {
             Self::Localise => localise::files::SUMMARY,
             Self::Coverage => coverage::files::SUMMARY,
             Self::Replan => replan::files::SUMMARY,
+            Self::Record => record::files::SUMMARY,
             Self::Report => report::files::SUMMARY,
         }
     }

@@ -1,0 +1,347 @@
+//! An element laid out in cells of its unit, from its target voxels: an
+//! area element (a deck, a slab) as square cells of `[record] cell_m` on
+//! its plan, a linear one (a girder, a wall, a cap) as stretches of
+//! `cell_m` along it, an element counted each as one cell. Each cell holds
+//! the quantity of the element it covers (square metres of plan, metres
+//! along, or the one element) and whether the flight inspected it.
+//!
+//! The cells are found on a finer grid (a quarter of a cell on a plan, an
+//! eighth along), each fine square or stretch the element's where one of
+//! its voxels covers its centre: the quantity is the element's footprint
+//! to a fraction of a cell, however the voxels lie against the cells.
+
+use std::collections::{BTreeMap, HashMap};
+
+use nalgebra::{Point3, Vector2};
+use postflight_core::map::{VoxelGrid, VoxelIndex};
+use postflight_core::outputs::record::Unit;
+
+/// A cell's place in its element's layout: `(along, across)` on a plan,
+/// `(along, 0)` along an element, `(0, 0)` for an element counted each.
+pub type CellKey = (i64, i64);
+
+/// One cell of an element.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cell {
+    /// The element's quantity in it.
+    pub quantity: f64,
+    /// Whether the flight inspected it: at least half of the exposed
+    /// voxels over it were inspected.
+    pub inspected: bool,
+}
+
+/// A target voxel as the layout needs it.
+#[derive(Debug, Clone, Copy)]
+pub struct Voxel {
+    pub index: VoxelIndex,
+    pub inspected: bool,
+    /// It has a face open to the air (voxels inside the structure are
+    /// never seen and do not count against a cell's inspection).
+    pub exposed: bool,
+}
+
+/// How points map onto the cells.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Frame {
+    /// Plan cells, `along` the axis and across it.
+    Plan { along: Vector2<f64> },
+    /// Stretches along a horizontal axis.
+    Along { along: Vector2<f64> },
+    /// One cell.
+    Whole,
+}
+
+/// An element's cells.
+#[derive(Debug, Clone)]
+pub struct Cells {
+    pub unit: Unit,
+    pub cell_m: f64,
+    frame: Frame,
+    pub cells: BTreeMap<CellKey, Cell>,
+}
+
+/// Fine squares per cell side on a plan, fine stretches per cell along.
+const PLAN_FINE: i64 = 4;
+const ALONG_FINE: i64 = 8;
+
+impl Cells {
+    /// The cells of an element of `unit` made of `voxels` on `grid`;
+    /// `axis` is the direction along it (unit, horizontal).
+    pub fn lay(
+        unit: Unit,
+        grid: &VoxelGrid,
+        voxels: &[Voxel],
+        axis: Vector2<f64>,
+        cell_m: f64,
+    ) -> Self {
+        let (frame, cells) = match unit {
+            Unit::SquareMetres => (
+                Frame::Plan { along: axis },
+                plan_cells(grid, voxels, axis, cell_m),
+            ),
+            Unit::Metres => (
+                Frame::Along { along: axis },
+                along_cells(grid, voxels, axis, cell_m),
+            ),
+            Unit::Each => {
+                let cell = Cell {
+                    quantity: 1.0,
+                    inspected: seen_share(voxels.iter()) >= 0.5,
+                };
+                (Frame::Whole, BTreeMap::from([((0, 0), cell)]))
+            }
+        };
+        Self {
+            unit,
+            cell_m,
+            frame,
+            cells,
+        }
+    }
+
+    /// The element's quantity: its cells'.
+    pub fn total(&self) -> f64 {
+        self.cells.values().map(|c| c.quantity).sum()
+    }
+
+    /// The cell `point` is over, or the nearest one beside it (a crack on a
+    /// deck's edge, a trace a little off the voxels); `None` further off.
+    pub fn cell_at(&self, point: &Point3<f64>) -> Option<CellKey> {
+        let key = self.key_of(point);
+        if self.cells.contains_key(&key) {
+            return Some(key);
+        }
+        let (a, b) = key;
+        let across = match self.frame {
+            Frame::Plan { .. } => -1..=1,
+            _ => 0..=0,
+        };
+        let mut beside = (-1..=1).flat_map(|da| across.clone().map(move |db| (a + da, b + db)));
+        beside.find(|k| self.cells.contains_key(k))
+    }
+
+    /// The cell key of `point`, whether the element has it or not.
+    fn key_of(&self, point: &Point3<f64>) -> CellKey {
+        let cell = |x: f64| (x / self.cell_m).floor() as i64;
+        match self.frame {
+            Frame::Plan { along } => {
+                let (a, c) = plan_coordinates(along, point.xy().coords);
+                (cell(a), cell(c))
+            }
+            Frame::Along { along } => (cell(along.dot(&point.xy().coords)), 0),
+            Frame::Whole => (0, 0),
+        }
+    }
+
+    /// The cells a straight line from `a` to `b` passes over.
+    pub fn cells_between(&self, a: &Point3<f64>, b: &Point3<f64>) -> Vec<CellKey> {
+        let steps = ((b - a).norm() / (self.cell_m / 4.0)).ceil().max(1.0) as usize;
+        let mut keys: Vec<CellKey> = (0..=steps)
+            .filter_map(|i| self.cell_at(&(a + (b - a) * (i as f64 / steps as f64))))
+            .collect();
+        keys.dedup();
+        keys
+    }
+}
+
+/// A horizontal point's coordinates along `along` and across it (to its
+/// left).
+fn plan_coordinates(along: Vector2<f64>, xy: Vector2<f64>) -> (f64, f64) {
+    let across = Vector2::new(-along.y, along.x);
+    (along.dot(&xy), across.dot(&xy))
+}
+
+/// The share of `voxels`' exposed ones that were inspected (1 where none is
+/// exposed: nothing there could be seen or missed).
+fn seen_share<'a>(voxels: impl Iterator<Item = &'a Voxel>) -> f64 {
+    let (mut exposed, mut seen) = (0usize, 0usize);
+    for v in voxels.filter(|v| v.exposed) {
+        exposed += 1;
+        seen += usize::from(v.inspected);
+    }
+    if exposed == 0 {
+        1.0
+    } else {
+        seen as f64 / exposed as f64
+    }
+}
+
+/// Cells adding up fine pieces: each its quantity and its inspected share.
+fn gather(pieces: impl Iterator<Item = (CellKey, f64, f64)>) -> BTreeMap<CellKey, Cell> {
+    let mut sums: BTreeMap<CellKey, (f64, f64)> = BTreeMap::new();
+    for (key, quantity, share) in pieces {
+        let s = sums.entry(key).or_default();
+        s.0 += quantity;
+        s.1 += quantity * share;
+    }
+    sums.into_iter()
+        .map(|(key, (quantity, seen))| {
+            let cell = Cell {
+                quantity,
+                inspected: seen >= 0.5 * quantity,
+            };
+            (key, cell)
+        })
+        .collect()
+}
+
+/// Plan cells: fine squares whose centre is over one of the element's
+/// voxel columns, each with that column's inspected share.
+fn plan_cells(
+    grid: &VoxelGrid,
+    voxels: &[Voxel],
+    along: Vector2<f64>,
+    cell_m: f64,
+) -> BTreeMap<CellKey, Cell> {
+    let mut columns: HashMap<(i32, i32), Vec<Voxel>> = HashMap::new();
+    for v in voxels {
+        columns
+            .entry((v.index.0[0], v.index.0[1]))
+            .or_default()
+            .push(*v);
+    }
+    let share: HashMap<(i32, i32), f64> = columns
+        .iter()
+        .map(|(c, vs)| (*c, seen_share(vs.iter())))
+        .collect();
+    let fine = cell_m / PLAN_FINE as f64;
+    let r = grid.resolution;
+    // The fine squares within reach of a column, each looked at once.
+    let mut squares: BTreeMap<CellKey, f64> = BTreeMap::new();
+    for (&(ix, iy), _) in &columns {
+        let centre = grid.center(VoxelIndex([ix, iy, 0])).xy().coords;
+        let (a, c) = plan_coordinates(along, centre);
+        // A column's corners are at most r/sqrt(2) from its centre.
+        let reach = r * std::f64::consts::FRAC_1_SQRT_2;
+        let span =
+            |x: f64| ((x - reach) / fine).floor() as i64..=((x + reach) / fine).floor() as i64;
+        for fa in span(a) {
+            for fc in span(c) {
+                if squares.contains_key(&(fa, fc)) {
+                    continue;
+                }
+                let (ca, cc) = ((fa as f64 + 0.5) * fine, (fc as f64 + 0.5) * fine);
+                let xy = along * ca + Vector2::new(-along.y, along.x) * cc;
+                let at = grid.voxel_of(&Point3::new(xy.x, xy.y, grid.origin.z));
+                if let Some(s) = share.get(&(at.0[0], at.0[1])) {
+                    squares.insert((fa, fc), *s);
+                }
+            }
+        }
+    }
+    gather(squares.into_iter().map(|((fa, fc), s)| {
+        let key = (fa.div_euclid(PLAN_FINE), fc.div_euclid(PLAN_FINE));
+        (key, fine * fine, s)
+    }))
+}
+
+/// Stretches along the element: fine stretches whose middle one of its
+/// voxels spans, each with the inspected share of the voxels spanning it.
+fn along_cells(
+    grid: &VoxelGrid,
+    voxels: &[Voxel],
+    along: Vector2<f64>,
+    cell_m: f64,
+) -> BTreeMap<CellKey, Cell> {
+    let fine = cell_m / ALONG_FINE as f64;
+    let r = grid.resolution;
+    // A voxel's extent along a horizontal axis at an angle to the grid.
+    let half = 0.5 * r * (along.x.abs() + along.y.abs());
+    let mut spanning: BTreeMap<i64, Vec<Voxel>> = BTreeMap::new();
+    for v in voxels {
+        let a = along.dot(&grid.center(v.index).xy().coords);
+        let first = ((a - half) / fine - 0.5).ceil() as i64;
+        let last = ((a + half) / fine - 0.5).floor() as i64;
+        for f in first..=last {
+            spanning.entry(f).or_default().push(*v);
+        }
+    }
+    gather(
+        spanning
+            .iter()
+            .map(|(f, vs)| ((f.div_euclid(ALONG_FINE), 0), fine, seen_share(vs.iter()))),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A box of voxels `nx` x `ny` x `nz`, 0.5 m each, the first `seen_x`
+    /// columns along x inspected; only its outside voxels exposed.
+    fn block(nx: i32, ny: i32, nz: i32, seen_x: i32) -> Vec<Voxel> {
+        let mut out = Vec::new();
+        for x in 0..nx {
+            for y in 0..ny {
+                for z in 0..nz {
+                    let outside =
+                        x == 0 || y == 0 || z == 0 || x == nx - 1 || y == ny - 1 || z == nz - 1;
+                    out.push(Voxel {
+                        index: VoxelIndex([x, y, z]),
+                        inspected: x < seen_x && outside,
+                        exposed: outside,
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    fn grid() -> VoxelGrid {
+        VoxelGrid::new(0.5, Point3::origin())
+    }
+
+    #[test]
+    fn a_deck_is_its_plan_area_and_half_seen_is_half_inspected() {
+        // 30 m x 7 m x 0.5 m, the west 15 m seen.
+        let deck = block(60, 14, 2, 30);
+        let cells = Cells::lay(Unit::SquareMetres, &grid(), &deck, Vector2::x(), 0.3);
+        // 210 m², to the fine squares (7.5 cm) cut at its edges.
+        assert!(
+            (cells.total() - 210.0).abs() < 0.005 * 210.0,
+            "{}",
+            cells.total()
+        );
+        let seen: f64 = cells
+            .cells
+            .values()
+            .filter(|c| c.inspected)
+            .map(|c| c.quantity)
+            .sum();
+        assert!((seen - 105.0).abs() <= 0.3 * 7.0, "{seen}");
+        // A point on the deck's top is over a cell; one 2 m off it is not.
+        assert!(cells.cell_at(&Point3::new(3.0, 3.0, 1.0)).is_some());
+        assert!(cells.cell_at(&Point3::new(3.0, 9.0, 1.0)).is_none());
+    }
+
+    #[test]
+    fn a_plan_turned_to_the_grid_keeps_its_area() {
+        let deck = block(40, 10, 1, 40);
+        let turned = Vector2::new(1.0, 1.0).normalize();
+        let cells = Cells::lay(Unit::SquareMetres, &grid(), &deck, turned, 0.3);
+        // 100 m², to the fine squares cut at its edges.
+        assert!((cells.total() - 100.0).abs() < 3.0, "{}", cells.total());
+    }
+
+    #[test]
+    fn a_girder_is_its_length_and_a_column_is_one() {
+        let girder = block(60, 1, 2, 20);
+        let cells = Cells::lay(Unit::Metres, &grid(), &girder, Vector2::x(), 0.3);
+        assert!(
+            (cells.total() - 30.0).abs() < 0.3 / 8.0 + 1e-9,
+            "{}",
+            cells.total()
+        );
+        let seen: f64 = cells
+            .cells
+            .values()
+            .filter(|c| c.inspected)
+            .map(|c| c.quantity)
+            .sum();
+        assert!((seen - 10.0).abs() <= 0.3, "{seen}");
+        let column = block(2, 2, 10, 2);
+        let one = Cells::lay(Unit::Each, &grid(), &column, Vector2::x(), 0.3);
+        assert_eq!(one.total(), 1.0);
+        assert!(one.cells[&(0, 0)].inspected);
+    }
+}
