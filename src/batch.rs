@@ -187,6 +187,7 @@ fn run_flight(
         config: RunConfig::load_or_default(entry.config.as_deref())?,
         out: out.to_owned(),
         force: None,
+        previous: None,
     };
     pipeline::run(&inputs, quiet)
 }

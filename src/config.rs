@@ -74,6 +74,7 @@ stage_tables! {
     condition: ConditionSettings;
     coverage: coverage::CoverageSettings;
     replan: replan::ReplanSettings;
+    record: record::RecordSettings;
     compare: compare::CompareSettings;
 }
 
@@ -207,6 +208,22 @@ impl RunConfig {
         }
     }
 
+    /// The record's options: the run's `review.sqlite` holds the decisions.
+    pub fn record_options(
+        &self,
+        run: &Path,
+        previous: Option<&Path>,
+    ) -> anyhow::Result<record::RecordOptions> {
+        let db = run.join(review::store::DEFAULT_DB);
+        Ok(record::RecordOptions {
+            settings: self.record.resolve(),
+            condition: self.condition.resolve(),
+            previous: previous.map(Path::to_path_buf),
+            decisions: review::store::record_decisions(&db)?,
+            ..record::RecordOptions::new(run.to_owned())
+        })
+    }
+
     pub fn replan_options(&self, run: &Path, map: Option<&Path>) -> replan::ReplanOptions {
         replan::ReplanOptions {
             map: map.map(Path::to_path_buf),
@@ -303,6 +320,17 @@ camera_info_file = "wide.yaml"
 name = "carriageway"
 outline = [[0.0, -4.5], [16.0, -4.5], [16.0, 4.5], [0.0, 4.5]]
 bottom_m = 6.5
+[record]
+structure_number = "000000000012345"
+state_code = "06"
+cell_m = 0.5
+not_inspected = "cs1"
+min_inspected_pct = 90.0
+pending = "skip"
+[[record.element]]
+name = "deck"
+number = 38
+quantity = 210.0
 [compare]
 link_distance_m = 0.15
 "#;

@@ -55,6 +55,7 @@ pub fn demo(out: &Path, force: Option<Stage>, quiet: bool) -> anyhow::Result<()>
             config: RunConfig::default(),
             out: run_dir.clone(),
             force,
+            previous: None,
         },
         quiet,
     )?;

@@ -66,6 +66,11 @@ enum Command {
     /// Solve a Generalized TSP instance (GTSPLIB, GLNS or Karapetyan format);
     /// prints {"instance", "cost", "tour", "time_s", "stats"} as JSON.
     Gtsp(GtspArgs),
+    /// The element record a bridge owner submits: each AASHTO element's
+    /// quantities in condition states 1-4 and its cracking defect's, from
+    /// the candidates, the coverage and the reviewers' decisions; writes
+    /// elements.parquet, nbe.xml, snbi-elements.json and record.json.
+    Record(RecordArgs),
     /// Write summary.json and the self-contained report.html of a run directory.
     Report(ReportArgs),
     /// The human review queue: inspectors accept or reject each defect candidate.
@@ -179,6 +184,8 @@ struct RunArgs {
     /// Rerun from this stage on, even if it is up to date.
     #[arg(long, value_enum, value_name = "STAGE")]
     force: Option<Stage>,
+    #[command(flatten)]
+    previous: PreviousArg,
 }
 
 #[derive(Args)]
@@ -189,6 +196,30 @@ struct DemoArgs {
     /// Rerun from this stage on, even if it is up to date.
     #[arg(long, value_enum, value_name = "STAGE")]
     force: Option<Stage>,
+}
+
+#[derive(Args)]
+struct RecordArgs {
+    /// Run directory holding a completed coverage (and localise); its
+    /// review.sqlite holds the decisions.
+    #[arg(long)]
+    run: PathBuf,
+    #[command(flatten)]
+    previous: PreviousArg,
+    #[command(flatten)]
+    settings: record::RecordSettings,
+    #[command(flatten)]
+    config: config::ConfigArg,
+}
+
+/// `--previous`: an earlier record of the structure.
+#[derive(Args)]
+struct PreviousArg {
+    /// An earlier run of the same structure with a record (elements.parquet):
+    /// with [record] not_inspected = "previous", what this flight missed
+    /// takes its states.
+    #[arg(long, value_name = "RUN")]
+    previous: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -406,6 +437,7 @@ fn config_file(command: &Command) -> Option<PathBuf> {
         Command::Localise(args) => &args.config,
         Command::Coverage(args) => &args.config,
         Command::Replan(args) => &args.config,
+        Command::Record(args) => &args.config,
         Command::Compare(args) => &args.config,
         Command::Batch(command) => return batch::task_config(command),
         _ => return None,
@@ -439,6 +471,7 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
         Command::Coverage(args) => coverage(args, cli.quiet),
         Command::Replan(args) => replan(args, cli.quiet),
         Command::Gtsp(args) => gtsp(args),
+        Command::Record(args) => record(args, cli.quiet),
         Command::Report(args) => report(args, cli.quiet),
         Command::Review(command) => review::run(command, cli.quiet),
         Command::Run(args) => run_pipeline(args, cli.quiet),
@@ -513,6 +546,15 @@ fn coverage(args: &CoverageArgs, quiet: bool) -> anyhow::Result<()> {
     stages::coverage(&options, quiet)
 }
 
+fn record(args: &RecordArgs, quiet: bool) -> anyhow::Result<()> {
+    let config = args.config.under(RunConfig {
+        record: args.settings.clone(),
+        ..RunConfig::default()
+    })?;
+    let options = config.record_options(&args.run, args.previous.previous.as_deref())?;
+    stages::record(&options, quiet)
+}
+
 fn replan(args: &ReplanArgs, quiet: bool) -> anyhow::Result<()> {
     let flags = RunConfig {
         replan: args.settings.clone(),
@@ -544,6 +586,7 @@ fn run_pipeline(args: &RunArgs, quiet: bool) -> anyhow::Result<()> {
         config,
         out: args.out.clone(),
         force: args.force,
+        previous: args.previous.previous.clone(),
     };
     pipeline::run(&inputs, quiet)?;
     if !quiet {

@@ -34,6 +34,9 @@ pub struct RunInputs {
     pub out: PathBuf,
     /// Rerun from this stage on, whatever the log says.
     pub force: Option<Stage>,
+    /// An earlier run of the structure whose record fills what this flight
+    /// missed (`[record] not_inspected = "previous"`).
+    pub previous: Option<PathBuf>,
 }
 
 /// Run every stage that is not up to date; the stages that ran.
@@ -52,7 +55,7 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<Vec<Stage>> {
     let mut previous = String::new();
     let mut ran = Vec::new();
     for stage in Stage::ALL {
-        let Some(stage_inputs) = stage_inputs(stage, inputs) else {
+        let Some(stage_inputs) = stage_inputs(stage, inputs)? else {
             forget_without_targets(stage, &mut log, &dir, quiet)?;
             continue;
         };
@@ -279,15 +282,16 @@ enum StageOptions {
     Localise(localise::LocaliseOptions),
     Coverage(coverage::CoverageOptions),
     Replan(replan::ReplanOptions),
+    Record(record::RecordOptions),
     Report(reports::ReportOptions),
 }
 
 impl StageOptions {
     /// The options `postflight run` gives the stage.
-    fn new(stage: Stage, i: &RunInputs) -> Self {
+    fn new(stage: Stage, i: &RunInputs) -> anyhow::Result<Self> {
         let c = &i.config;
         let (run, map) = (i.out.as_path(), i.map.as_deref());
-        match stage {
+        Ok(match stage {
             Stage::Ingest => Self::Ingest(c.ingest_options(&i.flights, run)),
             Stage::Detect => {
                 Self::Detect(c.detect_options(run, &i.model_path(), i.onnxruntime.as_deref()))
@@ -299,10 +303,11 @@ impl StageOptions {
                 Self::Coverage(c.coverage_options(run, map, i.plan.as_ref(), i.targets.clone()))
             }
             Stage::Replan => Self::Replan(c.replan_options(run, map)),
+            Stage::Record => Self::Record(c.record_options(run, i.previous.as_deref())?),
             Stage::Report => Self::Report(reports::ReportOptions {
                 run: run.to_owned(),
             }),
-        }
+        })
     }
 
     /// The options as the fingerprint hashes them: every setting, no path.
@@ -313,6 +318,7 @@ impl StageOptions {
             Self::Localise(o) => serde_json::to_value(o),
             Self::Coverage(o) => serde_json::to_value(o),
             Self::Replan(o) => serde_json::to_value(o),
+            Self::Record(o) => serde_json::to_value(o),
             Self::Report(_) => Ok(serde_json::Value::Null),
         };
         value.expect("options serialise to JSON")
@@ -325,29 +331,30 @@ impl StageOptions {
             Self::Localise(o) => stages::localise(o, quiet),
             Self::Coverage(o) => stages::coverage(o, quiet),
             Self::Replan(o) => stages::replan(o, quiet),
+            Self::Record(o) => stages::record(o, quiet),
             Self::Report(o) => stages::report(o, quiet),
         }
     }
 }
 
 /// A stage's inputs; `None` when it cannot run with what the run was given.
-fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
-    if matches!(stage, Stage::Coverage | Stage::Replan) && !has_targets(i) {
-        return None;
+fn stage_inputs(stage: Stage, i: &RunInputs) -> anyhow::Result<Option<StageInputs>> {
+    if matches!(stage, Stage::Coverage | Stage::Replan | Stage::Record) && !has_targets(i) {
+        return Ok(None);
     }
-    let settings = StageOptions::new(stage, i).settings();
+    let settings = StageOptions::new(stage, i)?.settings();
     let c = &i.config;
     let map = i.map.iter().map(|m| ("map", m.clone()));
     let files: Vec<(&str, PathBuf)> = match stage {
         Stage::Ingest => {
             let calibration = c.ingest.camera_info_file.iter();
             let calibration = calibration.map(|f| ("camera_info", f.clone()));
-            return Some(StageInputs {
+            return Ok(Some(StageInputs {
                 settings,
                 files: flight_roles(&i.flights)
                     .chain(calibration.map(|(r, f)| (r.to_string(), f)))
                     .collect(),
-            });
+            }));
         }
         Stage::Detect => std::iter::once(("model", i.model_path()))
             .chain(
@@ -369,10 +376,21 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> Option<StageInputs> {
             .chain(map)
             .collect(),
         Stage::Replan => map.collect(),
+        // The decisions are in its settings; the earlier record is a file.
+        Stage::Record => i
+            .previous
+            .iter()
+            .map(|p| {
+                (
+                    "previous record",
+                    p.join(postflight_core::outputs::record::files::ELEMENTS),
+                )
+            })
+            .collect(),
         Stage::Report => Vec::new(),
     };
     let files = files.into_iter().map(|(r, f)| (r.to_string(), f)).collect();
-    Some(StageInputs { settings, files })
+    Ok(Some(StageInputs { settings, files }))
 }
 
 /// The recordings by role: `flight`, then `flight 2`, `flight 3`... in the
@@ -391,7 +409,7 @@ fn has_targets(i: &RunInputs) -> bool {
 }
 
 fn run_stage(stage: Stage, i: &RunInputs, quiet: bool) -> anyhow::Result<()> {
-    StageOptions::new(stage, i).run(quiet)
+    StageOptions::new(stage, i)?.run(quiet)
 }
 
 #[cfg(test)]
@@ -411,10 +429,11 @@ mod tests {
             config,
             out: "run".into(),
             force: None,
+            previous: None,
         };
         Stage::ALL
             .iter()
-            .map(|s| (*s, StageOptions::new(*s, &inputs).settings()))
+            .map(|s| (*s, StageOptions::new(*s, &inputs).unwrap().settings()))
             .collect()
     }
 
@@ -438,8 +457,10 @@ mod tests {
                 "localise" => vec![Stage::Localise],
                 // Localise judges each view by the View model too.
                 "view" => vec![Stage::Localise, Stage::Coverage],
-                // Localise puts each candidate in a condition state.
-                "condition" => vec![Stage::Localise],
+                // Localise puts each candidate in a condition state, and
+                // the record each element's cracks.
+                "condition" => vec![Stage::Localise, Stage::Record],
+                "record" => vec![Stage::Record],
                 "coverage" => vec![Stage::Coverage],
                 "replan" => vec![Stage::Replan],
                 // `postflight compare` reads it; no stage of a run does.

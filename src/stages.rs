@@ -3,6 +3,7 @@
 //! share these.
 
 use postflight_core::outputs::localise::Outcome;
+use postflight_core::outputs::record::Submission;
 use postflight_core::outputs::report::files;
 
 use crate::progress::Bar;
@@ -153,6 +154,32 @@ pub fn replan(options: &replan::ReplanOptions, quiet: bool) -> anyhow::Result<()
                     "no geo origin (--geo-origin, or GPS fixes or geotagged photos in the flight): no QGroundControl or DJI mission, KML or GeoJSON"
                 );
             }
+        }
+    }
+    Ok(())
+}
+
+pub fn record(options: &record::RecordOptions, quiet: bool) -> anyhow::Result<()> {
+    let summary = record::record(options)?;
+    for w in &summary.warnings {
+        tracing::warn!("{w}");
+    }
+    if !quiet {
+        let seen: Vec<String> = summary
+            .elements
+            .iter()
+            .map(|e| format!("{} {:.0}%", e.element, e.inspected_pct))
+            .collect();
+        println!(
+            "recorded {} elements (inspected: {}), what was not inspected as {}, into {}",
+            summary.elements.len(),
+            seen.join(", "),
+            summary.not_inspected.as_str(),
+            options.run.display()
+        );
+        match &summary.submission {
+            Submission::Written { files } => println!("submission: {}", files.join(", ")),
+            Submission::Refused { why } => println!("no submission files: {why}"),
         }
     }
     Ok(())

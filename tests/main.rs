@@ -18,6 +18,7 @@ mod octomap;
 mod parsers;
 mod photos;
 mod pipeline;
+mod record;
 mod recordings;
 mod replan;
 mod review;

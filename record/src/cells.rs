@@ -1,14 +1,19 @@
 //! An element laid out in cells of its unit, from its target voxels: an
 //! area element (a deck, a slab) as square cells of `[record] cell_m` on
-//! its plan, a linear one (a girder, a wall, a cap) as stretches of
-//! `cell_m` along it, an element counted each as one cell. Each cell holds
-//! the quantity of the element it covers (square metres of plan, metres
-//! along, or the one element) and whether the flight inspected it.
+//! its plan, a linear one (a girder, a wall, a cap) as short stretches
+//! along it (an eighth of `cell_m`), an element counted each as one cell.
+//! Each cell holds the quantity of the element it covers (square metres of
+//! plan, metres along, or the one element) and whether the flight
+//! inspected it.
 //!
-//! The cells are found on a finer grid (a quarter of a cell on a plan, an
-//! eighth along), each fine square or stretch the element's where one of
-//! its voxels covers its centre: the quantity is the element's footprint
-//! to a fraction of a cell, however the voxels lie against the cells.
+//! A crack on an area element affects the cells its line crosses; on a
+//! linear one the stretch it spans along the element, at least `cell_m`
+//! long (a crack across a girder still affects a foot of it).
+//!
+//! Plan cells are found on a finer grid (a quarter of a cell), each fine
+//! square the element's where one of its voxels covers its centre, so that
+//! the quantity is the element's footprint to a fraction of a cell, however
+//! the voxels lie against the cells.
 
 use std::collections::{BTreeMap, HashMap};
 
@@ -17,7 +22,7 @@ use postflight_core::map::{VoxelGrid, VoxelIndex};
 use postflight_core::outputs::record::Unit;
 
 /// A cell's place in its element's layout: `(along, across)` on a plan,
-/// `(along, 0)` along an element, `(0, 0)` for an element counted each.
+/// `(stretch, 0)` along an element, `(0, 0)` for an element counted each.
 pub type CellKey = (i64, i64);
 
 /// One cell of an element.
@@ -60,7 +65,7 @@ pub struct Cells {
     pub cells: BTreeMap<CellKey, Cell>,
 }
 
-/// Fine squares per cell side on a plan, fine stretches per cell along.
+/// Fine squares per cell side on a plan; stretches per `cell_m` along.
 const PLAN_FINE: i64 = 4;
 const ALONG_FINE: i64 = 8;
 
@@ -128,17 +133,65 @@ impl Cells {
                 let (a, c) = plan_coordinates(along, point.xy().coords);
                 (cell(a), cell(c))
             }
-            Frame::Along { along } => (cell(along.dot(&point.xy().coords)), 0),
+            Frame::Along { along } => (self.stretch(along.dot(&point.xy().coords)), 0),
             Frame::Whole => (0, 0),
         }
     }
 
-    /// The cells a straight line from `a` to `b` passes over.
-    pub fn cells_between(&self, a: &Point3<f64>, b: &Point3<f64>) -> Vec<CellKey> {
-        let steps = ((b - a).norm() / (self.cell_m / 4.0)).ceil().max(1.0) as usize;
-        let mut keys: Vec<CellKey> = (0..=steps)
-            .filter_map(|i| self.cell_at(&(a + (b - a) * (i as f64 / steps as f64))))
-            .collect();
+    /// The stretch of a linear element at `a` metres along its axis.
+    fn stretch(&self, a: f64) -> i64 {
+        (a / (self.cell_m / ALONG_FINE as f64)).floor() as i64
+    }
+
+    /// The cells a line through `points` affects: those it crosses on a
+    /// plan, its span along a linear element (at least `cell_m` of it), or
+    /// the one cell.
+    pub fn cells_of_line(&self, points: &[Point3<f64>]) -> Vec<CellKey> {
+        let mut keys: Vec<CellKey> =
+            match self.frame {
+                Frame::Along { along } => {
+                    let (lo, hi) = points
+                        .iter()
+                        .map(|p| along.dot(&p.xy().coords))
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), a| {
+                            (lo.min(a), hi.max(a))
+                        });
+                    if lo > hi {
+                        return Vec::new();
+                    }
+                    let widen = ((self.cell_m - (hi - lo)) / 2.0).max(0.0);
+                    let span = self.stretch(lo - widen)..=self.stretch(hi + widen);
+                    let on: Vec<CellKey> = span
+                        .map(|k| (k, 0))
+                        .filter(|k| self.cells.contains_key(k))
+                        .collect();
+                    if on.is_empty() {
+                        points
+                            .iter()
+                            .filter_map(|p| self.cell_at(p))
+                            .take(1)
+                            .collect()
+                    } else {
+                        on
+                    }
+                }
+                _ => {
+                    let step = self.cell_m / 4.0;
+                    let mut keys = Vec::new();
+                    for pair in points.windows(2) {
+                        let (a, b) = (pair[0], pair[1]);
+                        let steps = ((b - a).norm() / step).ceil().max(1.0) as usize;
+                        keys.extend((0..=steps).filter_map(|i| {
+                            self.cell_at(&(a + (b - a) * (i as f64 / steps as f64)))
+                        }));
+                    }
+                    if points.len() == 1 {
+                        keys.extend(self.cell_at(&points[0]));
+                    }
+                    keys
+                }
+            };
+        keys.sort_unstable();
         keys.dedup();
         keys
     }
@@ -208,7 +261,7 @@ fn plan_cells(
     let r = grid.resolution;
     // The fine squares within reach of a column, each looked at once.
     let mut squares: BTreeMap<CellKey, f64> = BTreeMap::new();
-    for (&(ix, iy), _) in &columns {
+    for &(ix, iy) in columns.keys() {
         let centre = grid.center(VoxelIndex([ix, iy, 0])).xy().coords;
         let (a, c) = plan_coordinates(along, centre);
         // A column's corners are at most r/sqrt(2) from its centre.
@@ -235,8 +288,9 @@ fn plan_cells(
     }))
 }
 
-/// Stretches along the element: fine stretches whose middle one of its
-/// voxels spans, each with the inspected share of the voxels spanning it.
+/// Stretches along the element (an eighth of a cell each) whose middle one
+/// of its voxels spans, each with the inspected share of the voxels
+/// spanning it.
 fn along_cells(
     grid: &VoxelGrid,
     voxels: &[Voxel],
@@ -259,7 +313,7 @@ fn along_cells(
     gather(
         spanning
             .iter()
-            .map(|(f, vs)| ((f.div_euclid(ALONG_FINE), 0), fine, seen_share(vs.iter()))),
+            .map(|(f, vs)| ((*f, 0), fine, seen_share(vs.iter()))),
     )
 }
 

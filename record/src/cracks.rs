@@ -2,7 +2,8 @@
 //! gives it on its element: by its width (its widest stretch, against the
 //! limits of the element's material), over that the state a reviewer set,
 //! and a sealed moderate crack in state 1. Rejected candidates never
-//! count; pending ones as `[record] pending` says.
+//! count; pending ones as `[record] pending` says; one whose width no view
+//! measured counts once a reviewer gives its state.
 
 use std::collections::BTreeMap;
 
@@ -44,19 +45,16 @@ pub struct CountedCrack {
     pub pending: bool,
 }
 
-/// A crack whose width is unknown counts in this state: a crack is there,
-/// its width is for the inspector to gauge.
-pub const UNKNOWN_WIDTH_STATE: ConditionState = ConditionState::Fair;
-
 /// The state a crack's width puts it in on an element whose cracks are
-/// `cracking`; `[condition]`'s limits apply to its own material.
+/// `cracking` (`[condition]`'s limits apply to its own material); `None`
+/// where no view measured it (or its bound straddles a limit).
 pub fn width_state(
     defect: &DefectRecord,
     cracking: Cracking,
     condition: &ConditionConfig,
-) -> ConditionState {
+) -> Option<ConditionState> {
     match cracking {
-        Cracking::Steel => ConditionState::Poor,
+        Cracking::Steel => Some(ConditionState::Poor),
         Cracking::Concrete(material) => {
             let limits: CrackLimits = if material == condition.material {
                 condition.limits()
@@ -67,7 +65,7 @@ pub fn width_state(
                 .width
                 .as_ref()
                 .and_then(|w| limits.state_of(w))
-                .map_or(UNKNOWN_WIDTH_STATE, |call| call.state)
+                .map(|call| call.state)
         }
     }
 }
@@ -115,9 +113,15 @@ pub fn counted_cracks(
             continue;
         };
         let sealed = call.is_some_and(|c| c.sealed);
-        let measured = call
+        let state = call
             .and_then(|c| c.condition)
-            .unwrap_or_else(|| width_state(d, cracking, condition));
+            .or_else(|| width_state(d, cracking, condition));
+        // No state: a crack is there, but which state is for a reviewer (or
+        // a gauge on site) to say.
+        let Some(state) = state else {
+            counts.unmeasured.push(d.id.clone());
+            continue;
+        };
         let lines = if d.trace.is_empty() {
             vec![vec![d.position]]
         } else {
@@ -127,7 +131,7 @@ pub fn counted_cracks(
             id: d.id.clone(),
             element: element.to_string(),
             lines,
-            state: measured,
+            state,
             sealed,
             pending: call.is_none(),
         });

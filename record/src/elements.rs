@@ -41,7 +41,7 @@ impl RecordedElement {
 
 /// A pier whose footprint is this many times longer than it is thick is a
 /// wall (210), else a column (205).
-const WALL_ASPECT: f64 = 3.0;
+const WALL_ASPECT: f64 = 2.5;
 
 /// An inventory quantity this far from the measured one is worth a warning.
 const INVENTORY_WARNING_SHARE: f64 = 0.2;

@@ -32,6 +32,10 @@ pub struct Line {
     pub points: Vec<Point3<f64>>,
 }
 
+/// A stretch of surface between two cracks: a point on one and the
+/// nearest on the other.
+pub type Span = (Point3<f64>, Point3<f64>);
+
 /// What the pattern rule says of one crack.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct InPattern {
@@ -41,7 +45,7 @@ pub struct InPattern {
     pub state: Option<ConditionState>,
     /// Each stretch of surface between it and its neighbour, as pairs of
     /// points, for the cells between them.
-    pub spans: Vec<(Point3<f64>, Point3<f64>)>,
+    pub spans: Vec<Span>,
 }
 
 /// The state a spacing puts a pattern in; `None` for cracks further apart.
@@ -74,7 +78,7 @@ pub fn sample(crack: usize, line: &[[f64; 3]], step: f64) -> Line {
 pub fn patterns(cracks: usize, lines: &[Line]) -> Vec<InPattern> {
     let mut out = vec![InPattern::default(); cracks];
     for (i, a) in lines.iter().enumerate() {
-        let mut nearest: Option<(f64, Vec<(Point3<f64>, Point3<f64>)>)> = None;
+        let mut nearest: Option<(f64, Vec<Span>)> = None;
         for (j, b) in lines.iter().enumerate() {
             if i == j || (a.crack == b.crack && touch(a, b)) {
                 continue;
@@ -109,7 +113,7 @@ fn touch(a: &Line, b: &Line) -> bool {
 
 /// `a`'s spacing to `b` where `b` runs alongside it along at least half of
 /// `a`, and the spans between them there.
-fn alongside(a: &Line, b: &Line) -> Option<(f64, Vec<(Point3<f64>, Point3<f64>)>)> {
+fn alongside(a: &Line, b: &Line) -> Option<(f64, Vec<Span>)> {
     if a.points.len() < 2 {
         return None;
     }

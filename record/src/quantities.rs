@@ -56,8 +56,9 @@ fn crack_state(crack: &CountedCrack, pattern: Option<ConditionState>) -> Conditi
     }
 }
 
-/// The worst state over each cell, and the cracks that put it there.
-fn cell_states(
+/// The worst state over each cell, and the cracks (their places in
+/// `cracks`) that put it there.
+pub fn cell_states(
     element: &RecordedElement,
     cracks: &[&CountedCrack],
 ) -> BTreeMap<CellKey, (ConditionState, BTreeSet<usize>)> {
@@ -81,17 +82,15 @@ fn cell_states(
     };
     for line in &lines {
         let state = crack_state(cracks[line.crack], in_pattern[line.crack].state);
-        for p in &line.points {
-            if let Some(key) = cells.cell_at(p) {
-                mark(key, state, line.crack);
-            }
+        for key in cells.cells_of_line(&line.points) {
+            mark(key, state, line.crack);
         }
     }
     for (i, p) in in_pattern.iter().enumerate() {
         let Some(pattern) = p.state else { continue };
         let state = crack_state(cracks[i], Some(pattern));
         for (a, b) in &p.spans {
-            for key in cells.cells_between(a, b) {
+            for key in cells.cells_of_line(&[*a, *b]) {
                 mark(key, state, i);
             }
         }

@@ -9,11 +9,14 @@ use std::time::Instant;
 
 use postflight_core::condition::ConditionConfig;
 use postflight_core::map::VoxelGrid;
-use postflight_core::outputs::coverage::{CoverageSummary, files as coverage_files, read_coverage};
+use postflight_core::outputs::coverage::{
+    CoverageSummary, element_map, files as coverage_files, read_coverage,
+};
 use postflight_core::outputs::localise::read_defects;
 use postflight_core::outputs::record::{
     ElementCoverage, ElementRecord, MANUAL, NotInspectedRule, RecordSummary, Submission, files,
 };
+use postflight_core::structure::ElementMap;
 use postflight_core::{RunDir, Stage};
 
 use crate::cracks::{CountedCrack, Decisions, counted_cracks};
@@ -113,19 +116,41 @@ pub struct Made {
     pub warnings: Vec<String>,
 }
 
+/// The structure's elements as the record lays them out, read from the
+/// run's coverage.
+pub struct Layout {
+    pub elements: Vec<RecordedElement>,
+    pub left_out: Vec<LeftOut>,
+    /// Where points on the map are on the structure (coverage's elements).
+    pub element_map: ElementMap,
+    pub warnings: Vec<String>,
+}
+
+/// The owner's elements of the run in `run`, laid out in cells.
+pub fn lay_out(run: &RunDir, settings: &RecordConfig) -> Result<Layout, RecordError> {
+    let summary: CoverageSummary = run.read_json(coverage_files::SUMMARY)?;
+    let voxels = read_coverage(run, coverage_files::TABLE)?;
+    let grid = VoxelGrid::new(summary.figures.resolution_m, summary.grid_origin.into());
+    let mut warnings = Vec::new();
+    let (elements, left_out) =
+        recorded_elements(&summary.structure, &grid, &voxels, settings, &mut warnings);
+    warnings.extend(left_out.iter().map(left_out_warning));
+    Ok(Layout {
+        element_map: element_map(&summary, &voxels),
+        elements,
+        left_out,
+        warnings,
+    })
+}
+
 /// The record of the run in `run`, in memory: for the stage, and for the
 /// review queue's view of it as decisions are made.
 pub fn make(run: &RunDir, options: &RecordOptions) -> Result<Made, RecordError> {
     let s = &options.settings;
-    let mut warnings = Vec::new();
-    // Phase: the structure and what was inspected of it.
-    let summary: CoverageSummary = run.read_json(coverage_files::SUMMARY)?;
-    let voxels = read_coverage(run, coverage_files::TABLE)?;
-    let grid = VoxelGrid::new(summary.figures.resolution_m, summary.grid_origin.into());
     // Phase: the owner's elements, laid out in cells.
-    let (elements, left_out) =
-        recorded_elements(&summary.structure, &grid, &voxels, s, &mut warnings);
-    warnings.extend(left_out.iter().map(left_out_warning));
+    let Layout {
+        elements, warnings, ..
+    } = lay_out(run, s)?;
     // Phase: the cracks that count, each in its state.
     let defects = read_defects(run)?;
     let cracking: BTreeMap<&str, _> = elements

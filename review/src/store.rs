@@ -106,6 +106,32 @@ pub struct Decision {
     pub decided_at: String,
 }
 
+impl Decision {
+    /// The decision as the element record weighs it.
+    pub fn reviewer_call(&self) -> record::ReviewerCall {
+        record::ReviewerCall {
+            rejected: self.verdict == Verdict::Rejected,
+            condition: self.condition,
+            sealed: false,
+        }
+    }
+}
+
+/// The current decisions in the review database at `db`, as the element
+/// record weighs them; none where there is no database yet (nothing is
+/// created).
+pub fn record_decisions(db: &Path) -> Result<record::Decisions, ReviewError> {
+    if !db.is_file() {
+        return Ok(record::Decisions::new());
+    }
+    let store = ReviewStore::open(db)?;
+    Ok(store
+        .current_decisions()?
+        .iter()
+        .map(|d| (d.candidate.clone(), d.reviewer_call()))
+        .collect())
+}
+
 /// Why a decision as submitted cannot be recorded (the reviewer can fix it
 /// and submit again).
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

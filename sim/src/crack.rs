@@ -21,6 +21,8 @@ pub struct Crack {
     pub opening: Opening,
     /// Outward unit normal of the face it lies on.
     pub normal: Vector3<f64>,
+    /// The pattern it is one crack of (numbered from 0), if any.
+    pub pattern: Option<u32>,
     /// A triangle of the face it starts on.
     pub triangle: u32,
     center: Point3<f64>,
@@ -173,6 +175,13 @@ impl Crack {
     }
 }
 
+/// How far a crack's heading wanders a step, radians (one standard
+/// deviation).
+const WANDER: f64 = 0.35;
+/// How far a pattern's crack strays aside a step, metres (one standard
+/// deviation, smoothed along it): it keeps its spacing to its neighbours.
+const PATTERN_STRAY_M: f64 = 0.002;
+
 /// Share of the light the interior of a crack of one even width lacks.
 const EVEN_DEPTH: f64 = 0.85;
 
@@ -209,11 +218,52 @@ impl Cracks {
         cracks.len() - before
     }
 
+    /// Draw `groups` patterns of cracks: each three to five cracks side by
+    /// side on one face (an element's map or transverse cracking, which
+    /// the manual judges by the spacing), half of them heavy (0.10 to
+    /// 0.25 m apart), half moderate (0.35 to 0.8 m), each crack opening
+    /// within `widths`, clear of the cracks there are; how many patterns it
+    /// drew.
+    pub fn add_patterns(
+        &mut self,
+        scene: &Scene,
+        groups: usize,
+        widths: WidthRange,
+        rng: &mut Rng,
+    ) -> usize {
+        let faces = FacePicker::new(scene, 0.05);
+        let (mut drawn, mut attempts) = (0, 0);
+        while drawn < groups && attempts < groups * 50 {
+            attempts += 1;
+            let Some(face) = faces.pick(rng) else {
+                break;
+            };
+            let number = drawn as u32;
+            let Some(mut group) = pattern(scene, face, self.0.len() as u32, number, rng) else {
+                continue;
+            };
+            let clear = group.iter().all(|c| {
+                self.0
+                    .iter()
+                    .all(|o| (o.center - c.center).norm() > o.radius + c.radius + 0.3)
+            });
+            if clear {
+                for c in &mut group {
+                    c.taper(widths, rng);
+                }
+                self.0.extend(group);
+                drawn += 1;
+            }
+        }
+        drawn
+    }
+
     /// Open every crack along its length within `range`: widest mid-way
     /// (log-uniform between the range's ends), closing to its narrowest at
     /// the tips. The lines stay as they were drawn.
     pub fn taper(&mut self, range: WidthRange, rng: &mut Rng) {
-        for c in &mut self.0 {
+        // A pattern's cracks open within the pattern's own widths.
+        for c in self.0.iter_mut().filter(|c| c.pattern.is_none()) {
             c.taper(range, rng);
         }
     }
@@ -313,7 +363,7 @@ impl<'a> FaceWalk<'a> {
             if walked >= length {
                 break;
             }
-            h += rng.normal() * 0.35;
+            h += rng.normal() * WANDER;
             let step = rng.range(0.025, 0.05);
             let next = line[line.len() - 1] + (self.u * h.cos() + self.v * h.sin()) * step;
             if !self.on_face(&next) {
@@ -321,6 +371,32 @@ impl<'a> FaceWalk<'a> {
             }
             line.push(next);
             walked += step;
+        }
+        line
+    }
+
+    /// A nearly straight line from `from` at `heading`, `length` metres or
+    /// until it leaves the face: a pattern's crack, which keeps its spacing
+    /// to its neighbours; it strays from the straight line a few
+    /// millimetres, smoothly.
+    fn straight(
+        &self,
+        from: Point3<f64>,
+        heading: f64,
+        length: f64,
+        rng: &mut Rng,
+    ) -> Vec<Point3<f64>> {
+        let along = self.u * heading.cos() + self.v * heading.sin();
+        let aside = self.normal.cross(&along);
+        let (mut line, mut walked, mut off) = (vec![from], 0.0, 0.0);
+        while walked < length {
+            walked += rng.range(0.025, 0.05);
+            off = 0.8 * off + rng.normal() * PATTERN_STRAY_M;
+            let next = from + along * walked + aside * off;
+            if !self.on_face(&next) {
+                break;
+            }
+            line.push(next);
         }
         line
     }
@@ -370,6 +446,7 @@ fn grow(scene: &Scene, triangle: u32, id: u32, rng: &mut Rng) -> Option<Crack> {
         width: rng.range(0.001, 0.005),
         opening: Opening::Even,
         normal: face.normal,
+        pattern: None,
         triangle,
         center: Point3::origin(),
         radius: 0.0,
@@ -378,6 +455,64 @@ fn grow(scene: &Scene, triangle: u32, id: u32, rng: &mut Rng) -> Option<Crack> {
     }
     .with_bounds();
     (crack.length() >= 0.3).then_some(crack)
+}
+
+/// Pattern `number`: cracks side by side on the face of `triangle`,
+/// numbered from `first_id`; `None` where one would not fit on the face.
+fn pattern(
+    scene: &Scene,
+    triangle: u32,
+    first_id: u32,
+    number: u32,
+    rng: &mut Rng,
+) -> Option<Vec<Crack>> {
+    let [a, b, c] = scene.triangles[triangle as usize];
+    let face = FaceWalk::new(scene, triangle);
+    let (mut s, mut t) = (rng.uniform(), rng.uniform());
+    if s + t > 1.0 {
+        (s, t) = (1.0 - s, 1.0 - t);
+    }
+    let start = a + (b - a) * s + (c - a) * t;
+    let heading = rng.range(0.0, std::f64::consts::TAU);
+    let count = 3 + (rng.uniform() * 3.0) as usize;
+    // Heavy or moderate, clear of the limit between them (0.3 m).
+    let spacing = if rng.uniform() < 0.5 {
+        rng.range(0.10, 0.25)
+    } else {
+        rng.range(0.35, 0.8)
+    };
+    let length = rng.range(0.5, 1.2);
+    // Along the heading drawn, else across it (a narrow face has room one
+    // way only).
+    [heading, heading + std::f64::consts::FRAC_PI_2]
+        .into_iter()
+        .find_map(|heading| {
+            let side = heading + std::f64::consts::FRAC_PI_2;
+            let across = face.u * side.cos() + face.v * side.sin();
+            (0..count)
+                .map(|k| {
+                    let from = start + across * (spacing * k as f64);
+                    if !face.on_face(&from) {
+                        return None;
+                    }
+                    let crack = Crack {
+                        id: first_id + k as u32,
+                        lines: vec![face.straight(from, heading, length, rng)],
+                        width: rng.range(0.001, 0.005),
+                        opening: Opening::Even,
+                        normal: face.normal,
+                        pattern: Some(number),
+                        triangle,
+                        center: Point3::origin(),
+                        radius: 0.0,
+                        arc: Vec::new(),
+                        roots: Vec::new(),
+                    }
+                    .with_bounds();
+                    (crack.length() >= 0.6 * length).then_some(crack)
+                })
+                .collect()
+        })
 }
 
 impl Crack {
@@ -495,6 +630,38 @@ impl Crack {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn patterns_are_cracks_side_by_side_on_one_face() {
+        let scene = Scene::girder_bridge();
+        let mut cracks = Cracks::generate(&scene, 5, &mut Rng::new(7));
+        let fine = WidthRange::parse("0.4,1.0").unwrap();
+        assert_eq!(cracks.add_patterns(&scene, 3, fine, &mut Rng::new(8)), 3);
+        let added = &cracks.0[5..];
+        assert!((9..=15).contains(&added.len()), "{}", added.len());
+        // Each crack runs beside the next of its pattern, a steady spacing
+        // apart on the same face.
+        for pair in added.windows(2).filter(|p| p[0].triangle == p[1].triangle) {
+            let (a, b) = (&pair[0], &pair[1]);
+            assert!(a.normal.dot(&b.normal) > 0.999);
+            let gaps: Vec<f64> = a.lines[0].iter().map(|p| b.nearest(p).distance).collect();
+            let (lo, hi) = gaps
+                .iter()
+                .fold((f64::MAX, 0.0f64), |(l, h), g| (l.min(*g), h.max(*g)));
+            assert!(lo > 0.05 && hi < 1.2, "{lo} {hi}");
+        }
+        for c in added {
+            assert!(c.pattern.is_some() && (0.0004..=0.001).contains(&c.width));
+            for (p, _) in c.samples(0.05) {
+                let hit = scene.cast(&(p + c.normal * 0.2), &-c.normal, 1.0).unwrap();
+                assert!(
+                    (hit.distance - 0.2).abs() < 1e-3,
+                    "crack {} leaves its surface",
+                    c.id
+                );
+            }
+        }
+    }
 
     #[test]
     fn cracks_lie_on_the_structure_and_are_seeded() {

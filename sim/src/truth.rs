@@ -34,6 +34,9 @@ pub struct CrackTruth {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub condition_state: Option<u8>,
     pub length_m: f64,
+    /// The pattern it is one crack of, if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pattern: Option<u32>,
     pub part: String,
     /// Outward normal of the surface.
     pub normal: [f64; 3],
@@ -70,6 +73,7 @@ impl CrackTruth {
                     .number()
             }),
             length_m: crack.length(),
+            pattern: crack.pattern,
             part: scene.part_name(crack.triangle).to_string(),
             normal: [n.x, n.y, n.z],
             voxel: grid.voxel_of(&inside),

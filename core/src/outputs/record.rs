@@ -152,7 +152,7 @@ pub struct ElementCoverage {
 }
 
 /// The candidates the record weighed.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct CandidateCounts {
     /// Accepted or needing repair.
     pub accepted: usize,
@@ -162,6 +162,9 @@ pub struct CandidateCounts {
     pub pending: usize,
     /// On no element with an AASHTO number: not counted.
     pub off_elements: usize,
+    /// Counted candidates no view measured across, in no state until a
+    /// reviewer gives one (or a gauge on site): their ids.
+    pub unmeasured: Vec<String>,
 }
 
 /// Whether the files an owner submits were written.
