@@ -258,3 +258,118 @@ fn quantities_agree_with_the_rule_applied_to_the_truth() {
     // wide cracks and heavy patterns in 3.
     assert!(states[0] > 0.5 && states[1] > 0.5, "{states:?}");
 }
+
+#[test]
+fn the_submission_files_read_back_with_independent_readers() {
+    let (_, run) = girder_bridge();
+    let checked: serde_json::Value =
+        serde_json::from_str(&python_fixture("check_record.py", &[run.to_str().unwrap()])).unwrap();
+    let rows = rows(run);
+    let defects = rows.iter().filter(|r| r.parent.is_some()).count();
+    // One record per element and per defect, EPN and BE02 on the defects'.
+    assert_eq!(checked["rows"], rows.len());
+    assert_eq!(checked["xml"]["records"], rows.len());
+    assert_eq!(checked["xml"]["defects"], defects);
+    assert_eq!(checked["xml"]["state"], "06");
+    assert_eq!(checked["snbi"]["items"], rows.len());
+    assert_eq!(checked["snbi"]["with_be02"], defects);
+    assert!(defects >= 3, "{rows:?}");
+}
+
+/// A copy of the girder bridge's run, for a test that changes it.
+fn girder_bridge_copy(name: &str) -> PathBuf {
+    let dir = locked_fixture_dir(&format!("record-{name}"));
+    let run = dir.join("run");
+    copy_dir(&girder_bridge().1, &run);
+    run
+}
+
+fn record_ok(run: &Path, args: &[&str]) -> String {
+    let mut all = vec!["record", "--run", run.to_str().unwrap()];
+    all.extend_from_slice(args);
+    let out = postflight(&all, run.parent().unwrap());
+    assert!(out.status.success(), "{}", stderr(&out));
+    stdout(&out)
+}
+
+#[test]
+fn a_rejected_crack_leaves_the_record_when_it_is_rebuilt() {
+    let run = girder_bridge_copy("rejected");
+    let dir = RunDir::open(&run, Stage::Record).unwrap();
+    let layout = lay_out(&dir, &RecordConfig::default()).unwrap();
+    let defects = postflight_core::outputs::localise::read_defects(&dir).unwrap();
+    let cracking = |name: &str| {
+        layout
+            .elements
+            .iter()
+            .find(|e| e.name == name)
+            .map(|e| e.aashto.cracking)
+    };
+    let (cracks, _) = counted_cracks(
+        &defects,
+        &Decisions::new(),
+        PendingRule::Count,
+        &Default::default(),
+        &cracking,
+    );
+    // The element with the most in state 3, and its widest crack.
+    let before = rows(&run);
+    let element = before
+        .iter()
+        .filter(|r| r.parent.is_none())
+        .max_by(|a, b| a.cs3.total_cmp(&b.cs3))
+        .unwrap();
+    let width = |id: &str| {
+        let d = defects.iter().find(|d| d.id == id).unwrap();
+        d.width.and_then(|w| w.max_mm).unwrap_or(0.0)
+    };
+    let on: Vec<&CountedCrack> = cracks
+        .iter()
+        .filter(|c| c.element == element.element)
+        .collect();
+    let widest = on
+        .iter()
+        .max_by(|a, b| width(&a.id).total_cmp(&width(&b.id)))
+        .unwrap();
+    // Its share: what the element's state 3 holds with it and without it.
+    let laid = layout
+        .elements
+        .iter()
+        .find(|e| e.name == element.element)
+        .unwrap();
+    let without: Vec<&CountedCrack> = on.iter().copied().filter(|c| c.id != widest.id).collect();
+    let share = tally(laid, &on).element.states[2] - tally(laid, &without).element.states[2];
+    assert!(
+        share > 0.0,
+        "{} adds nothing to {}",
+        widest.id,
+        element.element
+    );
+
+    let db = run.join("review.sqlite");
+    let server = crate::review::Server::start(&run, &db, &[]);
+    let (status, body) = crate::review::post_json(
+        &crate::review::agent(),
+        &crate::review::decisions_url(&server.base, &widest.id),
+        &serde_json::json!({"version": 0, "verdict": "rejected", "reviewer": "kim"}),
+    );
+    assert_eq!(status, 201, "{body}");
+    drop(server);
+    record_ok(&run, &[]);
+    let after = rows(&run);
+    let now = after
+        .iter()
+        .find(|r| r.element == element.element && r.parent.is_none())
+        .unwrap();
+    assert!(
+        (element.cs3 - now.cs3 - share).abs() < 1e-9,
+        "{}: state 3 {} -> {}, where {} held {share}",
+        element.element,
+        element.cs3,
+        now.cs3,
+        widest.id
+    );
+    assert!(!now.candidates.split(',').any(|id| id == widest.id));
+    let summary = read_json(&run.join("record.json"));
+    assert_eq!(summary["candidates"]["rejected"], 1);
+}

@@ -40,18 +40,18 @@ fn reviewed_run() -> &'static Path {
 }
 
 /// A running `postflight review serve`, killed when dropped.
-struct Server {
+pub(crate) struct Server {
     child: Child,
     /// The address it printed (with the token, if any).
     url: String,
     /// `http://127.0.0.1:PORT`.
-    base: String,
+    pub(crate) base: String,
     // Kept open so the server's later lines have somewhere to go.
     _stdout: BufReader<ChildStdout>,
 }
 
 impl Server {
-    fn start(run: &Path, db: &Path, extra: &[&str]) -> Self {
+    pub(crate) fn start(run: &Path, db: &Path, extra: &[&str]) -> Self {
         let mut child = Command::new(env!("CARGO_BIN_EXE_postflight"))
             .args(["review", "serve", "--run", run.to_str().unwrap()])
             .args(["--db", db.to_str().unwrap()])
@@ -97,7 +97,7 @@ impl Drop for Server {
     }
 }
 
-fn agent() -> ureq::Agent {
+pub(crate) fn agent() -> ureq::Agent {
     ureq::Agent::config_builder()
         .http_status_as_error(false)
         .max_redirects(0)
@@ -179,7 +179,7 @@ fn origin_of(url: &str) -> &str {
 }
 
 /// (status, body) of a JSON POST, from the server's own origin.
-fn post_json(agent: &ureq::Agent, url: &str, body: &Value) -> (u16, String) {
+pub(crate) fn post_json(agent: &ureq::Agent, url: &str, body: &Value) -> (u16, String) {
     let mut r = agent
         .post(url)
         .header("origin", origin_of(url))
@@ -224,7 +224,7 @@ fn url_path(id: &str) -> String {
 }
 
 /// Where decisions on a candidate are posted.
-fn decisions_url(base: &str, id: &str) -> String {
+pub(crate) fn decisions_url(base: &str, id: &str) -> String {
     format!("{base}/api/candidates/{}/decisions", url_path(id))
 }
 
