@@ -9,7 +9,7 @@ use std::sync::OnceLock;
 
 use postflight_core::condition::CrackLimits;
 use postflight_core::outputs::record::ElementRecord;
-use postflight_core::outputs::record::{PendingRule, Unit};
+use postflight_core::outputs::record::{NotInspectedRule, PendingRule, Unit};
 use postflight_core::table::Row;
 use postflight_core::{RunDir, Stage};
 use record::Decisions;
@@ -372,4 +372,213 @@ fn a_rejected_crack_leaves_the_record_when_it_is_rebuilt() {
     assert!(!now.candidates.split(',').any(|id| id == widest.id));
     let summary = read_json(&run.join("record.json"));
     assert_eq!(summary["candidates"]["rejected"], 1);
+}
+
+/// The footbridge flown round with a gimbal (most of its slab seen), and
+/// the same flight with every frame east of 1.5 m short of the middle of
+/// the span left
+/// without a pose (as if it had never flown there), each localised,
+/// covered and recorded with `OWNER`: (full run, half run).
+fn half_a_slab() -> &'static (PathBuf, PathBuf) {
+    static FLOWN: OnceLock<(PathBuf, PathBuf)> = OnceLock::new();
+    FLOWN.get_or_init(|| {
+        let mesh = root().join("tests/fixtures/footbridge.obj");
+        let args = ["--mesh", mesh.to_str().unwrap(), "--gimbal", "--cracks", "30"];
+        let config = format!("{OWNER}[[record.element]]\nname = \"deck\"\nnumber = 38\n");
+        let (sim, full) = flown("slab-full", &args, &config);
+        let dir = locked_fixture_dir("record-slab-half");
+        let half = dir.join("run");
+        copy_dir(&full, &half);
+        python_run(
+            "import sys, pyarrow as pa, pyarrow.parquet as pq\n\
+             t = pq.read_table(sys.argv[1])\n\
+             east = [x is not None and x > -1.5 for x in t.column('x').to_pylist()]\n\
+             for name in ['x', 'y', 'z', 'qx', 'qy', 'qz', 'qw']:\n\
+             \x20   i = t.schema.get_field_index(name)\n\
+             \x20   col = t.column(name).to_pylist()\n\
+             \x20   t = t.set_column(i, name, pa.array([None if e else v for e, v in zip(east, col)], pa.float64()))\n\
+             i = t.schema.get_field_index('pose_status')\n\
+             status = t.column('pose_status').to_pylist()\n\
+             t = t.set_column(i, 'pose_status', pa.array(['pose_gap' if e else s for e, s in zip(east, status)]))\n\
+             pq.write_table(t, sys.argv[1])",
+            &[half.join("frames.parquet")],
+        );
+        let (r, plan) = (half.to_str().unwrap(), sim.join("plan.json"));
+        let config_file = dir.join("postflight.toml");
+        std::fs::write(&config_file, &config).unwrap();
+        let c = config_file.to_str().unwrap();
+        for stage in ["localise", "coverage", "record"] {
+            let mut all = vec![stage, "--run", r, "--config", c];
+            if stage != "record" {
+                all.extend(["--plan", plan.to_str().unwrap()]);
+            }
+            let out = postflight(&all, &dir);
+            assert!(out.status.success(), "{stage}: {}", stderr(&out));
+        }
+        (full, half)
+    })
+}
+
+/// The element row of `element`.
+fn element_row(run: &Path, element: &str) -> ElementRecord {
+    rows(run)
+        .into_iter()
+        .find(|r| r.element == element && r.parent.is_none())
+        .unwrap()
+}
+
+/// The inspected quantity of `element` east of `x` metres.
+fn inspected_east_of(run: &Path, element: &str, x: f64) -> f64 {
+    let dir = RunDir::open(run, Stage::Record).unwrap();
+    let layout = lay_out(&dir, &RecordConfig::default()).unwrap();
+    let e = layout.elements.iter().find(|e| e.name == element).unwrap();
+    e.cells
+        .cells
+        .iter()
+        .filter(|((along, _), c)| c.inspected && *along as f64 * e.cells.cell_m >= x)
+        .map(|(_, c)| c.quantity)
+        .sum()
+}
+
+#[test]
+fn a_flight_that_misses_half_the_slab_says_so() {
+    let (full, half) = half_a_slab();
+    let (whole, part) = (element_row(full, "deck"), element_row(half, "deck"));
+    // The full flight saw most of the 12 x 1.5 m slab; without its east
+    // half, about half of that, none of it east of the middle.
+    assert!(whole.inspected > 0.6 * whole.total, "{whole:?}");
+    let share = part.inspected / whole.inspected;
+    assert!(
+        (0.35..=0.65).contains(&share),
+        "{} of {}",
+        part.inspected,
+        whole.inspected
+    );
+    assert!(inspected_east_of(full, "deck", 1.0) > 0.2 * whole.total);
+    assert!(inspected_east_of(half, "deck", 1.0) < 0.05 * whole.total);
+    assert!((part.total - whole.total).abs() < 1e-9);
+    let summary = read_json(&half.join("record.json"));
+    let deck = summary["elements"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|e| e["element"] == "deck")
+        .unwrap();
+    assert!((f(&deck["inspected_pct"]) - 100.0 * part.inspected / part.total).abs() < 1e-9);
+}
+
+#[test]
+fn each_not_inspected_rule_does_as_documented() {
+    let (full, half) = half_a_slab();
+    let dir = locked_fixture_dir("record-rules");
+    let run = dir.join("run");
+    copy_dir(half, &run);
+    let r = run.to_str().unwrap();
+    let config = dir.join("postflight.toml");
+    std::fs::write(
+        &config,
+        format!("{OWNER}[[record.element]]\nname = \"deck\"\nnumber = 38\n"),
+    )
+    .unwrap();
+    let record_ok = |args: &[&str]| {
+        let mut all = vec!["--config", config.to_str().unwrap()];
+        all.extend_from_slice(args);
+        record_ok(&run, &all)
+    };
+    // As the fixture made it: what was not seen is state 1, flagged.
+    let cs1 = element_row(&run, "deck");
+    assert!(
+        rows(&run)
+            .iter()
+            .all(|r| r.not_inspected_rule == NotInspectedRule::Cs1)
+    );
+    let unseen = cs1.not_inspected;
+    assert!(unseen > 0.3 * cs1.total, "{cs1:?}");
+    let seen = [cs1.cs1 - unseen, cs1.cs2, cs1.cs3, cs1.cs4];
+    let states = |r: &ElementRecord| [r.cs1, r.cs2, r.cs3, r.cs4];
+    let close = |a: [f64; 4], b: [f64; 4]| a.iter().zip(b).all(|(a, b)| (a - b).abs() < 1e-6);
+
+    // Refused: the slab is under 80% inspected; its unseen part goes as
+    // the part seen shows.
+    let said = record_ok(&["--not-inspected", "refuse"]);
+    assert!(
+        said.contains("no submission files") && said.contains("deck"),
+        "{said}"
+    );
+    assert!(!run.join("nbe.xml").exists() && !run.join("snbi-elements.json").exists());
+    let summary = read_json(&run.join("record.json"));
+    assert_eq!(summary["submission"]["state"], "refused");
+    assert!(
+        summary["submission"]["why"]
+            .as_str()
+            .unwrap()
+            .contains("deck")
+    );
+    let refused = element_row(&run, "deck");
+    let scale = refused.total / refused.inspected;
+    assert!(
+        close(states(&refused), seen.map(|q| q * scale)),
+        "{refused:?}"
+    );
+    // Under a lower minimum the slab passes; the east column, never seen,
+    // still does not (nothing seen shows what the rest is).
+    let said = record_ok(&["--not-inspected", "refuse", "--min-inspected", "0"]);
+    let why = read_json(&run.join("record.json"))["submission"]["why"].to_string();
+    assert!(
+        why.contains("nothing inspected of pier 2") && !why.contains("deck"),
+        "{said}"
+    );
+
+    // From an earlier record: the slab's unseen part in the full flight's shares.
+    let c = config.to_str().unwrap();
+    let out = postflight(
+        &[
+            "record",
+            "--run",
+            r,
+            "--config",
+            c,
+            "--not-inspected",
+            "previous",
+        ],
+        &dir,
+    );
+    assert_fails_in_one_line(&out, "--previous");
+    assert!(
+        !run.join("record.json").exists(),
+        "a failed record leaves none"
+    );
+    let earlier = element_row(full, "deck");
+    let f = full.to_str().unwrap();
+    record_ok(&["--not-inspected", "previous", "--previous", f]);
+    let carried = element_row(&run, "deck");
+    let shares = states(&earlier).map(|q| q / earlier.total);
+    let expected: Vec<f64> = seen
+        .iter()
+        .zip(shares)
+        .map(|(s, p)| s + unseen * p)
+        .collect();
+    assert!(
+        close(states(&carried), expected.try_into().unwrap()),
+        "{carried:?} from {earlier:?}"
+    );
+    assert_eq!(carried.not_inspected_rule, NotInspectedRule::Previous);
+    assert!(run.join("nbe.xml").is_file() && run.join("snbi-elements.json").is_file());
+    let summary = read_json(&run.join("record.json"));
+    assert_eq!(summary["previous"], f);
+    // An earlier record of another structure has no such slab.
+    let other = girder_bridge().1.to_str().unwrap();
+    let out = postflight(
+        &[
+            "record",
+            "--run",
+            r,
+            "--not-inspected",
+            "previous",
+            "--previous",
+            other,
+        ],
+        &dir,
+    );
+    assert_fails_in_one_line(&out, "has no row for element");
 }

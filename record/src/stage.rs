@@ -274,17 +274,28 @@ fn submission(s: &RecordConfig, coverage: &[ElementCoverage]) -> Submission {
         why.push("no element has an AASHTO number: give them in [[record.element]]".to_string());
     }
     if s.not_inspected == NotInspectedRule::Refuse {
+        let fix =
+            "fly the follow-up (replan.csv), or choose not_inspected = \"previous\" or \"cs1\"";
+        // An element nothing was seen of shows nothing of what the rest is.
+        let unseen: Vec<&str> = coverage
+            .iter()
+            .filter(|c| c.inspected <= 0.0)
+            .map(|c| c.element.as_str())
+            .collect();
         let under: Vec<String> = coverage
             .iter()
-            .filter(|c| c.inspected_pct < s.min_inspected_pct)
+            .filter(|c| c.inspected > 0.0 && c.inspected_pct < s.min_inspected_pct)
             .map(|c| format!("{} {:.0}%", c.element, c.inspected_pct))
             .collect();
         if !under.is_empty() {
             why.push(format!(
-                "inspected under [record] min_inspected_pct ({:.0}%): {}; fly the follow-up (replan.csv), or choose not_inspected = \"previous\" or \"cs1\"",
+                "inspected under [record] min_inspected_pct ({:.0}%): {}; {fix}",
                 s.min_inspected_pct,
                 under.join(", ")
             ));
+        }
+        if !unseen.is_empty() {
+            why.push(format!("nothing inspected of {}; {fix}", unseen.join(", ")));
         }
     }
     if why.is_empty() {
