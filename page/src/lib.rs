@@ -3,6 +3,8 @@
 //! lengths, widths, condition states, places and a candidate's evidence
 //! are worded for people.
 
+pub mod record;
+
 use maud::{DOCTYPE, Markup, html};
 use postflight_core::condition::{ConditionState, StateCall};
 use postflight_core::outputs::localise::{

@@ -9,6 +9,7 @@ use postflight_core::outputs::changes::{ChangeKind, ChangeRecord, ChangesSummary
 use postflight_core::outputs::coverage::{self, CoverageSummary, VoxelRecord};
 use postflight_core::outputs::detect::DetectSummary;
 use postflight_core::outputs::localise::{DefectRecord, LocaliseSummary, read_defects};
+use postflight_core::outputs::record::{self, ElementRecord, RecordSummary};
 use postflight_core::outputs::replan::ReplanSummary;
 use postflight_core::outputs::report::CandidateRow;
 use postflight_core::structure::{ElementMap, Place};
@@ -103,7 +104,18 @@ pub struct RunResults {
     pub changes: Option<ChangesSummary>,
     /// The earlier run's candidates, by id (empty when it cannot be read).
     pub earlier: HashMap<String, DefectRecord>,
+    /// The element record (`postflight record`) and its rows.
+    pub record: Option<(RecordSummary, Vec<ElementRecord>)>,
     pub log: RunLog,
+}
+
+/// The element record, where the record stage completed.
+fn read_record(dir: &RunDir) -> Result<Option<(RecordSummary, Vec<ElementRecord>)>, ReportError> {
+    let Some(summary) = dir.summary::<RecordSummary>(Stage::Record)? else {
+        return Ok(None);
+    };
+    let rows = dir.read_rows(record::files::ELEMENTS)?;
+    Ok(Some((summary, rows)))
 }
 
 impl RunResults {
@@ -141,6 +153,7 @@ impl RunResults {
             replan: dir.summary(Stage::Replan)?,
             earlier: changes.as_ref().map(earlier_candidates).unwrap_or_default(),
             changes,
+            record: read_record(dir)?,
             log: RunLog::read(dir)?,
             flight,
         })

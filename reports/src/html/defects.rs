@@ -37,11 +37,16 @@ pub(super) fn defects_section(r: &RunResults) -> Markup {
     }
 }
 
+/// The id of a candidate's row in the defects table.
+pub(super) fn candidate_anchor(id: &str) -> String {
+    format!("candidate-{id}")
+}
+
 fn defect_row(r: &RunResults, rank: usize, d: &DefectRecord) -> Markup {
     let thumb = crop_data(r, d);
     let p = d.position;
     html! {
-        tr {
+        tr id=(candidate_anchor(&d.id)) {
             td { (rank) }
             td {
                 @match (thumb, &d.crop) {

@@ -7,13 +7,14 @@
 //!
 //! The page reads top to bottom as its sections, each written by its
 //! module: the flight's [`recordings`], the [`changes`] since an earlier
-//! inspection, [`coverage`], the [`defects`] in review order and the
-//! follow-up flight ([`replan`]); the cards, the files and the run's
-//! timings are here.
+//! inspection, [`coverage`], the [`defects`] in review order, the element
+//! [`record`] and the follow-up flight ([`replan`]); the cards, the files
+//! and the run's timings are here.
 
 mod changes;
 mod coverage;
 mod defects;
+mod record;
 mod recordings;
 mod replan;
 
@@ -22,6 +23,7 @@ pub use replan::{follow_up_text, nothing_to_fly};
 use self::changes::changes_section;
 use self::coverage::coverage_section;
 use self::defects::{defects_section, detections_appendix};
+use self::record::record_section;
 use self::recordings::recordings_section;
 use self::replan::replan_section;
 
@@ -77,11 +79,13 @@ pub fn page(results: &RunResults, summary: &RunSummary) -> String {
         (changes_section(results))
         (coverage_section(results))
         (defects_section(results))
+        (record_section(results))
         (replan_section(results))
         (run_section(summary))
         (detections_appendix(results))
     };
-    document(&title, html! { style { (PreEscaped(STYLE)) } }, body)
+    let style = format!("{STYLE}{}", page::record::RECORD_STYLE);
+    document(&title, html! { style { (PreEscaped(style)) } }, body)
 }
 
 /// Where a photo flight's poses came from: its photos (how many were
