@@ -92,11 +92,13 @@ fn candidates_cell(row: &ElementRecord, link: &dyn Fn(&str) -> Option<String>) -
 }
 
 /// The record's section: what it rests on, whether the files an owner
-/// submits were written, and each element and defect; `link` gives a
-/// candidate's address on the page, where it has one.
+/// submits were written (linked where `files_beside` the page), and each
+/// element and defect; `link` gives a candidate's address on the page,
+/// where it has one.
 pub fn record_section(
     summary: &RecordSummary,
     rows: &[ElementRecord],
+    files_beside: bool,
     link: &dyn Fn(&str) -> Option<String>,
 ) -> Markup {
     let pending = rows.iter().map(|r| r.pending).max().unwrap_or(0);
@@ -113,7 +115,7 @@ pub fn record_section(
                 p { "Submission files: "
                     @for (i, f) in files.iter().enumerate() {
                         @if i > 0 { ", " }
-                        a href=(f) { (f) }
+                        @if files_beside { a href=(f) { (f) } } @else { code { (f) } }
                     }
                     " (FHWA element XML in metric units; the SNBI's element items in square feet, feet and each)."
                 }

@@ -16,6 +16,10 @@ pub enum RecordError {
         element: String,
         number: u16,
     },
+    #[error(
+        "the record in {} cannot be remade from its record.json ({why}); run `postflight record --run` on it again", run.display()
+    )]
+    Unreadable { run: PathBuf, why: String },
     #[error(transparent)]
     Core(#[from] postflight_core::Error),
     #[error(transparent)]

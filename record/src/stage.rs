@@ -83,28 +83,54 @@ pub fn record(options: &RecordOptions) -> Result<RecordSummary, RecordError> {
         run.write_text(files::NBE_XML, &nbe_xml(state, &made.rows))?;
         run.write_json(files::SNBI_JSON, &snbi(state, number, &made.rows))?;
     }
-    let summary = RecordSummary {
+    let summary = summarise(options, made, start.elapsed().as_secs_f64());
+    run.write_json(files::SUMMARY, &summary)?;
+    Ok(summary)
+}
+
+/// `record.json` for the record `made` with `options`.
+pub fn summarise(options: &RecordOptions, made: Made, seconds: f64) -> RecordSummary {
+    let s = &options.settings;
+    RecordSummary {
         run: options.run.clone(),
         manual: MANUAL.to_string(),
-        structure_number: options
-            .settings
-            .structure_number
-            .clone()
-            .unwrap_or_default(),
-        state_code: options.settings.state_code.clone().unwrap_or_default(),
-        cell_m: options.settings.cell_m,
-        not_inspected: options.settings.not_inspected,
-        min_inspected_pct: options.settings.min_inspected_pct,
-        pending: options.settings.pending,
+        structure_number: s.structure_number.clone().unwrap_or_default(),
+        state_code: s.state_code.clone().unwrap_or_default(),
+        cell_m: s.cell_m,
+        not_inspected: s.not_inspected,
+        min_inspected_pct: s.min_inspected_pct,
+        pending: s.pending,
         previous: options.previous.clone(),
         elements: made.coverage,
         candidates: made.candidates,
         submission: made.submission,
-        seconds: start.elapsed().as_secs_f64(),
+        settings: serde_json::json!({ "record": s, "condition": options.condition }),
+        seconds,
         warnings: made.warnings,
-    };
-    run.write_json(files::SUMMARY, &summary)?;
-    Ok(summary)
+    }
+}
+
+impl RecordOptions {
+    /// The options a record in `run` was made with (its `record.json`),
+    /// with `decisions` instead of those it was made from.
+    pub fn remade(
+        run: PathBuf,
+        summary: &RecordSummary,
+        decisions: Decisions,
+    ) -> Result<Self, RecordError> {
+        let setting = |table: &str| summary.settings.get(table).cloned().unwrap_or_default();
+        let unreadable = |e: serde_json::Error| RecordError::Unreadable {
+            run: run.clone(),
+            why: e.to_string(),
+        };
+        Ok(Self {
+            settings: serde_json::from_value(setting("record")).map_err(unreadable)?,
+            condition: serde_json::from_value(setting("condition")).map_err(unreadable)?,
+            previous: summary.previous.clone(),
+            decisions,
+            run,
+        })
+    }
 }
 
 /// The record, before it is written.

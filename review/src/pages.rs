@@ -14,6 +14,7 @@ use page::{
 };
 use postflight_core::condition::ConditionState;
 use postflight_core::outputs::localise::{DefectRecord, LengthStatus};
+use postflight_core::outputs::record::{ElementRecord, RecordSummary};
 use postflight_core::table::Named;
 
 use crate::queue::{Entry, Filter, Progress, Queue};
@@ -181,6 +182,7 @@ pub fn queue_page(ctx: &Context, queue: &Queue) -> String {
             }
         }
         nav.exports {
+            a href="/record" { "Element record" } " \u{b7} "
             "Export: "
             a href="/export/decisions.csv" { "decisions (CSV)" } " "
             a href="/export/decisions.json" { "decisions with history (JSON)" } " "
@@ -599,4 +601,31 @@ pub fn error_page(message: &str) -> String {
             p { a href="/" { "Back to the queue" } }
         },
     )
+}
+
+/// The element record as the decisions so far make it: remade on every
+/// request, so that it follows the queue; `None`, where the run has no
+/// record yet.
+pub fn record_page(ctx: &Context, record: Option<(&RecordSummary, &[ElementRecord])>) -> String {
+    let link = |id: &str| Some(candidate_href(id, ctx.filter));
+    let body = html! {
+        style { (PreEscaped(page::record::RECORD_STYLE)) }
+        header {
+            h1 { "Element record " span.sub { (ctx.flight) } }
+            p { a href="/" { "\u{2190} review queue" } }
+        }
+        @match record {
+            Some((summary, rows)) => {
+                p.sub {
+                    "As the decisions so far make it: rejected candidates do not count, accepted and needs-repair ones do, in the state a reviewer set. "
+                    "The files in the run directory are rebuilt by " code { "postflight record --run RUN" } "."
+                }
+                (page::record::record_section(summary, rows, false, &link))
+            }
+            None => p.empty {
+                "This run has no element record yet: run " code { "postflight record --run RUN" } " (or " code { "postflight run" } " with a structure to inspect), then reload."
+            },
+        }
+    };
+    document(&format!("Element record: {}", ctx.flight), body)
 }

@@ -136,6 +136,10 @@ pub struct RecordSummary {
     pub candidates: CandidateCounts,
     /// The submission files written, or why none was.
     pub submission: Submission,
+    /// The settings it was made with, `{"record": ..., "condition": ...}`
+    /// (`[record]` and `[condition]` resolved), so that the review queue
+    /// remakes it alike as decisions are made.
+    pub settings: serde_json::Value,
     pub seconds: f64,
     pub warnings: Vec<String>,
 }

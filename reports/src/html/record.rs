@@ -19,7 +19,7 @@ pub(super) fn record_section(r: &RunResults) -> Markup {
     };
     html! {
         h2 #element-record { "Element record" }
-        (page::record::record_section(summary, rows, &link))
+        (page::record::record_section(summary, rows, true, &link))
         p.sub {
             "After review decisions, " code { "postflight record --run RUN" } " rebuilds it from the decisions the review queue stored; its columns and rules are in docs/cli.md (postflight record)."
         }

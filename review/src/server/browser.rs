@@ -11,7 +11,9 @@ use axum::extract::{Form, Path, Query, State};
 use axum::http::{StatusCode, header};
 use axum::response::{Html, IntoResponse, Redirect, Response};
 use postflight_core::condition::ConditionState;
+use postflight_core::outputs::record::{ElementRecord, RecordSummary};
 use postflight_core::table::Named;
+use postflight_core::{RunDir, Stage};
 use serde::Deserialize;
 
 use super::App;
@@ -56,6 +58,42 @@ pub(super) async fn queue_page(
     let current = app.store(|s| s.current_decisions()).await?;
     let queue = app.queue(current);
     Ok(Html(pages::queue_page(&app.context(filter), &queue)))
+}
+
+/// The element record as the decisions so far make it.
+/// The element record as the decisions so far make it (remade from the
+/// run's files on every request, off the server's threads).
+pub(super) async fn record_page(State(app): State<Arc<App>>) -> Result<Html<String>, HttpError> {
+    let current = app.store(|s| s.current_decisions()).await?;
+    let decisions: record::Decisions = current
+        .iter()
+        .map(|d| (d.candidate.clone(), d.reviewer_call()))
+        .collect();
+    let remaking = app.clone();
+    let remade = tokio::task::spawn_blocking(move || remade_record(&remaking, decisions))
+        .await
+        .map_err(|e| HttpError::text(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()).page())?
+        .map_err(|e| HttpError::text(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()).page())?;
+    let ctx = app.context(Filter::All);
+    let shown = remade
+        .as_ref()
+        .map(|(summary, rows)| (summary, rows.as_slice()));
+    Ok(Html(pages::record_page(&ctx, shown)))
+}
+
+/// The run's record remade with `decisions`; `None` where it has none.
+fn remade_record(
+    app: &App,
+    decisions: record::Decisions,
+) -> Result<Option<(RecordSummary, Vec<ElementRecord>)>, record::RecordError> {
+    let Some((stored, _)) = &app.results.record else {
+        return Ok(None);
+    };
+    let options = record::RecordOptions::remade(app.run_root.clone(), stored, decisions)?;
+    let run = RunDir::open(&app.run_root, Stage::Record)?;
+    let made = record::stage::make(&run, &options)?;
+    let rows = made.rows.clone();
+    Ok(Some((record::stage::summarise(&options, made, 0.0), rows)))
 }
 
 pub(super) async fn candidate_page(

@@ -285,6 +285,7 @@ fn router(app: Arc<App>) -> Router {
     let routes = Router::new()
         .route("/", get(browser::queue_page))
         .route("/candidates/{id}", get(browser::candidate_page))
+        .route("/record", get(browser::record_page))
         .route("/candidates/{id}/decide", post(browser::decide_form))
         .route("/candidates/{id}/crop", get(browser::crop))
         .route("/candidates/{id}/views/{k}", get(browser::view_image))
