@@ -292,6 +292,20 @@ fn record_ok(run: &Path, args: &[&str]) -> String {
     stdout(&out)
 }
 
+/// The states 1 to 4 a record page shows for `element`'s own row, as
+/// written.
+fn shown_states(page: &str, element: &str) -> Vec<String> {
+    let row = &page[page.find(&format!("<td>{element}</td>")).unwrap()..];
+    let row = &row[..row.find("</tr>").unwrap()];
+    // The numeric cells: the total, states 1 to 4, pending.
+    let cells: Vec<String> = row
+        .split("<td class=\"n\">")
+        .skip(1)
+        .map(|c| c[..c.find("</td>").unwrap()].to_string())
+        .collect();
+    cells[1..5].to_vec()
+}
+
 #[test]
 fn a_rejected_crack_leaves_the_record_when_it_is_rebuilt() {
     let run = girder_bridge_copy("rejected");
@@ -354,6 +368,13 @@ fn a_rejected_crack_leaves_the_record_when_it_is_rebuilt() {
         &serde_json::json!({"version": 0, "verdict": "rejected", "reviewer": "kim"}),
     );
     assert_eq!(status, 201, "{body}");
+    // The review queue's view of the record follows the decision at once.
+    let (status, page) =
+        crate::review::get(&crate::review::agent(), &format!("{}/record", server.base));
+    assert_eq!(status, 200, "{page}");
+    let shown = shown_states(&page, &element.element);
+    let expected = element.cs3 - share;
+    assert_eq!(shown[2], format!("{expected:.1}"), "{shown:?}");
     drop(server);
     record_ok(&run, &[]);
     let after = rows(&run);

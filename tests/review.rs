@@ -107,7 +107,7 @@ pub(crate) fn agent() -> ureq::Agent {
 }
 
 /// (status, body) of a GET.
-fn get(agent: &ureq::Agent, url: &str) -> (u16, String) {
+pub(crate) fn get(agent: &ureq::Agent, url: &str) -> (u16, String) {
     let mut r = agent.get(url).call().unwrap();
     (r.status().as_u16(), r.body_mut().read_to_string().unwrap())
 }
