@@ -482,10 +482,11 @@ pub fn fleet_tables(fleet_dir: &Path, quiet: bool) -> anyhow::Result<()> {
     let written = fleet::tables::write(&runs, &out, &fleet::index::page(&runs))?;
     if !quiet {
         println!(
-            "fleet: {} flights ({} with coverage, {} defect candidates) in {}; open {}",
+            "fleet: {} flights ({} with coverage, {} defect candidates, {} element record rows) in {}; open {}",
             written.flights,
             written.coverage,
             written.defects,
+            written.elements,
             out.display(),
             out.join(fleet::tables::files::INDEX).display()
         );

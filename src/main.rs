@@ -640,6 +640,9 @@ fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<()> {
                 .join(postflight_core::outputs::changes::files::SUMMARY)
                 .display()
         );
+        for line in summary.elements.iter().flat_map(|e| e.moved()) {
+            println!("  {line}");
+        }
     }
     Ok(())
 }

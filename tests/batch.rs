@@ -65,6 +65,7 @@ fn assert_same_results(batch: &Path, reference: &Path) {
         "observations.parquet",
         "defects.parquet",
         "coverage.parquet",
+        "elements.parquet",
     ] {
         let (a, b) = (
             read_parquet(&batch.join(table)),
@@ -229,7 +230,12 @@ by_element = con.sql("""
     FROM read_parquet('fleet/defects.parquet/**/*.parquet', hive_partitioning=true)
     GROUP BY ALL ORDER BY ALL
 """).fetchall()
-print(json.dumps({"defects": rows, "flights": flights, "by_element": by_element}))
+records = con.sql("""
+    SELECT structure, run, count(*), count(parent)
+    FROM read_parquet('fleet/elements.parquet/**/*.parquet', hive_partitioning=true)
+    GROUP BY ALL ORDER BY structure
+""").fetchall()
+print(json.dumps({"defects": rows, "flights": flights, "by_element": by_element, "records": records}))
 "#;
     let text = std::process::Command::new(python())
         .args(["-c", query])
@@ -281,6 +287,27 @@ print(json.dumps({"defects": rows, "flights": flights, "by_element": by_element}
             ["silo-c", "failed"]
         ])
     );
+    // Each run's element record, its rows and those of defects under an
+    // element, as each run's own elements.parquet holds them.
+    let records: Vec<Value> = GOOD
+        .iter()
+        .map(|(structure, date, _)| {
+            let own = read_parquet(&fleet.join(structure).join(date).join("elements.parquet"));
+            let defects = own
+                .column("parent")
+                .unwrap()
+                .is_not_null()
+                .sum()
+                .unwrap_or(0);
+            serde_json::json!([
+                structure,
+                format!("{structure}/{date}"),
+                own.height(),
+                defects
+            ])
+        })
+        .collect();
+    assert_eq!(tables["records"], Value::Array(records));
     let index = std::fs::read_to_string(fleet.join("fleet/index.html")).unwrap();
     for (structure, date, _) in GOOD {
         assert!(

@@ -7,10 +7,11 @@ use std::time::Instant;
 
 use postflight_core::map::SlamMap;
 use postflight_core::outputs::changes::{
-    ChangeKind, ChangesSummary, RegistrationRecord, write_changes,
+    ChangeKind, ChangesSummary, ElementChange, RegistrationRecord, write_changes,
 };
 use postflight_core::outputs::coverage::{CoverageSummary, files as coverage_files, read_coverage};
 use postflight_core::outputs::localise::{LocaliseSummary, read_defects};
+use postflight_core::outputs::record::{ElementRecord, RecordSummary, files as record_files};
 use postflight_core::serde_pose::PoseJson;
 use postflight_core::{Flight, RunDir, Stage, ViewModel};
 
@@ -90,12 +91,27 @@ pub fn compare(options: &CompareOptions) -> Result<ChangesSummary, CompareError>
         registration: registration_record(&registration),
         counts,
         changes,
+        elements: element_changes(&before.flight.run, &after.flight.run)?,
         seconds: started.elapsed().as_secs_f64(),
     };
     let run = &after.flight.run;
     run.remove(postflight_core::outputs::changes::files::SUMMARY)?;
     write_changes(run, &summary)?;
     Ok(summary)
+}
+
+/// The two runs' element records paired, where both have one.
+fn element_changes(before: &RunDir, after: &RunDir) -> Result<Vec<ElementChange>, CompareError> {
+    let rows = |run: &RunDir| -> Result<Option<Vec<ElementRecord>>, CompareError> {
+        match run.summary::<RecordSummary>(Stage::Record)? {
+            Some(_) => Ok(Some(run.read_rows(record_files::ELEMENTS)?)),
+            None => Ok(None),
+        }
+    };
+    Ok(match (rows(before)?, rows(after)?) {
+        (Some(b), Some(a)) => ElementChange::pair(&b, &a),
+        _ => Vec::new(),
+    })
 }
 
 fn absolute(p: &Path) -> PathBuf {

@@ -1,7 +1,8 @@
 //! The fleet's tables, `FLEET_DIR/fleet/`: every flight's defect
 //! candidates (`defects.parquet`, one row per candidate, the columns of
-//! each run's own table), coverage (`coverage.parquet`) and run
-//! (`flights.parquet`), one row per flight. Each is a directory of Hive
+//! each run's own table), element record (`elements.parquet`, one row per
+//! element and per defect under it, as each run's own), coverage
+//! (`coverage.parquet`) and run (`flights.parquet`), one row per flight. Each is a directory of Hive
 //! partitions by structure (`defects.parquet/structure=bridge-a/part-0.parquet`),
 //! so DuckDB and polars read the whole fleet with one glob:
 //!
@@ -20,6 +21,7 @@ use std::path::{Path, PathBuf};
 use polars::prelude::*;
 use postflight_core::outputs::coverage::{CoverageFigures, CoverageSummary};
 use postflight_core::outputs::localise::{DefectRecord, files as localise_files};
+use postflight_core::outputs::record::{ElementRecord, files as record_files};
 use postflight_core::outputs::report::RunSummary;
 use postflight_core::run_log::RUN_LOG;
 use postflight_core::table::Row;
@@ -34,6 +36,7 @@ pub mod files {
     /// The directory holding the tables and the index page.
     pub const DIR: &str = "fleet";
     pub const DEFECTS: &str = "defects.parquet";
+    pub const ELEMENTS: &str = "elements.parquet";
     pub const COVERAGE: &str = "coverage.parquet";
     pub const FLIGHTS: &str = "flights.parquet";
     pub const INDEX: &str = "index.html";
@@ -164,6 +167,7 @@ pub struct Written {
     pub flights: usize,
     pub coverage: usize,
     pub defects: usize,
+    pub elements: usize,
 }
 
 /// Write the fleet's tables for `runs` into `out` (`FLEET_DIR/fleet`),
@@ -189,8 +193,9 @@ pub fn write(runs: &[FleetRun], out: &Path, index_html: &str) -> Result<Written,
             built(files::COVERAGE, coverage_table(runs))?,
         ),
         (files::DEFECTS, defects_table(runs)?),
+        (files::ELEMENTS, elements_table(runs)?),
     ];
-    let mut rows = [0; 3];
+    let mut rows = [0; 4];
     for ((name, table), rows) in tables.iter().zip(&mut rows) {
         *rows = table.height();
         write_partitioned(&dir.file(name), table)?;
@@ -205,12 +210,14 @@ pub fn write(runs: &[FleetRun], out: &Path, index_html: &str) -> Result<Written,
         flights: rows[0],
         coverage: rows[1],
         defects: rows[2],
+        elements: rows[3],
     })
 }
 
 /// What `write` puts in its directory, and all it may replace there.
-const WRITTEN: [&str; 4] = [
+const WRITTEN: [&str; 5] = [
     files::DEFECTS,
+    files::ELEMENTS,
     files::COVERAGE,
     files::FLIGHTS,
     files::INDEX,
@@ -407,28 +414,55 @@ fn coverage_table(runs: &[FleetRun]) -> PolarsResult<DataFrame> {
     CoverageRow::frame(&rows)
 }
 
+postflight_core::table! {
+    /// One row of the fleet's `elements.parquet`: a row of a run's element
+    /// record, as its own `elements.parquet` holds it.
+    pub struct FleetElementRow {
+        flight: FlightId,
+        element: ElementRecord,
+    }
+}
+
+/// The rows of each run's table `file`, once its `stage` has completed,
+/// each with its flight.
+fn runs_rows<R: Row>(
+    runs: &[FleetRun],
+    stage: Stage,
+    file: &str,
+) -> Result<Vec<(FlightId, R)>, Error> {
+    let mut rows = Vec::new();
+    let completed = runs
+        .iter()
+        .filter_map(|r| RunDir::open(&r.dir, stage).ok().map(|d| (r, d)));
+    for (run, dir) in completed {
+        let table: Vec<R> = dir.read_rows(file).map_err(|e| Error::Fleet {
+            path: run.dir.join(file),
+            why: format!(
+                "{e} (written by another postflight version?); rerun `postflight run` on it"
+            ),
+        })?;
+        rows.extend(table.into_iter().map(|row| (FlightId::of(run), row)));
+    }
+    Ok(rows)
+}
+
 /// `defects.parquet`: every run's own candidates, its flight's columns first.
 fn defects_table(runs: &[FleetRun]) -> Result<DataFrame, Error> {
-    let mut rows = Vec::new();
-    // A run's candidates count once its localise stage has completed.
-    let localised = runs
-        .iter()
-        .filter_map(|r| RunDir::open(&r.dir, Stage::Localise).ok().map(|d| (r, d)));
-    for (run, dir) in localised {
-        let defects: Vec<DefectRecord> =
-            dir.read_rows(localise_files::DEFECTS)
-                .map_err(|e| Error::Fleet {
-                    path: run.dir.join(localise_files::DEFECTS),
-                    why: format!(
-                        "{e} (written by another postflight version?); rerun `postflight run` on it"
-                    ),
-                })?;
-        rows.extend(defects.into_iter().map(|defect| FleetDefectRow {
-            flight: FlightId::of(run),
-            defect,
-        }));
-    }
+    let rows: Vec<FleetDefectRow> = runs_rows(runs, Stage::Localise, localise_files::DEFECTS)?
+        .into_iter()
+        .map(|(flight, defect)| FleetDefectRow { flight, defect })
+        .collect();
     FleetDefectRow::frame(&rows).map_err(table_error(Path::new(files::DEFECTS)))
+}
+
+/// `elements.parquet`: every run's own element record, its flight's
+/// columns first.
+fn elements_table(runs: &[FleetRun]) -> Result<DataFrame, Error> {
+    let rows: Vec<FleetElementRow> = runs_rows(runs, Stage::Record, record_files::ELEMENTS)?
+        .into_iter()
+        .map(|(flight, element)| FleetElementRow { flight, element })
+        .collect();
+    FleetElementRow::frame(&rows).map_err(table_error(Path::new(files::ELEMENTS)))
 }
 
 #[cfg(test)]

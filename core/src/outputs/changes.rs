@@ -9,6 +9,7 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 
 use crate::error::Error;
+use crate::outputs::record::{ElementRecord, Unit};
 use crate::run_dir::RunDir;
 use crate::serde_pose::PoseJson;
 
@@ -30,7 +31,86 @@ pub struct ChangesSummary {
     /// Changes by kind (`new`, `grown`, ...).
     pub counts: BTreeMap<ChangeKind, usize>,
     pub changes: Vec<ChangeRecord>,
+    /// Each element's and defect's quantities in the two element records,
+    /// where both runs have one (`postflight record`).
+    #[serde(default)]
+    pub elements: Vec<ElementChange>,
     pub seconds: f64,
+}
+
+/// An element's (or a defect's) quantities in condition states 1 to 4 in
+/// the earlier record and in this one; none where a record has no such
+/// row.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct ElementChange {
+    /// postflight's name of the element (a defect's: its element's).
+    pub element: String,
+    /// The AASHTO element or defect number, and on a defect its element's.
+    pub number: u16,
+    pub parent: Option<u16>,
+    /// The manual's name.
+    pub name: String,
+    pub unit: Unit,
+    pub before: Option<[f64; 4]>,
+    pub after: Option<[f64; 4]>,
+}
+
+/// A state's quantity moved by less than this share of the element's
+/// total is not worth a line.
+const MOVED_SHARE: f64 = 0.005;
+
+impl ElementChange {
+    /// The rows of two records paired by element, number and parent, in
+    /// this record's order, then the earlier's rows it lacks.
+    pub fn pair(before: &[ElementRecord], after: &[ElementRecord]) -> Vec<Self> {
+        let key = |r: &ElementRecord| (r.element.clone(), r.number, r.parent);
+        let states = |r: &ElementRecord| [r.cs1, r.cs2, r.cs3, r.cs4];
+        let change =
+            |r: &ElementRecord, b: Option<&ElementRecord>, a: Option<&ElementRecord>| Self {
+                element: r.element.clone(),
+                number: r.number,
+                parent: r.parent,
+                name: r.name.clone(),
+                unit: r.unit,
+                before: b.map(states),
+                after: a.map(states),
+            };
+        let mut pairs: Vec<Self> = after
+            .iter()
+            .map(|a| change(a, before.iter().find(|b| key(b) == key(a)), Some(a)))
+            .collect();
+        pairs.extend(
+            before
+                .iter()
+                .filter(|b| !after.iter().any(|a| key(a) == key(b)))
+                .map(|b| change(b, Some(b), None)),
+        );
+        pairs
+    }
+
+    /// What moved between states, in the field's words: "deck, Cracking
+    /// (RC and Other): condition state 2 from 12.0 to 18.0 m2".
+    pub fn moved(&self) -> Vec<String> {
+        let (before, after) = (
+            self.before.unwrap_or([0.0; 4]),
+            self.after.unwrap_or([0.0; 4]),
+        );
+        let total = before.iter().sum::<f64>().max(after.iter().sum::<f64>());
+        (0..4)
+            .filter(|&s| (after[s] - before[s]).abs() > MOVED_SHARE * total.max(1e-9))
+            .map(|s| {
+                format!(
+                    "{}, {}: condition state {} from {:.1} to {:.1} {}",
+                    self.element,
+                    self.name,
+                    s + 1,
+                    before[s],
+                    after[s],
+                    self.unit.as_str()
+                )
+            })
+            .collect()
+    }
 }
 
 impl ChangesSummary {

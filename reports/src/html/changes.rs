@@ -4,11 +4,27 @@
 use super::defects::{crop_data, jpeg_data};
 
 use maud::{Markup, html};
-use postflight_core::outputs::changes::{ChangeKind, ChangeRecord};
+use postflight_core::outputs::changes::{ChangeKind, ChangeRecord, ChangesSummary};
 
 use page::{place_text, readable_time};
 
 use crate::results::RunResults;
+
+/// What moved between condition states in the element record, where both
+/// runs have one.
+fn element_changes(c: &ChangesSummary) -> Markup {
+    let moved: Vec<String> = c.elements.iter().flat_map(|e| e.moved()).collect();
+    html! {
+        @if !c.elements.is_empty() {
+            h3 { "Element record, then and now" }
+            @if moved.is_empty() {
+                p { "No element's quantity moved between condition states." }
+            } @else {
+                ul { @for line in &moved { li { (line) } } }
+            }
+        }
+    }
+}
 
 /// What changed since the earlier inspection `postflight compare` was given.
 pub(super) fn changes_section(r: &RunResults) -> Markup {
@@ -38,6 +54,7 @@ pub(super) fn changes_section(r: &RunResults) -> Markup {
                 div.card { b { (c.count(k)) } span { (k.words()) } }
             }
         }
+        (element_changes(c))
         @if listed.is_empty() {
             p { "Every crack seen before is seen again, and none has grown or is new." }
         } @else {
