@@ -323,6 +323,67 @@ fn a_repeat_inspection_is_registered_and_its_changes_classified_against_truth() 
             "no {kind} crack judged: {tally:?}"
         );
     }
+    element_records_then_and_now(&a, &b, dir.path());
+}
+
+/// With an element record in both runs (the silo recorded as a wall, its
+/// quantity the metres around it), compare pairs their rows and says what
+/// moved between states, as both runs' elements.parquet hold them.
+fn element_records_then_and_now(a: &Path, b: &Path, dir: &Path) {
+    for run in [a, b] {
+        let r = run.to_str().unwrap();
+        let args = [
+            "record",
+            "--run",
+            r,
+            "--element",
+            "{pattern = \"*\", number = 210}",
+        ];
+        let out = postflight(&args, dir);
+        assert!(out.status.success(), "{}", stderr(&out));
+    }
+    let out = compare(a, b);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let said = stdout(&out);
+    let changes = read_json(&b.join("changes.json"));
+    let pairs = changes["elements"].as_array().unwrap();
+    let states = |run: &Path| {
+        let t = read_parquet(&run.join("elements.parquet"));
+        let col = |name: &str| -> Vec<f64> {
+            t.column(name)
+                .unwrap()
+                .f64()
+                .unwrap()
+                .into_no_null_iter()
+                .collect()
+        };
+        let (cs1, cs2, cs3, cs4) = (col("cs1"), col("cs2"), col("cs3"), col("cs4"));
+        (0..t.height())
+            .map(|i| serde_json::json!([cs1[i], cs2[i], cs3[i], cs4[i]]))
+            .collect::<Vec<Value>>()
+    };
+    let (before, after) = (states(a), states(b));
+    assert_eq!(pairs.len(), after.len(), "{pairs:?}");
+    let now: Vec<Value> = pairs.iter().map(|p| p["after"].clone()).collect();
+    assert_eq!(now, after);
+    let then: Vec<Value> = pairs.iter().map(|p| p["before"].clone()).collect();
+    assert_eq!(
+        then[..before.len().min(then.len())],
+        before[..before.len().min(then.len())]
+    );
+    // The cracks grew and new ones opened: more of the silo is in a state
+    // above 1 now, and compare says so.
+    let above_one = |s: &Value| 1.0 - f(&s[0]) / s.as_array().unwrap().iter().map(f).sum::<f64>();
+    assert!(
+        above_one(&after[0]) > above_one(&before[0]),
+        "{before:?} -> {after:?}"
+    );
+    assert!(
+        said.contains("tower, Reinforced Concrete Pier Wall: condition state"),
+        "{said}"
+    );
+    let report = std::fs::read_to_string(b.join("report.html")).unwrap();
+    assert!(report.contains("Element record, then and now"));
 }
 
 /// Compare refuses maps of different structures, leaving nothing behind.
