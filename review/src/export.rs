@@ -36,6 +36,8 @@ postflight_core::table! {
         /// The condition state the reviewer put the crack in, over the
         /// measured `condition_state`; null where the measured one stands.
         inspector_condition_state: Option<ConditionState>,
+        /// The inspector marked the crack sealed.
+        sealed: bool,
         note: String,
         reviewer: String,
         decided_at: String,
@@ -49,6 +51,7 @@ impl DecisionCells {
             severity: d.severity,
             severity_meaning: d.severity.and_then(severity_meaning).map(str::to_string),
             inspector_condition_state: d.condition,
+            sealed: d.sealed,
             note: d.note.clone(),
             reviewer: d.reviewer.clone(),
             decided_at: d.decided_at.clone(),
@@ -214,6 +217,7 @@ mod tests {
             verdict: Verdict::NeedsRepair,
             severity: Some(3),
             condition: Some(ConditionState::Severe),
+            sealed: false,
             note: "crack, \"wide\"\nat joint".into(),
             reviewer: "ann".into(),
             decided_at: "2026-11-23T00:00:00Z".into(),
@@ -221,14 +225,14 @@ mod tests {
         let csv = decisions_csv(&[decision]).unwrap();
         assert!(
             csv.starts_with(
-                "candidate,verdict,severity,severity_meaning,inspector_condition_state,note,reviewer,decided_at,version\n"
+                "candidate,verdict,severity,severity_meaning,inspector_condition_state,sealed,note,reviewer,decided_at,version\n"
             ),
             "{csv}"
         );
         let row = csv.lines().nth(1).unwrap();
         assert!(
             row.starts_with(
-                "a,needs_repair,3,significant: plan a repair,severe,\"crack, \"\"wide\"\""
+                "a,needs_repair,3,significant: plan a repair,severe,false,\"crack, \"\"wide\"\""
             ),
             "{csv}"
         );
@@ -244,6 +248,7 @@ mod tests {
                 severity,
                 severity_meaning: severity.and_then(severity_meaning).map(str::to_string),
                 inspector_condition_state: severity.map(|_| ConditionState::Severe),
+                sealed: false,
                 note: "at the joint, \"wide\"".into(),
                 reviewer: "ann".into(),
                 decided_at: "2026-11-23T10:00:00.000000000Z".into(),

@@ -499,6 +499,7 @@ fn decision_form(ctx: &Context, entry: &Entry, v: &CandidateView) -> Markup {
     let current = entry.decision.as_ref();
     let severity = current.and_then(|d| d.severity);
     let condition = current.and_then(|d| d.condition);
+    let sealed = current.is_some_and(|d| d.sealed);
     let measured = entry.defect.condition;
     // After a refusal the form keeps what was typed; otherwise it shows
     // the current decision's note.
@@ -545,6 +546,10 @@ fn decision_form(ctx: &Context, entry: &Entry, v: &CandidateView) -> Markup {
                             }
                         }
                     }
+                }
+                label {
+                    input type="checkbox" name="sealed" value="on" checked[sealed];
+                    " Sealed (the element record counts a sealed moderate crack in state 1)"
                 }
                 label {
                     "Note "

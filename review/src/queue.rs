@@ -179,6 +179,7 @@ mod tests {
             verdict,
             severity: (verdict == Verdict::NeedsRepair).then_some(2),
             condition: None,
+            sealed: false,
             note: String::new(),
             reviewer: "ann".into(),
             decided_at: "2026-11-23T00:00:00Z".into(),

@@ -160,6 +160,7 @@ mod tests {
                 },
                 change(ChangeKind::NotMeasured, Some("new-h"), Some("old-h")),
             ],
+            elements: Vec::new(),
             seconds: 0.1,
         };
         let known = pasts(Some(&summary)).unwrap();

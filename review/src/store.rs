@@ -72,6 +72,10 @@ pub struct Ruling<'a> {
     /// width gave; `None` leaves that one. A rejected candidate is no crack
     /// and is recorded without one.
     pub condition: Option<ConditionState>,
+    /// The crack has been sealed (the element record counts a sealed
+    /// moderate crack in state 1). A rejected candidate is recorded
+    /// without it.
+    pub sealed: bool,
     pub note: &'a str,
     pub reviewer: &'a str,
 }
@@ -83,6 +87,7 @@ impl<'a> Ruling<'a> {
             verdict,
             severity: None,
             condition: None,
+            sealed: false,
             note: "",
             reviewer,
         }
@@ -100,6 +105,9 @@ pub struct Decision {
     /// See [`Ruling::condition`].
     #[serde(default)]
     pub condition: Option<ConditionState>,
+    /// See [`Ruling::sealed`].
+    #[serde(default)]
+    pub sealed: bool,
     pub note: String,
     pub reviewer: String,
     /// RFC 3339, UTC.
@@ -112,7 +120,7 @@ impl Decision {
         record::ReviewerCall {
             rejected: self.verdict == Verdict::Rejected,
             condition: self.condition,
-            sealed: false,
+            sealed: self.sealed,
         }
     }
 }
@@ -245,23 +253,30 @@ CREATE TABLE IF NOT EXISTS decisions (
 /// Columns added since the first schema, each with the statement that adds
 /// it: a database made before them (or new) gains them when opened; older
 /// decisions hold null there.
-fn added_columns() -> [(&'static str, String); 1] {
+fn added_columns() -> [(&'static str, String); 2] {
     let states: Vec<String> = ConditionState::ALL
         .iter()
         .map(|s| format!("'{}'", s.name()))
         .collect();
-    [(
-        "condition_state",
-        format!(
-            "ALTER TABLE decisions ADD COLUMN condition_state TEXT CHECK (condition_state IN ({}))",
-            states.join(", ")
+    [
+        (
+            "condition_state",
+            format!(
+                "ALTER TABLE decisions ADD COLUMN condition_state TEXT CHECK (condition_state IN ({}))",
+                states.join(", ")
+            ),
         ),
-    )]
+        (
+            "sealed",
+            "ALTER TABLE decisions ADD COLUMN sealed INTEGER NOT NULL DEFAULT 0 CHECK (sealed IN (0, 1))"
+                .to_string(),
+        ),
+    ]
 }
 
 /// The decisions' columns, in [`decision_row`]'s order.
 const DECISION_COLUMNS: &str =
-    "candidate, version, verdict, severity, note, reviewer, decided_at, condition_state";
+    "candidate, version, verdict, severity, note, reviewer, decided_at, condition_state, sealed";
 
 /// The review database's file name in a run directory, by default.
 pub const DEFAULT_DB: &str = "review.sqlite";
@@ -359,13 +374,14 @@ impl ReviewStore {
             condition: ruling
                 .condition
                 .filter(|_| ruling.verdict != Verdict::Rejected),
+            sealed: ruling.sealed && ruling.verdict != Verdict::Rejected,
             note: ruling.note.into(),
             reviewer: reviewer.into(),
             decided_at: postflight_core::time::now_rfc3339(),
         };
         tx.execute(
             &format!(
-                "INSERT INTO decisions ({DECISION_COLUMNS}) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)"
+                "INSERT INTO decisions ({DECISION_COLUMNS}) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)"
             ),
             params![
                 decision.candidate,
@@ -376,6 +392,7 @@ impl ReviewStore {
                 decision.reviewer,
                 decision.decided_at,
                 decision.condition.map(ConditionState::name),
+                decision.sealed,
             ],
         )?;
         tx.execute(
@@ -447,6 +464,7 @@ fn decision_row(r: &rusqlite::Row) -> rusqlite::Result<Decision> {
         condition: condition
             .map(|c| ConditionState::named(&c).ok_or_else(|| named(7, "condition state", &c)))
             .transpose()?,
+        sealed: r.get(8)?,
         note: r.get(4)?,
         reviewer: r.get(5)?,
         decided_at: r.get(6)?,
@@ -618,7 +636,8 @@ mod tests {
     fn a_reviewer_corrects_the_condition_state_and_a_rejection_has_none() {
         let dir = tempfile::tempdir().unwrap();
         let mut s = store(&dir);
-        s.sync_candidates(&[defect("a", 0.9)]).unwrap();
+        s.sync_candidates(&[defect("a", 0.9), defect("b", 0.8)])
+            .unwrap();
         let severe = accepted_in(ConditionState::Severe, "ann");
         assert_eq!(
             s.decide("a", 0, &severe).unwrap().condition,
@@ -629,6 +648,18 @@ mod tests {
             ..severe
         };
         assert_eq!(s.decide("a", 1, &rejected).unwrap().condition, None);
+        // Sealed is kept with a crack, never with a rejection.
+        let sealed = Ruling {
+            sealed: true,
+            ..severe
+        };
+        assert!(s.decide("b", 0, &sealed).unwrap().sealed);
+        let refused = Ruling {
+            verdict: Verdict::Rejected,
+            ..sealed
+        };
+        assert!(!s.decide("b", 1, &refused).unwrap().sealed);
+        assert!(s.history("b").unwrap()[0].sealed);
         let history = s.history("a").unwrap();
         assert_eq!(
             history.iter().map(|d| d.condition).collect::<Vec<_>>(),
@@ -652,6 +683,7 @@ mod tests {
         drop(conn);
         let mut s = ReviewStore::open(&path).unwrap();
         assert_eq!(s.current_decisions().unwrap()[0].condition, None);
+        assert!(!s.current_decisions().unwrap()[0].sealed);
         let poor = accepted_in(ConditionState::Poor, "bob");
         assert_eq!(
             s.decide("a", 1, &poor).unwrap().condition,

@@ -29,6 +29,9 @@ pub(super) struct DecisionRequest {
     /// The reviewer's condition state, over the measured one.
     #[serde(default)]
     pub(super) condition: Option<ConditionState>,
+    /// The crack has been sealed.
+    #[serde(default)]
+    pub(super) sealed: bool,
     #[serde(default)]
     pub(super) note: String,
     pub(super) reviewer: String,
@@ -40,6 +43,7 @@ impl DecisionRequest {
             verdict: self.verdict,
             severity: self.severity,
             condition: self.condition,
+            sealed: self.sealed,
             note: &self.note,
             reviewer: &self.reviewer,
         };

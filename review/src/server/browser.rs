@@ -123,6 +123,9 @@ pub(super) struct DecisionForm {
     /// A condition state's name; empty: the measured one.
     #[serde(default)]
     condition: String,
+    /// `on` where the sealed box is ticked (absent otherwise).
+    #[serde(default)]
+    sealed: String,
     #[serde(default)]
     note: String,
     #[serde(default)]
@@ -160,6 +163,7 @@ impl DecisionForm {
             verdict,
             severity,
             condition,
+            sealed: !self.sealed.is_empty(),
             note: self.note.clone(),
             reviewer: self.reviewer.clone(),
         })
