@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use postflight_core::condition::CrackLimits;
+use postflight_core::condition::{ConditionState, CrackLimits};
 use postflight_core::outputs::record::ElementRecord;
 use postflight_core::outputs::record::{NotInspectedRule, PendingRule, Unit};
 use postflight_core::table::Row;
@@ -602,4 +602,54 @@ fn each_not_inspected_rule_does_as_documented() {
         &dir,
     );
     assert_fails_in_one_line(&out, "has no row for element");
+}
+
+/// The pattern rule against the simulator's own patterns: every pattern
+/// of the girder bridge's flight, drawn heavy (0.10-0.25 m apart) or
+/// moderate (0.35-0.8 m), is found so, from its cracks' lines alone, and
+/// its spacing within 2 cm of the drawn one.
+#[test]
+fn patterns_are_judged_by_the_spacing_they_were_drawn_at() {
+    let truth = read_json(&simulated(&CRACKS).join("truth.json"));
+    let mut groups: std::collections::BTreeMap<u64, Vec<&serde_json::Value>> = Default::default();
+    for c in truth["cracks"].as_array().unwrap() {
+        if let Some(n) = c["pattern"]["number"].as_u64() {
+            groups.entry(n).or_default().push(c);
+        }
+    }
+    assert!(groups.len() >= 20, "{} patterns", groups.len());
+    let (mut heavy, mut moderate) = (0, 0);
+    for cracks in groups.values() {
+        let drawn = f(&cracks[0]["pattern"]["spacing_m"]);
+        let lines: Vec<record::pattern::Line> = cracks
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                let line: Vec<[f64; 3]> =
+                    c["lines"][0].as_array().unwrap().iter().map(vec3).collect();
+                record::pattern::sample(i, &line, 0.05)
+            })
+            .collect();
+        let judged = record::pattern::patterns(cracks.len(), &lines);
+        let expected = if drawn < 0.3 {
+            ConditionState::Poor
+        } else {
+            ConditionState::Fair
+        };
+        for j in &judged {
+            assert_eq!(j.state, Some(expected), "drawn {drawn} m apart: {judged:?}");
+            assert!(
+                (j.spacing_m.unwrap() - drawn).abs() < 0.02,
+                "{j:?} drawn {drawn}"
+            );
+        }
+        match expected {
+            ConditionState::Poor => heavy += 1,
+            _ => moderate += 1,
+        }
+    }
+    assert!(
+        heavy > 0 && moderate > 0,
+        "{heavy} heavy, {moderate} moderate"
+    );
 }

@@ -189,3 +189,115 @@ pub fn fill_not_inspected(
         defect.not_inspected = defect.total() - defect.inspected;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{Point3, Vector2};
+    use postflight_core::map::{VoxelGrid, VoxelIndex};
+    use postflight_core::outputs::record::QuantitySource;
+
+    use super::*;
+    use crate::catalogue::element_numbered;
+    use crate::cells::{Cells, Voxel};
+
+    /// A 6 m x 3 m deck of 0.5 m voxels, one layer, its west `seen_m`
+    /// metres inspected.
+    fn deck(seen_m: f64) -> RecordedElement {
+        let voxels: Vec<Voxel> = (0..12)
+            .flat_map(|x| (0..6).map(move |y| (x, y)))
+            .map(|(x, y)| Voxel {
+                index: VoxelIndex([x, y, 0]),
+                inspected: f64::from(x) * 0.5 < seen_m,
+                exposed: true,
+            })
+            .collect();
+        let grid = VoxelGrid::new(0.5, Point3::origin());
+        let cells = Cells::lay(Unit::SquareMetres, &grid, &voxels, Vector2::x(), 0.3);
+        RecordedElement {
+            name: "deck".into(),
+            aashto: *element_numbered(12).unwrap(),
+            total: cells.total(),
+            cells,
+            source: QuantitySource::Structure,
+        }
+    }
+
+    /// A straight crack along x at `y`, from `x0` to `x1`, on the deck's top.
+    fn crack(id: &str, y: f64, x0: f64, x1: f64, state: ConditionState) -> CountedCrack {
+        CountedCrack {
+            id: id.into(),
+            element: "deck".into(),
+            lines: vec![vec![[x0, y, 0.5], [x1, y, 0.5]]],
+            state,
+            sealed: false,
+            pending: false,
+        }
+    }
+
+    use postflight_core::outputs::record::Unit;
+
+    #[test]
+    fn a_heavy_pattern_puts_its_cracks_and_the_surface_between_them_in_state_3() {
+        let d = deck(6.0);
+        let a = crack("a", 1.05, 1.0, 2.5, ConditionState::Fair);
+        let b = crack("b", 1.25, 1.0, 2.5, ConditionState::Fair);
+        let t = tally(&d, &[&a, &b]);
+        let defect = t.defect.unwrap();
+        // 1.5 m of two cracks 0.2 m apart in 0.3 m cells: five cells along,
+        // one or two across; all heavy pattern.
+        assert_eq!(defect.states[1], 0.0);
+        assert!(
+            defect.states[2] >= 5.0 * 0.09 - 1e-9 && defect.states[2] <= 12.0 * 0.09,
+            "{defect:?}"
+        );
+        // Alone, each is state 2 by its width.
+        let alone = tally(&d, &[&a]).defect.unwrap();
+        assert_eq!(alone.states[2], 0.0);
+        assert!(alone.states[1] > 0.0);
+        assert_eq!(t.element.states.iter().sum::<f64>(), d.total);
+    }
+
+    #[test]
+    fn a_sealed_moderate_crack_is_state_1_and_a_sealed_wide_one_stays_3() {
+        let d = deck(6.0);
+        let mut moderate = crack("m", 1.0, 1.0, 2.0, ConditionState::Fair);
+        moderate.sealed = true;
+        let mut wide = crack("w", 2.5, 3.0, 4.0, ConditionState::Poor);
+        wide.sealed = true;
+        let t = tally(&d, &[&moderate, &wide]);
+        let defect = t.defect.unwrap();
+        assert!(defect.states[0] > 0.0 && defect.states[1] == 0.0 && defect.states[2] > 0.0);
+        assert_eq!(t.element.candidates.iter().collect::<Vec<_>>(), ["w"]);
+    }
+
+    #[test]
+    fn what_was_not_seen_goes_as_each_rule_says() {
+        let d = deck(3.0);
+        let c = crack("c", 1.0, 0.5, 2.5, ConditionState::Poor);
+        let seen = tally(&d, &[&c]);
+        let (inspected, unseen) = (seen.element.inspected, seen.element.not_inspected);
+        assert!((inspected + unseen - d.total).abs() < 1e-9 && unseen > 0.4 * d.total);
+        let filled = |rule, earlier| {
+            let mut t = seen.clone();
+            fill_not_inspected(&mut t, rule, earlier);
+            t
+        };
+        let cs1 = filled(NotInspectedRule::Cs1, None);
+        assert!((cs1.element.states[0] - seen.element.states[0] - unseen).abs() < 1e-9);
+        assert_eq!(cs1.element.states[2], seen.element.states[2]);
+        let refuse = filled(NotInspectedRule::Refuse, None);
+        let scale = d.total / inspected;
+        assert!((refuse.element.states[2] - seen.element.states[2] * scale).abs() < 1e-9);
+        let earlier = EarlierShares {
+            element: [0.5, 0.25, 0.25, 0.0],
+            defect: [0.0, 0.25, 0.25, 0.0],
+        };
+        let previous = filled(NotInspectedRule::Previous, Some(earlier));
+        assert!((previous.element.states[1] - unseen * 0.25).abs() < 1e-9);
+        let defect = previous.defect.as_ref().unwrap();
+        assert!((defect.not_inspected - unseen * 0.5).abs() < 1e-9);
+        for t in [&cs1, &refuse, &previous] {
+            assert!((t.element.total() - d.total).abs() < 1e-9);
+        }
+    }
+}

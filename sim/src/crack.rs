@@ -21,8 +21,8 @@ pub struct Crack {
     pub opening: Opening,
     /// Outward unit normal of the face it lies on.
     pub normal: Vector3<f64>,
-    /// The pattern it is one crack of (numbered from 0), if any.
-    pub pattern: Option<u32>,
+    /// The pattern it is one crack of, if any.
+    pub pattern: Option<Pattern>,
     /// A triangle of the face it starts on.
     pub triangle: u32,
     center: Point3<f64>,
@@ -178,6 +178,14 @@ impl Crack {
 /// How far a crack's heading wanders a step, radians (one standard
 /// deviation).
 const WANDER: f64 = 0.35;
+/// A pattern of cracks side by side: its number (from 0) and how far apart
+/// its cracks were drawn.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Pattern {
+    pub number: u32,
+    pub spacing_m: f64,
+}
+
 /// How far a pattern's crack strays aside a step, metres (one standard
 /// deviation, smoothed along it): it keeps its spacing to its neighbours.
 const PATTERN_STRAY_M: f64 = 0.002;
@@ -501,7 +509,10 @@ fn pattern(
                         width: rng.range(0.001, 0.005),
                         opening: Opening::Even,
                         normal: face.normal,
-                        pattern: Some(number),
+                        pattern: Some(Pattern {
+                            number,
+                            spacing_m: spacing,
+                        }),
                         triangle,
                         center: Point3::origin(),
                         radius: 0.0,

@@ -34,9 +34,10 @@ pub struct CrackTruth {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub condition_state: Option<u8>,
     pub length_m: f64,
-    /// The pattern it is one crack of, if any.
+    /// The pattern it is one crack of (its number and the spacing its
+    /// cracks were drawn at), if any.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub pattern: Option<u32>,
+    pub pattern: Option<crate::crack::Pattern>,
     pub part: String,
     /// Outward normal of the surface.
     pub normal: [f64; 3],
