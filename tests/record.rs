@@ -9,7 +9,7 @@ use std::sync::OnceLock;
 
 use postflight_core::condition::{ConditionState, CrackLimits};
 use postflight_core::outputs::record::ElementRecord;
-use postflight_core::outputs::record::{NotInspectedRule, PendingRule, Unit};
+use postflight_core::outputs::record::{NotInspectedRule, PendingRule, QuantitySource, Unit};
 use postflight_core::table::Row;
 use postflight_core::{RunDir, Stage};
 use record::Decisions;
@@ -587,6 +587,20 @@ fn each_not_inspected_rule_does_as_documented() {
     assert!(run.join("nbe.xml").is_file() && run.join("snbi-elements.json").is_file());
     let summary = read_json(&run.join("record.json"));
     assert_eq!(summary["previous"], f);
+    // The owner's inventory quantity wins over the measured one, and one
+    // this far from it is a warning.
+    let said = record_ok(&[
+        "--element",
+        "{name = \"deck\", number = 38, quantity = 40.0}",
+    ]);
+    let inventory = element_row(&run, "deck");
+    assert!((inventory.total - 40.0).abs() < 1e-9, "{inventory:?}");
+    assert_eq!(inventory.quantity_source, QuantitySource::Inventory);
+    let warnings = read_json(&run.join("record.json"))["warnings"].to_string();
+    assert!(
+        warnings.contains("inventory quantity 40.0 m2 differs"),
+        "{warnings} {said}"
+    );
     // An earlier record of another structure has no such slab.
     let other = girder_bridge().1.to_str().unwrap();
     let out = postflight(

@@ -30,4 +30,7 @@ libfuzzer_sys::fuzz_target!(|text: &str| {
     if let Some(settings) = stage::<replan::ReplanSettings>(&file, "replan") {
         let _ = settings.resolve();
     }
+    if let Some(settings) = stage::<record::RecordSettings>(&file, "record") {
+        let _ = settings.resolve().check();
+    }
 });
