@@ -51,12 +51,7 @@ fn cracks(truth: &Value) -> BTreeMap<i64, Crack> {
         .unwrap()
         .iter()
         .map(|c| {
-            let lines: Vec<Vec<[f64; 3]>> = c["lines"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|l| l.as_array().unwrap().iter().map(vec3).collect())
-                .collect();
+            let lines = truth_lines(c);
             let vertices: Vec<[f64; 3]> = lines.iter().flatten().copied().collect();
             let centroid = [0, 1, 2]
                 .map(|a| vertices.iter().map(|v| v[a]).sum::<f64>() / vertices.len() as f64);

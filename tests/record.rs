@@ -15,9 +15,8 @@ use postflight_core::{RunDir, Stage};
 use record::Decisions;
 use record::RecordConfig;
 use record::cracks::CountedCrack;
-use record::cracks::counted_cracks;
 use record::quantities::tally;
-use record::stage::lay_out;
+use record::stage::{Layout, lay_out};
 
 use crate::common::*;
 
@@ -51,21 +50,7 @@ fn flown(name: &str, sim_args: &[&str], config: &str) -> (PathBuf, PathBuf) {
     let config_file = dir.join("postflight.toml");
     std::fs::write(&config_file, config).unwrap();
     let run = dir.join("run");
-    let out = postflight(
-        &[
-            "run",
-            "--flight",
-            sim.join("flight.mcap").to_str().unwrap(),
-            "--plan",
-            sim.join("plan.json").to_str().unwrap(),
-            "--config",
-            config_file.to_str().unwrap(),
-            "--out",
-            run.to_str().unwrap(),
-        ],
-        &dir,
-    );
-    assert!(out.status.success(), "{}", stderr(&out));
+    run_simulated_with(&sim, &run, &["--config", config_file.to_str().unwrap()]);
     (sim, run)
 }
 
@@ -109,12 +94,7 @@ fn truth_cracks(sim: &Path, run: &RunDir) -> Vec<CountedCrack> {
         .iter()
         .filter(|c| seen.contains(&c["id"].as_i64().unwrap()))
         .filter_map(|c| {
-            let lines: Vec<Vec<[f64; 3]>> = c["lines"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|l| l.as_array().unwrap().iter().map(vec3).collect())
-                .collect();
+            let lines = truth_lines(c);
             let points: Vec<&[f64; 3]> = lines.iter().flatten().collect();
             let n = points.len() as f64;
             let centroid = nalgebra::Point3::new(
@@ -166,6 +146,15 @@ fn runs_along(c: &CountedCrack, t: &CountedCrack) -> bool {
     near >= 3 && 10 * near >= points.len()
 }
 
+/// The run's candidates the record counts before any decision.
+fn found_cracks(dir: &RunDir, layout: &Layout) -> Vec<CountedCrack> {
+    let defects = postflight_core::outputs::localise::read_defects(dir).unwrap();
+    let pending = PendingRule::Count;
+    layout
+        .counted_cracks(&defects, &Decisions::new(), pending, &Default::default())
+        .0
+}
+
 /// The truth's cracks the flight found, by the record's rule, against the
 /// record's rows: each element's and its defect's quantities in states 2
 /// to 4 within 10% or one cell of each other. (What the detector misses is
@@ -175,21 +164,7 @@ fn runs_along(c: &CountedCrack, t: &CountedCrack) -> bool {
 fn agrees_with_truth(sim: &Path, run: &Path) -> [f64; 2] {
     let dir = RunDir::open(run, Stage::Record).unwrap();
     let layout = lay_out(&dir, &RecordConfig::default()).unwrap();
-    let defects = postflight_core::outputs::localise::read_defects(&dir).unwrap();
-    let cracking = |name: &str| {
-        layout
-            .elements
-            .iter()
-            .find(|e| e.name == name)
-            .map(|e| e.aashto.cracking)
-    };
-    let (found, _) = counted_cracks(
-        &defects,
-        &Decisions::new(),
-        PendingRule::Count,
-        &Default::default(),
-        &cracking,
-    );
+    let found = found_cracks(&dir, &layout);
     let truth: Vec<CountedCrack> = truth_cracks(sim, &dir)
         .into_iter()
         .filter(|t| found.iter().any(|c| runs_along(c, t)))
@@ -312,20 +287,7 @@ fn a_rejected_crack_leaves_the_record_when_it_is_rebuilt() {
     let dir = RunDir::open(&run, Stage::Record).unwrap();
     let layout = lay_out(&dir, &RecordConfig::default()).unwrap();
     let defects = postflight_core::outputs::localise::read_defects(&dir).unwrap();
-    let cracking = |name: &str| {
-        layout
-            .elements
-            .iter()
-            .find(|e| e.name == name)
-            .map(|e| e.aashto.cracking)
-    };
-    let (cracks, _) = counted_cracks(
-        &defects,
-        &Decisions::new(),
-        PendingRule::Count,
-        &Default::default(),
-        &cracking,
-    );
+    let cracks = found_cracks(&dir, &layout);
     // The element with the most in state 3, and its widest crack.
     let before = rows(&run);
     let element = before

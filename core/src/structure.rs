@@ -55,6 +55,28 @@ pub struct Structure {
     pub elements: Vec<Element>,
 }
 
+/// The major horizontal axis of `points` (their covariance's major
+/// eigenvector), pointing east, or north when it runs north–south: the
+/// direction a span, a wall or a cap runs along.
+pub fn major_axis(points: &[Vector2<f64>]) -> Vector2<f64> {
+    let n = points.len().max(1) as f64;
+    let mean = points.iter().sum::<Vector2<f64>>() / n;
+    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+    for p in points {
+        let d = p - mean;
+        sxx += d.x * d.x;
+        sxy += d.x * d.y;
+        syy += d.y * d.y;
+    }
+    let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+    let axis = Vector2::new(angle.cos(), angle.sin());
+    if axis.x < -1e-9 || (axis.x.abs() <= 1e-9 && axis.y < 0.0) {
+        -axis
+    } else {
+        axis
+    }
+}
+
 /// Which way a face looks, in the words used on site.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Facing {

@@ -7,7 +7,7 @@ use nalgebra::Vector2;
 use postflight_core::map::VoxelGrid;
 use postflight_core::outputs::coverage::VoxelRecord;
 use postflight_core::outputs::record::QuantitySource;
-use postflight_core::structure::{Element, ElementKind, Structure};
+use postflight_core::structure::{Element, ElementKind, Structure, major_axis};
 
 use crate::catalogue::{AashtoElement, element_numbered};
 use crate::cells::{Cells, Voxel};
@@ -72,20 +72,7 @@ impl Footprint {
             .iter()
             .map(|v| grid.center(v.index).xy().coords)
             .collect();
-        let n = xy.len().max(1) as f64;
-        let mean = xy.iter().sum::<Vector2<f64>>() / n;
-        let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
-        for p in &xy {
-            let d = p - mean;
-            sxx += d.x * d.x;
-            sxy += d.x * d.y;
-            syy += d.y * d.y;
-        }
-        let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
-        let mut axis = Vector2::new(angle.cos(), angle.sin());
-        if axis.x < -1e-9 || (axis.x.abs() <= 1e-9 && axis.y < 0.0) {
-            axis = -axis;
-        }
+        let axis = major_axis(&xy);
         let across = Vector2::new(-axis.y, axis.x);
         let extent = |dir: Vector2<f64>| {
             let (lo, hi) = xy

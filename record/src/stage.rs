@@ -12,9 +12,10 @@ use postflight_core::map::VoxelGrid;
 use postflight_core::outputs::coverage::{
     CoverageSummary, element_map, files as coverage_files, read_coverage,
 };
-use postflight_core::outputs::localise::read_defects;
+use postflight_core::outputs::localise::{DefectRecord, read_defects};
 use postflight_core::outputs::record::{
-    ElementCoverage, ElementRecord, MANUAL, NotInspectedRule, RecordSummary, Submission, files,
+    CandidateCounts, ElementCoverage, ElementRecord, MANUAL, NotInspectedRule, PendingRule,
+    RecordSummary, Submission, files,
 };
 use postflight_core::structure::ElementMap;
 use postflight_core::{RunDir, Stage};
@@ -137,7 +138,7 @@ impl RecordOptions {
 pub struct Made {
     pub rows: Vec<ElementRecord>,
     pub coverage: Vec<ElementCoverage>,
-    pub candidates: postflight_core::outputs::record::CandidateCounts,
+    pub candidates: CandidateCounts,
     pub submission: Submission,
     pub warnings: Vec<String>,
 }
@@ -150,6 +151,27 @@ pub struct Layout {
     /// Where points on the map are on the structure (coverage's elements).
     pub element_map: ElementMap,
     pub warnings: Vec<String>,
+}
+
+impl Layout {
+    /// The candidates of `defects` the record counts on these elements,
+    /// each in its state, and how many of each decision there were.
+    pub fn counted_cracks(
+        &self,
+        defects: &[DefectRecord],
+        decisions: &Decisions,
+        pending: PendingRule,
+        condition: &ConditionConfig,
+    ) -> (Vec<CountedCrack>, CandidateCounts) {
+        let cracking: BTreeMap<&str, _> = self
+            .elements
+            .iter()
+            .map(|e| (e.name.as_str(), e.aashto.cracking))
+            .collect();
+        counted_cracks(defects, decisions, pending, condition, &|name| {
+            cracking.get(name).copied()
+        })
+    }
 }
 
 /// The owner's elements of the run in `run`, laid out in cells.
@@ -174,21 +196,13 @@ pub fn lay_out(run: &RunDir, settings: &RecordConfig) -> Result<Layout, RecordEr
 pub fn make(run: &RunDir, options: &RecordOptions) -> Result<Made, RecordError> {
     let s = &options.settings;
     // Phase: the owner's elements, laid out in cells.
-    let Layout {
-        elements, warnings, ..
-    } = lay_out(run, s)?;
+    let layout = lay_out(run, s)?;
     // Phase: the cracks that count, each in its state.
-    let defects = read_defects(run)?;
-    let cracking: BTreeMap<&str, _> = elements
-        .iter()
-        .map(|e| (e.name.as_str(), e.aashto.cracking))
-        .collect();
-    let (cracks, candidates) = counted_cracks(
-        &defects,
+    let (cracks, candidates) = layout.counted_cracks(
+        &read_defects(run)?,
         &options.decisions,
         s.pending,
         &options.condition,
-        &|name| cracking.get(name).copied(),
     );
     // Phase: each element's quantities, and what was not inspected.
     let earlier = match (&options.previous, s.not_inspected) {
@@ -198,7 +212,7 @@ pub fn make(run: &RunDir, options: &RecordOptions) -> Result<Made, RecordError> 
     };
     let mut rows = Vec::new();
     let mut coverage = Vec::new();
-    for element in &elements {
+    for element in &layout.elements {
         let on: Vec<&CountedCrack> = cracks
             .iter()
             .filter(|c| c.element == element.name)
@@ -233,7 +247,7 @@ pub fn make(run: &RunDir, options: &RecordOptions) -> Result<Made, RecordError> 
         coverage,
         candidates,
         submission,
-        warnings,
+        warnings: layout.warnings,
     })
 }
 

@@ -448,20 +448,7 @@ fn grow(scene: &Scene, triangle: u32, id: u32, rng: &mut Rng) -> Option<Crack> {
             lines.push(branch);
         }
     }
-    let crack = Crack {
-        id,
-        lines,
-        width: rng.range(0.001, 0.005),
-        opening: Opening::Even,
-        normal: face.normal,
-        pattern: None,
-        triangle,
-        center: Point3::origin(),
-        radius: 0.0,
-        arc: Vec::new(),
-        roots: Vec::new(),
-    }
-    .with_bounds();
+    let crack = Crack::even(id, lines, rng.range(0.001, 0.005), &face, triangle, None);
     (crack.length() >= 0.3).then_some(crack)
 }
 
@@ -503,23 +490,14 @@ fn pattern(
                     if !face.on_face(&from) {
                         return None;
                     }
-                    let crack = Crack {
-                        id: first_id + k as u32,
-                        lines: vec![face.straight(from, heading, length, rng)],
-                        width: rng.range(0.001, 0.005),
-                        opening: Opening::Even,
-                        normal: face.normal,
-                        pattern: Some(Pattern {
-                            number,
-                            spacing_m: spacing,
-                        }),
-                        triangle,
-                        center: Point3::origin(),
-                        radius: 0.0,
-                        arc: Vec::new(),
-                        roots: Vec::new(),
-                    }
-                    .with_bounds();
+                    let line = face.straight(from, heading, length, rng);
+                    let pattern = Pattern {
+                        number,
+                        spacing_m: spacing,
+                    };
+                    let id = first_id + k as u32;
+                    let width = rng.range(0.001, 0.005);
+                    let crack = Crack::even(id, vec![line], width, &face, triangle, Some(pattern));
                     (crack.length() >= 0.6 * length).then_some(crack)
                 })
                 .collect()
@@ -527,6 +505,32 @@ fn pattern(
 }
 
 impl Crack {
+    /// A crack `width` metres wide along `lines` on `face` (the face of
+    /// `triangle`).
+    fn even(
+        id: u32,
+        lines: Vec<Vec<Point3<f64>>>,
+        width: f64,
+        face: &FaceWalk,
+        triangle: u32,
+        pattern: Option<Pattern>,
+    ) -> Self {
+        Self {
+            id,
+            lines,
+            width,
+            opening: Opening::Even,
+            normal: face.normal,
+            pattern,
+            triangle,
+            center: Point3::origin(),
+            radius: 0.0,
+            arc: Vec::new(),
+            roots: Vec::new(),
+        }
+        .with_bounds()
+    }
+
     /// With its centre, radius, arc lengths and branch roots recomputed
     /// from its lines.
     fn with_bounds(mut self) -> Self {

@@ -14,7 +14,7 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 
 use nalgebra::{Vector2, Vector3};
 use postflight_core::map::{VoxelGrid, VoxelIndex};
-use postflight_core::structure::{Element, ElementKind, Structure};
+use postflight_core::structure::{Element, ElementKind, Structure, major_axis};
 
 /// Target voxels grouped into elements.
 #[derive(Debug, Clone)]
@@ -90,26 +90,11 @@ fn summarise(
 /// The major horizontal axis of the targets, pointing east (north when it
 /// runs north–south).
 fn span_axis(grid: &VoxelGrid, targets: &[VoxelIndex]) -> Vector2<f64> {
-    let n = targets.len().max(1) as f64;
     let xy: Vec<Vector2<f64>> = targets
         .iter()
         .map(|v| grid.center(*v).xy().coords)
         .collect();
-    let mean = xy.iter().sum::<Vector2<f64>>() / n;
-    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
-    for p in &xy {
-        let d = p - mean;
-        sxx += d.x * d.x;
-        sxy += d.x * d.y;
-        syy += d.y * d.y;
-    }
-    // Major eigenvector of the 2x2 covariance.
-    let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
-    let mut axis = Vector2::new(angle.cos(), angle.sin());
-    if axis.x < -1e-9 || (axis.x.abs() <= 1e-9 && axis.y < 0.0) {
-        axis = -axis;
-    }
-    axis
+    major_axis(&xy)
 }
 
 /// The structure's parts by what they are, before naming.

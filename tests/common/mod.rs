@@ -375,19 +375,35 @@ pub struct DetectionRow {
 /// `postflight run` on a simulated flight (`simulate`'s directory) with
 /// its plan, into `out`.
 pub fn run_simulated(sim: &Path, out: &Path) {
-    let result = postflight(
-        &[
-            "run",
-            "--flight",
-            sim.join("flight.mcap").to_str().unwrap(),
-            "--plan",
-            sim.join("plan.json").to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ],
-        out.parent().unwrap(),
-    );
+    run_simulated_with(sim, out, &[]);
+}
+
+/// [`run_simulated`] with more of `run`'s arguments (`--config FILE`).
+pub fn run_simulated_with(sim: &Path, out: &Path, more: &[&str]) {
+    let (flight, plan) = (sim.join("flight.mcap"), sim.join("plan.json"));
+    let mut args = vec![
+        "run",
+        "--flight",
+        flight.to_str().unwrap(),
+        "--plan",
+        plan.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(more);
+    let result = postflight(&args, out.parent().unwrap());
     assert!(result.status.success(), "{}", stderr(&result));
+}
+
+/// A truth crack's lines (`truth.json`'s `lines`: main line, then
+/// branches), world frame, metres.
+pub fn truth_lines(crack: &Value) -> Vec<Vec<[f64; 3]>> {
+    crack["lines"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l.as_array().unwrap().iter().map(vec3).collect())
+        .collect()
 }
 
 /// A Parquet table, whole.
