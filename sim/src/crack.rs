@@ -416,16 +416,22 @@ impl<'a> FaceWalk<'a> {
     }
 }
 
-/// Grow one crack on the face of `triangle` by a random walk in its plane.
-fn grow(scene: &Scene, triangle: u32, id: u32, rng: &mut Rng) -> Option<Crack> {
+/// Where a crack starts on `triangle`, uniformly over it, and the way it
+/// heads (radians from the face's first axis).
+fn start_on(scene: &Scene, triangle: u32, rng: &mut Rng) -> (Point3<f64>, f64) {
     let [a, b, c] = scene.triangles[triangle as usize];
-    let face = FaceWalk::new(scene, triangle);
     let (mut s, mut t) = (rng.uniform(), rng.uniform());
     if s + t > 1.0 {
         (s, t) = (1.0 - s, 1.0 - t);
     }
     let start = a + (b - a) * s + (c - a) * t;
-    let heading = rng.range(0.0, std::f64::consts::TAU);
+    (start, rng.range(0.0, std::f64::consts::TAU))
+}
+
+/// Grow one crack on the face of `triangle` by a random walk in its plane.
+fn grow(scene: &Scene, triangle: u32, id: u32, rng: &mut Rng) -> Option<Crack> {
+    let face = FaceWalk::new(scene, triangle);
+    let (start, heading) = start_on(scene, triangle, rng);
     let main = face.walk(
         start,
         heading,
@@ -461,14 +467,8 @@ fn pattern(
     number: u32,
     rng: &mut Rng,
 ) -> Option<Vec<Crack>> {
-    let [a, b, c] = scene.triangles[triangle as usize];
     let face = FaceWalk::new(scene, triangle);
-    let (mut s, mut t) = (rng.uniform(), rng.uniform());
-    if s + t > 1.0 {
-        (s, t) = (1.0 - s, 1.0 - t);
-    }
-    let start = a + (b - a) * s + (c - a) * t;
-    let heading = rng.range(0.0, std::f64::consts::TAU);
+    let (start, heading) = start_on(scene, triangle, rng);
     let count = 3 + (rng.uniform() * 3.0) as usize;
     // Heavy or moderate, clear of the limit between them (0.3 m).
     let spacing = if rng.uniform() < 0.5 {
