@@ -291,7 +291,7 @@ fn the_demo_reports_the_simulated_cracks_and_the_simulated_gap() {
 
     // Timings of every stage, and versions checked by Python.
     for stage in [
-        "ingest", "detect", "localise", "coverage", "replan", "report",
+        "ingest", "detect", "localise", "coverage", "replan", "record", "report",
     ] {
         assert!(f(&summary["timings_s"][stage]) >= 0.0, "timing of {stage}");
     }
@@ -383,7 +383,7 @@ fn the_demo_reports_the_simulated_cracks_and_the_simulated_gap() {
     assert!(again.status.success(), "{}", stderr(&again));
     let text = stdout(&again);
     for stage in [
-        "ingest", "detect", "localise", "coverage", "replan", "report",
+        "ingest", "detect", "localise", "coverage", "replan", "record", "report",
     ] {
         assert!(
             text.contains(&format!("{stage}: up to date, skipped")),
@@ -551,7 +551,7 @@ fn a_run_killed_mid_detect_resumes_without_redoing_ingest() {
     assert_eq!(
         stages,
         [
-            "ingest", "detect", "localise", "coverage", "replan", "report"
+            "ingest", "detect", "localise", "coverage", "replan", "record", "report"
         ]
     );
     assert!(logged["running"].is_null());

@@ -192,6 +192,12 @@ fn agrees_with_truth(sim: &Path, run: &Path) -> [f64; 2] {
         for (r, truth) in pairs {
             let measured = r.map_or([0.0; 3], |r| [r.cs2, r.cs3, r.cs4]);
             let truth = truth.map_or([0.0; 3], |t| [t.states[1], t.states[2], t.states[3]]);
+            // The figures docs/evaluation.md quotes (`--nocapture`).
+            eprintln!(
+                "{} {}: states 2-4 {measured:.2?}, the truth's {truth:.2?}, one cell {one_cell:.2}",
+                element.name,
+                r.map_or(0, |r| r.number)
+            );
             for (state, (m, t)) in measured.iter().zip(truth).enumerate() {
                 assert!(
                     (m - t).abs() <= (0.1 * t).max(one_cell) + 1e-9,
