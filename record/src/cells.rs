@@ -341,6 +341,16 @@ mod tests {
         out
     }
 
+    /// The quantity of `cells` inspected.
+    fn inspected(cells: &Cells) -> f64 {
+        cells
+            .cells
+            .values()
+            .filter(|c| c.inspected)
+            .map(|c| c.quantity)
+            .sum()
+    }
+
     fn grid() -> VoxelGrid {
         VoxelGrid::new(0.5, Point3::origin())
     }
@@ -356,12 +366,7 @@ mod tests {
             "{}",
             cells.total()
         );
-        let seen: f64 = cells
-            .cells
-            .values()
-            .filter(|c| c.inspected)
-            .map(|c| c.quantity)
-            .sum();
+        let seen = inspected(&cells);
         assert!((seen - 105.0).abs() <= 0.3 * 7.0, "{seen}");
         // A point on the deck's top is over a cell; one 2 m off it is not.
         assert!(cells.cell_at(&Point3::new(3.0, 3.0, 1.0)).is_some());
@@ -386,12 +391,7 @@ mod tests {
             "{}",
             cells.total()
         );
-        let seen: f64 = cells
-            .cells
-            .values()
-            .filter(|c| c.inspected)
-            .map(|c| c.quantity)
-            .sum();
+        let seen = inspected(&cells);
         assert!((seen - 10.0).abs() <= 0.3, "{seen}");
         let column = block(2, 2, 10, 2);
         let one = Cells::lay(Unit::Each, &grid(), &column, Vector2::x(), 0.3);

@@ -90,15 +90,9 @@ impl Footprint {
     }
 }
 
-/// Why an element is left out of the record.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LeftOut {
-    pub element: String,
-}
-
 /// The structure's elements with AASHTO numbers, each laid out in cells
-/// from `voxels` (coverage's rows), and those left out for want of a
-/// number; warnings where an inventory quantity differs much from the
+/// from `voxels` (coverage's rows); a warning for each element left out for
+/// want of a number, and where an inventory quantity differs much from the
 /// measured one.
 pub fn recorded_elements(
     structure: &Structure,
@@ -106,10 +100,9 @@ pub fn recorded_elements(
     voxels: &[VoxelRecord],
     config: &RecordConfig,
     warnings: &mut Vec<String>,
-) -> (Vec<RecordedElement>, Vec<LeftOut>) {
+) -> Vec<RecordedElement> {
     let span = Vector2::new(structure.axis[0], structure.axis[1]);
     let mut recorded = Vec::new();
-    let mut left_out = Vec::new();
     for element in &structure.elements {
         let own: Vec<Voxel> = voxels
             .iter()
@@ -129,9 +122,10 @@ pub fn recorded_elements(
             .map(|c| c.number)
             .or_else(|| default_number(element.kind, footprint));
         let Some(aashto) = number.and_then(element_numbered).copied() else {
-            left_out.push(LeftOut {
-                element: element.name.clone(),
-            });
+            warnings.push(format!(
+                "{} has no AASHTO element number (none is the default for a tower or a named part) and is left out of the record; give it one in [[record.element]] (name = {:?}, number = N)",
+                element.name, element.name
+            ));
             continue;
         };
         let axis = axis_of(element, span, footprint);
@@ -160,7 +154,7 @@ pub fn recorded_elements(
             source,
         });
     }
-    (recorded, left_out)
+    recorded
 }
 
 /// The direction an element is measured along: the span for a deck or a

@@ -21,7 +21,7 @@ use postflight_core::structure::ElementMap;
 use postflight_core::{RunDir, Stage};
 
 use crate::cracks::{CountedCrack, Decisions, counted_cracks};
-use crate::elements::{LeftOut, RecordedElement, recorded_elements};
+use crate::elements::{RecordedElement, recorded_elements};
 use crate::error::RecordError;
 use crate::quantities::{EarlierShares, ElementTally, Tally, fill_not_inspected, tally};
 use crate::settings::RecordConfig;
@@ -147,7 +147,6 @@ pub struct Made {
 /// run's coverage.
 pub struct Layout {
     pub elements: Vec<RecordedElement>,
-    pub left_out: Vec<LeftOut>,
     /// Where points on the map are on the structure (coverage's elements).
     pub element_map: ElementMap,
     pub warnings: Vec<String>,
@@ -180,13 +179,10 @@ pub fn lay_out(run: &RunDir, settings: &RecordConfig) -> Result<Layout, RecordEr
     let voxels = read_coverage(run, coverage_files::TABLE)?;
     let grid = VoxelGrid::new(summary.figures.resolution_m, summary.grid_origin.into());
     let mut warnings = Vec::new();
-    let (elements, left_out) =
-        recorded_elements(&summary.structure, &grid, &voxels, settings, &mut warnings);
-    warnings.extend(left_out.iter().map(left_out_warning));
+    let elements = recorded_elements(&summary.structure, &grid, &voxels, settings, &mut warnings);
     Ok(Layout {
         element_map: element_map(&summary, &voxels),
         elements,
-        left_out,
         warnings,
     })
 }
@@ -257,13 +253,6 @@ fn percent(part: f64, whole: f64) -> f64 {
     } else {
         0.0
     }
-}
-
-fn left_out_warning(l: &LeftOut) -> String {
-    format!(
-        "{} has no AASHTO element number (none is the default for a tower or a named part) and is left out of the record; give it one in [[record.element]] (name = {:?}, number = N)",
-        l.element, l.element
-    )
 }
 
 /// The element's row and its defect's.

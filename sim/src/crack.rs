@@ -646,6 +646,18 @@ impl Crack {
 mod tests {
     use super::*;
 
+    /// Every point of `c` lies on the structure's surface.
+    fn assert_on_surface(scene: &Scene, c: &Crack) {
+        for (p, _) in c.samples(0.05) {
+            let hit = scene.cast(&(p + c.normal * 0.2), &-c.normal, 1.0).unwrap();
+            assert!(
+                (hit.distance - 0.2).abs() < 1e-3,
+                "crack {} leaves its surface",
+                c.id
+            );
+        }
+    }
+
     #[test]
     fn patterns_are_cracks_side_by_side_on_one_face() {
         let scene = Scene::girder_bridge();
@@ -667,14 +679,7 @@ mod tests {
         }
         for c in added {
             assert!(c.pattern.is_some() && (0.0004..=0.001).contains(&c.width));
-            for (p, _) in c.samples(0.05) {
-                let hit = scene.cast(&(p + c.normal * 0.2), &-c.normal, 1.0).unwrap();
-                assert!(
-                    (hit.distance - 0.2).abs() < 1e-3,
-                    "crack {} leaves its surface",
-                    c.id
-                );
-            }
+            assert_on_surface(&scene, c);
         }
     }
 
@@ -685,14 +690,7 @@ mod tests {
         assert_eq!(cracks.0.len(), 12);
         for c in &cracks.0 {
             assert!(c.length() >= 0.3 && c.width < 0.0051);
-            for (p, _) in c.samples(0.05) {
-                let hit = scene.cast(&(p + c.normal * 0.2), &-c.normal, 1.0).unwrap();
-                assert!(
-                    (hit.distance - 0.2).abs() < 1e-3,
-                    "crack {} leaves its surface",
-                    c.id
-                );
-            }
+            assert_on_surface(&scene, c);
         }
         let again = Cracks::generate(&scene, 12, &mut Rng::new(7));
         assert_eq!(again.0[5].lines, cracks.0[5].lines);
