@@ -13,6 +13,8 @@ use postflight_core::condition::ConditionSettings;
 use postflight_core::{PlanFile, ViewSettings};
 use serde::{Deserialize, Serialize};
 
+use crate::stages;
+
 /// The tables of `postflight.toml`, each named once: in the order of its
 /// documentation, each a stage crate's settings (`postflight_core::settings!`),
 /// and where an unset key's value comes from before its default. Gives
@@ -160,16 +162,27 @@ impl RunConfig {
         }
     }
 
+    /// Detect's options, and what it chooses the tiles to run by: the
+    /// map (the given one, else the flight's) on the plan's grid, judged
+    /// by the View model.
     pub fn detect_options(
         &self,
         run: &Path,
         model: &Path,
         onnxruntime: Option<&Path>,
-    ) -> detect::DetectOptions {
-        detect::DetectOptions {
-            onnxruntime: onnxruntime.map(Path::to_path_buf),
-            settings: self.detect.resolve(),
-            ..detect::DetectOptions::new(run.to_owned(), model.to_owned())
+        map: Option<&Path>,
+        plan: Option<&PlanFile>,
+    ) -> stages::DetectRun {
+        stages::DetectRun {
+            detect: detect::DetectOptions {
+                onnxruntime: onnxruntime.map(Path::to_path_buf),
+                settings: self.detect.resolve(),
+                ..detect::DetectOptions::new(run.to_owned(), model.to_owned())
+            },
+            map: map.map(Path::to_path_buf),
+            plan: plan.cloned(),
+            view: self.view,
+            shard: None,
         }
     }
 
@@ -261,6 +274,7 @@ merge_gap = 8.0
 image_size = 960
 tile = 640
 tile_overlap = 0.25
+views_per_patch = 3
 batch = 2
 channel_order = "bgr"
 pixel_scale = 255.0
@@ -350,12 +364,12 @@ mod tests {
         assert_eq!(c.view.max_distance_m, Some(6.0));
         let r = c.replan_options(Path::new("run"), None).settings;
         assert_eq!((r.clearance_m, r.home), (1.5, Some([0.0, 1.0, 2.0])));
-        let d = c.detect_options(Path::new("run"), Path::new("m.onnx"), None);
-        assert_eq!(d.settings.confidence, 0.4);
+        let d = c.detect_options(Path::new("run"), Path::new("m.onnx"), None, None, None);
+        assert_eq!(d.detect.settings.confidence, 0.4);
         assert!(toml::from_str::<RunConfig>("[detect]\nconfidense = 0.4\n").is_err());
         let off = RunConfig::parse("[detect]\nmerge_gap = \"off\"\n").unwrap();
-        let d = off.detect_options(Path::new("run"), Path::new("m.onnx"), None);
-        assert_eq!(d.settings.merge_gap.pixels(), None);
+        let d = off.detect_options(Path::new("run"), Path::new("m.onnx"), None, None, None);
+        assert_eq!(d.detect.settings.merge_gap.pixels(), None);
         assert!(RunConfig::parse("[detect]\nmerge_gap = \"of\"\n").is_err());
         assert!(toml::from_str::<RunConfig>("[detector]\n").is_err());
     }
@@ -367,7 +381,7 @@ mod tests {
         };
         let (run, file) = (Path::new("run"), Path::new("f"));
         let _ = c.ingest_options(&[file.to_owned()], run);
-        let _ = c.detect_options(run, file, None);
+        let _ = c.detect_options(run, file, None, None, None);
         let _ = c.localise_options(run, None, None, coverage::Targets::Plan);
         let _ = c.coverage_options(run, None, None, coverage::Targets::Plan);
         let _ = c.replan_options(run, None);

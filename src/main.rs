@@ -368,12 +368,31 @@ struct DetectArgs {
     /// Run directory holding a completed ingest.
     #[arg(long)]
     run: PathBuf,
+    /// Run only share K of N of the flight's frames (each holding about an
+    /// Nth of the tiles to run), written beside the others as
+    /// detect-shard-K-of-N.*; `--merge` (or localise) puts them together.
+    #[arg(long, value_name = "K/N", conflicts_with = "merge")]
+    shard: Option<postflight_core::outputs::detect::Shard>,
+    /// Merge the shares written by `--shard` into the flight's detections.
+    #[arg(long)]
+    merge: bool,
+    /// The map the best views of each patch are chosen by
+    /// (`[detect] views_per_patch`).
+    #[command(flatten)]
+    map: MapArg,
+    /// Inspection plan: its voxel grid and View model judge the views.
+    #[arg(long, value_name = "plan.json")]
+    plan: Option<PathBuf>,
+    /// Each view of a patch is judged by the View model, as localise
+    /// judges it.
+    #[command(flatten)]
+    view: postflight_core::ViewSettings,
     /// Crack detector exported to ONNX: YOLO-World (either interface), a
     /// YOLO detection or -seg model, or a semantic segmenter (one map of
     /// crack probability or logits); see --channel-order, --pixel-scale,
     /// --mean and --std for its input convention.
-    #[arg(long)]
-    model: PathBuf,
+    #[arg(long, required_unless_present = "merge")]
+    model: Option<PathBuf>,
     /// ONNX Runtime library (default: ORT_DYLIB_PATH, the project .venv, python3's onnxruntime).
     #[arg(long, value_name = "PATH")]
     onnxruntime: Option<PathBuf>,
@@ -493,12 +512,24 @@ fn ingest(args: &IngestArgs, quiet: bool) -> anyhow::Result<()> {
 }
 
 fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
+    let Some(model) = args.model.as_deref().filter(|_| !args.merge) else {
+        return stages::merge(&args.run, quiet);
+    };
     let flags = RunConfig {
         detect: args.settings.clone(),
+        view: args.view,
         ..RunConfig::default()
     };
     let config = args.config.under(flags)?;
-    let options = config.detect_options(&args.run, &args.model, args.onnxruntime.as_deref());
+    let plan = args.plan.clone().map(PlanFile::new);
+    let mut options = config.detect_options(
+        &args.run,
+        model,
+        args.onnxruntime.as_deref(),
+        args.map.file.as_deref(),
+        plan.as_ref(),
+    );
+    options.shard = args.shard;
     stages::detect(&options, quiet)
 }
 

@@ -278,7 +278,7 @@ struct StageInputs {
 /// The options a stage runs with.
 enum StageOptions {
     Ingest(ingest::IngestOptions),
-    Detect(detect::DetectOptions),
+    Detect(stages::DetectRun),
     Localise(localise::LocaliseOptions),
     Coverage(coverage::CoverageOptions),
     Replan(replan::ReplanOptions),
@@ -293,9 +293,13 @@ impl StageOptions {
         let (run, map) = (i.out.as_path(), i.map.as_deref());
         Ok(match stage {
             Stage::Ingest => Self::Ingest(c.ingest_options(&i.flights, run)),
-            Stage::Detect => {
-                Self::Detect(c.detect_options(run, &i.model_path(), i.onnxruntime.as_deref()))
-            }
+            Stage::Detect => Self::Detect(c.detect_options(
+                run,
+                &i.model_path(),
+                i.onnxruntime.as_deref(),
+                map,
+                i.structure_plan(),
+            )),
             Stage::Localise => {
                 Self::Localise(c.localise_options(run, map, i.structure_plan(), i.targets.clone()))
             }
@@ -356,6 +360,7 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> anyhow::Result<Option<StageInput
                     .collect(),
             }));
         }
+        // The map and plan choose the tiles to run.
         Stage::Detect => std::iter::once(("model", i.model_path()))
             .chain(
                 c.detect
@@ -363,6 +368,8 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> anyhow::Result<Option<StageInput
                     .iter()
                     .map(|e| ("embeddings", e.clone())),
             )
+            .chain(map)
+            .chain(i.structure_plan().map(|p| ("plan", p.path.clone())))
             .collect(),
         Stage::Localise => map
             .chain(i.structure_plan().map(|p| ("plan", p.path.clone())))
@@ -455,8 +462,9 @@ mod tests {
                 "ingest" => vec![Stage::Ingest],
                 "detect" => vec![Stage::Detect],
                 "localise" => vec![Stage::Localise],
-                // Localise judges each view by the View model too.
-                "view" => vec![Stage::Localise, Stage::Coverage],
+                // Detect chooses the best views of each patch by the View
+                // model, and localise judges each view by it too.
+                "view" => vec![Stage::Detect, Stage::Localise, Stage::Coverage],
                 // Localise puts each candidate in a condition state, and
                 // the record each element's cracks.
                 "condition" => vec![Stage::Localise, Stage::Record],

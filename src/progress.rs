@@ -37,6 +37,15 @@ impl Bar {
         self.0.set_position(done);
     }
 
+    /// A line above the bar (printed as is without one).
+    pub fn println(&self, line: String) {
+        if self.0.is_hidden() {
+            println!("{line}");
+        } else {
+            self.0.println(line);
+        }
+    }
+
     pub fn finish(&self) {
         self.0.finish_and_clear();
     }

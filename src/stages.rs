@@ -6,6 +6,12 @@ use postflight_core::outputs::localise::Outcome;
 use postflight_core::outputs::record::Submission;
 use postflight_core::outputs::report::files;
 
+use std::path::{Path, PathBuf};
+
+use postflight_core::best_views::BestViews;
+use postflight_core::outputs::detect::{Shard, TileChoice, files as DetectFiles};
+use postflight_core::{Flight, FlownPlan, PlanFile, RunDir, ViewSettings};
+
 use crate::progress::Bar;
 
 pub fn ingest(options: &ingest::IngestOptions, quiet: bool) -> anyhow::Result<()> {
@@ -45,9 +51,85 @@ pub fn ingest(options: &ingest::IngestOptions, quiet: bool) -> anyhow::Result<()
     Ok(())
 }
 
-pub fn detect(options: &detect::DetectOptions, quiet: bool) -> anyhow::Result<()> {
+/// Detect as `postflight detect` and `run` start it: the stage's options,
+/// and what it chooses the tiles to run by (the map on the plan's grid,
+/// the View model). Serialised, what its result depends on (no paths).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct DetectRun {
+    pub detect: detect::DetectOptions,
+    /// The map to choose by instead of the flight's.
+    #[serde(skip)]
+    pub map: Option<PathBuf>,
+    /// The plan whose voxel grid and View model the map is judged on.
+    #[serde(skip)]
+    pub plan: Option<PlanFile>,
+    pub view: ViewSettings,
+    /// Only this share of the flight.
+    #[serde(skip)]
+    pub shard: Option<Shard>,
+}
+
+/// Views farther from a patch than this many times the View model's far
+/// edge are not among its views (localise's reach is of that order).
+const REACH_OVER_FAR_EDGE: f64 = 3.0;
+
+impl DetectRun {
+    /// The best views of each patch, or why every tile runs.
+    fn best_views(&self) -> anyhow::Result<Result<BestViews, TileChoice>> {
+        let per_patch = self.detect.settings.views_per_patch;
+        if per_patch == 0 {
+            return Ok(Err(TileChoice::Every));
+        }
+        let flight = Flight::load(&self.detect.run)?;
+        let plan = self.plan.as_ref().map(PlanFile::load).transpose()?;
+        let grid = plan.as_ref().and_then(FlownPlan::grid);
+        let map = match ingest::load_map(&flight, self.map.as_deref(), grid) {
+            Ok((map, _)) => map,
+            Err(ingest::IngestError::NoMap) => return Ok(Err(TileChoice::NoMap)),
+            Err(e) => return Err(e.into()),
+        };
+        let view = self
+            .view
+            .apply(plan.as_ref().and_then(FlownPlan::view).unwrap_or_default());
+        view.check()?;
+        let choosing = coverage::Choosing {
+            views_per_patch: per_patch,
+            reach_m: view.max_distance_m * REACH_OVER_FAR_EDGE,
+            exposure_s: None,
+        };
+        match coverage::best_views(&flight, &map, &view, choosing) {
+            Ok(best) => Ok(Ok(best)),
+            Err(coverage::CoverageError::NoCamera | coverage::CoverageError::NoIntrinsics) => {
+                Ok(Err(TileChoice::NoMap))
+            }
+            Err(e) => Err(e.into()),
+        }
+    }
+}
+
+pub fn detect(run: &DetectRun, quiet: bool) -> anyhow::Result<()> {
+    let best = run.best_views()?;
+    let mut tiles = match &best {
+        Ok(best) => detect::TilesToRun::best(best),
+        Err(choice) => detect::TilesToRun::every(*choice),
+    };
+    tiles.shard = run.shard;
     let bar = Bar::count("detect", quiet);
-    let summary = detect::detect(options, &mut |done, total| bar.set(done, total))?;
+    let summary = detect::detect(&run.detect, tiles, &mut |told| match told {
+        detect::Told::Progress { done, total } => bar.set(done, total),
+        detect::Told::Estimate(e) => {
+            if !quiet {
+                bar.println(format!(
+                    "detect: {} of {} tiles, {}: about {} on {}",
+                    thousands(e.tiles_run),
+                    thousands(e.tiles),
+                    e.choice,
+                    duration(e.seconds),
+                    e.device
+                ));
+            }
+        }
+    })?;
     bar.finish();
     for w in &summary.warnings {
         tracing::warn!("{w}");
@@ -56,20 +138,89 @@ pub fn detect(options: &detect::DetectOptions, quiet: bool) -> anyhow::Result<()
         tracing::warn!("frame {} skipped: {}", f.frame, f.why);
     }
     if !quiet {
+        let skipped: Vec<String> = summary
+            .tiles_skipped
+            .iter()
+            .filter(|(_, n)| *n > 0)
+            .map(|(why, n)| format!("{} {}", thousands(n), why.as_str().replace('_', " ")))
+            .collect();
+        let share = summary
+            .shard
+            .map(|s| format!(" (share {s} of the flight)"))
+            .unwrap_or_default();
         println!(
-            "{} detections in {} frames ({:.1} frames/s on {}, {:.0}% of the time in ONNX Runtime) into {}",
+            "{} detections in {} frames{share}, {} tiles run{} ({:.1} frames/s on {}, {:.0}% of the time in ONNX Runtime) into {}",
             summary.detections,
             summary.frames_run,
+            thousands(summary.tiles_run),
+            if skipped.is_empty() {
+                String::new()
+            } else {
+                format!(", skipped: {}", skipped.join(", "))
+            },
             summary.frames_per_s,
             summary.device,
             100.0 * summary.inference_share,
-            options.run.display()
+            run.detect.run.display()
         );
     }
     Ok(())
 }
 
+/// Merge the shares of a flight's detect (`postflight detect --merge`).
+pub fn merge(run: &Path, quiet: bool) -> anyhow::Result<()> {
+    let summary = detect::merge::merge(run)?;
+    if !quiet {
+        println!(
+            "merged {} detections in {} frames from {} shares into {}",
+            summary.detections,
+            summary.frames_run,
+            detect::merge::shares_written(&RunDir::create(run)?)?.map_or(0, |s| s.len()),
+            run.display()
+        );
+    }
+    Ok(())
+}
+
+/// Before localise: a flight detected in shares and not yet merged is
+/// merged, when every share is there.
+fn merge_shares(run: &Path, quiet: bool) -> anyhow::Result<()> {
+    let dir = RunDir::create(run)?;
+    if dir.file(DetectFiles::SUMMARY).is_file() {
+        return Ok(());
+    }
+    match detect::merge::shares_written(&dir)? {
+        Some(shards) if detect::merge::every_share(&shards) => merge(run, quiet),
+        _ => Ok(()),
+    }
+}
+
+/// `n` with thousands separated: 3,904.
+fn thousands(n: u64) -> String {
+    let digits = n.to_string();
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i) % 3 == 0 {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// Seconds as people say them: 50 s, 12 min, 3.4 h.
+fn duration(seconds: f64) -> String {
+    if seconds < 120.0 {
+        format!("{seconds:.0} s")
+    } else if seconds < 7200.0 {
+        format!("{:.0} min", seconds / 60.0)
+    } else {
+        format!("{:.1} h", seconds / 3600.0)
+    }
+}
+
 pub fn localise(options: &localise::LocaliseOptions, quiet: bool) -> anyhow::Result<()> {
+    merge_shares(&options.run, quiet)?;
     let bar = Bar::count("localise", quiet);
     let summary = localise::localise(options, &mut |done, total| bar.set(done, total))?;
     bar.finish();

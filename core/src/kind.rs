@@ -142,7 +142,19 @@ impl<K: Named> Counts<K> {
 
     /// One more of `kind`.
     pub fn add(&mut self, kind: K) {
-        self.counts[kind.index()] += 1;
+        self.add_many(kind, 1);
+    }
+
+    /// `n` more of `kind`.
+    pub fn add_many(&mut self, kind: K, n: u64) {
+        self.counts[kind.index()] += n;
+    }
+
+    /// `other`'s counts added to these.
+    pub fn add_all(&mut self, other: &Self) {
+        for (kind, n) in other.iter() {
+            self.add_many(kind, n);
+        }
     }
 
     /// Every kind with its count, in declaration order.

@@ -28,6 +28,7 @@
 //! Nothing heavy: no ONNX Runtime, Rerun, web server or recording format;
 //! those belong to the stages that need them.
 
+pub mod best_views;
 pub mod camera;
 pub mod condition;
 pub mod crs;

@@ -20,6 +20,7 @@
 //! the gaps is the `replan` crate's; it asks these same rules which gaps a
 //! viewpoint inspects.
 
+pub mod best;
 pub mod cover;
 pub mod error;
 pub mod face;
@@ -32,6 +33,7 @@ pub mod stage;
 mod summary;
 pub mod view;
 
+pub use best::{Choosing, best_views};
 pub use cover::{FaceCover, Shot, cover, cover_naive};
 pub use error::CoverageError;
 pub use face::{Face, exposed_faces};

@@ -19,6 +19,7 @@ use std::process::Command;
 
 use detect::settings::{Off, Tile};
 use detect::{DetectConfig, DetectOptions};
+use postflight_core::outputs::detect::TileChoice;
 
 /// A simulated, ingested flight to detect on.
 struct Flight {
@@ -135,7 +136,12 @@ fn main() {
             let speed = median(
                 (0..reps)
                     .map(|_| {
-                        let s = detect::detect(&options, &mut |_, _| {}).expect("detect");
+                        let s = detect::detect(
+                            &options,
+                            detect::TilesToRun::every(TileChoice::Every),
+                            &mut |_| {},
+                        )
+                        .expect("detect");
                         Speed {
                             frames_per_s: s.frames_per_s,
                             share: s.inference_share,

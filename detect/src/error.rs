@@ -25,6 +25,8 @@ pub enum DetectError {
         first: u32,
         why: String,
     },
+    #[error("cannot merge the shares of {}: {why}", run.display())]
+    Shards { run: PathBuf, why: String },
     #[error("inference failed on frame {frame}: {why}")]
     Inference { frame: u32, why: String },
 }

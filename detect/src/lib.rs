@@ -5,6 +5,7 @@
 //! coverage.
 
 pub mod boxes;
+pub mod choose;
 mod coco;
 pub mod convention;
 pub mod decode;
@@ -12,6 +13,7 @@ mod detector;
 pub mod error;
 pub mod letterbox;
 pub mod masks;
+pub mod merge;
 mod metadata;
 pub mod prompts;
 mod read;
@@ -22,7 +24,8 @@ pub mod stage;
 pub mod tiles;
 mod views;
 
+pub use choose::TilesToRun;
 pub use error::DetectError;
 pub use runtime::{Device, Library, Runtime, locate};
 pub use settings::{DetectConfig, DetectSettings, MergeGap};
-pub use stage::{DetectOptions, detect};
+pub use stage::{DetectOptions, Estimate, Told, detect};

@@ -9,11 +9,14 @@ use std::time::Instant;
 
 use ingest::Recordings;
 use postflight_core::detection::FrameDetection;
-use postflight_core::outputs::detect::{DetectSummary, DetectionRow, FailedFrame, files};
+use postflight_core::outputs::detect::{
+    DetectSummary, DetectionRow, FailedFrame, Shard, TileChoice, files,
+};
 use postflight_core::run_log::sha256_file;
 use postflight_core::{Flight, Frame, ImageStatus, InvalidSetting, Key, RunDir};
 use rayon::prelude::*;
 
+use crate::choose::{FrameWork, TilesToRun, choose};
 use crate::coco;
 use crate::detector::Detector;
 use crate::error::DetectError;
@@ -121,10 +124,36 @@ impl DetectOptions {
     }
 }
 
-/// Run the detector over every frame of the run's flight.
+/// What detect tells as it works.
+#[derive(Debug, Clone, Copy)]
+pub enum Told<'a> {
+    /// Tiles run so far, of those it will run.
+    Progress { done: u64, total: u64 },
+    /// After its third batch: how long the whole run will take.
+    Estimate(&'a Estimate),
+}
+
+/// How long a detect will take, from the model's speed on its first
+/// batches (the faster of the two after ONNX Runtime's warm-up) and the
+/// frames' decoding so far.
+#[derive(Debug, Clone)]
+pub struct Estimate {
+    /// Tiles it will run, and the flight's (or the share's) tiles in all.
+    pub tiles_run: u64,
+    pub tiles: u64,
+    /// The choice, in words ("the best 2 views of each patch of the map").
+    pub choice: String,
+    /// The whole run, seconds from the start of the stage.
+    pub seconds: f64,
+    pub device: postflight_core::detection::Device,
+}
+
+/// Run the detector over the flight's frames: the tiles `tiles` chooses,
+/// of every frame or of a share of them.
 pub fn detect(
     options: &DetectOptions,
-    progress: &mut dyn FnMut(u64, u64),
+    tiles: TilesToRun<'_>,
+    told: &mut dyn FnMut(Told<'_>),
 ) -> Result<DetectSummary, DetectError> {
     options.check()?;
     let start = Instant::now();
@@ -137,26 +166,36 @@ pub fn detect(
     let device = session.device;
     let (mut detector, classes) = Detector::new(session.session, options)?;
 
-    let total = flight.frames.len() as u64;
     let (runnable, unreadable): (Vec<&Frame>, Vec<&Frame>) = flight
         .frames
         .iter()
         .partition(|f| f.image_status == ImageStatus::Ok);
+    let chosen = choose(&runnable, detector.feed, options, tiles);
     let mut failed: Vec<FailedFrame> = unreadable
         .iter()
+        .filter(|f| tiles.shard.is_none_or(|s| f.index % s.count + 1 == s.index))
         .map(|f| FailedFrame {
             frame: f.index,
             why: format!("image {}", f.image_status.as_str()),
         })
         .collect();
+    let frames = chosen.frames + failed.len() as u64;
+    let mut pace = Pace {
+        start,
+        tiles: chosen.tiles() + chosen.skipped.total(),
+        tiles_run: chosen.tiles(),
+        choice: tiles.words(),
+        device,
+        estimate_s: None,
+    };
     let (found, ran) = infer_all(
         &mut detector,
         &recording,
-        &runnable,
+        &chosen.work,
         options,
         &mut failed,
-        total,
-        progress,
+        &mut pace,
+        told,
     )?;
     failed.sort_by_key(|f| f.frame);
     // What the whole frame ran as (tiles run at the tile size).
@@ -174,11 +213,17 @@ pub fn detect(
             ));
         }
     }
+    if tiles.choice == TileChoice::NoMap {
+        warnings.push(
+            "every tile ran: the flight has no map to choose the best views of each patch by; give --map to run fewer".into(),
+        );
+    }
     if ran == 0
+        && !chosen.work.is_empty()
         && let Some(first) = failed.first()
     {
         return Err(DetectError::NoFrames {
-            frames: total,
+            frames: frames.max(1),
             first: first.frame,
             why: first.why.clone(),
         });
@@ -203,8 +248,14 @@ pub fn detect(
         confidence: options.settings.confidence,
         iou: options.settings.iou,
         merge_gap: options.settings.merge_gap.pixels(),
-        frames: total,
+        frames,
         frames_run: ran,
+        tile_choice: tiles.choice,
+        views_per_patch: options.settings.views_per_patch,
+        tiles_run: pace.tiles_run,
+        tiles_skipped: chosen.skipped,
+        estimate_s: pace.estimate_s,
+        shard: tiles.shard,
         detections: found.len() as u64,
         failed_frames: failed,
         seconds,
@@ -214,36 +265,100 @@ pub fn detect(
         batch: detector.batch,
         warnings,
     };
-    write_outputs(&flight.run, &flight.frames, &found, &classes, &summary)?;
+    match tiles.shard {
+        None => {
+            // A whole run's detections replace any split's.
+            remove_shares(&flight.run, None)?;
+            write_outputs(&flight.run, &flight.frames, &found, &classes, &summary)?
+        }
+        Some(shard) => write_share(
+            &flight.run,
+            shard,
+            &flight.frames,
+            &found,
+            &classes,
+            &summary,
+        )?,
+    }
     Ok(summary)
 }
 
-/// Run the detector over `runnable`, decoding ahead on worker threads;
-/// frames that cannot be prepared join `failed`. Returns what was found and
-/// how many frames ran.
+/// The run's pace: what the first batch says of the whole.
+struct Pace {
+    start: Instant,
+    tiles: u64,
+    tiles_run: u64,
+    choice: String,
+    device: postflight_core::detection::Device,
+    estimate_s: Option<f64>,
+}
+
+impl Pace {
+    /// After the first batches: a tile takes `per_tile` seconds, `done`
+    /// tiles have run, and `frames` of `frames_total` were prepared in
+    /// `prepare_s` (on worker threads, sharing a CPU with inference).
+    fn estimate(
+        &mut self,
+        per_tile: f64,
+        done: u64,
+        prepared: (u64, f64),
+        frames_total: u64,
+    ) -> Estimate {
+        let (frames, prepare_s) = prepared;
+        let infer = per_tile * self.tiles_run.saturating_sub(done) as f64;
+        let prepare = prepare_s / frames.max(1) as f64 * frames_total.saturating_sub(frames) as f64;
+        let rest = match self.device {
+            postflight_core::detection::Device::Cpu => infer + prepare,
+            _ => infer.max(prepare),
+        };
+        let seconds = self.start.elapsed().as_secs_f64() + rest;
+        self.estimate_s = Some(seconds);
+        Estimate {
+            tiles_run: self.tiles_run,
+            tiles: self.tiles,
+            choice: self.choice.clone(),
+            seconds,
+            device: self.device,
+        }
+    }
+}
+
+/// Run the detector over the chosen windows of `work`'s frames, decoding
+/// ahead on worker threads; frames that cannot be prepared join `failed`.
+/// Returns what was found and how many frames ran.
 fn infer_all(
     detector: &mut Detector,
     recording: &Recordings,
-    runnable: &[&Frame],
+    work: &[FrameWork<'_>],
     options: &DetectOptions,
     failed: &mut Vec<FailedFrame>,
-    total: u64,
-    progress: &mut dyn FnMut(u64, u64),
+    pace: &mut Pace,
+    told: &mut dyn FnMut(Told<'_>),
 ) -> Result<(Vec<FrameDetection>, u64), DetectError> {
     let feed = detector.feed;
     let mut found: Vec<FrameDetection> = Vec::new();
     let mut ran = 0u64;
+    let mut done = 0u64;
+    let total = pace.tiles_run;
     let mut run_error = None;
+    // Frames prepared, and the seconds their worker took.
+    let prepared = std::sync::Mutex::new((0u64, 0.0f64));
     std::thread::scope(|scope| {
         // Workers decode and letterbox the next frames while the runtime infers.
         let (tx, rx) = sync_channel::<Result<Prepared, FailedFrame>>(8);
+        let prepared = &prepared;
         scope.spawn(move || {
-            for chunk in runnable.chunks(8) {
-                let prepared: Vec<_> = chunk
+            for chunk in work.chunks(8) {
+                let started = Instant::now();
+                let ready: Vec<_> = chunk
                     .par_iter()
-                    .map(|f| prepare(recording, f, feed, options))
+                    .map(|w| prepare(recording, w, feed, options))
                     .collect();
-                for p in prepared {
+                if let Ok(mut p) = prepared.lock() {
+                    p.0 += chunk.len() as u64;
+                    p.1 += started.elapsed().as_secs_f64();
+                }
+                for p in ready {
                     if tx.send(p).is_err() {
                         return;
                     }
@@ -253,16 +368,39 @@ fn infer_all(
         // Frames wait until their views fill a batch.
         let mut pending: Vec<Prepared> = Vec::new();
         let mut pending_views = 0;
-        for prepared in rx {
-            match prepared {
+        let batch = detector.batch;
+        // ONNX Runtime's first runs set it up: its pace is the faster of
+        // the two batches after the first.
+        let mut batches = 0u32;
+        let mut pace_s = f64::INFINITY;
+        let mut run = |pending: &mut Vec<Prepared>,
+                       views: u64,
+                       done: &mut u64,
+                       told: &mut dyn FnMut(Told<'_>)| {
+            let started = Instant::now();
+            let n = detector.run_frames(pending, options, &mut found)?;
+            *done += views;
+            batches += 1;
+            if batches > 1 {
+                pace_s = pace_s.min(started.elapsed().as_secs_f64() / views.max(1) as f64);
+            }
+            if batches == 3 && *done < total {
+                let so_far = prepared.lock().map(|p| *p).unwrap_or((0, 0.0));
+                let estimate = pace.estimate(pace_s, *done, so_far, work.len() as u64);
+                told(Told::Estimate(&estimate));
+            }
+            Ok::<u64, DetectError>(n)
+        };
+        for ready in rx {
+            match ready {
                 Ok(p) => {
                     pending_views += p.views.len();
                     pending.push(p);
                 }
                 Err(f) => failed.push(f),
             }
-            if pending_views >= detector.batch {
-                match detector.run_frames(&mut pending, options, &mut found) {
+            if pending_views >= batch {
+                match run(&mut pending, pending_views as u64, &mut done, told) {
                     Ok(n) => ran += n,
                     Err(e) => {
                         run_error = Some(e);
@@ -271,13 +409,13 @@ fn infer_all(
                 }
                 pending_views = 0;
             }
-            progress(ran + failed.len() as u64, total);
+            told(Told::Progress { done, total });
         }
-        match detector.run_frames(&mut pending, options, &mut found) {
+        match run(&mut pending, pending_views as u64, &mut done, told) {
             Ok(n) => ran += n,
             Err(e) => run_error = Some(e),
         }
-        progress(ran + failed.len() as u64, total);
+        told(Told::Progress { done, total });
     });
     match run_error {
         Some(e) => Err(e),
@@ -285,7 +423,8 @@ fn infer_all(
     }
 }
 
-fn write_outputs(
+/// `detections.parquet`, `detections.coco.json` and, last, `detect.json`.
+pub(crate) fn write_outputs(
     run: &RunDir,
     frames: &[Frame],
     found: &[FrameDetection],
@@ -293,17 +432,57 @@ fn write_outputs(
     summary: &DetectSummary,
 ) -> Result<(), DetectError> {
     run.remove(files::SUMMARY)?;
-    let sizes: BTreeMap<u32, (u32, u32)> = frames
-        .iter()
-        .map(|f| (f.index, (f.width.unwrap_or(0), f.height.unwrap_or(0))))
-        .collect();
-    // Each mask is run-length encoded once, for the table and the COCO file.
-    let rows: Vec<DetectionRow> = found
-        .iter()
-        .map(|d| DetectionRow::of(d, classes, sizes.get(&d.frame).copied().unwrap_or((0, 0))))
-        .collect();
+    let rows = rows(frames, found, classes);
     run.write_rows(files::DETECTIONS, &rows)?;
     run.write_json(files::COCO, &coco::results(frames, found, &rows, classes))?;
     run.write_json(files::SUMMARY, summary)?;
     Ok(())
+}
+
+/// A share's detections and, last, its summary, beside the others'.
+fn write_share(
+    run: &RunDir,
+    shard: Shard,
+    frames: &[Frame],
+    found: &[FrameDetection],
+    classes: &[String],
+    summary: &DetectSummary,
+) -> Result<(), DetectError> {
+    // The flight's detections are being remade; another split's shares
+    // are stale.
+    for name in [files::SUMMARY, files::DETECTIONS, files::COCO] {
+        run.remove(name)?;
+    }
+    remove_shares(run, Some(shard.count))?;
+    run.remove(&shard.summary())?;
+    run.write_rows(&shard.detections(), &rows(frames, found, classes))?;
+    run.write_json(&shard.summary(), summary)?;
+    Ok(())
+}
+
+/// Remove the shares' files of every split but one of `keep` shares.
+fn remove_shares(run: &RunDir, keep: Option<u32>) -> Result<(), DetectError> {
+    let Ok(entries) = std::fs::read_dir(run.path()) else {
+        return Ok(());
+    };
+    for entry in entries.filter_map(|e| e.ok()) {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if Shard::of_file(&name).is_some_and(|s| Some(s.count) != keep) {
+            run.remove(&name)?;
+        }
+    }
+    Ok(())
+}
+
+/// Each detection as its row; each mask is run-length encoded once, for
+/// the table and the COCO file.
+fn rows(frames: &[Frame], found: &[FrameDetection], classes: &[String]) -> Vec<DetectionRow> {
+    let sizes: BTreeMap<u32, (u32, u32)> = frames
+        .iter()
+        .map(|f| (f.index, (f.width.unwrap_or(0), f.height.unwrap_or(0))))
+        .collect();
+    found
+        .iter()
+        .map(|d| DetectionRow::of(d, classes, sizes.get(&d.frame).copied().unwrap_or((0, 0))))
+        .collect()
 }

@@ -3,9 +3,9 @@
 //! convention (the [`Feed`]).
 
 use ingest::Recordings;
-use postflight_core::Frame;
 use postflight_core::outputs::detect::{FailedFrame, InputConvention};
 
+use crate::choose::FrameWork;
 use crate::convention;
 use crate::letterbox::{InputSize, Placement, letterbox};
 use crate::stage::DetectOptions;
@@ -31,12 +31,15 @@ pub(crate) struct View {
     pub(crate) placement: Placement,
 }
 
+/// The frame of `work` decoded and its chosen windows made ready (every
+/// window, should the image not be the size ingest recorded).
 pub(crate) fn prepare(
     recording: &Recordings,
-    frame: &Frame,
+    work: &FrameWork<'_>,
     feed: Feed,
     options: &DetectOptions,
 ) -> Result<Prepared, FailedFrame> {
+    let frame = work.frame;
     let img = recording
         .image(frame)
         .map_err(|e| FailedFrame {
@@ -44,32 +47,43 @@ pub(crate) fn prepare(
             why: e.to_string(),
         })?
         .to_rgb8();
-    let views = windows(
-        img.width(),
-        img.height(),
-        feed.tile(options, img.width(), img.height()),
-        options.settings.tile_overlap,
-    )
-    .into_iter()
-    .map(|window| {
-        let mut input = Vec::new();
-        let (size, placement) = if window.tile < 0 {
-            letterbox(&img, feed.size, &mut input)
-        } else {
-            let crop =
-                image::imageops::crop_imm(&img, window.x, window.y, window.width, window.height)
-                    .to_image();
-            letterbox(&crop, feed.size, &mut input)
-        };
-        convention::apply(&feed.convention, &mut input);
-        View {
-            window,
-            input,
-            size,
-            placement,
-        }
-    })
-    .collect();
+    let recorded = (frame.width, frame.height) == (Some(img.width()), Some(img.height()));
+    let chosen = if recorded {
+        work.windows.clone()
+    } else {
+        windows(
+            img.width(),
+            img.height(),
+            feed.tile(options, img.width(), img.height()),
+            options.settings.tile_overlap,
+        )
+    };
+    let views = chosen
+        .into_iter()
+        .map(|window| {
+            let mut input = Vec::new();
+            let (size, placement) = if window.tile < 0 {
+                letterbox(&img, feed.size, &mut input)
+            } else {
+                let crop = image::imageops::crop_imm(
+                    &img,
+                    window.x,
+                    window.y,
+                    window.width,
+                    window.height,
+                )
+                .to_image();
+                letterbox(&crop, feed.size, &mut input)
+            };
+            convention::apply(&feed.convention, &mut input);
+            View {
+                window,
+                input,
+                size,
+                placement,
+            }
+        })
+        .collect();
     Ok(Prepared {
         frame: frame.index,
         time_ns: frame.time_ns,

@@ -7,8 +7,10 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
+use crate::best_views::TileSkip;
 use crate::detection::{BoxXyxy, Detection, Device, FrameDetection};
 use crate::error::Error;
+use crate::kind::Counts;
 use crate::mask::Mask;
 use crate::run_dir::RunDir;
 
@@ -17,6 +19,82 @@ pub mod files {
     pub const DETECTIONS: &str = "detections.parquet";
     pub const COCO: &str = "detections.coco.json";
     pub const SUMMARY: &str = "detect.json";
+}
+
+/// One share of a flight's frames, run by its own process
+/// (`postflight detect --shard K/N`): the `index`th of `count`, from 1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Shard {
+    pub index: u32,
+    pub count: u32,
+}
+
+impl Shard {
+    /// The file it writes its detections to, beside `detections.parquet`.
+    pub fn detections(self) -> String {
+        format!("{}.parquet", self.stem())
+    }
+
+    /// The file it writes its summary to (last, so that with it the share
+    /// is whole).
+    pub fn summary(self) -> String {
+        format!("{}.json", self.stem())
+    }
+
+    fn stem(self) -> String {
+        format!("detect-shard-{}-of-{}", self.index, self.count)
+    }
+
+    /// The share a file of the run directory belongs to, if it is one's.
+    pub fn of_file(name: &str) -> Option<Shard> {
+        let stem = name
+            .strip_suffix(".parquet")
+            .or_else(|| name.strip_suffix(".json"))?;
+        let (index, count) = stem.strip_prefix("detect-shard-")?.split_once("-of-")?;
+        let shard = Shard {
+            index: index.parse().ok()?,
+            count: count.parse().ok()?,
+        };
+        (shard.index >= 1 && shard.index <= shard.count && shard.stem() == stem).then_some(shard)
+    }
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        let parsed = s.split_once('/').and_then(|(k, n)| {
+            Some((k.trim().parse::<u32>().ok()?, n.trim().parse::<u32>().ok()?))
+        });
+        match parsed {
+            Some((index, count)) if (1..=count).contains(&index) && count <= 10_000 => {
+                Ok(Shard { index, count })
+            }
+            _ => Err(format!(
+                "'{s}' is not a share K/N of a flight (1 <= K <= N <= 10000, as 2/4)"
+            )),
+        }
+    }
+}
+
+crate::kind! {
+    /// How detect chose the tiles it ran.
+    pub enum TileChoice("tile choice") {
+        /// The tiles that show a patch of the map among its best views
+        /// (`[detect] views_per_patch`).
+        BestViews = "best_views",
+        /// Every tile: `[detect] views_per_patch = 0`.
+        Every = "every",
+        /// Every tile: the flight has no map (or no camera model) to
+        /// choose by.
+        NoMap = "no_map",
+    }
 }
 
 /// A frame that could not be run, and why.
@@ -113,6 +191,27 @@ pub struct DetectSummary {
     pub merge_gap: Option<f32>,
     pub frames: u64,
     pub frames_run: u64,
+    /// How the tiles run were chosen (a frame not tiled is one tile; a
+    /// tiled frame's tiles and the whole frame are each one).
+    #[serde(default = "TileChoice::every")]
+    pub tile_choice: TileChoice,
+    /// `[detect] views_per_patch` (0: every tile).
+    #[serde(default)]
+    pub views_per_patch: u32,
+    /// Tiles the model ran on.
+    #[serde(default)]
+    pub tiles_run: u64,
+    /// Tiles not run, by why.
+    #[serde(default)]
+    pub tiles_skipped: Counts<TileSkip>,
+    /// What detect said the whole run would take, seconds, after its
+    /// third batch (the first is ONNX Runtime's warm-up); none when three
+    /// batches were all.
+    #[serde(default)]
+    pub estimate_s: Option<f64>,
+    /// The share of the flight this run was, when it was one.
+    #[serde(default)]
+    pub shard: Option<Shard>,
     pub detections: u64,
     pub failed_frames: Vec<FailedFrame>,
     pub seconds: f64,
@@ -120,6 +219,12 @@ pub struct DetectSummary {
     /// Share of `seconds` spent inside ONNX Runtime's `run`.
     pub inference_share: f64,
     pub warnings: Vec<String>,
+}
+
+impl TileChoice {
+    fn every() -> Self {
+        Self::Every
+    }
 }
 
 crate::table! {

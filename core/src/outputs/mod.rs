@@ -62,7 +62,7 @@ impl Stage {
             }
             Self::Detect => {
                 use detect::files::*;
-                named(&[DETECTIONS, COCO, SUMMARY])
+                named(&[DETECTIONS, COCO, SUMMARY]) || detect::Shard::of_file(name).is_some()
             }
             Self::Localise => {
                 use localise::files::*;

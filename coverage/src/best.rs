@@ -1,0 +1,347 @@
+//! The best views of each patch of the surface, for detect: every exposed
+//! face of the map's voxels against the frames near it, ranked by the View
+//! model's own measure, and the best `views_per_patch` of them kept with
+//! the face's box in their image ([`BestViews`]).
+//!
+//! A view of a face is a frame that has the face in its image, facing it
+//! within the View model's largest incidence, not hidden behind the map.
+//! Views that keep the View model's other rules a view of a crack is
+//! measured by (distance band, GSD, blur; not the viewing cone, which is
+//! coverage's, not measurement's) rank first, then the finest: the
+//! surface's millimetres per pixel, stretched by the incidence and smeared
+//! by the blur. Faces no frame sees in its image are left to nobody: their
+//! frames run nothing for them.
+
+use std::collections::BTreeMap;
+
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use nalgebra::{Point3, Vector3};
+use postflight_core::best_views::{BestViews, FrameViews};
+use postflight_core::detection::BoxXyxy;
+use postflight_core::map::{FaceSide, SlamMap};
+use postflight_core::{Flight, Intrinsics, ViewModel};
+use rayon::prelude::*;
+
+use crate::cover::Shot;
+use crate::error::CoverageError;
+use crate::face::Face;
+use crate::shots::{flight_shots, lenses};
+use crate::view::occluded;
+
+/// What the best views are chosen with.
+#[derive(Debug, Clone, Copy)]
+pub struct Choosing {
+    /// Views kept for each patch (at least 1).
+    pub views_per_patch: u32,
+    /// Frames further from a face than this are not its views, metres
+    /// (localise places nothing further).
+    pub reach_m: f64,
+    /// Exposure of frames that recorded none, seconds (for their blur).
+    pub exposure_s: Option<f64>,
+}
+
+/// The best views of every patch of `map` among the flight's frames.
+pub fn best_views(
+    flight: &Flight,
+    map: &SlamMap,
+    view: &ViewModel,
+    choosing: Choosing,
+) -> Result<BestViews, CoverageError> {
+    let lenses = lenses(flight)?;
+    let shots = flight_shots(flight, &lenses, map, choosing.exposure_s).shots;
+    let grid = map.voxels.grid;
+    let mut faces: Vec<Face> = map
+        .voxels
+        .voxels()
+        .flat_map(|v| {
+            map.voxels
+                .exposed_faces(v)
+                .map(move |side| Face::new(&grid, v, side))
+        })
+        .collect();
+    // The map's voxels come in hash order: the same faces in the same order
+    // every run, so ties go the same way.
+    faces.sort_by_key(|f| (f.voxel, f.side));
+    let coords: Vec<[f64; 3]> = shots
+        .iter()
+        .map(|s| s.camera.translation.vector.into())
+        .collect();
+    let tree = ImmutableKdTree::<f64, 3>::new_from_slice(&coords);
+    let r2 = choosing.reach_m * choosing.reach_m;
+    let judged: Vec<FaceViews> = faces
+        .par_iter()
+        .map(|face| {
+            let mut near: Vec<usize> = Vec::new();
+            if let Ok(tree) = &tree {
+                let c = face.centre;
+                tree.query(&[c.x, c.y, c.z])
+                    .within::<SquaredEuclidean<f64>>(r2)
+                    .unsorted()
+                    .visit(|hit| near.push(hit.item as usize));
+            }
+            near.sort_unstable();
+            face_views(face, &near, &shots, &lenses, map, view, choosing)
+        })
+        .collect();
+
+    let mut frames: BTreeMap<u32, FrameViews> = shots
+        .iter()
+        .map(|s| (s.id, FrameViews::default()))
+        .collect();
+    let mut patches_seen = 0;
+    for face in &judged {
+        patches_seen += u64::from(!face.seen_by.is_empty());
+        for &shot in &face.seen_by {
+            frames.entry(shots[shot].id).or_default().patches_seen += 1;
+        }
+        for (shot, bbox) in &face.best {
+            let scaled = in_frame_pixels(flight, shots[*shot].id, &lenses[shots[*shot].lens], bbox);
+            frames.entry(shots[*shot].id).or_default().best.push(scaled);
+        }
+    }
+    Ok(BestViews {
+        views_per_patch: choosing.views_per_patch,
+        patches: faces.len() as u64,
+        patches_seen,
+        frames,
+    })
+}
+
+/// One face's views: the shots that have it in their image facing them,
+/// and the best of those not hidden, with its box in their image.
+struct FaceViews {
+    seen_by: Vec<usize>,
+    best: Vec<(usize, BoxXyxy)>,
+}
+
+/// How good a view is: the View model's rules it breaks first, then its
+/// footprint (lower is better).
+#[derive(Debug, Clone, Copy, PartialEq, PartialOrd)]
+struct Rank {
+    rules_broken: u8,
+    footprint_mm: f64,
+}
+
+/// Rank `face`'s views among the `near` shots and keep the best unhidden.
+fn face_views(
+    face: &Face,
+    near: &[usize],
+    shots: &[Shot],
+    lenses: &[Intrinsics],
+    map: &SlamMap,
+    view: &ViewModel,
+    choosing: Choosing,
+) -> FaceViews {
+    let mut ranked: Vec<(Rank, usize)> = near
+        .iter()
+        .filter_map(|&i| rank(face, &shots[i], &lenses[shots[i].lens], view).map(|r| (r, i)))
+        .collect();
+    ranked.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap_or(std::cmp::Ordering::Equal));
+    let mut best = Vec::new();
+    for &(_, i) in &ranked {
+        if best.len() >= choosing.views_per_patch as usize {
+            break;
+        }
+        let shot = &shots[i];
+        if occluded(map, &Point3::from(shot.camera.translation.vector), face) {
+            continue;
+        }
+        if let Some(bbox) = image_box(face, shot, &lenses[shot.lens], map.voxels.grid.resolution) {
+            best.push((i, bbox));
+        }
+    }
+    FaceViews {
+        seen_by: ranked.into_iter().map(|(_, i)| i).collect(),
+        best,
+    }
+}
+
+/// How well `shot` sees `face`, or `None` when it does not: out of its
+/// image, or facing away beyond the largest incidence.
+fn rank(face: &Face, shot: &Shot, lens: &Intrinsics, view: &ViewModel) -> Option<Rank> {
+    let origin = Point3::from(shot.camera.translation.vector);
+    let to_face = face.centre - origin;
+    let distance_m = to_face.norm();
+    if distance_m < 1e-9 {
+        return None;
+    }
+    let pixel = lens.project(&(shot.camera.inverse() * face.centre).coords)?;
+    if !lens.contains(&pixel) {
+        return None;
+    }
+    let incidence_deg = face
+        .normal
+        .dot(&(-to_face / distance_m))
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees();
+    if view.incidence_miss(incidence_deg).is_some() {
+        return None;
+    }
+    let gsd_mm = ViewModel::gsd_mm(distance_m, lens);
+    let rules_broken = [
+        view.distance_miss(distance_m),
+        view.gsd_miss(gsd_mm),
+        view.blur_miss(shot.blur_px),
+    ]
+    .iter()
+    .filter(|m| m.is_some())
+    .count() as u8;
+    let smear = shot
+        .blur_px
+        .filter(|b| b.is_finite())
+        .unwrap_or(0.0)
+        .max(1.0);
+    Some(Rank {
+        rules_broken,
+        footprint_mm: gsd_mm / incidence_deg.to_radians().cos().max(1e-3) * smear,
+    })
+}
+
+/// The box in `shot`'s image (its lens's pixels) of the square `face`
+/// `size` metres across, clipped to the image; `None` when none of it is
+/// in front of the camera.
+fn image_box(face: &Face, shot: &Shot, lens: &Intrinsics, size: f64) -> Option<BoxXyxy> {
+    let (u, v) = tangents(face.side);
+    let half = size / 2.0;
+    let to_camera = shot.camera.inverse();
+    let pixels: Vec<_> = [(-1.0, -1.0), (-1.0, 1.0), (1.0, -1.0), (1.0, 1.0)]
+        .iter()
+        .filter_map(|(a, b)| {
+            let corner: Point3<f64> = face.centre + u * (a * half) + v * (b * half);
+            lens.project(&(to_camera * corner).coords)
+        })
+        .collect();
+    if pixels.is_empty() {
+        return None;
+    }
+    let (w, h) = (f64::from(lens.width), f64::from(lens.height));
+    let x0 = pixels.iter().map(|p| p.x).fold(f64::INFINITY, f64::min);
+    let x1 = pixels.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max);
+    let y0 = pixels.iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
+    let y1 = pixels.iter().map(|p| p.y).fold(f64::NEG_INFINITY, f64::max);
+    Some(BoxXyxy {
+        x0: x0.clamp(0.0, w) as f32,
+        y0: y0.clamp(0.0, h) as f32,
+        x1: x1.clamp(0.0, w) as f32,
+        y1: y1.clamp(0.0, h) as f32,
+    })
+}
+
+/// Two unit vectors along a face on `side`.
+fn tangents(side: FaceSide) -> (Vector3<f64>, Vector3<f64>) {
+    match side.axis() {
+        0 => (Vector3::y(), Vector3::z()),
+        1 => (Vector3::x(), Vector3::z()),
+        _ => (Vector3::x(), Vector3::y()),
+    }
+}
+
+/// `bbox` in the lens's pixels as pixels of frame `frame`, which may have
+/// been stored at another size than the lens was calibrated at.
+fn in_frame_pixels(flight: &Flight, frame: u32, lens: &Intrinsics, bbox: &BoxXyxy) -> BoxXyxy {
+    let size = flight
+        .frames
+        .iter()
+        .find(|f| f.index == frame)
+        .and_then(|f| Some((f.width?, f.height?)));
+    let Some((w, h)) = size.filter(|&(w, h)| w > 0 && h > 0) else {
+        return *bbox;
+    };
+    let (sx, sy) = (
+        w as f32 / lens.width.max(1) as f32,
+        h as f32 / lens.height.max(1) as f32,
+    );
+    BoxXyxy {
+        x0: bbox.x0 * sx,
+        y0: bbox.y0 * sy,
+        x1: bbox.x1 * sx,
+        y1: bbox.y1 * sy,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+    use postflight_core::map::{PointCloud, VoxelGrid, VoxelIndex};
+
+    /// A wall in the plane x = 0.45, faces of voxel column x = 0 facing +x.
+    fn wall() -> SlamMap {
+        let grid = VoxelGrid::new(0.5, Point3::origin());
+        let points: Vec<Point3<f64>> = (0..40)
+            .flat_map(|y| {
+                (0..20).map(move |z| Point3::new(0.45, f64::from(y) * 0.125, f64::from(z) * 0.125))
+            })
+            .collect();
+        SlamMap::on_grid(
+            PointCloud {
+                frame_id: "map".into(),
+                points,
+                grid: None,
+                mesh_spacing_m: None,
+            },
+            grid,
+        )
+        .unwrap()
+    }
+
+    /// Camera at (x, y, 1.25) looking along -x.
+    fn shot(id: u32, x: f64, y: f64) -> Shot {
+        let m = nalgebra::Matrix3::from_columns(&[Vector3::y(), -Vector3::z(), -Vector3::x()]);
+        Shot {
+            id,
+            camera: Isometry3::from_parts(
+                Translation3::new(x, y, 1.25),
+                UnitQuaternion::from_matrix(&m),
+            ),
+            lens: 0,
+            blur_px: Some(0.0),
+        }
+    }
+
+    #[test]
+    fn the_nearest_straightest_views_win_and_a_blurred_one_loses() {
+        let map = wall();
+        let lens = Intrinsics::pinhole(640, 480, 960.0);
+        let face = Face::new(&map.voxels.grid, VoxelIndex([0, 4, 2]), FaceSide::PosX);
+        let (y, view) = (face.centre.y, ViewModel::default());
+        let mut blurred = shot(3, 3.0, y);
+        blurred.blur_px = Some(5.0);
+        let shots = [
+            // Farther and off to the side.
+            shot(0, 4.0, y + 0.6),
+            // Straight in front, nearest.
+            shot(1, 3.0, y),
+            // As near, a little oblique.
+            shot(2, 3.0, y + 0.4),
+            // Straight in front, blurred past the limit.
+            blurred,
+            // The face is not in its image.
+            shot(4, 3.0, y + 30.0),
+        ];
+        let choosing = Choosing {
+            views_per_patch: 2,
+            reach_m: 10.0,
+            exposure_s: None,
+        };
+        let lenses = [lens];
+        let got = face_views(
+            &face,
+            &[0, 1, 2, 3, 4],
+            &shots,
+            &lenses,
+            &map,
+            &view,
+            choosing,
+        );
+        assert_eq!(got.best.iter().map(|b| b.0).collect::<Vec<_>>(), [1, 2]);
+        assert_eq!(got.seen_by.len(), 4);
+        // Straight ahead at 2.5 m: the face, 0.5 m across, is 192 px wide
+        // about the image centre.
+        let b = got.best[0].1;
+        assert!(((b.x1 - b.x0) - 192.0).abs() < 1.0, "{b:?}");
+        assert!(((b.x0 + b.x1) / 2.0 - 320.0).abs() < 1.0, "{b:?}");
+        assert!(rank(&face, &shots[4], &lenses[0], &view).is_none());
+    }
+}
