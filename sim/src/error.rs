@@ -22,6 +22,10 @@ pub enum SimError {
     Repeat { path: PathBuf, why: String },
     #[error("cannot cut {frames} frames into {sorties} sorties: give --sorties from 1 to {frames}")]
     Sorties { sorties: u32, frames: u32 },
+    #[error(
+        "--overlap plans {viewpoints} viewpoints, a photo each, but --frames is {frames}: pass --frames {viewpoints}"
+    )]
+    SurveyFrames { viewpoints: usize, frames: u32 },
     #[error("the structure is too small to plan a flight around")]
     StructureTooSmall,
     #[error("cannot write {}: {cause}", path.display())]

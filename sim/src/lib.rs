@@ -106,6 +106,12 @@ pub struct SimOptions {
     /// without it).
     #[arg(long = "no-distortion", action = clap::ArgAction::SetFalse)]
     pub distortion: bool,
+    /// Fly a photogrammetry survey instead of one viewpoint per square
+    /// metre: a photo at each viewpoint, neighbours overlapping by FORWARD
+    /// along each face and SIDE across it (0.8,0.7 as survey flights fly);
+    /// --frames must be at least the viewpoints it plans (it says how many).
+    #[arg(long, value_name = "FORWARD,SIDE", value_parser = planner::Overlap::parse, conflicts_with = "repeat_of")]
+    pub overlap: Option<planner::Overlap>,
     /// The lens's focal length, pixels (default: 1.5 times --width, a 37
     /// degree view across).
     #[arg(long = "focal", value_name = "PIXELS")]
@@ -400,7 +406,29 @@ impl World {
             planner::Mount::Fixed { pitch }
         };
         let resolution = postflight_core::map::DEFAULT_RESOLUTION;
-        let plan = planner::plan(&scene, resolution, mount, options.standoff_m);
+        let k = intrinsics(
+            options.width,
+            options.height,
+            options.focal_px,
+            options.distortion,
+        );
+        let spacing = match options.overlap {
+            None => planner::Spacing::PATCHES,
+            Some(overlap) => planner::Spacing::survey(
+                overlap,
+                (
+                    options.standoff_m * f64::from(options.width) / k.fx,
+                    options.standoff_m * f64::from(options.height) / k.fy,
+                ),
+            ),
+        };
+        let plan = planner::plan(&scene, resolution, mount, options.standoff_m, spacing);
+        if options.overlap.is_some() && (options.frames as usize) < plan.viewpoints.len() {
+            return Err(SimError::SurveyFrames {
+                viewpoints: plan.viewpoints.len(),
+                frames: options.frames,
+            });
+        }
         let (scene, cracks, changes) = match &options.repeat {
             None => {
                 // The patterns first: each needs more room on one face.
@@ -448,12 +476,6 @@ impl World {
             return Err(SimError::StructureTooSmall);
         }
         let flight = Flight::fly(&plan, &scene, &mut Rng::stream(seed, "flight"));
-        let k = intrinsics(
-            options.width,
-            options.height,
-            options.focal_px,
-            options.distortion,
-        );
         Ok(Self {
             rays: RayTable::new(&k),
             scene,

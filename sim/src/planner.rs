@@ -21,6 +21,55 @@ use crate::scene::{Scene, area};
 pub const STANDOFF: f64 = 3.5;
 /// Viewpoints merge the faces of patches this wide, metres.
 const PATCH: f64 = 1.0;
+
+/// How far apart viewpoints are on a face, metres: along it and across
+/// it (in height for the sides).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spacing {
+    pub along: f64,
+    pub across: f64,
+}
+
+/// A survey's overlap of neighbouring photos, as `--overlap` takes it:
+/// forward (along a face) and side (across it), shares.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Overlap {
+    pub forward: f64,
+    pub side: f64,
+}
+
+impl Overlap {
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match postflight_core::setting::comma_numbers(s).as_deref() {
+            Some(&[forward, side])
+                if (0.0..=0.95).contains(&forward) && (0.0..=0.95).contains(&side) =>
+            {
+                Ok(Self { forward, side })
+            }
+            _ => Err(format!(
+                "expected two shares FORWARD,SIDE from 0 to 0.95 (as 0.8,0.7), not '{s}'"
+            )),
+        }
+    }
+}
+
+impl Spacing {
+    /// One viewpoint per square metre of face, as inspection plans have it.
+    pub const PATCHES: Spacing = Spacing {
+        along: PATCH,
+        across: PATCH,
+    };
+
+    /// A photogrammetry survey's: neighbouring photos overlap by
+    /// `overlap`, for a frame `footprint` metres (across, in height) at the
+    /// standoff.
+    pub fn survey(overlap: Overlap, footprint: (f64, f64)) -> Spacing {
+        Spacing {
+            along: footprint.0 * (1.0 - overlap.forward),
+            across: footprint.1 * (1.0 - overlap.side),
+        }
+    }
+}
 /// Closest a viewpoint may be to anything, metres.
 const CLEARANCE: f64 = 1.0;
 
@@ -100,12 +149,19 @@ impl Mount {
 const SIDES: [[i32; 3]; 4] = [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]];
 const UP: [i32; 3] = [0, 0, 1];
 
-/// The plan: viewpoints `standoff` metres in front of the structure's faces.
-pub fn plan(scene: &Scene, resolution: f64, mount: Mount, standoff: f64) -> InspectionPlan {
+/// The plan: viewpoints `standoff` metres in front of the structure's
+/// faces, `spacing` apart.
+pub fn plan(
+    scene: &Scene,
+    resolution: f64,
+    mount: Mount,
+    standoff: f64,
+    spacing: Spacing,
+) -> InspectionPlan {
     let grid = VoxelGrid::new(resolution, Point3::origin());
     let targets = target_voxels(scene, &grid);
     let mut viewpoints = Vec::new();
-    for (n, faces) in patches(&grid, &targets, mount).values() {
+    for (n, faces) in patches(&grid, &targets, mount, spacing).values() {
         let centre =
             Point3::from(faces.iter().map(|p| p.coords).sum::<Vector3<f64>>() / faces.len() as f64);
         let viewpoint = if n.z > 0.5 {
@@ -168,13 +224,14 @@ fn patches(
     grid: &VoxelGrid,
     targets: &[VoxelIndex],
     mount: Mount,
+    spacing: Spacing,
 ) -> BTreeMap<(usize, i64, i64, i64), Patch> {
     let set: BTreeSet<VoxelIndex> = targets.iter().copied().collect();
     let directions: &[[i32; 3]] = match mount {
         Mount::Fixed { .. } => &SIDES,
         Mount::Gimbal { .. } => &[SIDES[0], SIDES[1], SIDES[2], SIDES[3], UP],
     };
-    let key = |x: f64| (x / PATCH).floor() as i64;
+    let key = |x: f64, step: f64| (x / step).floor() as i64;
     let mut patches: BTreeMap<(usize, i64, i64, i64), Patch> = BTreeMap::new();
     for v in targets {
         for (k, d) in directions.iter().enumerate() {
@@ -194,8 +251,8 @@ fn patches(
                 .entry((
                     k,
                     (depth / grid.resolution).round() as i64,
-                    key(along),
-                    key(across),
+                    key(along, spacing.along),
+                    key(across, spacing.across),
                 ))
                 .or_insert((n, Vec::new()))
                 .1
@@ -237,8 +294,8 @@ mod tests {
     fn a_gimbal_adds_viewpoints_looking_straight_down_at_the_deck() {
         let scene = Scene::girder_bridge();
         let pitch = 12f64.to_radians();
-        let fixed = plan(&scene, 0.5, Mount::Fixed { pitch }, STANDOFF);
-        let gimbal = plan(&scene, 0.5, Mount::Gimbal { pitch }, STANDOFF);
+        let fixed = plan(&scene, 0.5, Mount::Fixed { pitch }, STANDOFF, Spacing::PATCHES);
+        let gimbal = plan(&scene, 0.5, Mount::Gimbal { pitch }, STANDOFF, Spacing::PATCHES);
         let key = |v: &Viewpoint| v.position.map(|c| (c * 1e6).round() as i64);
         let sides: BTreeSet<_> = fixed.viewpoints.iter().map(key).collect();
         let (down, level): (Vec<_>, Vec<_>) = gimbal
@@ -268,7 +325,7 @@ mod tests {
     fn a_mission_flown_again_sees_the_structure_from_where_it_did() {
         let scene = Scene::girder_bridge();
         let mount = Mount::Fixed { pitch: 0.2 };
-        let first = plan(&scene, 0.5, mount, STANDOFF);
+        let first = plan(&scene, 0.5, mount, STANDOFF, Spacing::PATCHES);
         let iso = Isometry3::new(
             Vector3::new(1.2, -0.5, 0.0),
             Vector3::z() * 35f64.to_radians(),
