@@ -543,7 +543,9 @@ fn undecodable_frames_are_listed_and_skipped() {
     let run = dir.path().join("run");
     ingest_ok(&mcap, &run, &[]);
     let baked = models().join("crack-baked.onnx");
-    let out = detect(&run, &["--model", baked.to_str().unwrap()]);
+    // Every frame run: a frame no patch needs is not decoded at all.
+    let every = ["--model", baked.to_str().unwrap(), "--views-per-patch", "0"];
+    let out = detect(&run, &every);
     assert!(out.status.success(), "{}", stderr(&out));
     let frames = expected["frames"].as_array().unwrap();
     let cut: Vec<u64> = (0..frames.len() as u64)
@@ -576,7 +578,7 @@ fn undecodable_frames_are_listed_and_skipped() {
     );
     let run = dir.path().join("all-cut-run");
     ingest_ok(&mcap, &run, &[]);
-    let out = detect(&run, &["--model", baked.to_str().unwrap()]);
+    let out = detect(&run, &every);
     assert_eq!(out.status.code(), Some(1));
     assert!(
         stderr(&out).contains("none of the") && stderr(&out).contains("cut off"),
@@ -584,4 +586,68 @@ fn undecodable_frames_are_listed_and_skipped() {
         stderr(&out)
     );
     assert!(!run.join("detect.json").exists());
+}
+
+/// A flight's detect as four shares, merged, is what one process finds;
+/// a share missing is named; and localise merges a complete split itself.
+#[test]
+fn four_shares_merged_are_one_process_and_localise_merges_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, run) = ingested(dir.path(), &["--frames", "40", "--cracks", "80", "--seed", "4"]);
+    let model = models().join("crack-baked.onnx");
+    let model = model.to_str().unwrap();
+    let out = detect(&run, &["--model", model]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let sorted = |run: &Path| {
+        let df = read_parquet(&run.join("detections.parquet"));
+        let by: Vec<String> = ["frame", "x0", "y0", "x1", "y1", "score"].map(String::from).into();
+        df.sort(by, Default::default()).unwrap()
+    };
+    let whole = sorted(&run);
+    let whole_summary = read_json(&run.join("detect.json"));
+    assert!(whole.height() >= 8, "{}", whole.height());
+
+    let mut shares = Vec::new();
+    for k in 1..=4 {
+        if k == 4 {
+            // Three of four done: the merge names the one missing.
+            let out = detect(&run, &["--merge"]);
+            assert_fails_in_one_line(&out, "share 4/4 not done");
+        }
+        let out = detect(&run, &["--model", model, "--shard", &format!("{k}/4")]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        assert!(stdout(&out).contains(&format!("share {k}/4")), "{}", stdout(&out));
+        // A share remakes the flight's detections: the whole's are gone.
+        assert!(!run.join("detect.json").exists());
+        shares.push(read_json(&run.join(format!("detect-shard-{k}-of-4.json"))));
+    }
+    // The shares hold the tiles to run evenly, give or take a frame's.
+    let tiles: Vec<u64> = shares.iter().map(|s| s["tiles_run"].as_u64().unwrap()).collect();
+    assert_eq!(tiles.iter().sum::<u64>(), whole_summary["tiles_run"].as_u64().unwrap());
+    let per_frame = tiles.iter().sum::<u64>() / whole_summary["frames_run"].as_u64().unwrap();
+    assert!(
+        tiles.iter().all(|t| t.abs_diff(tiles[0]) <= 2 * per_frame),
+        "{tiles:?}"
+    );
+
+    let out = detect(&run, &["--merge"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(sorted(&run), whole, "four shares merged differ from one process");
+    let merged = read_json(&run.join("detect.json"));
+    for key in ["frames", "frames_run", "tiles_run", "tiles_skipped", "detections", "failed_frames"] {
+        assert_eq!(merged[key], whole_summary[key], "{key}");
+    }
+    let coco = read_json(&run.join("detections.coco.json"));
+    assert_eq!(
+        coco["annotations"].as_array().unwrap().len(),
+        whole.height()
+    );
+
+    // Unmerged, the next stage merges a complete split before it starts.
+    std::fs::remove_file(run.join("detect.json")).unwrap();
+    std::fs::remove_file(run.join("detections.parquet")).unwrap();
+    let out = postflight(&["localise", "--run", run.to_str().unwrap()], dir.path());
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stdout(&out).contains("merged"), "{}", stdout(&out));
+    assert_eq!(sorted(&run), whole);
 }

@@ -32,6 +32,12 @@ pub struct FrameViews {
 }
 
 impl BestViews {
+    /// The image boxes of the patches frame `frame` is among the best
+    /// views of.
+    pub fn best_boxes(&self, frame: u32) -> &[BoxXyxy] {
+        self.frames.get(&frame).map_or(&[], |v| v.best.as_slice())
+    }
+
     /// Why a part `window` (pixels) of frame `frame` need not be run, or
     /// `None` when it shows a patch it is among the best views of.
     pub fn skip(&self, frame: u32, window: &BoxXyxy) -> Option<TileSkip> {

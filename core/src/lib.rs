@@ -11,6 +11,8 @@
 //!   and a frame's motion blur, which the View model judges ([`motion`]).
 //! - Condition states from crack width, by the material's limits, and the
 //!   `[condition]` settings that choose them ([`condition`]).
+//! - Where detection matters: the parts of each frame that show a patch it
+//!   is among the best views of ([`best_views`]).
 //! - Detections: boxes with their scores ([`detection`]), and the crack
 //!   pixels of those a segmentation model gives ([`mask`]); a crack's
 //!   centre line on the structure ([`trace`]).

@@ -2,6 +2,10 @@
 //! actually inspected under the View model (viewing cone, distance band,
 //! incidence, occlusion, image quality) against the plan.
 //!
+//! The same rules choose where detect runs the model: each exposed face of
+//! the map's voxels and its best views, by the View model's measure
+//! ([`best`]).
+//!
 //! Coverage is counted on the exposed faces of the target voxels ([`face`]).
 //! [`cover`] puts the [`shots`] (flight frames with a pose, or a plan's
 //! viewpoints) in a KD-tree of camera centres; each face, in parallel,

@@ -1,7 +1,8 @@
 //! Which tiles of each frame run: with the best views of the map's patches
 //! ([`BestViews`], chosen by the `coverage` crate from the poses and the
-//! map), the tiles that show a patch a frame is among the best views of,
-//! and the whole frame when any of its tiles runs; else every tile. A
+//! map), for each patch a frame is among the best views of, the tile that
+//! shows most of it, and the whole frame when any of its tiles runs; else
+//! every tile. A
 //! share of the flight ([`Shard`]) is a run of frames holding its share of
 //! the tiles to run, not of the photos.
 
@@ -137,7 +138,8 @@ pub(crate) fn frame_windows(frame: &Frame, feed: Feed, options: &DetectOptions) 
 }
 
 /// The windows of frame `frame` (`all`: the whole frame first, then its
-/// tiles) that show a patch it is among the best views of; the rest
+/// tiles) to run: for each patch the frame is among the best views of,
+/// the tile showing most of it, and the whole frame beside them; the rest
 /// counted in `skipped` by why.
 fn among_best(
     frame: u32,
@@ -145,43 +147,54 @@ fn among_best(
     best: &BestViews,
     skipped: &mut Counts<TileSkip>,
 ) -> Vec<Window> {
-    let area = |w: &Window| BoxXyxy {
-        x0: w.x as f32,
-        y0: w.y as f32,
-        x1: (w.x + w.width) as f32,
-        y1: (w.y + w.height) as f32,
+    let whole = BoxXyxy {
+        x0: 0.0,
+        y0: 0.0,
+        // Size unknown (0): the whole frame, wherever its boxes are.
+        x1: if all[0].width == 0 { f32::MAX } else { all[0].width as f32 },
+        y1: if all[0].height == 0 { f32::MAX } else { all[0].height as f32 },
     };
-    let whole_area = if all.len() == 1 && all[0].width == 0 {
-        // Size unknown: the whole frame, wherever its boxes are.
-        BoxXyxy {
-            x0: 0.0,
-            y0: 0.0,
-            x1: f32::MAX,
-            y1: f32::MAX,
+    if let Some(why) = best.skip(frame, &whole) {
+        skipped.add_many(why, all.len() as u64);
+        return Vec::new();
+    }
+    if all.len() == 1 {
+        return all;
+    }
+    let tiles = &all[1..];
+    let mut chosen = vec![false; tiles.len()];
+    for patch in best.best_boxes(frame) {
+        let shown = |t: &Window| {
+            let w = (patch.x1.min((t.x + t.width) as f32) - patch.x0.max(t.x as f32)).max(0.0);
+            let h = (patch.y1.min((t.y + t.height) as f32) - patch.y0.max(t.y as f32)).max(0.0);
+            w * h
+        };
+        // The first of the tiles showing most of it (tiles overlap: the
+        // patch is often whole in one).
+        let most = tiles
+            .iter()
+            .enumerate()
+            .fold((None, 0.0f32), |(at, area), (i, t)| {
+                let a = shown(t);
+                if a > area { (Some(i), a) } else { (at, area) }
+            });
+        if let (Some(i), _) = most {
+            chosen[i] = true;
         }
-    } else {
-        area(&all[0])
-    };
-    let Some(why) = best.skip(frame, &whole_area) else {
-        if all.len() == 1 {
-            return all;
-        }
-        // The whole frame runs beside any of its tiles that do.
-        let mut run = vec![all[0]];
-        for tile in &all[1..] {
-            match best.skip(frame, &area(tile)) {
-                None => run.push(*tile),
-                Some(why) => skipped.add(why),
-            }
-        }
-        if run.len() == 1 {
+    }
+    let mut run = vec![all[0]];
+    for (tile, chosen) in tiles.iter().zip(chosen) {
+        if chosen {
+            run.push(*tile);
+        } else {
             skipped.add(TileSkip::NotAmongBest);
-            run.clear();
         }
-        return run;
-    };
-    skipped.add_many(why, all.len() as u64);
-    Vec::new()
+    }
+    if run.len() == 1 {
+        skipped.add(TileSkip::NotAmongBest);
+        run.clear();
+    }
+    run
 }
 
 /// Which of `count` shares (from 0) each frame falls in, given the tiles

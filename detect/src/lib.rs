@@ -2,7 +2,10 @@
 //! exported to ONNX, prompt "crack") through ONNX Runtime over every frame of
 //! an ingested flight, and owns the detections table it writes into the run
 //! directory. It reads frames through `ingest` and knows nothing of maps or
-//! coverage.
+//! coverage: which tiles of each frame are worth running (the best views
+//! of each patch of the map) is chosen by the `coverage` crate and given to
+//! it as a `BestViews` ([`choose`]). One flight can run as shares on many
+//! machines and be merged ([`merge`]).
 
 pub mod boxes;
 pub mod choose;

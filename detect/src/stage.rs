@@ -129,13 +129,13 @@ impl DetectOptions {
 pub enum Told<'a> {
     /// Tiles run so far, of those it will run.
     Progress { done: u64, total: u64 },
-    /// After its third batch: how long the whole run will take.
+    /// After its first batches: how long the whole run will take.
     Estimate(&'a Estimate),
 }
 
 /// How long a detect will take, from the model's speed on its first
-/// batches (the faster of the two after ONNX Runtime's warm-up) and the
-/// frames' decoding so far.
+/// batches (after ONNX Runtime's warm-up, a second's or 64 tiles' worth)
+/// and the frames' decoding so far.
 #[derive(Debug, Clone)]
 pub struct Estimate {
     /// Tiles it will run, and the flight's (or the share's) tiles in all.
@@ -218,8 +218,11 @@ pub fn detect(
             "every tile ran: the flight has no map to choose the best views of each patch by; give --map to run fewer".into(),
         );
     }
+    // Frames failed and none ran, though some were to (a share may hold
+    // only frames the choice skips, or none that decode).
+    let meant_to_run = !chosen.work.is_empty() || (chosen.frames == 0 && tiles.shard.is_none());
     if ran == 0
-        && !chosen.work.is_empty()
+        && meant_to_run
         && let Some(first) = failed.first()
     {
         return Err(DetectError::NoFrames {
@@ -369,10 +372,11 @@ fn infer_all(
         let mut pending: Vec<Prepared> = Vec::new();
         let mut pending_views = 0;
         let batch = detector.batch;
-        // ONNX Runtime's first runs set it up: its pace is the faster of
-        // the two batches after the first.
+        // ONNX Runtime's first run sets it up; the model's pace is that of
+        // the batches after it, once they add up to a second or 64 tiles.
         let mut batches = 0u32;
-        let mut pace_s = f64::INFINITY;
+        let mut paced = (0u64, 0.0f64);
+        let mut told_estimate = false;
         let mut run = |pending: &mut Vec<Prepared>,
                        views: u64,
                        done: &mut u64,
@@ -382,11 +386,18 @@ fn infer_all(
             *done += views;
             batches += 1;
             if batches > 1 {
-                pace_s = pace_s.min(started.elapsed().as_secs_f64() / views.max(1) as f64);
+                paced.0 += views;
+                paced.1 += started.elapsed().as_secs_f64();
             }
-            if batches == 3 && *done < total {
+            if !told_estimate && *done < total && (paced.1 >= 1.0 || paced.0 >= 64) {
+                told_estimate = true;
                 let so_far = prepared.lock().map(|p| *p).unwrap_or((0, 0.0));
-                let estimate = pace.estimate(pace_s, *done, so_far, work.len() as u64);
+                let estimate = pace.estimate(
+                    paced.1 / paced.0 as f64,
+                    *done,
+                    so_far,
+                    work.len() as u64,
+                );
                 told(Told::Estimate(&estimate));
             }
             Ok::<u64, DetectError>(n)

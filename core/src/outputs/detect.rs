@@ -205,8 +205,8 @@ pub struct DetectSummary {
     #[serde(default)]
     pub tiles_skipped: Counts<TileSkip>,
     /// What detect said the whole run would take, seconds, after its
-    /// third batch (the first is ONNX Runtime's warm-up); none when three
-    /// batches were all.
+    /// first batches (ONNX Runtime's warm-up, then a second's or 64 tiles'
+    /// worth); none when those were all.
     #[serde(default)]
     pub estimate_s: Option<f64>,
     /// The share of the flight this run was, when it was one.

@@ -1,0 +1,97 @@
+"""Every tile against the best views of each patch, scored against the
+simulator's truth (scripts/bench-best-views runs it).
+
+    score_best_views.py FLIGHT ALL_TILES_RUN BEST_VIEWS_RUN [FLIGHT ALL BEST ...]
+
+For each flight and each run: `postflight detect`'s wall time (its
+`detect.wall`), the estimate it printed and detect.json's own seconds, the
+tiles run and skipped; recall (the cracks the flight shows, truth's or
+either run's finds, with a candidate on them, scripts/score_measurement.py's
+matching) and precision (candidates on a truth crack); the widths of the cracks both runs found
+(median `max_width_mm`, and the median error against truth's widest).
+Prints one JSON object.
+"""
+
+import json
+import statistics
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from score_measurement import score_flight  # noqa: E402
+
+
+def detect_figures(run):
+    summary = json.loads((run / "detect.json").read_text())
+    start, end = (float(x) for x in (run / "detect.wall").read_text().split())
+    return {
+        "wall_s": end - start,
+        "detect_s": summary["seconds"],
+        "estimate_s": summary.get("estimate_s"),
+        "tiles_run": summary["tiles_run"],
+        "tiles_skipped": summary["tiles_skipped"],
+        "frames_run": summary["frames_run"],
+        "frames": summary["frames"],
+    }
+
+
+def crack_figures(flight, run):
+    rows, candidates, on_cracks = score_flight(flight, run)
+    return rows, {
+        "candidates": candidates,
+        "candidates_on_cracks": on_cracks,
+        "cracks_found": len(rows),
+        "precision": on_cracks / max(candidates, 1),
+    }
+
+
+def main(args):
+    out = {}
+    for flight, every, best in zip(args[::3], args[1::3], args[2::3]):
+        flight = Path(flight)
+        truth = json.loads((flight / "truth.json").read_text())
+        runs = {}
+        rows = {}
+        for name, run in (("every_tile", Path(every)), ("best_views", Path(best))):
+            rows[name], cracks = crack_figures(flight, run)
+            runs[name] = {**detect_figures(run), **cracks}
+        # The cracks the flight shows: those truth lists in some frame, and
+        # any either run found (truth lists a view where the crack shows
+        # through the lens's spread; the detector may find fainter ones).
+        seen = {v["id"] for f in truth["frames"] for v in f["cracks"]}
+        seen |= {r["crack"] for name in rows for r in rows[name]}
+        for name in runs:
+            runs[name]["cracks_shown"] = len(seen)
+            runs[name]["recall"] = runs[name]["cracks_found"] / max(len(seen), 1)
+        both = {r["crack"] for r in rows["every_tile"]} & {r["crack"] for r in rows["best_views"]}
+        for name in runs:
+            measured = [r for r in rows[name] if r["crack"] in both and r["max_width_mm"]]
+            runs[name]["width_median_mm"] = statistics.median(r["max_width_mm"] for r in measured) if measured else None
+            runs[name]["width_error_median"] = (
+                statistics.median(abs(r["max_width_mm"] / r["true_width_mm"] - 1) for r in measured)
+                if measured
+                else None
+            )
+        e, b = runs["every_tile"], runs["best_views"]
+        out[flight.name] = {
+            **runs,
+            "time_ratio": b["wall_s"] / e["wall_s"],
+            "recall_points": 100 * (b["recall"] - e["recall"]),
+            "precision_points": 100 * (b["precision"] - e["precision"]),
+            "width_median_change": (b["width_median_mm"] / e["width_median_mm"] - 1)
+            if e["width_median_mm"] and b["width_median_mm"]
+            else None,
+            "estimate_over_detect": {
+                name: runs[name]["estimate_s"] / runs[name]["detect_s"]
+                for name in runs
+                if runs[name]["estimate_s"]
+            },
+        }
+    json.dump(out, sys.stdout, indent=1)
+    print()
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 4 or (len(sys.argv) - 1) % 3:
+        sys.exit("usage: score_best_views.py FLIGHT ALL_TILES_RUN BEST_VIEWS_RUN [...]")
+    main(sys.argv[1:])
