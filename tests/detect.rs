@@ -593,14 +593,19 @@ fn undecodable_frames_are_listed_and_skipped() {
 #[test]
 fn four_shares_merged_are_one_process_and_localise_merges_them() {
     let dir = tempfile::tempdir().unwrap();
-    let (_, run) = ingested(dir.path(), &["--frames", "40", "--cracks", "80", "--seed", "4"]);
+    let (_, run) = ingested(
+        dir.path(),
+        &["--frames", "40", "--cracks", "80", "--seed", "4"],
+    );
     let model = models().join("crack-baked.onnx");
     let model = model.to_str().unwrap();
     let out = detect(&run, &["--model", model]);
     assert!(out.status.success(), "{}", stderr(&out));
     let sorted = |run: &Path| {
         let df = read_parquet(&run.join("detections.parquet"));
-        let by: Vec<String> = ["frame", "x0", "y0", "x1", "y1", "score"].map(String::from).into();
+        let by: Vec<String> = ["frame", "x0", "y0", "x1", "y1", "score"]
+            .map(String::from)
+            .into();
         df.sort(by, Default::default()).unwrap()
     };
     let whole = sorted(&run);
@@ -616,14 +621,24 @@ fn four_shares_merged_are_one_process_and_localise_merges_them() {
         }
         let out = detect(&run, &["--model", model, "--shard", &format!("{k}/4")]);
         assert!(out.status.success(), "{}", stderr(&out));
-        assert!(stdout(&out).contains(&format!("share {k}/4")), "{}", stdout(&out));
+        assert!(
+            stdout(&out).contains(&format!("share {k}/4")),
+            "{}",
+            stdout(&out)
+        );
         // A share remakes the flight's detections: the whole's are gone.
         assert!(!run.join("detect.json").exists());
         shares.push(read_json(&run.join(format!("detect-shard-{k}-of-4.json"))));
     }
     // The shares hold the tiles to run evenly, give or take a frame's.
-    let tiles: Vec<u64> = shares.iter().map(|s| s["tiles_run"].as_u64().unwrap()).collect();
-    assert_eq!(tiles.iter().sum::<u64>(), whole_summary["tiles_run"].as_u64().unwrap());
+    let tiles: Vec<u64> = shares
+        .iter()
+        .map(|s| s["tiles_run"].as_u64().unwrap())
+        .collect();
+    assert_eq!(
+        tiles.iter().sum::<u64>(),
+        whole_summary["tiles_run"].as_u64().unwrap()
+    );
     let per_frame = tiles.iter().sum::<u64>() / whole_summary["frames_run"].as_u64().unwrap();
     assert!(
         tiles.iter().all(|t| t.abs_diff(tiles[0]) <= 2 * per_frame),
@@ -632,9 +647,20 @@ fn four_shares_merged_are_one_process_and_localise_merges_them() {
 
     let out = detect(&run, &["--merge"]);
     assert!(out.status.success(), "{}", stderr(&out));
-    assert_eq!(sorted(&run), whole, "four shares merged differ from one process");
+    assert_eq!(
+        sorted(&run),
+        whole,
+        "four shares merged differ from one process"
+    );
     let merged = read_json(&run.join("detect.json"));
-    for key in ["frames", "frames_run", "tiles_run", "tiles_skipped", "detections", "failed_frames"] {
+    for key in [
+        "frames",
+        "frames_run",
+        "tiles_run",
+        "tiles_skipped",
+        "detections",
+        "failed_frames",
+    ] {
         assert_eq!(merged[key], whole_summary[key], "{key}");
     }
     let coco = read_json(&run.join("detections.coco.json"));

@@ -3,14 +3,15 @@
 //! model's own measure, and the best `views_per_patch` of them kept with
 //! the face's box in their image ([`BestViews`]).
 //!
-//! A view of a face is a frame that has the face in its image, facing it
-//! within the View model's largest incidence, not hidden behind the map.
-//! Views that keep the View model's other rules a view of a crack is
-//! measured by (distance band, GSD, blur; not the viewing cone, which is
-//! coverage's, not measurement's) rank first, then the finest: the
-//! surface's millimetres per pixel, stretched by the incidence and smeared
-//! by the blur. Faces no frame sees in its image are left to nobody: their
-//! frames run nothing for them.
+//! A view of a face is a frame that has the face in its image, turned
+//! towards it, not hidden behind the map. Views that keep the View model's
+//! rules a view of a crack is measured by (largest incidence, distance
+//! band, GSD, blur; not the viewing cone, which is coverage's, not
+//! measurement's) rank first, then the finest: the surface's millimetres
+//! per pixel, stretched by the incidence and smeared by the blur. A face
+//! seen only against the rules (a deck's top, grazing from a fixed camera)
+//! keeps its best views all the same: cracks are found there too. Faces
+//! no frame sees in its image are left to nobody.
 
 use std::collections::BTreeMap;
 
@@ -157,7 +158,7 @@ fn face_views(
 }
 
 /// How well `shot` sees `face`, or `None` when it does not: out of its
-/// image, or facing away beyond the largest incidence.
+/// image, or facing away.
 fn rank(face: &Face, shot: &Shot, lens: &Intrinsics, view: &ViewModel) -> Option<Rank> {
     let origin = Point3::from(shot.camera.translation.vector);
     let to_face = face.centre - origin;
@@ -175,11 +176,15 @@ fn rank(face: &Face, shot: &Shot, lens: &Intrinsics, view: &ViewModel) -> Option
         .clamp(-1.0, 1.0)
         .acos()
         .to_degrees();
-    if view.incidence_miss(incidence_deg).is_some() {
+    // Facing away: the face cannot be in the picture. Grazing views rank
+    // after the rest, but a face seen only so (a deck's top from a fixed
+    // camera) keeps them: cracks show there too.
+    if incidence_deg >= 89.0 {
         return None;
     }
     let gsd_mm = ViewModel::gsd_mm(distance_m, lens);
     let rules_broken = [
+        view.incidence_miss(incidence_deg),
         view.distance_miss(distance_m),
         view.gsd_miss(gsd_mm),
         view.blur_miss(shot.blur_px),

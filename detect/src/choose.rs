@@ -1,8 +1,8 @@
 //! Which tiles of each frame run: with the best views of the map's patches
 //! ([`BestViews`], chosen by the `coverage` crate from the poses and the
 //! map), for each patch a frame is among the best views of, the tile that
-//! shows most of it, and the whole frame when any of its tiles runs; else
-//! every tile. A
+//! shows most of it (a frame not tiled runs whole); else every tile and
+//! the whole frame beside them. A
 //! share of the flight ([`Shard`]) is a run of frames holding its share of
 //! the tiles to run, not of the photos.
 
@@ -138,9 +138,9 @@ pub(crate) fn frame_windows(frame: &Frame, feed: Feed, options: &DetectOptions) 
 }
 
 /// The windows of frame `frame` (`all`: the whole frame first, then its
-/// tiles) to run: for each patch the frame is among the best views of,
-/// the tile showing most of it, and the whole frame beside them; the rest
-/// counted in `skipped` by why.
+/// tiles) to run: an untiled frame whole, a tiled one's tile showing most
+/// of each patch the frame is among the best views of; the rest counted
+/// in `skipped` by why.
 fn among_best(
     frame: u32,
     all: Vec<Window>,
@@ -151,8 +151,16 @@ fn among_best(
         x0: 0.0,
         y0: 0.0,
         // Size unknown (0): the whole frame, wherever its boxes are.
-        x1: if all[0].width == 0 { f32::MAX } else { all[0].width as f32 },
-        y1: if all[0].height == 0 { f32::MAX } else { all[0].height as f32 },
+        x1: if all[0].width == 0 {
+            f32::MAX
+        } else {
+            all[0].width as f32
+        },
+        y1: if all[0].height == 0 {
+            f32::MAX
+        } else {
+            all[0].height as f32
+        },
     };
     if let Some(why) = best.skip(frame, &whole) {
         skipped.add_many(why, all.len() as u64);
@@ -182,17 +190,16 @@ fn among_best(
             chosen[i] = true;
         }
     }
-    let mut run = vec![all[0]];
+    // Not the whole frame: shrunk, it would find the cracks of the tiles
+    // skipped coarsely, and their widths and places with them.
+    skipped.add(TileSkip::NotAmongBest);
+    let mut run = Vec::new();
     for (tile, chosen) in tiles.iter().zip(chosen) {
         if chosen {
             run.push(*tile);
         } else {
             skipped.add(TileSkip::NotAmongBest);
         }
-    }
-    if run.len() == 1 {
-        skipped.add(TileSkip::NotAmongBest);
-        run.clear();
     }
     run
 }
@@ -223,6 +230,37 @@ pub(crate) fn shares(tiles: &[u64], count: u32) -> Vec<u32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use postflight_core::best_views::FrameViews;
+
+    #[test]
+    fn each_best_patch_runs_the_tile_showing_most_of_it() {
+        // 1000 x 600 in 400 px tiles overlapping by a fifth: x at 0, 320,
+        // 600; y at 0, 200.
+        let all = windows(1000, 600, Some(400), 0.2);
+        let mut best = BestViews::default();
+        let b = |x0: f32, y0: f32, x1: f32, y1: f32| BoxXyxy { x0, y0, x1, y1 };
+        best.frames.insert(
+            7,
+            FrameViews {
+                patches_seen: 9,
+                // Whole in the first tile and in the second: the first;
+                // mostly in the last column's lower tile.
+                best: vec![b(330.0, 50.0, 390.0, 100.0), b(700.0, 450.0, 980.0, 590.0)],
+            },
+        );
+        let mut skipped = Counts::default();
+        let run = among_best(7, all.clone(), &best, &mut skipped);
+        let at: Vec<(i32, u32, u32)> = run.iter().map(|w| (w.tile, w.x, w.y)).collect();
+        assert_eq!(at, [(0, 0, 0), (5, 600, 200)]);
+        assert_eq!(skipped.get(TileSkip::NotAmongBest), all.len() as u64 - 2);
+        // A frame with a pose seeing nothing, and one without a pose.
+        best.frames.insert(8, FrameViews::default());
+        let mut skipped = Counts::default();
+        assert!(among_best(8, all.clone(), &best, &mut skipped).is_empty());
+        assert!(among_best(9, all.clone(), &best, &mut skipped).is_empty());
+        assert_eq!(skipped.get(TileSkip::NoSurface), all.len() as u64);
+        assert_eq!(skipped.get(TileSkip::NoPose), all.len() as u64);
+    }
 
     #[test]
     fn shares_hold_even_tiles_in_runs_of_frames() {

@@ -392,12 +392,8 @@ fn infer_all(
             if !told_estimate && *done < total && (paced.1 >= 1.0 || paced.0 >= 64) {
                 told_estimate = true;
                 let so_far = prepared.lock().map(|p| *p).unwrap_or((0, 0.0));
-                let estimate = pace.estimate(
-                    paced.1 / paced.0 as f64,
-                    *done,
-                    so_far,
-                    work.len() as u64,
-                );
+                let estimate =
+                    pace.estimate(paced.1 / paced.0 as f64, *done, so_far, work.len() as u64);
                 told(Told::Estimate(&estimate));
             }
             Ok::<u64, DetectError>(n)
