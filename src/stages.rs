@@ -97,7 +97,10 @@ impl DetectRun {
             reach_m: view.max_distance_m * REACH_OVER_FAR_EDGE,
             exposure_s: None,
         };
-        match coverage::best_views(&flight, &map, &view, choosing) {
+        // The structure's voxels where the plan names them: the ground and
+        // the trees need no detector.
+        let target = plan.as_ref().and_then(FlownPlan::target_voxels);
+        match coverage::best_views(&flight, &map, target, &view, choosing) {
             Ok(best) => Ok(Ok(best)),
             Err(coverage::CoverageError::NoCamera | coverage::CoverageError::NoIntrinsics) => {
                 Ok(Err(TileChoice::NoMap))
@@ -185,6 +188,10 @@ pub fn merge(run: &Path, quiet: bool) -> anyhow::Result<()> {
 /// Before localise: a flight detected in shares and not yet merged is
 /// merged, when every share is there.
 fn merge_shares(run: &Path, quiet: bool) -> anyhow::Result<()> {
+    // A run directory that is not there is localise's to name.
+    if !run.is_dir() {
+        return Ok(());
+    }
     let dir = RunDir::create(run)?;
     if dir.file(DetectFiles::SUMMARY).is_file() {
         return Ok(());

@@ -471,7 +471,9 @@ fn rust_matches_python_onnxruntime_on_the_same_frames() {
         (&open, &open_args),
     ];
     for (model, args) in cases {
-        let rust_args = [&["--model", model.to_str().unwrap()], args].concat();
+        // Every tile, as the Python pipeline runs them.
+        let every: &[&str] = &["--model", model.to_str().unwrap(), "--views-per-patch", "0"];
+        let rust_args = [every, args].concat();
         let out = detect(&run, &rust_args);
         assert!(out.status.success(), "{}", stderr(&out));
         let mut rust = detections_with_scores(&run);

@@ -585,14 +585,15 @@ fn a_run_killed_mid_detect_resumes_without_redoing_ingest() {
     assert!(text.contains("target voxels"), "coverage reran:\n{text}");
     assert_eq!(modified(&run.join("detect.json")), detect_time);
 
-    // So does a changed View model: localise judges each view by it.
+    // A changed View model reruns detect (its tiles are chosen by it) and
+    // localise (which judges each view by it).
     std::fs::write(
         &config,
         "[replan]\nsolver_time_limit_s = 2.0\n[localise]\nmax_range_m = 25.0\n[view]\nmax_distance_m = 3.0\n",
     )
     .unwrap();
     let text = stdout(&run_with(&args(&config, &plan)));
-    assert!(text.contains("detect: up to date, skipped"), "{text}");
+    assert!(text.contains("detections in"), "detect reran:\n{text}");
     assert!(
         text.contains("defect candidates from"),
         "localise reran:\n{text}"

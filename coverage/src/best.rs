@@ -1,5 +1,6 @@
 //! The best views of each patch of the surface, for detect: every exposed
-//! face of the map's voxels against the frames near it, ranked by the View
+//! face of the structure's voxels (a plan's targets; else the map's)
+//! against the frames near it, ranked by the View
 //! model's own measure, and the best `views_per_patch` of them kept with
 //! the face's box in their image ([`BestViews`]).
 //!
@@ -13,19 +14,19 @@
 //! keeps its best views all the same: cracks are found there too. Faces
 //! no frame sees in its image are left to nobody.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashSet};
 
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::{Point3, Vector3};
 use postflight_core::best_views::{BestViews, FrameViews};
 use postflight_core::detection::BoxXyxy;
-use postflight_core::map::{FaceSide, SlamMap};
+use postflight_core::map::{FaceSide, SlamMap, VoxelIndex};
 use postflight_core::{Flight, Intrinsics, ViewModel};
 use rayon::prelude::*;
 
 use crate::cover::Shot;
 use crate::error::CoverageError;
-use crate::face::Face;
+use crate::face::{Face, exposed_faces};
 use crate::shots::{flight_shots, lenses};
 use crate::view::occluded;
 
@@ -41,25 +42,34 @@ pub struct Choosing {
     pub exposure_s: Option<f64>,
 }
 
-/// The best views of every patch of `map` among the flight's frames.
+/// The best views among the flight's frames of every patch of the
+/// `target` voxels (the structure, on the map's grid) or, without them,
+/// of `map`.
 pub fn best_views(
     flight: &Flight,
     map: &SlamMap,
+    target: Option<&[VoxelIndex]>,
     view: &ViewModel,
     choosing: Choosing,
 ) -> Result<BestViews, CoverageError> {
     let lenses = lenses(flight)?;
     let shots = flight_shots(flight, &lenses, map, choosing.exposure_s).shots;
     let grid = map.voxels.grid;
-    let mut faces: Vec<Face> = map
-        .voxels
-        .voxels()
-        .flat_map(|v| {
-            map.voxels
-                .exposed_faces(v)
-                .map(move |side| Face::new(&grid, v, side))
-        })
-        .collect();
+    let mut faces: Vec<Face> = match target {
+        Some(voxels) => {
+            let solid: HashSet<VoxelIndex> = voxels.iter().copied().collect();
+            exposed_faces(&grid, voxels, &solid)
+        }
+        None => map
+            .voxels
+            .voxels()
+            .flat_map(|v| {
+                map.voxels
+                    .exposed_faces(v)
+                    .map(move |side| Face::new(&grid, v, side))
+            })
+            .collect(),
+    };
     // The map's voxels come in hash order: the same faces in the same order
     // every run, so ties go the same way.
     faces.sort_by_key(|f| (f.voxel, f.side));
