@@ -698,7 +698,8 @@ fn a_run_killed_mid_detect_resumes_without_redoing_ingest() {
     assert!(err.contains("line 1 column 29"), "{err}");
     assert_eq!(std::fs::read(&log).unwrap(), before);
 
-    // A stage that fails says which, and earlier results stay.
+    // A stage that fails says which, and earlier results stay. (Detect
+    // reads the map first: it chooses the tiles to run by it.)
     let bad_map = dir.path().join("bad-map.ply");
     std::fs::write(&bad_map, "ply\nformat ascii 1.0\nelement vertex 3\n").unwrap();
     let mut with_bad_map = args(&config, &plan);
@@ -707,13 +708,13 @@ fn a_run_killed_mid_detect_resumes_without_redoing_ingest() {
     assert_eq!(failed.status.code(), Some(1));
     let err = stderr(&failed);
     assert!(
-        err.contains("stage localise failed") && err.contains("resume from localise"),
+        err.contains("stage detect failed") && err.contains("resume from detect"),
         "{err}"
     );
-    assert!(run.join("ingest.json").is_file() && run.join("detect.json").is_file());
+    assert!(run.join("ingest.json").is_file() && !run.join("detect.json").exists());
     let logged = read_json(&log);
-    assert_eq!(logged["running"], "localise");
-    assert_eq!(logged["stages"].as_array().unwrap().len(), 2);
+    assert_eq!(logged["running"], "detect");
+    assert_eq!(logged["stages"].as_array().unwrap().len(), 1);
 
     // A config with a misspelt key is refused before anything runs.
     let typo = dir.path().join("typo.toml");
