@@ -9,7 +9,7 @@ tiles run and skipped; recall (the cracks the flight shows, truth's or
 either run's finds, with a candidate on them, scripts/score_measurement.py's
 matching) and precision (candidates on a truth crack); the widths of the cracks both runs found
 (median `max_width_mm`, and the median error against truth's widest).
-Prints one JSON object.
+Prints one JSON object, by the best views run's directory name.
 """
 
 import json
@@ -73,7 +73,7 @@ def main(args):
                 else None
             )
         e, b = runs["every_tile"], runs["best_views"]
-        out[flight.name] = {
+        out[Path(best).name] = {
             **runs,
             "time_ratio": b["wall_s"] / e["wall_s"],
             "recall_points": 100 * (b["recall"] - e["recall"]),
