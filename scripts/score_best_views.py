@@ -7,7 +7,8 @@ For each flight and each run: `postflight detect`'s wall time (its
 `detect.wall`), the estimate it printed and detect.json's own seconds, the
 tiles run and skipped; recall (the cracks the flight shows, truth's or
 either run's finds, with a candidate on them, scripts/score_measurement.py's
-matching) and precision (candidates on a truth crack); the widths of the cracks both runs found
+matching; and against the cracks truth lists in at least one frame, and
+at least two) and precision (candidates on a truth crack); the widths of the cracks both runs found
 (median `max_width_mm`, and the median error against truth's widest).
 Prints one JSON object, by the best views run's directory name.
 """
@@ -58,11 +59,21 @@ def main(args):
         # The cracks the flight shows: those truth lists in some frame, and
         # any either run found (truth lists a view where the crack shows
         # through the lens's spread; the detector may find fainter ones).
-        seen = {v["id"] for f in truth["frames"] for v in f["cracks"]}
-        seen |= {r["crack"] for name in rows for r in rows[name]}
+        views = {}
+        for f in truth["frames"]:
+            for v in f["cracks"]:
+                views[v["id"]] = views.get(v["id"], 0) + 1
+        seen = set(views) | {r["crack"] for name in rows for r in rows[name]}
         for name in runs:
             runs[name]["cracks_shown"] = len(seen)
             runs[name]["recall"] = runs[name]["cracks_found"] / max(len(seen), 1)
+            # Against the cracks truth lists in at least 1 and 2 frames.
+            found = {r["crack"] for r in rows[name]}
+            runs[name]["recall_by_truth_views"] = {
+                f"{m}+": [len(found & {c for c, n in views.items() if n >= m}),
+                          sum(1 for n in views.values() if n >= m)]
+                for m in (1, 2)
+            }
         both = {r["crack"] for r in rows["every_tile"]} & {r["crack"] for r in rows["best_views"]}
         for name in runs:
             measured = [r for r in rows[name] if r["crack"] in both and r["max_width_mm"]]
