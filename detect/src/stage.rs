@@ -188,7 +188,7 @@ pub fn detect(
         device,
         estimate_s: None,
     };
-    let (found, ran) = infer_all(
+    let (found, ran, tiles_run) = infer_all(
         &mut detector,
         &recording,
         &chosen.work,
@@ -255,7 +255,7 @@ pub fn detect(
         frames_run: ran,
         tile_choice: tiles.choice,
         views_per_patch: options.settings.views_per_patch,
-        tiles_run: pace.tiles_run,
+        tiles_run,
         tiles_skipped: chosen.skipped,
         estimate_s: pace.estimate_s,
         shard: tiles.shard,
@@ -328,7 +328,7 @@ impl Pace {
 
 /// Run the detector over the chosen windows of `work`'s frames, decoding
 /// ahead on worker threads; frames that cannot be prepared join `failed`.
-/// Returns what was found and how many frames ran.
+/// Returns what was found, how many frames ran and how many tiles.
 fn infer_all(
     detector: &mut Detector,
     recording: &Recordings,
@@ -337,7 +337,7 @@ fn infer_all(
     failed: &mut Vec<FailedFrame>,
     pace: &mut Pace,
     told: &mut dyn FnMut(Told<'_>),
-) -> Result<(Vec<FrameDetection>, u64), DetectError> {
+) -> Result<(Vec<FrameDetection>, u64, u64), DetectError> {
     let feed = detector.feed;
     let mut found: Vec<FrameDetection> = Vec::new();
     let mut ran = 0u64;
@@ -426,7 +426,7 @@ fn infer_all(
     });
     match run_error {
         Some(e) => Err(e),
-        None => Ok((found, ran)),
+        None => Ok((found, ran, done)),
     }
 }
 
