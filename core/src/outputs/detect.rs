@@ -336,6 +336,34 @@ mod tests {
     use crate::table::Row;
 
     #[test]
+    fn a_share_is_named_as_given_and_its_files_are_known_as_its_own() {
+        let s: Shard = "2/4".parse().unwrap();
+        assert_eq!(s, Shard { index: 2, count: 4 });
+        assert_eq!(s.to_string(), "2/4");
+        assert_eq!(
+            (s.detections(), s.summary()),
+            (
+                "detect-shard-2-of-4.parquet".into(),
+                "detect-shard-2-of-4.json".into()
+            )
+        );
+        for name in [s.detections(), s.summary()] {
+            assert_eq!(Shard::of_file(&name), Some(s));
+        }
+        for bad in ["0/4", "5/4", "2", "2/0", "a/b", "-1/4", "2/4/6"] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
+        }
+        for other in [
+            "detect-shard-5-of-4.json",
+            "detect-shard-02-of-4.json",
+            "detect-shard-2-of-4.csv",
+            "detections.parquet",
+        ] {
+            assert_eq!(Shard::of_file(other), None, "{other}");
+        }
+    }
+
+    #[test]
     fn table_round_trips() {
         let found: Vec<FrameDetection> = (0..3)
             .map(|i| FrameDetection {
