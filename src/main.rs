@@ -54,7 +54,9 @@ enum Command {
     /// Simulate an inspection flight with ground truth (flight.mcap, map.ply,
     /// plan.json, truth.json).
     Simulate(sim::SimOptions),
-    /// Run the crack detector (ONNX) over every frame of an ingested run.
+    /// Run the crack detector (ONNX) over an ingested run's frames: on the
+    /// tiles that show each patch of the structure in its best views (or
+    /// every tile), or on a share of the flight.
     Detect(DetectArgs),
     /// Place each detection on the SLAM map and fuse views into defect candidates.
     Localise(LocaliseArgs),
@@ -380,7 +382,8 @@ struct DetectArgs {
     /// (`[detect] views_per_patch`).
     #[command(flatten)]
     map: MapArg,
-    /// Inspection plan: its voxel grid and View model judge the views.
+    /// Inspection plan: its target voxels are the patches whose best views
+    /// run, on its voxel grid, judged by its View model.
     #[arg(long, value_name = "plan.json")]
     plan: Option<PathBuf>,
     /// Each view of a patch is judged by the View model, as localise
