@@ -172,13 +172,12 @@ pub fn detect(run: &DetectRun, quiet: bool) -> anyhow::Result<()> {
 
 /// Merge the shares of a flight's detect (`postflight detect --merge`).
 pub fn merge(run: &Path, quiet: bool) -> anyhow::Result<()> {
-    let summary = detect::merge::merge(run)?;
+    let (summary, shares) = detect::merge::merge(run)?;
     if !quiet {
         println!(
-            "merged {} detections in {} frames from {} shares into {}",
+            "merged {} detections in {} frames from {shares} shares into {}",
             summary.detections,
             summary.frames_run,
-            detect::merge::shares_written(&RunDir::create(run)?)?.map_or(0, |s| s.len()),
             run.display()
         );
     }

@@ -99,6 +99,11 @@ pub fn best_views(
         .iter()
         .map(|s| (s.id, FrameViews::default()))
         .collect();
+    let sizes: BTreeMap<u32, (u32, u32)> = flight
+        .frames
+        .iter()
+        .filter_map(|f| Some((f.index, (f.width?, f.height?))))
+        .collect();
     let mut patches_seen = 0;
     for face in &judged {
         patches_seen += u64::from(!face.seen_by.is_empty());
@@ -106,7 +111,8 @@ pub fn best_views(
             frames.entry(shots[shot].id).or_default().patches_seen += 1;
         }
         for (shot, bbox) in &face.best {
-            let scaled = in_frame_pixels(flight, shots[*shot].id, &lenses[shots[*shot].lens], bbox);
+            let frame = shots[*shot].id;
+            let scaled = in_frame_pixels(sizes.get(&frame), &lenses[shots[*shot].lens], bbox);
             frames.entry(shots[*shot].id).or_default().best.push(scaled);
         }
     }
@@ -252,15 +258,11 @@ fn tangents(side: FaceSide) -> (Vector3<f64>, Vector3<f64>) {
     }
 }
 
-/// `bbox` in the lens's pixels as pixels of frame `frame`, which may have
-/// been stored at another size than the lens was calibrated at.
-fn in_frame_pixels(flight: &Flight, frame: u32, lens: &Intrinsics, bbox: &BoxXyxy) -> BoxXyxy {
-    let size = flight
-        .frames
-        .iter()
-        .find(|f| f.index == frame)
-        .and_then(|f| Some((f.width?, f.height?)));
-    let Some((w, h)) = size.filter(|&(w, h)| w > 0 && h > 0) else {
+/// `bbox` in the lens's pixels as pixels of a frame `size` (width,
+/// height) large, which may have been stored at another size than the
+/// lens was calibrated at.
+fn in_frame_pixels(size: Option<&(u32, u32)>, lens: &Intrinsics, bbox: &BoxXyxy) -> BoxXyxy {
+    let Some(&(w, h)) = size.filter(|&&(w, h)| w > 0 && h > 0) else {
         return *bbox;
     };
     let (sx, sy) = (
@@ -279,27 +281,9 @@ fn in_frame_pixels(flight: &Flight, frame: u32, lens: &Intrinsics, bbox: &BoxXyx
 mod tests {
     use super::*;
     use nalgebra::{Isometry3, Translation3, UnitQuaternion};
-    use postflight_core::map::{PointCloud, VoxelGrid, VoxelIndex};
+    use postflight_core::map::VoxelIndex;
 
-    /// A wall in the plane x = 0.45, faces of voxel column x = 0 facing +x.
-    fn wall() -> SlamMap {
-        let grid = VoxelGrid::new(0.5, Point3::origin());
-        let points: Vec<Point3<f64>> = (0..40)
-            .flat_map(|y| {
-                (0..20).map(move |z| Point3::new(0.45, f64::from(y) * 0.125, f64::from(z) * 0.125))
-            })
-            .collect();
-        SlamMap::on_grid(
-            PointCloud {
-                frame_id: "map".into(),
-                points,
-                grid: None,
-                mesh_spacing_m: None,
-            },
-            grid,
-        )
-        .unwrap()
-    }
+    use crate::cover::tests::scene;
 
     /// Camera at (x, y, 1.25) looking along -x.
     fn shot(id: u32, x: f64, y: f64) -> Shot {
@@ -317,8 +301,8 @@ mod tests {
 
     #[test]
     fn the_nearest_straightest_views_win_and_a_blurred_one_loses() {
-        let map = wall();
-        let lens = Intrinsics::pinhole(640, 480, 960.0);
+        // A wall in the plane x = 0.45, seen through a 640 x 480 lens.
+        let (_, map, lenses) = scene();
         let face = Face::new(&map.voxels.grid, VoxelIndex([0, 4, 2]), FaceSide::PosX);
         let (y, view) = (face.centre.y, ViewModel::default());
         let mut blurred = shot(3, 3.0, y);
@@ -340,7 +324,6 @@ mod tests {
             reach_m: 10.0,
             exposure_s: None,
         };
-        let lenses = [lens];
         let got = face_views(
             &face,
             &[0, 1, 2, 3, 4],

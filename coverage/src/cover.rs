@@ -142,14 +142,14 @@ pub fn cover_naive(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use nalgebra::{Translation3, UnitQuaternion, Vector3};
     use postflight_core::map::{FaceSide, PointCloud, VoxelGrid, VoxelIndex};
 
     /// A wall in the plane x = 0 (voxel column x = 0 facing +x), cameras
     /// 3.5 m out looking back at it, and the faces of the wall.
-    fn scene() -> (Vec<Face>, SlamMap, Vec<Intrinsics>) {
+    pub(crate) fn scene() -> (Vec<Face>, SlamMap, Vec<Intrinsics>) {
         let grid = VoxelGrid::new(0.5, Point3::origin());
         let points: Vec<Point3<f64>> = (0..40)
             .flat_map(|y| {

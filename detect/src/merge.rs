@@ -35,8 +35,9 @@ pub fn every_share(shards: &[Shard]) -> bool {
     })
 }
 
-/// Merge the run's shares into the flight's detections.
-pub fn merge(run: &std::path::Path) -> Result<DetectSummary, DetectError> {
+/// Merge the run's shares into the flight's detections; the merged
+/// summary, and how many shares there were.
+pub fn merge(run: &std::path::Path) -> Result<(DetectSummary, usize), DetectError> {
     let flight = Flight::load(run)?;
     let dir = &flight.run;
     let shards = shares_written(dir)?.unwrap_or_default();
@@ -103,14 +104,8 @@ pub fn merge(run: &std::path::Path) -> Result<DetectSummary, DetectError> {
     // Frame order, each frame's detections in the order found.
     found.sort_by_key(|d| d.frame);
     let summary = merged(summaries, found.len() as u64);
-    write_outputs(
-        dir,
-        &flight.frames,
-        &found,
-        &summary.classes.clone(),
-        &summary,
-    )?;
-    Ok(summary)
+    write_outputs(dir, &flight.frames, &found, &summary.classes, &summary)?;
+    Ok((summary, shards.len()))
 }
 
 /// The shares' summaries as one: counts summed, the work's seconds summed.
