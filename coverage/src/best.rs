@@ -149,43 +149,48 @@ fn face_views(
     view: &ViewModel,
     choosing: Choosing,
 ) -> FaceViews {
-    let mut ranked: Vec<(Rank, usize)> = near
+    let size = map.voxels.grid.resolution;
+    let mut ranked: Vec<(Rank, BoxXyxy, usize)> = near
         .iter()
-        .filter_map(|&i| rank(face, &shots[i], &lenses[shots[i].lens], view).map(|r| (r, i)))
+        .filter_map(|&i| {
+            rank(face, &shots[i], &lenses[shots[i].lens], view, size).map(|(r, b)| (r, b, i))
+        })
         .collect();
     ranked.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap_or(std::cmp::Ordering::Equal));
     let mut best = Vec::new();
-    for &(_, i) in &ranked {
+    for &(_, bbox, i) in &ranked {
         if best.len() >= choosing.views_per_patch as usize {
             break;
         }
         let shot = &shots[i];
-        if occluded(map, &Point3::from(shot.camera.translation.vector), face) {
-            continue;
-        }
-        if let Some(bbox) = image_box(face, shot, &lenses[shot.lens], map.voxels.grid.resolution) {
+        if !occluded(map, &Point3::from(shot.camera.translation.vector), face) {
             best.push((i, bbox));
         }
     }
     FaceViews {
-        seen_by: ranked.into_iter().map(|(_, i)| i).collect(),
+        seen_by: ranked.into_iter().map(|(_, _, i)| i).collect(),
         best,
     }
 }
 
-/// How well `shot` sees `face`, or `None` when it does not: out of its
-/// image, or facing away.
-fn rank(face: &Face, shot: &Shot, lens: &Intrinsics, view: &ViewModel) -> Option<Rank> {
+/// How well `shot` sees `face` (`size` metres across), and the face's box
+/// in its image; `None` when it does not: none of the face in its image
+/// (a close-up photo may show only the middle of a face, its centre
+/// outside), or facing away.
+fn rank(
+    face: &Face,
+    shot: &Shot,
+    lens: &Intrinsics,
+    view: &ViewModel,
+    size: f64,
+) -> Option<(Rank, BoxXyxy)> {
     let origin = Point3::from(shot.camera.translation.vector);
     let to_face = face.centre - origin;
     let distance_m = to_face.norm();
     if distance_m < 1e-9 {
         return None;
     }
-    let pixel = lens.project(&(shot.camera.inverse() * face.centre).coords)?;
-    if !lens.contains(&pixel) {
-        return None;
-    }
+    let bbox = image_box(face, shot, lens, size).filter(|b| b.x1 > b.x0 && b.y1 > b.y0)?;
     let incidence_deg = face
         .normal
         .dot(&(-to_face / distance_m))
@@ -213,10 +218,11 @@ fn rank(face: &Face, shot: &Shot, lens: &Intrinsics, view: &ViewModel) -> Option
         .filter(|b| b.is_finite())
         .unwrap_or(0.0)
         .max(1.0);
-    Some(Rank {
+    let rank = Rank {
         rules_broken,
         footprint_mm: gsd_mm / incidence_deg.to_radians().cos().max(1e-3) * smear,
-    })
+    };
+    Some((rank, bbox))
 }
 
 /// The box in `shot`'s image (its lens's pixels) of the square `face`
@@ -340,6 +346,12 @@ mod tests {
         let b = got.best[0].1;
         assert!(((b.x1 - b.x0) - 192.0).abs() < 1.0, "{b:?}");
         assert!(((b.x0 + b.x1) / 2.0 - 320.0).abs() < 1.0, "{b:?}");
-        assert!(rank(&face, &shots[4], &lenses[0], &view).is_none());
+        assert!(rank(&face, &shots[4], &lenses[0], &view, 0.5).is_none());
+        // A close-up shows the middle of a face, its centre and corners
+        // out of the picture: still a view, the whole image its box.
+        let mut close = shot(5, 0.6, y);
+        close.camera.translation.vector.z = face.centre.z + 0.2;
+        let (_, b) = rank(&face, &close, &lenses[0], &view, 0.5).unwrap();
+        assert_eq!((b.x0, b.y0, b.x1, b.y1), (0.0, 0.0, 640.0, 480.0));
     }
 }
