@@ -1,8 +1,9 @@
 //! `postflight batch`: the flights of a manifest, each one `postflight run`
-//! into `FLEET_DIR/<structure>/<date or name>/`, on this machine (a worker
-//! process per flight) or as a Slurm job array; `status` reads how each
-//! went, `k8s` writes the Kubernetes Indexed Job; and `postflight fleet`,
-//! the fleet's tables and index page.
+//! into `FLEET_DIR/<structure>/<date or name>/` (a flight with `shards`
+//! as that many tasks, each a share of its detect), on this machine (a
+//! worker process per task) or as a Slurm job array; `status` reads how
+//! each went, `k8s` writes the Kubernetes Indexed Job; and `postflight
+//! fleet`, the fleet's tables and index page.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -11,9 +12,11 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use clap::{Args, Subcommand, ValueEnum};
+use fleet::manifest::Task;
 use fleet::status::{FlightState, FlightStatus, status};
 use fleet::{FlightEntry, Manifest, TaskRecord};
-use postflight_core::{PlanFile, Stage, YawUnit};
+use postflight_core::outputs::detect::Shard;
+use postflight_core::{PlanFile, YawUnit};
 
 use crate::config::RunConfig;
 use crate::pipeline::{self, RunInputs};
@@ -21,18 +24,21 @@ use crate::pipeline::{self, RunInputs};
 #[derive(Subcommand)]
 pub enum BatchCommand {
     /// Run every flight of a manifest (TOML or CSV: structure, flight,
-    /// date or name, and optionally map, plan, yaw, targets, model, config),
-    /// each into FLEET_DIR/<structure>/<date or name>/. Finished flights are
-    /// skipped, interrupted ones resume, a failing one is recorded while
-    /// the others go on.
+    /// date or name, and optionally map, plan, yaw, targets, model, config,
+    /// shards), each into FLEET_DIR/<structure>/<date or name>/. A flight
+    /// with `shards = N` runs as N tasks, each a share of its detect (the
+    /// stages before it once, the later ones once, by the task finishing
+    /// the last share). Finished work is skipped, interrupted work resumes,
+    /// a failing task is recorded while the others go on.
     Run(BatchRunArgs),
-    /// Run one flight of a manifest: what each worker, Slurm array task or
-    /// Kubernetes pod runs.
+    /// Run one task of a manifest (a flight, or a share of a flight's
+    /// detect): what each worker, Slurm array task or Kubernetes pod runs.
     Task(TaskArgs),
-    /// Where every flight of a manifest stands (from the run directories,
-    /// and Slurm's queue for submitted flights).
+    /// Where every flight of a manifest stands, and how many shares of a
+    /// flight in shares are done (from the run directories, and Slurm's
+    /// queue for submitted tasks).
     Status(FleetArgs),
-    /// Write a Kubernetes Indexed Job running a manifest's flights, one pod
+    /// Write a Kubernetes Indexed Job running a manifest's tasks, one pod
     /// each (apply it with `kubectl apply -f`).
     K8s(K8sArgs),
 }
@@ -54,10 +60,10 @@ pub struct BatchRunArgs {
     /// job array (`sbatch --array`).
     #[arg(long, value_enum, default_value_t = Engine::Local)]
     engine: Engine,
-    /// Flights at once [default: 1 on this machine; Slurm's choice].
+    /// Tasks at once [default: 1 on this machine; Slurm's choice].
     #[arg(long, value_name = "N")]
     jobs: Option<usize>,
-    /// Only the flights whose last attempt failed or was lost.
+    /// Only the tasks whose last attempt failed or was lost.
     #[arg(long)]
     only_failed: bool,
     /// With Slurm: wait until every task has ended, then show how they went.
@@ -81,8 +87,9 @@ enum Engine {
 pub struct TaskArgs {
     #[command(flatten)]
     fleet: FleetArgs,
-    /// The flight's index in the manifest, from 0 (in a Kubernetes Indexed
-    /// Job, its completion index).
+    /// The task's index, from 0: the flight's row in the manifest when no
+    /// flight is in shards (in a Kubernetes Indexed Job, its completion
+    /// index).
     #[arg(long, env = "JOB_COMPLETION_INDEX")]
     index: usize,
     /// ONNX Runtime library for the detect stage.
@@ -135,35 +142,40 @@ pub fn task_config(command: &BatchCommand) -> Option<PathBuf> {
         return None;
     };
     let manifest = Manifest::load(&args.fleet.manifest).ok()?;
-    manifest.flight(args.index).ok()?.config.clone()
+    let task = manifest.task(args.index).ok()?;
+    manifest.flights[task.flight].config.clone()
 }
 
-/// `batch task`: one flight, recorded in its run directory as it starts and ends.
+/// `batch task`: one flight or share, recorded in its run directory as it
+/// starts and ends.
 fn task(args: &TaskArgs, quiet: bool) -> anyhow::Result<()> {
     let manifest = Manifest::load(&args.fleet.manifest)?;
-    let entry = manifest.flight(args.index)?;
+    let task = manifest.task(args.index)?;
+    let entry = &manifest.flights[task.flight];
     let dir = entry.run_dir(&args.fleet.out);
-    let record = TaskRecord::start(entry);
+    let record = TaskRecord::start(entry, task.share);
     record.write(&dir)?;
     let started = Instant::now();
-    let outcome = run_flight(entry, &dir, args.onnxruntime.clone(), quiet);
-    let stages = outcome
+    let outcome = run_flight(entry, &dir, task.share, args.onnxruntime.clone(), quiet);
+    let steps = outcome
         .as_ref()
-        .map(|ran| ran.iter().map(|s| s.name().to_string()).collect())
+        .map(Clone::clone)
         .map_err(|e| format!("{e:#}"));
     record
-        .end(started.elapsed().as_secs_f64(), stages)
+        .end(started.elapsed().as_secs_f64(), steps)
         .write(&dir)?;
     outcome.map(|_| ())
 }
 
-/// `postflight run` on a manifest's flight: the stages that ran.
+/// `postflight run` on a manifest's flight, or its `share` of the flight:
+/// what it did (stages, and shares of detect).
 fn run_flight(
     entry: &FlightEntry,
     out: &Path,
+    share: Option<Shard>,
     onnxruntime: Option<PathBuf>,
     quiet: bool,
-) -> anyhow::Result<Vec<Stage>> {
+) -> anyhow::Result<Vec<String>> {
     let targets = match &entry.targets {
         None => coverage::Targets::Plan,
         Some(p) if p.extension().is_some_and(|e| e == "json") => {
@@ -189,7 +201,14 @@ fn run_flight(
         force: None,
         previous: None,
     };
-    pipeline::run(&inputs, quiet)
+    let steps = match share {
+        None => pipeline::run(&inputs, quiet)?
+            .into_iter()
+            .map(pipeline::Step::Stage)
+            .collect(),
+        Some(shard) => pipeline::run_share(&inputs, shard, quiet)?,
+    };
+    Ok(steps.iter().map(ToString::to_string).collect())
 }
 
 /// `batch run`: the flights to run, then the engine.
@@ -197,7 +216,7 @@ fn batch_run(args: &BatchRunArgs, quiet: bool) -> anyhow::Result<()> {
     let manifest = Manifest::load(&args.fleet.manifest)?;
     let fleet_dir = std::path::absolute(&args.fleet.out)?;
     let before = status(&manifest, &fleet_dir)?;
-    let chosen = chosen_flights(&before, args.only_failed, quiet);
+    let chosen = chosen_tasks(&before, args.only_failed, quiet);
     if chosen.is_empty() {
         if !quiet {
             println!("batch: nothing to run");
@@ -210,31 +229,44 @@ fn batch_run(args: &BatchRunArgs, quiet: bool) -> anyhow::Result<()> {
     }
 }
 
-/// The flights to run: all, or only those that failed; never one a task
-/// is at work on.
-fn chosen_flights(flights: &[FlightStatus], only_failed: bool, quiet: bool) -> Vec<usize> {
+/// The tasks to run: all, or only those that failed; never one at work.
+fn chosen_tasks(flights: &[FlightStatus], only_failed: bool, quiet: bool) -> Vec<Task> {
     flights
         .iter()
-        .filter(|f| {
+        .flat_map(|f| f.tasks.iter().map(move |t| (&f.entry, t)))
+        .filter(|(entry, t)| {
             let busy = matches!(
-                f.state,
+                t.state,
                 FlightState::Running { .. } | FlightState::Queued { .. }
             );
             if busy && !quiet {
-                println!("{}: {}, left alone", f.entry.label(), f.state.word());
+                println!(
+                    "{}: {}, left alone",
+                    task_label(entry, &t.task),
+                    t.state.word()
+                );
             }
-            !busy && (!only_failed || f.state.needs_rerun())
+            !busy && (!only_failed || t.state.needs_rerun())
         })
-        .map(|f| f.entry.index)
+        .map(|(_, t)| t.task)
         .collect()
 }
 
-/// Run the chosen flights here, `--jobs` worker processes at a time, each
-/// `postflight batch task` with its output in the run directory's `batch.log`.
+/// How messages name a task: its flight's label, and its share.
+fn task_label(entry: &FlightEntry, task: &Task) -> String {
+    match task.share {
+        None => entry.label(),
+        Some(s) => format!("{} share {s}", entry.label()),
+    }
+}
+
+/// Run the chosen tasks here, `--jobs` worker processes at a time, each
+/// `postflight batch task` with its output in the run directory's
+/// `batch.log` (`batch-share-K-of-N.log` for a share).
 fn run_here(
     manifest: &Manifest,
     fleet_dir: &Path,
-    chosen: &[usize],
+    chosen: &[Task],
     args: &BatchRunArgs,
     quiet: bool,
 ) -> anyhow::Result<()> {
@@ -250,14 +282,14 @@ fn run_here(
     std::thread::scope(|s| {
         for _ in 0..jobs {
             s.spawn(|| {
-                while let Some(&index) = chosen.get(next.fetch_add(1, Ordering::SeqCst)) {
-                    let entry = &manifest.flights[index];
-                    let outcome = run_worker(&program, manifest, fleet_dir, entry, args, threads);
+                while let Some(task) = chosen.get(next.fetch_add(1, Ordering::SeqCst)) {
+                    let entry = &manifest.flights[task.flight];
+                    let outcome = run_worker(&program, manifest, fleet_dir, task, args, threads);
                     let n = done.fetch_add(1, Ordering::SeqCst) + 1;
                     let line = format!(
                         "[{n}/{}] {}: {}",
                         chosen.len(),
-                        entry.label(),
+                        task_label(entry, task),
                         outcome_text(&outcome)
                     );
                     if outcome.is_err() {
@@ -270,52 +302,55 @@ fn run_here(
             });
         }
     });
-    let failed = failed.into_inner().expect("no worker panics");
+    let mut failed = failed.into_inner().expect("no worker panics");
     let seconds = started.elapsed().as_secs_f64();
     if !quiet {
         println!(
             "batch: {} of {} finished in {seconds:.0} s ({jobs} at a time); tables of the fleet: `postflight fleet {}`",
             chosen.len() - failed.len(),
-            flights(chosen.len()),
+            tasks(chosen),
             fleet_dir.display()
         );
     }
+    failed.sort();
+    failed.dedup();
     failures(&failed, &args.fleet)
 }
 
-/// One worker: `postflight batch task` for `entry`, then its record.
+/// One worker: `postflight batch task` for `task`, then its record.
 fn run_worker(
     program: &Path,
     manifest: &Manifest,
     fleet_dir: &Path,
-    entry: &FlightEntry,
+    task: &Task,
     args: &BatchRunArgs,
     threads: usize,
 ) -> Result<TaskRecord, String> {
-    let dir = entry.run_dir(fleet_dir);
-    let log_path = dir.join("batch.log");
+    let dir = manifest.flights[task.flight].run_dir(fleet_dir);
+    let log_path = dir.join(fleet::task::record_file(task.share).replace(".json", ".log"));
     let log = std::fs::create_dir_all(&dir)
         .and_then(|()| std::fs::File::create(&log_path))
         .map_err(|e| format!("cannot write {}: {e}", log_path.display()))?;
-    let mut task = Command::new(program);
-    task.arg("--quiet")
+    let mut worker = Command::new(program);
+    worker
+        .arg("--quiet")
         .args(["batch", "task"])
         .arg(&manifest.path)
         .arg("--out")
         .arg(fleet_dir)
         .arg("--index")
-        .arg(entry.index.to_string())
+        .arg(task.index.to_string())
         .env("RAYON_NUM_THREADS", threads.to_string())
         .stdin(Stdio::null())
         .stdout(log.try_clone().map_err(|e| e.to_string())?)
         .stderr(log);
     if let Some(ort) = &args.onnxruntime {
-        task.arg("--onnxruntime").arg(ort);
+        worker.arg("--onnxruntime").arg(ort);
     }
-    let exit = task
+    let exit = worker
         .status()
         .map_err(|e| format!("cannot start {}: {e}", program.display()))?;
-    let record = TaskRecord::read(&dir).map_err(|e| e.to_string())?;
+    let record = TaskRecord::read(&dir, task.share).map_err(|e| e.to_string())?;
     match record {
         Some(r) if r.state == fleet::TaskState::Finished && exit.success() => Ok(r),
         Some(r) if r.state == fleet::TaskState::Failed => Err(r.error.unwrap_or_default()),
@@ -352,11 +387,11 @@ fn failures(failed: &[String], fleet: &FleetArgs) -> anyhow::Result<()> {
     )
 }
 
-/// Submit the chosen flights as one Slurm job array.
+/// Submit the chosen tasks as one Slurm job array.
 fn submit_to_slurm(
     manifest: &Manifest,
     fleet_dir: &Path,
-    chosen: &[usize],
+    chosen: &[Task],
     args: &BatchRunArgs,
     quiet: bool,
 ) -> anyhow::Result<()> {
@@ -365,11 +400,12 @@ fn submit_to_slurm(
         task_args.push("--onnxruntime".into());
         task_args.push(std::path::absolute(ort)?.display().to_string());
     }
+    let indices: Vec<usize> = chosen.iter().map(|t| t.index).collect();
     let job = fleet::slurm::ArrayJob {
         program: std::env::current_exe()?,
         manifest: manifest.path.clone(),
         fleet: fleet_dir.to_owned(),
-        indices: chosen.to_vec(),
+        indices: indices.clone(),
         max_running: args.jobs,
         task_args,
         sbatch_args: args.sbatch_arg.clone(),
@@ -378,9 +414,9 @@ fn submit_to_slurm(
     if !quiet {
         println!(
             "batch: submitted {} as Slurm job {} (array {})",
-            flights(chosen.len()),
+            tasks(chosen),
             submission.job,
-            fleet::slurm::array_spec(chosen, args.jobs)
+            fleet::slurm::array_spec(&indices, args.jobs)
         );
     }
     if !args.wait {
@@ -397,7 +433,8 @@ fn submit_to_slurm(
     let failed: Vec<String> = after
         .iter()
         .filter(|f| {
-            chosen.contains(&f.entry.index) && !matches!(f.state, FlightState::Finished { .. })
+            let ran = chosen.iter().any(|t| t.flight == f.entry.index);
+            ran && !matches!(f.state, FlightState::Finished { .. })
         })
         .map(|f| f.entry.label())
         .collect();
@@ -423,7 +460,7 @@ fn print_table(flights: &[FlightStatus]) {
         .max()
         .unwrap_or(0);
     for f in flights {
-        let detail = match &f.state {
+        let mut detail = match &f.state {
             FlightState::NotRun => String::new(),
             FlightState::Queued { job } => format!("Slurm task {job}"),
             FlightState::Running { since, host } => format!("since {since} on {host}"),
@@ -431,6 +468,14 @@ fn print_table(flights: &[FlightStatus]) {
             FlightState::Failed { error } => error.clone(),
             FlightState::Lost { why } => why.clone(),
         };
+        if let Some((done, all)) = f.shares_done() {
+            let shares = format!("{done} of {all} shares done");
+            detail = [shares, detail]
+                .into_iter()
+                .filter(|d| !d.is_empty())
+                .collect::<Vec<_>>()
+                .join("; ");
+        }
         println!("{:width$}  {:8}  {detail}", f.entry.label(), f.state.word());
     }
     let mut counts: Vec<(&str, usize)> = Vec::new();
@@ -449,6 +494,16 @@ fn flights(n: usize) -> String {
     format!("{n} flight{}", if n == 1 { "" } else { "s" })
 }
 
+/// "3 flights"; with shares, "4 tasks (1 flight)".
+fn tasks(chosen: &[Task]) -> String {
+    let mut of: Vec<usize> = chosen.iter().map(|t| t.flight).collect();
+    of.dedup();
+    match chosen.len() == of.len() {
+        true => flights(of.len()),
+        false => format!("{} tasks ({})", chosen.len(), flights(of.len())),
+    }
+}
+
 /// `batch k8s`: the Indexed Job on standard output.
 fn k8s(args: &K8sArgs) -> anyhow::Result<()> {
     let manifest = Manifest::load(&args.manifest)?;
@@ -457,7 +512,7 @@ fn k8s(args: &K8sArgs) -> anyhow::Result<()> {
         image: args.image.clone(),
         manifest: args.manifest.display().to_string(),
         fleet: args.out.display().to_string(),
-        flights: manifest.flights.len(),
+        tasks: manifest.tasks().len(),
         parallelism: args.jobs,
         volume_claim: args.volume_claim.clone(),
         mount_path: args.mount_path.clone(),

@@ -516,7 +516,7 @@ fn ingest(args: &IngestArgs, quiet: bool) -> anyhow::Result<()> {
 
 fn detect(args: &DetectArgs, quiet: bool) -> anyhow::Result<()> {
     let Some(model) = args.model.as_deref().filter(|_| !args.merge) else {
-        return stages::merge(&args.run, quiet);
+        return stages::merge(&args.run, quiet).map(drop);
     };
     let flags = RunConfig {
         detect: args.settings.clone(),

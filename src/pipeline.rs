@@ -9,6 +9,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
+use postflight_core::outputs::detect::Shard;
 use postflight_core::outputs::ingest::{IngestSummary, files as ingest_files};
 use postflight_core::run_log::{InputFile, RUN_LOG, sha256};
 use postflight_core::time::now_rfc3339;
@@ -41,9 +42,47 @@ pub struct RunInputs {
 
 /// Run every stage that is not up to date; the stages that ran.
 pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<Vec<Stage>> {
+    let steps = run_steps(inputs, None, quiet)?;
+    Ok(steps
+        .into_iter()
+        .filter_map(|s| match s {
+            Step::Stage(stage) => Some(stage),
+            Step::Share(_) => None,
+        })
+        .collect())
+}
+
+/// One of several processes sharing the flight's detect (`postflight batch`
+/// with `shards`): the stages before detect, run by the first to get
+/// there; this share of the detect; and, in the process finishing the
+/// last share, the shares merged and every later stage. What it did.
+pub fn run_share(inputs: &RunInputs, shard: Shard, quiet: bool) -> anyhow::Result<Vec<Step>> {
+    run_steps(inputs, Some(shard), quiet)
+}
+
+/// What a run did: a stage, or a share of the flight's detect.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Step {
+    Stage(Stage),
+    Share(Shard),
+}
+
+impl std::fmt::Display for Step {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Stage(stage) => f.write_str(stage.name()),
+            Self::Share(shard) => write!(f, "detect share {shard}"),
+        }
+    }
+}
+
+fn run_steps(inputs: &RunInputs, share: Option<Shard>, quiet: bool) -> anyhow::Result<Vec<Step>> {
     let started = Instant::now();
     check_inputs(inputs)?;
     let dir = RunDir::create(&inputs.out)?;
+    // The shares of a flight run side by side: one at a time reads and
+    // changes the log (and runs the stages before and after detect).
+    let mut lock = share.map(|_| RunLock::take(&dir)).transpose()?;
     write_reference_model(inputs)?;
     let mut log = open_log(&dir)?;
     // Input files already hashed, by this run or logged by earlier ones.
@@ -69,6 +108,15 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<Vec<Stage>> {
                     stage.name()
                 );
             }
+        } else if let (Stage::Detect, Some(shard)) = (stage, share) {
+            let share = DetectShare {
+                shard,
+                fingerprint: &fingerprint,
+                read,
+            };
+            if !share.run(inputs, &mut log, &dir, &mut lock, &mut ran, quiet)? {
+                return Ok(ran);
+            }
         } else {
             let seconds = run_logged(stage, inputs, &mut log, &dir, quiet)?;
             log.stages.push(StageRecord {
@@ -79,7 +127,7 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<Vec<Stage>> {
                 finished: now_rfc3339(),
             });
             log.write(&dir)?;
-            ran.push(stage);
+            ran.push(Step::Stage(stage));
         }
         previous = fingerprint;
     }
@@ -87,6 +135,134 @@ pub fn run(inputs: &RunInputs, quiet: bool) -> anyhow::Result<Vec<Stage>> {
         println!("{}", processed(&dir, started.elapsed().as_secs_f64())?);
     }
     Ok(ran)
+}
+
+/// The run directory held by one process at a time: an advisory lock on
+/// `pipeline.lock`, which the system lets go when the process ends, however
+/// it ends.
+struct RunLock {
+    _held: std::fs::File,
+}
+
+impl RunLock {
+    const FILE: &str = "pipeline.lock";
+
+    /// Wait for the run directory, then hold it.
+    fn take(dir: &RunDir) -> anyhow::Result<Self> {
+        let path = dir.file(Self::FILE);
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&path)
+            .and_then(|f| f.lock().map(|()| f))
+            .map_err(|e| {
+                anyhow::anyhow!(
+                    "cannot lock {} ({e}); the run directory must be on a file system with file locks",
+                    path.display()
+                )
+            })?;
+        Ok(Self { _held: file })
+    }
+}
+
+/// One share of the flight's detect, to run under the detect stage's
+/// `fingerprint`.
+struct DetectShare<'a> {
+    shard: Shard,
+    fingerprint: &'a str,
+    /// The detect stage's input files, for its record once merged.
+    read: BTreeMap<String, InputFile>,
+}
+
+impl DetectShare<'_> {
+    /// Run the share unless done under this fingerprint (the directory let
+    /// go meanwhile, so the others run theirs), then, if every share is
+    /// done, merge them as the detect stage. Whether the detect stage is
+    /// complete.
+    fn run(
+        self,
+        inputs: &RunInputs,
+        log: &mut RunLog,
+        dir: &RunDir,
+        lock: &mut Option<RunLock>,
+        ran: &mut Vec<Step>,
+        quiet: bool,
+    ) -> anyhow::Result<bool> {
+        let Self {
+            shard,
+            fingerprint,
+            read,
+        } = self;
+        let key = shard.to_string();
+        let done = log
+            .detect_shares
+            .get(&key)
+            .is_some_and(|f| f == fingerprint)
+            && dir.file(&shard.summary()).is_file();
+        if done {
+            if !quiet {
+                println!("detect share {shard}: done already, skipped");
+            }
+        } else {
+            // The detections are about to change: the later stages' files
+            // go, and the shares done under other settings.
+            for later in Stage::ALL.iter().filter(|s| **s > Stage::Detect) {
+                log.forget(later.name());
+                dir.clear(*later)?;
+            }
+            log.detect_shares.retain(|_, f| f == fingerprint);
+            log.write(dir)?;
+            *lock = None;
+            let mut options = detect_run(inputs);
+            options.shard = Some(shard);
+            stages::detect(&options, quiet).map_err(|e| {
+                anyhow::anyhow!(
+                    "detect share {shard} failed: {e:#}\nthe other shares and the stages before detect are intact in {}; fix the cause and rerun this share",
+                    inputs.out.display()
+                )
+            })?;
+            *lock = Some(RunLock::take(dir)?);
+            *log = open_log(dir)?;
+            log.detect_shares.insert(key, fingerprint.to_string());
+            log.write(dir)?;
+            ran.push(Step::Share(shard));
+        }
+        // The last share's process may have merged them already.
+        if is_up_to_date(Stage::Detect, fingerprint, log, dir) {
+            return Ok(true);
+        }
+        let left: Vec<String> = (1..=shard.count)
+            .map(|index| Shard {
+                index,
+                count: shard.count,
+            })
+            .filter(|s| {
+                log.detect_shares.get(&s.to_string()).map(String::as_str) != Some(fingerprint)
+            })
+            .map(|s| s.to_string())
+            .collect();
+        if !left.is_empty() {
+            if !quiet {
+                println!(
+                    "detect: share {shard} done; {} to go (the last to finish merges them and runs the later stages)",
+                    left.join(", ")
+                );
+            }
+            return Ok(false);
+        }
+        let merged = stages::merge(&inputs.out, quiet)?;
+        log.stages.push(StageRecord {
+            stage: Stage::Detect.name().to_string(),
+            fingerprint: fingerprint.to_string(),
+            inputs: read,
+            seconds: merged.seconds,
+            finished: now_rfc3339(),
+        });
+        log.write(dir)?;
+        ran.push(Step::Stage(Stage::Detect));
+        Ok(true)
+    }
 }
 
 /// How long the run took against how long the flight flew: "processed
@@ -267,6 +443,17 @@ fn run_logged(
     Ok(start.elapsed().as_secs_f64())
 }
 
+/// The detect stage's options, for the whole flight.
+fn detect_run(i: &RunInputs) -> stages::DetectRun {
+    i.config.detect_options(
+        &i.out,
+        &i.model_path(),
+        i.onnxruntime.as_deref(),
+        i.map.as_deref(),
+        i.structure_plan(),
+    )
+}
+
 /// What a stage's fingerprint covers besides the previous stage.
 struct StageInputs {
     /// The options it runs with, without their paths.
@@ -293,13 +480,7 @@ impl StageOptions {
         let (run, map) = (i.out.as_path(), i.map.as_deref());
         Ok(match stage {
             Stage::Ingest => Self::Ingest(c.ingest_options(&i.flights, run)),
-            Stage::Detect => Self::Detect(c.detect_options(
-                run,
-                &i.model_path(),
-                i.onnxruntime.as_deref(),
-                map,
-                i.structure_plan(),
-            )),
+            Stage::Detect => Self::Detect(detect_run(i)),
             Stage::Localise => {
                 Self::Localise(c.localise_options(run, map, i.structure_plan(), i.targets.clone()))
             }

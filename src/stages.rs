@@ -9,7 +9,7 @@ use postflight_core::outputs::report::files;
 use std::path::{Path, PathBuf};
 
 use postflight_core::best_views::BestViews;
-use postflight_core::outputs::detect::{Shard, TileChoice, files as DetectFiles};
+use postflight_core::outputs::detect::{DetectSummary, Shard, TileChoice, files as DetectFiles};
 use postflight_core::{Flight, FlownPlan, PlanFile, RunDir, ViewSettings};
 
 use crate::progress::Bar;
@@ -170,8 +170,9 @@ pub fn detect(run: &DetectRun, quiet: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Merge the shares of a flight's detect (`postflight detect --merge`).
-pub fn merge(run: &Path, quiet: bool) -> anyhow::Result<()> {
+/// Merge the shares of a flight's detect (`postflight detect --merge`);
+/// the flight's summary.
+pub fn merge(run: &Path, quiet: bool) -> anyhow::Result<DetectSummary> {
     let (summary, shares) = detect::merge::merge(run)?;
     if !quiet {
         println!(
@@ -181,7 +182,7 @@ pub fn merge(run: &Path, quiet: bool) -> anyhow::Result<()> {
             run.display()
         );
     }
-    Ok(())
+    Ok(summary)
 }
 
 /// Before localise: a flight detected in shares and not yet merged is
@@ -196,7 +197,7 @@ fn merge_shares(run: &Path, quiet: bool) -> anyhow::Result<()> {
         return Ok(());
     }
     match detect::merge::shares_written(&dir)? {
-        Some(shards) if detect::merge::every_share(&shards) => merge(run, quiet),
+        Some(shards) if detect::merge::every_share(&shards) => merge(run, quiet).map(drop),
         _ => Ok(()),
     }
 }

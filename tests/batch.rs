@@ -209,6 +209,98 @@ fn a_manifest_runs_as_a_slurm_job_array_with_the_results_of_postflight_run() {
     fleet_tables_open_in_duckdb(&fleet);
 }
 
+/// A flight's detect in three shares: a share that failed here and one
+/// done here, then the flight as a Slurm array, which resumes the failed
+/// share, leaves the done one, merges the three and runs the later stages
+/// once; the results are `postflight run`'s.
+#[test]
+fn a_flight_in_three_shares_as_a_slurm_array_resumes_a_failed_share_with_the_results_of_postflight_run()
+ {
+    if !slurm_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (structure, date, args) = GOOD[0];
+    let sim = simulated(args);
+    let manifest = dir.path().join("fleet.csv");
+    std::fs::write(
+        &manifest,
+        format!(
+            "structure,date,flight,plan,shards\n{structure},{date},{},{},3\n",
+            sim.join("flight.mcap").display(),
+            sim.join("plan.json").display()
+        ),
+    )
+    .unwrap();
+    let fleet = dir.path().join("fleet");
+    let run = fleet.join(structure).join(date);
+    let (m, f) = (manifest.to_str().unwrap(), fleet.to_str().unwrap());
+    let task = |index: &str, more: &[&str]| {
+        let mut args = vec!["batch", "task", m, "--out", f, "--index", index];
+        args.extend_from_slice(more);
+        postflight(&args, dir.path())
+    };
+    // Share 1 fails after ingesting (no ONNX Runtime there); share 2 runs.
+    let out = task("0", &["--onnxruntime", "/no/such/libonnxruntime.so"]);
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("detect share 1/3 failed"),
+        "{}",
+        stderr(&out)
+    );
+    let out = task("1", &[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        stdout(&out).contains("detect: share 2/3 done; 1/3, 3/3 to go"),
+        "{}",
+        stdout(&out)
+    );
+    assert!(!run.join("detect.json").exists(), "no flight's detect yet");
+    let line = status_line(&manifest, &fleet, structure);
+    assert!(
+        line.contains(" failed ")
+            && line.contains("1 of 3 shares done; share 1/3: detect share 1/3 failed"),
+        "{line}"
+    );
+
+    let out = postflight(
+        &["batch", "run", m, "--out", f, "--engine", "slurm", "--wait"],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        stdout(&out).contains("submitted 3 tasks (1 flight) as Slurm job"),
+        "{}",
+        stdout(&out)
+    );
+    let line = status_line(&manifest, &fleet, structure);
+    assert!(
+        line.contains(" finished ") && line.contains("3 of 3 shares done"),
+        "{line}"
+    );
+    let records: Vec<Value> = (1..=3)
+        .map(|k| read_json(&run.join(format!("batch-share-{k}-of-3.json"))))
+        .collect();
+    for r in &records {
+        assert_eq!(r["state"], "finished", "{r}");
+        assert_eq!(r["worker"]["engine"], "slurm", "{r}");
+    }
+    // Share 2 was done: its Slurm task left it; the later stages ran once.
+    let ran = |r: &Value, step: &str| {
+        r["stages_run"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|s| s == step)
+    };
+    assert!(!ran(&records[1], "detect share 2/3"), "{}", records[1]);
+    assert!(ran(&records[0], "detect share 1/3") && ran(&records[2], "detect share 3/3"));
+    assert_eq!(records.iter().filter(|r| ran(r, "localise")).count(), 1);
+    let merged = read_json(&run.join("detect.json"));
+    assert_eq!(merged["shard"], Value::Null, "{merged}");
+    assert_same_results(&run, &reference(structure));
+}
+
 /// `postflight fleet` over a batch: every candidate in one DuckDB glob.
 fn fleet_tables_open_in_duckdb(fleet: &Path) {
     let out = postflight(&["fleet", fleet.to_str().unwrap()], fleet);

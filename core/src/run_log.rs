@@ -23,6 +23,11 @@ pub struct RunLog {
     pub running: Option<String>,
     /// Completed stages, in pipeline order.
     pub stages: Vec<StageRecord>,
+    /// The shares of the flight's detect done so far by `postflight batch`
+    /// tasks (`detect 2/4`), each with the detect fingerprint it ran under;
+    /// the last one done merges them into the detect stage.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub detect_shares: BTreeMap<String, String>,
 }
 
 /// One completed stage.
@@ -140,9 +145,13 @@ impl RunLog {
         self.stages.iter().find(|r| r.stage == stage)
     }
 
-    /// Forget `stage` (before running it again).
+    /// Forget `stage` (before running it again); forgetting detect forgets
+    /// its shares.
     pub fn forget(&mut self, stage: &str) {
         self.stages.retain(|r| r.stage != stage);
+        if stage == crate::Stage::Detect.name() {
+            self.detect_shares.clear();
+        }
     }
 
     /// Seconds per completed stage.

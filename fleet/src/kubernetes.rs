@@ -1,7 +1,7 @@
-//! Kubernetes as the batch engine: a manifest's flights as an Indexed Job
-//! (`completionMode: Indexed`), one pod per flight. Kubernetes sets
-//! `JOB_COMPLETION_INDEX` in each pod, and `postflight batch task` reads
-//! its flight's index from it. postflight writes the Job; `kubectl apply`
+//! Kubernetes as the batch engine: a manifest's tasks as an Indexed Job
+//! (`completionMode: Indexed`), one pod per task (a flight, or a share of
+//! a flight's detect). Kubernetes sets `JOB_COMPLETION_INDEX` in each pod,
+//! and `postflight batch task` reads its task's index from it. postflight writes the Job; `kubectl apply`
 //! submits it.
 
 /// What the Job runs, and where.
@@ -14,8 +14,8 @@ pub struct IndexedJob {
     /// The manifest and fleet directory as the pods see them.
     pub manifest: String,
     pub fleet: String,
-    /// The manifest's number of flights: the Job's completions.
-    pub flights: usize,
+    /// The manifest's number of tasks: the Job's completions.
+    pub tasks: usize,
     /// Pods at once.
     pub parallelism: usize,
     /// A PersistentVolumeClaim holding the flights and the fleet directory,
@@ -45,7 +45,7 @@ impl IndexedJob {
         let command = command.iter().map(|c| q(c)).collect::<Vec<_>>().join(", ");
         let mut yaml = format!(
             "\
-# postflight batch on Kubernetes: one pod per flight of {manifest}.
+# postflight batch on Kubernetes: one pod per task of {manifest}.
 # Written by `postflight batch k8s`; submit with `kubectl apply -f FILE`,
 # follow with `postflight batch status {manifest} --out {fleet}`.
 apiVersion: batch/v1
@@ -55,12 +55,13 @@ metadata:
   labels:
     app.kubernetes.io/name: postflight-batch
 spec:
-  # Pod i runs flight i of the manifest (from 0): Kubernetes sets
-  # JOB_COMPLETION_INDEX in the pod, and `postflight batch task` reads it.
+  # Pod i runs task i of the manifest (from 0: a flight, or a share of a
+  # flight's detect): Kubernetes sets JOB_COMPLETION_INDEX in the pod, and
+  # `postflight batch task` reads it.
   completionMode: Indexed
-  completions: {flights}
+  completions: {tasks}
   parallelism: {parallelism}
-  # Each flight is retried once on its own; a flight that fails again is
+  # Each task is retried once on its own; a task that fails again is
   # recorded failed in its run directory while the others go on
   # (`postflight batch run --only-failed` runs it again later).
   backoffLimitPerIndex: 1
@@ -87,7 +88,7 @@ spec:
             manifest = self.manifest,
             fleet = self.fleet,
             name = q(&self.name),
-            flights = self.flights,
+            tasks = self.tasks,
             parallelism = self.parallelism.max(1),
             image = q(&self.image),
             mount = q(&self.mount_path),
@@ -125,7 +126,7 @@ mod tests {
             image: "registry.example/postflight:0.1".into(),
             manifest: "fleet: \"may\".toml".into(),
             fleet: "/data/out".into(),
-            flights: 12,
+            tasks: 12,
             parallelism: 3,
             volume_claim: claim.map(str::to_string),
             mount_path: "/data".into(),
@@ -136,7 +137,7 @@ mod tests {
     }
 
     #[test]
-    fn the_job_is_an_indexed_job_with_one_completion_per_flight_running_the_task() {
+    fn the_job_is_an_indexed_job_with_one_completion_per_task_running_it() {
         let doc: Value = serde_yaml_ng::from_str(&job(Some("flights")).yaml()).unwrap();
         assert_eq!(doc["apiVersion"], "batch/v1");
         assert_eq!(doc["kind"], "Job");

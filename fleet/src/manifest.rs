@@ -17,14 +17,22 @@
 //! CSV: a header naming the columns (`structure,date,flight,plan`, in any
 //! order; empty cells are absent). Relative paths are relative to the
 //! manifest's directory. A flight's run directory is
-//! `FLEET_DIR/<structure>/<name or date>/`, and its index (for
-//! `postflight batch task --index`) is its place in the manifest from 0.
+//! `FLEET_DIR/<structure>/<name or date>/`.
+//!
+//! A flight with `shards = N` (N > 1) is N tasks, each one share of its
+//! detect (the stages before detect run once, by the first task there; the
+//! later ones by the task finishing the last share); any other flight is
+//! one task. Tasks are numbered from 0 in manifest order, a flight's
+//! shares in order: `postflight batch task --index`, the Slurm array index
+//! and the Kubernetes completion index.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use jiff::civil::Date;
 use serde::{Deserialize, Deserializer};
+
+use postflight_core::outputs::detect::Shard;
 
 use crate::error::Error;
 
@@ -57,6 +65,20 @@ pub struct FlightEntry {
     pub targets: Option<PathBuf>,
     pub model: Option<PathBuf>,
     pub config: Option<PathBuf>,
+    /// Its detect split into this many shares, a task each (1: one task
+    /// runs the whole flight).
+    pub shards: u32,
+}
+
+/// One task of a manifest: a flight, or one share of a flight's detect.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Task {
+    /// Its number, from 0 (see the module's docs).
+    pub index: usize,
+    /// Its flight's index in the manifest.
+    pub flight: usize,
+    /// Its share of the flight's detect; `None`: the whole flight.
+    pub share: Option<Shard>,
 }
 
 impl FlightEntry {
@@ -95,6 +117,7 @@ impl FlightEntry {
             targets: None,
             model: None,
             config: None,
+            shards: 1,
         }
     }
 }
@@ -123,14 +146,36 @@ impl Manifest {
         Ok(Self { path, flights })
     }
 
-    /// The flight at `index`, or an error naming the valid range.
-    pub fn flight(&self, index: usize) -> Result<&FlightEntry, Error> {
-        self.flights.get(index).ok_or_else(|| Error::Manifest {
+    /// Every task, in order: a flight's, or each share of its detect.
+    pub fn tasks(&self) -> Vec<Task> {
+        let mut tasks = Vec::new();
+        for flight in &self.flights {
+            let shares: Vec<Option<Shard>> = match flight.shards {
+                0 | 1 => vec![None],
+                count => (1..=count)
+                    .map(|index| Some(Shard { index, count }))
+                    .collect(),
+            };
+            for share in shares {
+                tasks.push(Task {
+                    index: tasks.len(),
+                    flight: flight.index,
+                    share,
+                });
+            }
+        }
+        tasks
+    }
+
+    /// The task at `index`, or an error naming the valid range.
+    pub fn task(&self, index: usize) -> Result<Task, Error> {
+        let tasks = self.tasks();
+        tasks.get(index).copied().ok_or_else(|| Error::Manifest {
             path: self.path.clone(),
             why: format!(
-                "has {} flights, indexed 0 to {}; there is no flight {index}",
-                self.flights.len(),
-                self.flights.len().saturating_sub(1)
+                "has {} tasks (a flight each, or a share of a flight's detect), indexed 0 to {}; there is no task {index}",
+                tasks.len(),
+                tasks.len().saturating_sub(1)
             ),
         })
     }
@@ -150,6 +195,7 @@ struct Row {
     targets: Option<PathBuf>,
     model: Option<PathBuf>,
     config: Option<PathBuf>,
+    shards: Option<u32>,
 }
 
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
@@ -169,6 +215,7 @@ impl Row {
             targets: self.targets.or(d.targets),
             model: self.model.or(d.model),
             config: self.config.or(d.config),
+            shards: self.shards.or(d.shards),
             ..self
         }
     }
@@ -194,7 +241,7 @@ fn toml_rows(text: &str) -> Result<Vec<(String, Row)>, String> {
     })?;
     let d = &manifest.defaults;
     if d.structure.is_some() || d.flight.is_some() || d.date.is_some() || d.name.is_some() {
-        return Err("[defaults] gives a flight's own column; it may give map, plan, yaw, targets, model and config".into());
+        return Err("[defaults] gives a flight's own column; it may give map, plan, yaw, targets, model, config and shards".into());
     }
     Ok(manifest
         .flight
@@ -219,7 +266,7 @@ fn csv_rows(text: &str) -> Result<Vec<(String, Row)>, String> {
                     csv::ErrorKind::Deserialize { err, .. } => err.to_string(),
                     _ => e.to_string(),
                 };
-                format!("line {line}: {why}; the columns are structure, flight, date, name, map, plan, yaw, targets, model, config")
+                format!("line {line}: {why}; the columns are structure, flight, date, name, map, plan, yaw, targets, model, config, shards")
             })
         })
         .enumerate()
@@ -262,6 +309,12 @@ fn entry(index: usize, row: Row, base: &Path) -> Result<FlightEntry, String> {
         return Err("neither `date` nor `name`; give the flight's date (YYYY-MM-DD)".into());
     }
     let flight = row.flight.ok_or("no `flight`; give the flight recording")?;
+    let shards = row.shards.unwrap_or(1);
+    if !(1..=MAX_SHARDS).contains(&shards) {
+        return Err(format!(
+            "shards {shards} is not a number of shares of the flight's detect; give 1 to {MAX_SHARDS}"
+        ));
+    }
     let resolve = |p: Option<PathBuf>| p.map(|p| base.join(p));
     Ok(FlightEntry {
         index,
@@ -275,8 +328,12 @@ fn entry(index: usize, row: Row, base: &Path) -> Result<FlightEntry, String> {
         targets: resolve(row.targets),
         model: resolve(row.model),
         config: resolve(row.config),
+        shards,
     })
 }
+
+/// The most shares a flight's detect is split into (as `--shard` takes).
+const MAX_SHARDS: u32 = 10_000;
 
 /// Ids become directory names and Hive partition values: letters, digits,
 /// `.`, `_` and `-`, not starting with a dot.
@@ -455,10 +512,41 @@ yaw = "degrees"
     }
 
     #[test]
-    fn asking_for_a_flight_past_the_end_names_the_range() {
-        let m = load("m.csv", "structure,flight,date\nb,a.mcap,2026-01-01\n").unwrap();
-        assert!(m.flight(0).is_ok());
-        let e = m.flight(1).unwrap_err().to_string();
-        assert!(e.contains("has 1 flights, indexed 0 to 0"), "{e}");
+    fn a_flight_in_shards_is_a_task_per_share_numbered_after_the_flights_before_it() {
+        let m = load(
+            "m.csv",
+            "structure,flight,date,shards\nb,a.mcap,2026-01-01,\nb,c.mcap,2026-01-02,3\nc,d.mcap,2026-01-01,1\n",
+        )
+        .unwrap();
+        let tasks: Vec<(usize, Option<String>)> = m
+            .tasks()
+            .iter()
+            .map(|t| (t.flight, t.share.map(|s| s.to_string())))
+            .collect();
+        let share = |s: &str| Some(s.to_string());
+        assert_eq!(
+            tasks,
+            [
+                (0, None),
+                (1, share("1/3")),
+                (1, share("2/3")),
+                (1, share("3/3")),
+                (2, None)
+            ]
+        );
+        assert_eq!(m.task(4).unwrap().index, 4);
+        let e = m.task(5).unwrap_err().to_string();
+        assert!(e.contains("has 5 tasks"), "{e}");
+        assert!(e.contains("indexed 0 to 4; there is no task 5"), "{e}");
+        let e = load(
+            "m.csv",
+            "structure,flight,date,shards\nb,a.mcap,2026-01-01,0\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("row 1: shards 0 is not a number of shares"),
+            "{e}"
+        );
     }
 }

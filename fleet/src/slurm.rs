@@ -1,6 +1,7 @@
-//! Slurm as the batch engine: a manifest's flights as one job array
-//! (`sbatch --array`), each array task running `postflight batch task
-//! MANIFEST --index $SLURM_ARRAY_TASK_ID`; and what the queue (`squeue`)
+//! Slurm as the batch engine: a manifest's tasks (a flight each, or a
+//! share of a flight's detect) as one job array (`sbatch --array`), each
+//! array task running `postflight batch task MANIFEST --index
+//! $SLURM_ARRAY_TASK_ID`; and what the queue (`squeue`)
 //! and, where accounting is on, `sacct` say about the tasks.
 //!
 //! Slurm runs the tasks on its nodes, so the program, the manifest, the
@@ -24,14 +25,14 @@ const SCRIPT: &str = "batch.sbatch";
 const SUBMISSIONS: &str = "submissions.json";
 const LOGS: &str = "logs";
 
-/// One `sbatch` of flights of a manifest.
+/// One `sbatch` of tasks of a manifest.
 #[derive(Debug, Clone)]
 pub struct ArrayJob {
     /// The `postflight` program the tasks run.
     pub program: PathBuf,
     pub manifest: PathBuf,
     pub fleet: PathBuf,
-    /// The manifest's flights to run, by index.
+    /// The manifest's tasks to run, by index.
     pub indices: Vec<usize>,
     /// At most this many tasks at once (`--array=...%N`).
     pub max_running: Option<usize>,
@@ -66,8 +67,8 @@ impl ArrayJob {
             shlex::try_join(task.iter().map(String::as_str)).expect("paths without NUL bytes");
         format!(
             "#!/bin/sh\n\
-             # One task per flight of {manifest}: the array index is the\n\
-             # flight's row in the manifest, from 0. Written by\n\
+             # One array task per task of {manifest}: a flight, or a share of\n\
+             # a flight's detect, numbered from 0 in manifest order. Written by\n\
              # `postflight batch run --engine slurm`; `postflight batch status` reads how they went.\n\
              #SBATCH --job-name=postflight-batch\n\
              #SBATCH --output={logs}\n\

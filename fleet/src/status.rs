@@ -5,11 +5,11 @@
 use std::path::Path;
 
 use crate::error::Error;
-use crate::manifest::{FlightEntry, Manifest};
+use crate::manifest::{FlightEntry, Manifest, Task};
 use crate::slurm;
 use crate::task::{TaskRecord, TaskState, Worker};
 
-/// One flight's state.
+/// One flight's state, or one task's.
 #[derive(Debug, Clone, PartialEq)]
 pub enum FlightState {
     /// No task has started on it.
@@ -48,12 +48,30 @@ impl FlightState {
     }
 }
 
-/// A flight of the manifest and its state.
+/// A flight of the manifest and its state, from its tasks'.
 #[derive(Debug, Clone)]
 pub struct FlightStatus {
     pub entry: FlightEntry,
     pub state: FlightState,
+    /// Its one task, or a task per share of its detect.
+    pub tasks: Vec<TaskStatus>,
+}
+
+/// A task of the manifest, its state and its record.
+#[derive(Debug, Clone)]
+pub struct TaskStatus {
+    pub task: Task,
+    pub state: FlightState,
     pub record: Option<TaskRecord>,
+}
+
+impl FlightStatus {
+    /// For a flight in shares: how many of its tasks have finished, of how many.
+    pub fn shares_done(&self) -> Option<(usize, usize)> {
+        let finished = |t: &&TaskStatus| matches!(t.state, FlightState::Finished { .. });
+        (self.tasks.len() > 1)
+            .then(|| (self.tasks.iter().filter(finished).count(), self.tasks.len()))
+    }
 }
 
 /// The state of every flight of `manifest` in `fleet`.
@@ -61,26 +79,85 @@ pub fn status(manifest: &Manifest, fleet: &Path) -> Result<Vec<FlightStatus>, Er
     let submissions = slurm::submissions(fleet)?;
     let jobs: Vec<&str> = submissions.iter().map(|s| s.job.as_str()).collect();
     let queue = slurm::queue(&jobs).unwrap_or_default();
+    let tasks = manifest.tasks();
     manifest
         .flights
         .iter()
         .map(|entry| {
-            let record = TaskRecord::read(&entry.run_dir(fleet))?;
-            // The latest submission of this flight, if Slurm still holds it.
-            let queued = submissions
+            let dir = entry.run_dir(fleet);
+            let tasks = tasks
                 .iter()
-                .rev()
-                .find(|s| s.indices.contains(&entry.index))
-                .map(|s| format!("{}_{}", s.job, entry.index))
-                .and_then(|task| queue.get(&task).map(|state| (task, state.clone())));
-            let state = state_of(record.as_ref(), queued);
+                .filter(|t| t.flight == entry.index)
+                .map(|task| {
+                    let record = TaskRecord::read(&dir, task.share)?;
+                    // The latest submission of this task, if Slurm still holds it.
+                    let queued = submissions
+                        .iter()
+                        .rev()
+                        .find(|s| s.indices.contains(&task.index))
+                        .map(|s| format!("{}_{}", s.job, task.index))
+                        .and_then(|id| queue.get(&id).map(|state| (id, state.clone())));
+                    Ok(TaskStatus {
+                        task: *task,
+                        state: state_of(record.as_ref(), queued),
+                        record,
+                    })
+                })
+                .collect::<Result<Vec<_>, Error>>()?;
             Ok(FlightStatus {
                 entry: entry.clone(),
-                state,
-                record,
+                state: flight_state(&tasks),
+                tasks,
             })
         })
         .collect()
+}
+
+/// A flight's state from its tasks': one task's own; of shares, a failed
+/// or lost one's (naming it), else running, else queued, else finished
+/// when every share has, else not run.
+fn flight_state(tasks: &[TaskStatus]) -> FlightState {
+    if let [one] = tasks {
+        return one.state.clone();
+    }
+    let share = |t: &TaskStatus| {
+        t.task
+            .share
+            .map(|s| format!("share {s}: "))
+            .unwrap_or_default()
+    };
+    let first = |word: &str| tasks.iter().find(|t| t.state.word() == word);
+    if let Some(t) = tasks.iter().find(|t| t.state.needs_rerun()) {
+        return match &t.state {
+            FlightState::Failed { error } => FlightState::Failed {
+                error: format!("{}{error}", share(t)),
+            },
+            FlightState::Lost { why } => FlightState::Lost {
+                why: format!("{}{why}", share(t)),
+            },
+            other => other.clone(),
+        };
+    }
+    if let Some(t) = first("running").or_else(|| first("queued")) {
+        return t.state.clone();
+    }
+    let finished: Vec<_> = tasks
+        .iter()
+        .filter_map(|t| match t.state {
+            FlightState::Finished {
+                seconds,
+                stages_run,
+            } => Some((seconds, stages_run)),
+            _ => None,
+        })
+        .collect();
+    if finished.len() < tasks.len() {
+        return FlightState::NotRun;
+    }
+    FlightState::Finished {
+        seconds: finished.iter().map(|f| f.0).fold(0.0, f64::max),
+        stages_run: finished.iter().map(|f| f.1).sum(),
+    }
 }
 
 /// A flight's state from its record and, when Slurm holds a task for it,
@@ -131,7 +208,7 @@ mod tests {
     use crate::manifest::FlightEntry;
 
     fn record(state: TaskState, worker: Worker) -> TaskRecord {
-        let mut r = TaskRecord::start(&FlightEntry::example(0));
+        let mut r = TaskRecord::start(&FlightEntry::example(0), None);
         r.state = state;
         r.worker = worker;
         r
@@ -163,6 +240,46 @@ mod tests {
             FlightState::Lost { why } => assert!(why.contains("7_0"), "{why}"),
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn a_flight_in_shares_is_failed_by_one_share_and_finished_by_all() {
+        let task = |index, state| TaskStatus {
+            task: Task {
+                index: index as usize,
+                flight: 0,
+                share: Some(postflight_core::outputs::detect::Shard { index, count: 3 }),
+            },
+            state,
+            record: None,
+        };
+        let done = || FlightState::Finished {
+            seconds: 2.0,
+            stages_run: 1,
+        };
+        let mut tasks = vec![
+            task(1, done()),
+            task(2, done()),
+            task(3, FlightState::NotRun),
+        ];
+        assert_eq!(flight_state(&tasks), FlightState::NotRun);
+        tasks[2].state = FlightState::Failed {
+            error: "stage x failed".into(),
+        };
+        assert_eq!(
+            flight_state(&tasks),
+            FlightState::Failed {
+                error: "share 3/3: stage x failed".into()
+            }
+        );
+        tasks[2].state = done();
+        assert_eq!(
+            flight_state(&tasks),
+            FlightState::Finished {
+                seconds: 2.0,
+                stages_run: 3
+            }
+        );
     }
 
     #[test]

@@ -118,6 +118,7 @@ pub fn runs(fleet: &Path) -> Result<Vec<FleetRun>, Error> {
             continue;
         }
         for dir in subdirectories(&structure)? {
+            // A flight in shares has a run log from its first task on.
             let is_run = dir.join(TASK_RECORD).is_file() || dir.join(RUN_LOG).is_file();
             if is_run {
                 runs.push(read_run(&name, dir)?);
@@ -133,7 +134,7 @@ fn read_run(structure: &str, dir: PathBuf) -> Result<FleetRun, Error> {
     Ok(FleetRun {
         structure: structure.to_string(),
         run: format!("{structure}/{}", file_name(&dir)),
-        record: TaskRecord::read(&dir)?,
+        record: TaskRecord::of_run(&dir)?,
         summary: run_dir.summary(Stage::Report)?,
         coverage: run_dir.summary(Stage::Coverage)?,
         dir,

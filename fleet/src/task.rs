@@ -1,19 +1,29 @@
-//! A flight's batch task record: `batch.json` in its run directory, written
-//! when a task starts and again when it ends, so that `postflight batch
+//! A batch task's record: `batch.json` in its flight's run directory
+//! (`batch-share-K-of-N.json` for a share of the flight's detect), written
+//! when the task starts and again when it ends, so that `postflight batch
 //! status` reads how every flight went from the run directories alone,
 //! whichever engine ran them.
 
 use std::path::{Path, PathBuf};
 
 use postflight_core::RunDir;
+use postflight_core::outputs::detect::Shard;
 use postflight_core::time::now_rfc3339;
 use serde::{Deserialize, Serialize};
 
 use crate::error::Error;
 use crate::manifest::FlightEntry;
 
-/// The record's file name in the run directory.
+/// The record's file name in the run directory, for a whole flight's task.
 pub const TASK_RECORD: &str = "batch.json";
+
+/// A task's record file: [`TASK_RECORD`], or `batch-share-K-of-N.json`.
+pub fn record_file(share: Option<Shard>) -> String {
+    match share {
+        None => TASK_RECORD.to_string(),
+        Some(s) => format!("batch-share-{}-of-{}.json", s.index, s.count),
+    }
+}
 
 /// Where a task stands, as it last wrote.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -33,6 +43,9 @@ pub struct TaskRecord {
     pub structure: String,
     pub date: Option<String>,
     pub flight: PathBuf,
+    /// The share of the flight's detect it ran; absent: the whole flight.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub share: Option<Shard>,
     pub state: TaskState,
     /// Why it failed, in one line.
     pub error: Option<String>,
@@ -81,13 +94,14 @@ impl Worker {
 }
 
 impl TaskRecord {
-    /// A task starting on `entry` in this process.
-    pub fn start(entry: &FlightEntry) -> Self {
+    /// A task starting on `entry` (or a `share` of it) in this process.
+    pub fn start(entry: &FlightEntry, share: Option<Shard>) -> Self {
         Self {
             index: entry.index,
             structure: entry.structure.clone(),
             date: entry.date.map(|d| d.to_string()),
             flight: entry.flight.clone(),
+            share,
             state: TaskState::Running,
             error: None,
             started: now_rfc3339(),
@@ -119,14 +133,41 @@ impl TaskRecord {
         self
     }
 
-    /// The record in `run`, `None` when no task has started there.
-    pub fn read(run: &Path) -> Result<Option<Self>, Error> {
-        crate::read_json_if_present(&run.join(TASK_RECORD), "delete it and run the flight again")
+    /// The record of the task on `run` (or a `share` of it), `None` when
+    /// no such task has started there.
+    pub fn read(run: &Path, share: Option<Shard>) -> Result<Option<Self>, Error> {
+        crate::read_json_if_present(
+            &run.join(record_file(share)),
+            "delete it and run the flight again",
+        )
+    }
+
+    /// How the tasks on `run` went, in one record: the whole flight's task,
+    /// else of its shares' a failed one, else a running one, else the last
+    /// to end (the one that ran the later stages).
+    pub fn of_run(run: &Path) -> Result<Option<Self>, Error> {
+        if let Some(whole) = Self::read(run, None)? {
+            return Ok(Some(whole));
+        }
+        let mut shares = Vec::new();
+        for entry in std::fs::read_dir(run).into_iter().flatten().flatten() {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if name.starts_with("batch-share-") && name.ends_with(".json") {
+                shares.extend(crate::read_json_if_present::<Self>(
+                    &entry.path(),
+                    "delete it and run the share again",
+                )?);
+            }
+        }
+        let by = |state| shares.iter().find(|r: &&Self| r.state == state).cloned();
+        Ok(by(TaskState::Failed)
+            .or_else(|| by(TaskState::Running))
+            .or_else(|| shares.iter().max_by(|a, b| a.ended.cmp(&b.ended)).cloned()))
     }
 
     /// Write it into `run` (created if missing), whole or not at all.
     pub fn write(&self, run: &Path) -> Result<(), Error> {
-        Ok(RunDir::create(run)?.write_json(TASK_RECORD, self)?)
+        Ok(RunDir::create(run)?.write_json(&record_file(self.share), self)?)
     }
 
     /// Whether the process that wrote "running" is still at it, where this
@@ -162,18 +203,37 @@ mod tests {
 
     #[test]
     fn a_failed_task_keeps_the_first_line_of_its_error() {
-        let record = TaskRecord::start(&FlightEntry::example(2))
+        let record = TaskRecord::start(&FlightEntry::example(2), None)
             .end(1.5, Err("stage ingest failed: x\nmore".into()));
         assert_eq!(record.state, TaskState::Failed);
         assert_eq!(record.error.as_deref(), Some("stage ingest failed: x"));
         let dir = tempfile::tempdir().unwrap();
         record.write(dir.path()).unwrap();
-        assert_eq!(TaskRecord::read(dir.path()).unwrap(), Some(record));
+        assert_eq!(TaskRecord::read(dir.path(), None).unwrap(), Some(record));
+    }
+
+    #[test]
+    fn a_run_in_shares_is_as_its_failed_share_else_its_last_to_end() {
+        let dir = tempfile::tempdir().unwrap();
+        let share = |index| Some(Shard { index, count: 3 });
+        let entry = FlightEntry::example(0);
+        let mut first = TaskRecord::start(&entry, share(1)).end(2.0, Ok(vec!["ingest".into()]));
+        first.ended = Some("2026-11-28T10:00:00Z".into());
+        let mut last = TaskRecord::start(&entry, share(2)).end(2.0, Ok(vec!["report".into()]));
+        last.ended = Some("2026-11-28T10:05:00Z".into());
+        for r in [&first, &last] {
+            r.write(dir.path()).unwrap();
+        }
+        assert!(dir.path().join("batch-share-2-of-3.json").is_file());
+        assert_eq!(TaskRecord::of_run(dir.path()).unwrap(), Some(last));
+        let failed = TaskRecord::start(&entry, share(3)).end(1.0, Err("no".into()));
+        failed.write(dir.path()).unwrap();
+        assert_eq!(TaskRecord::of_run(dir.path()).unwrap(), Some(failed));
     }
 
     #[test]
     fn a_running_record_of_a_process_that_is_gone_is_not_alive() {
-        let mut record = TaskRecord::start(&FlightEntry::example(2));
+        let mut record = TaskRecord::start(&FlightEntry::example(2), None);
         record.worker = Worker::Local;
         record.pid = u32::MAX - 1;
         assert_eq!(record.local_process_alive(), Some(false));
