@@ -10,6 +10,14 @@ either run's finds, with a candidate on them, scripts/score_measurement.py's
 matching; and against the cracks truth lists in at least one frame, and
 at least two) and precision (candidates on a truth crack); the widths of the cracks both runs found
 (median `max_width_mm`, and the median error against truth's widest).
+
+Two rules say when a candidate is on a crack. In space (score_measurement's,
+`recall`, `precision`): its place within 0.3 m of the crack. In the image
+(`image_rule`): one of its views' boxes on the crack where truth draws it
+in that frame (its box, 4 px of slack for hairline boxes). The first also
+takes a dark edge of the structure near a crack for the crack; the
+second does not (a box on the edge is not on the crack's pixels).
+
 Prints one JSON object, by the best views run's directory name.
 """
 
@@ -46,6 +54,40 @@ def crack_figures(flight, run):
     }
 
 
+SLACK_PX = 4.0
+
+
+def image_rule(truth, run):
+    """Recall and precision by the image rule: the cracks with a candidate
+    on them (a view's box overlapping truth's box of the crack in that
+    frame), of those truth draws in some frame; candidates on a crack."""
+    frames = {f["time_ns"]: f for f in truth["frames"]}
+    drawn = {v["id"] for f in truth["frames"] for v in f["cracks"]}
+    defects = json.loads((run / "defects.json").read_text())["defects"]
+
+    def overlaps(a, b):
+        return (a[0] - SLACK_PX < b[2] and b[0] - SLACK_PX < a[2]
+                and a[1] - SLACK_PX < b[3] and b[1] - SLACK_PX < a[3])
+
+    found, on = set(), 0
+    for d in defects:
+        cracks = {
+            v["id"]
+            for view in d.get("views") or [d["best"]]
+            for v in frames.get(view["time_ns"], {"cracks": []})["cracks"]
+            if overlaps(view["bbox"], v["bbox"])
+        }
+        found |= cracks
+        on += bool(cracks)
+    return {
+        "cracks_found": len(found),
+        "cracks_drawn": len(drawn),
+        "recall": len(found) / max(len(drawn), 1),
+        "candidates_on_cracks": on,
+        "precision": on / max(len(defects), 1),
+    }
+
+
 def main(args):
     out = {}
     for flight, every, best in zip(args[::3], args[1::3], args[2::3]):
@@ -74,6 +116,8 @@ def main(args):
                           sum(1 for n in views.values() if n >= m)]
                 for m in (1, 2)
             }
+        for name, run in (("every_tile", Path(every)), ("best_views", Path(best))):
+            runs[name]["image_rule"] = image_rule(truth, run)
         both = {r["crack"] for r in rows["every_tile"]} & {r["crack"] for r in rows["best_views"]}
         for name in runs:
             measured = [r for r in rows[name] if r["crack"] in both and r["max_width_mm"]]
@@ -89,6 +133,9 @@ def main(args):
             "time_ratio": b["wall_s"] / e["wall_s"],
             "recall_points": 100 * (b["recall"] - e["recall"]),
             "precision_points": 100 * (b["precision"] - e["precision"]),
+            "image_rule_recall_points": 100 * (b["image_rule"]["recall"] - e["image_rule"]["recall"]),
+            "image_rule_precision_points": 100
+            * (b["image_rule"]["precision"] - e["image_rule"]["precision"]),
             "width_median_change": (b["width_median_mm"] / e["width_median_mm"] - 1)
             if e["width_median_mm"] and b["width_median_mm"]
             else None,

@@ -133,9 +133,8 @@ pub enum Told<'a> {
     Estimate(&'a Estimate),
 }
 
-/// How long a detect will take, from the model's speed on its first
-/// batches (after ONNX Runtime's warm-up, a second's or 64 tiles' worth)
-/// and the frames' decoding so far.
+/// How long a detect will take, from the pace of its first batches after
+/// ONNX Runtime's warm-up (see [`Pace`]).
 #[derive(Debug, Clone)]
 pub struct Estimate {
     /// Tiles it will run, and the flight's (or the share's) tiles in all.
@@ -186,6 +185,7 @@ pub fn detect(
         tiles_run: chosen.tiles(),
         choice: tiles.words(),
         device,
+        warm: None,
         estimate_s: None,
     };
     let (found, ran, tiles_run) = infer_all(
@@ -286,45 +286,55 @@ pub fn detect(
     Ok(summary)
 }
 
-/// The run's pace: what the first batch says of the whole.
+/// The run's pace: what its first batches say of the whole. ONNX Runtime's
+/// first run sets it up, and the frames decoded meanwhile wait ready; the
+/// pace is that of the tiles run after them, decoding and inference
+/// sharing the machine as they will to the end, once they add up to a
+/// second or 64 tiles (or, with frames of hundreds of tiles, 5 seconds).
 struct Pace {
     start: Instant,
     tiles: u64,
     tiles_run: u64,
     choice: String,
     device: postflight_core::detection::Device,
+    /// From the end of the first batch: when, and the tiles and frames
+    /// run by then.
+    warm: Option<(Instant, u64, u64)>,
     estimate_s: Option<f64>,
 }
 
 impl Pace {
-    /// After the first batches: a tile takes `per_tile` seconds, `done`
-    /// tiles have run, and `frames` of `frames_total` were prepared in
-    /// `prepare_s` (on worker threads, sharing a CPU with inference).
-    fn estimate(
-        &mut self,
-        per_tile: f64,
-        done: u64,
-        prepared: (u64, f64),
-        frames_total: u64,
-    ) -> Estimate {
-        let (frames, prepare_s) = prepared;
-        let infer = per_tile * self.tiles_run.saturating_sub(done) as f64;
-        let prepare = prepare_s / frames.max(1) as f64 * frames_total.saturating_sub(frames) as f64;
-        let rest = match self.device {
-            postflight_core::detection::Device::Cpu => infer + prepare,
-            _ => infer.max(prepare),
+    /// Frames decoded ahead of inference: the channel's and a chunk's.
+    const AHEAD: u64 = 2 * PREPARE_AHEAD as u64;
+
+    /// After a batch: `done` tiles and `frames` frames have run. The
+    /// estimate once the pace is known, the first time only.
+    fn after_batch(&mut self, done: u64, frames: u64) -> Option<Estimate> {
+        let Some((since, tiles_then, frames_then)) = self.warm else {
+            self.warm = Some((Instant::now(), done, frames));
+            return None;
         };
+        let (tiles, seconds) = (done - tiles_then, since.elapsed().as_secs_f64());
+        let drained = frames - frames_then > Self::AHEAD;
+        let enough = (seconds >= 1.0 || tiles >= 64) && drained || seconds >= 5.0;
+        if self.estimate_s.is_some() || !enough || done >= self.tiles_run || tiles == 0 {
+            return None;
+        }
+        let rest = seconds / tiles as f64 * (self.tiles_run - done) as f64;
         let seconds = self.start.elapsed().as_secs_f64() + rest;
         self.estimate_s = Some(seconds);
-        Estimate {
+        Some(Estimate {
             tiles_run: self.tiles_run,
             tiles: self.tiles,
             choice: self.choice.clone(),
             seconds,
             device: self.device,
-        }
+        })
     }
 }
+
+/// Frames decoded at once, and waiting decoded, ahead of inference.
+const PREPARE_AHEAD: usize = 8;
 
 /// Run the detector over the chosen windows of `work`'s frames, decoding
 /// ahead on worker threads; frames that cannot be prepared join `failed`.
@@ -344,23 +354,15 @@ fn infer_all(
     let mut done = 0u64;
     let total = pace.tiles_run;
     let mut run_error = None;
-    // Frames prepared, and the seconds their worker took.
-    let prepared = std::sync::Mutex::new((0u64, 0.0f64));
     std::thread::scope(|scope| {
         // Workers decode and letterbox the next frames while the runtime infers.
-        let (tx, rx) = sync_channel::<Result<Prepared, FailedFrame>>(8);
-        let prepared = &prepared;
+        let (tx, rx) = sync_channel::<Result<Prepared, FailedFrame>>(PREPARE_AHEAD);
         scope.spawn(move || {
-            for chunk in work.chunks(8) {
-                let started = Instant::now();
+            for chunk in work.chunks(PREPARE_AHEAD) {
                 let ready: Vec<_> = chunk
                     .par_iter()
                     .map(|w| prepare(recording, w, feed, options))
                     .collect();
-                if let Ok(mut p) = prepared.lock() {
-                    p.0 += chunk.len() as u64;
-                    p.1 += started.elapsed().as_secs_f64();
-                }
                 for p in ready {
                     if tx.send(p).is_err() {
                         return;
@@ -372,28 +374,15 @@ fn infer_all(
         let mut pending: Vec<Prepared> = Vec::new();
         let mut pending_views = 0;
         let batch = detector.batch;
-        // ONNX Runtime's first run sets it up; the model's pace is that of
-        // the batches after it, once they add up to a second or 64 tiles.
-        let mut batches = 0u32;
-        let mut paced = (0u64, 0.0f64);
-        let mut told_estimate = false;
+        let mut frames_run = 0u64;
         let mut run = |pending: &mut Vec<Prepared>,
                        views: u64,
                        done: &mut u64,
                        told: &mut dyn FnMut(Told<'_>)| {
-            let started = Instant::now();
+            frames_run += pending.len() as u64;
             let n = detector.run_frames(pending, options, &mut found)?;
             *done += views;
-            batches += 1;
-            if batches > 1 {
-                paced.0 += views;
-                paced.1 += started.elapsed().as_secs_f64();
-            }
-            if !told_estimate && *done < total && (paced.1 >= 1.0 || paced.0 >= 64) {
-                told_estimate = true;
-                let so_far = prepared.lock().map(|p| *p).unwrap_or((0, 0.0));
-                let estimate =
-                    pace.estimate(paced.1 / paced.0 as f64, *done, so_far, work.len() as u64);
+            if let Some(estimate) = pace.after_batch(*done, frames_run) {
                 told(Told::Estimate(&estimate));
             }
             Ok::<u64, DetectError>(n)
