@@ -205,8 +205,10 @@ impl DetectShare<'_> {
                 println!("detect share {shard}: done already, skipped");
             }
         } else {
-            // The detections are about to change: the later stages' files
-            // go, and the shares done under other settings.
+            // The detections are about to change: the flight's detect of
+            // other settings and the later stages' files go, and the
+            // shares done under other settings.
+            log.stages.retain(|r| r.stage != Stage::Detect.name());
             for later in Stage::ALL.iter().filter(|s| **s > Stage::Detect) {
                 log.forget(later.name());
                 dir.clear(*later)?;
@@ -252,6 +254,7 @@ impl DetectShare<'_> {
             return Ok(false);
         }
         let merged = stages::merge(&inputs.out, quiet)?;
+        log.stages.retain(|r| r.stage != Stage::Detect.name());
         log.stages.push(StageRecord {
             stage: Stage::Detect.name().to_string(),
             fingerprint: fingerprint.to_string(),
