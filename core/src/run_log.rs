@@ -244,11 +244,16 @@ mod tests {
                 seconds: 1.5,
                 finished: crate::time::now_rfc3339(),
             }],
+            detect_shares: BTreeMap::from([("2/4".into(), "f2".into())]),
         };
         log.write(&run).unwrap();
         assert_eq!(RunLog::read(&run).unwrap(), log);
         assert_eq!(log.timings()["ingest"], 1.5);
         log.forget("ingest");
         assert!(log.record("ingest").is_none());
+        assert_eq!(log.detect_shares.len(), 1, "ingest's record goes alone");
+        // Forgetting detect forgets the shares it was made of.
+        log.forget("detect");
+        assert!(log.detect_shares.is_empty());
     }
 }
