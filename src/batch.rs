@@ -327,7 +327,7 @@ fn run_worker(
     threads: usize,
 ) -> Result<TaskRecord, String> {
     let dir = manifest.flights[task.flight].run_dir(fleet_dir);
-    let log_path = dir.join(fleet::task::record_file(task.share).replace(".json", ".log"));
+    let log_path = dir.join(fleet::task::log_file(task.share));
     let log = std::fs::create_dir_all(&dir)
         .and_then(|()| std::fs::File::create(&log_path))
         .map_err(|e| format!("cannot write {}: {e}", log_path.display()))?;

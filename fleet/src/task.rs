@@ -19,9 +19,20 @@ pub const TASK_RECORD: &str = "batch.json";
 
 /// A task's record file: [`TASK_RECORD`], or `batch-share-K-of-N.json`.
 pub fn record_file(share: Option<Shard>) -> String {
+    format!("{}.json", task_files(share))
+}
+
+/// A task's output, as a worker on this machine keeps it: `batch.log`, or
+/// `batch-share-K-of-N.log`.
+pub fn log_file(share: Option<Shard>) -> String {
+    format!("{}.log", task_files(share))
+}
+
+/// The stem of a task's files.
+fn task_files(share: Option<Shard>) -> String {
     match share {
-        None => TASK_RECORD.to_string(),
-        Some(s) => format!("batch-share-{}-of-{}.json", s.index, s.count),
+        None => TASK_RECORD.trim_end_matches(".json").to_string(),
+        Some(s) => format!("batch-share-{}-of-{}", s.index, s.count),
     }
 }
 
@@ -225,6 +236,13 @@ mod tests {
             r.write(dir.path()).unwrap();
         }
         assert!(dir.path().join("batch-share-2-of-3.json").is_file());
+        assert_eq!(
+            (record_file(None), log_file(share(2))),
+            (
+                TASK_RECORD.to_string(),
+                "batch-share-2-of-3.log".to_string()
+            )
+        );
         assert_eq!(TaskRecord::of_run(dir.path()).unwrap(), Some(last));
         let failed = TaskRecord::start(&entry, share(3)).end(1.0, Err("no".into()));
         failed.write(dir.path()).unwrap();
