@@ -47,8 +47,8 @@ postflight_core::settings! {
         /// Run the model only where it matters: on the tiles that show a
         /// patch of the map among its best N views, by the View model's
         /// measure (within its distance band, GSD and blur first, then the
-        /// finest on the surface); 0 runs every tile. Without a map every
-        /// tile runs.
+        /// finest on the surface; twice N for a patch no view sees within
+        /// them); 0 runs every tile. Without a map every tile runs.
         #[arg(long, value_name = "N")]
         views_per_patch: u32 = 2,
         /// Overlap of neighbouring tiles, as a share of the tile size.
