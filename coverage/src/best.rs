@@ -119,7 +119,7 @@ pub fn best_views(
         for (shot, bbox) in &face.best {
             let frame = shots[*shot].id;
             let scaled = in_frame_pixels(sizes.get(&frame), &lenses[shots[*shot].lens], bbox);
-            frames.entry(shots[*shot].id).or_default().best.push(scaled);
+            frames.entry(frame).or_default().best.push(scaled);
         }
     }
     Ok(BestViews {
@@ -340,15 +340,18 @@ mod tests {
             reach_m: 10.0,
             exposure_s: None,
         };
-        let got = face_views(
-            &face,
-            &[0, 1, 2, 3, 4],
-            &shots,
-            &lenses,
-            &map,
-            &view,
-            choosing,
-        );
+        let judge = |shots: &[Shot]| {
+            face_views(
+                &face,
+                &[0, 1, 2, 3, 4],
+                shots,
+                &lenses,
+                &map,
+                &view,
+                choosing,
+            )
+        };
+        let got = judge(&shots);
         assert_eq!(got.best.iter().map(|b| b.0).collect::<Vec<_>>(), [1, 2]);
         assert_eq!(got.seen_by.len(), 4);
         // Straight ahead at 2.5 m: the face, 0.5 m across, is 192 px wide
@@ -371,15 +374,7 @@ mod tests {
                 ..s.clone()
             })
             .collect();
-        let got = face_views(
-            &face,
-            &[0, 1, 2, 3, 4],
-            &blurred,
-            &lenses,
-            &map,
-            &view,
-            choosing,
-        );
+        let got = judge(&blurred);
         assert_eq!(
             got.best.iter().map(|b| b.0).collect::<Vec<_>>(),
             [1, 3, 2, 0]

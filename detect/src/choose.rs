@@ -147,20 +147,16 @@ fn among_best(
     best: &BestViews,
     skipped: &mut Counts<TileSkip>,
 ) -> Vec<Window> {
+    // Size unknown (0): the whole frame, wherever its boxes are.
+    let extent = |pixels: u32| match pixels {
+        0 => f32::MAX,
+        n => n as f32,
+    };
     let whole = BoxXyxy {
         x0: 0.0,
         y0: 0.0,
-        // Size unknown (0): the whole frame, wherever its boxes are.
-        x1: if all[0].width == 0 {
-            f32::MAX
-        } else {
-            all[0].width as f32
-        },
-        y1: if all[0].height == 0 {
-            f32::MAX
-        } else {
-            all[0].height as f32
-        },
+        x1: extent(all[0].width),
+        y1: extent(all[0].height),
     };
     if let Some(why) = best.skip(frame, &whole) {
         skipped.add_many(why, all.len() as u64);

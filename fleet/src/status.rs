@@ -126,8 +126,8 @@ fn flight_state(tasks: &[TaskStatus]) -> FlightState {
             .map(|s| format!("share {s}: "))
             .unwrap_or_default()
     };
-    let first = |word: &str| tasks.iter().find(|t| t.state.word() == word);
-    if let Some(t) = tasks.iter().find(|t| t.state.needs_rerun()) {
+    let first = |is: fn(&FlightState) -> bool| tasks.iter().find(|t| is(&t.state));
+    if let Some(t) = first(FlightState::needs_rerun) {
         return match &t.state {
             FlightState::Failed { error } => FlightState::Failed {
                 error: format!("{}{error}", share(t)),
@@ -138,7 +138,9 @@ fn flight_state(tasks: &[TaskStatus]) -> FlightState {
             other => other.clone(),
         };
     }
-    if let Some(t) = first("running").or_else(|| first("queued")) {
+    let running = |s: &FlightState| matches!(s, FlightState::Running { .. });
+    let queued = |s: &FlightState| matches!(s, FlightState::Queued { .. });
+    if let Some(t) = first(running).or_else(|| first(queued)) {
         return t.state.clone();
     }
     let finished: Vec<_> = tasks

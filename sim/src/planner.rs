@@ -294,20 +294,8 @@ mod tests {
     fn a_gimbal_adds_viewpoints_looking_straight_down_at_the_deck() {
         let scene = Scene::girder_bridge();
         let pitch = 12f64.to_radians();
-        let fixed = plan(
-            &scene,
-            0.5,
-            Mount::Fixed { pitch },
-            STANDOFF,
-            Spacing::PATCHES,
-        );
-        let gimbal = plan(
-            &scene,
-            0.5,
-            Mount::Gimbal { pitch },
-            STANDOFF,
-            Spacing::PATCHES,
-        );
+        let with = |mount| plan(&scene, 0.5, mount, STANDOFF, Spacing::PATCHES);
+        let (fixed, gimbal) = (with(Mount::Fixed { pitch }), with(Mount::Gimbal { pitch }));
         let key = |v: &Viewpoint| v.position.map(|c| (c * 1e6).round() as i64);
         let sides: BTreeSet<_> = fixed.viewpoints.iter().map(key).collect();
         let (down, level): (Vec<_>, Vec<_>) = gimbal
