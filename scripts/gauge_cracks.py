@@ -3,7 +3,7 @@
 flight, and postflight's widths scored against the gauge: the evaluation
 that docs/evaluation.md's "Against a crack-width gauge" figures come from.
 
-    gauge_cracks.py write --site DIR --out DIR [--limit N]
+    gauge_cracks.py write --site DIR --out DIR [--limit N] [--only thin|resolved]
     gauge_cracks.py score FLIGHT RUN [FLIGHT RUN ...]
     gauge_cracks.py profiles --site DIR [--site DIR ...]
 
@@ -58,6 +58,8 @@ MEANDER_PX = 6.0
 MEANDER_PERIOD_PX = 420.0
 ON_LINE_PX = 3.0
 BANDS = (("up to 2 px", 0.0, 2.0), ("2-6 px", 2.0, 6.0), ("over 6 px", 6.0, math.inf))
+# A site's thin cracks, flown alone: no wider than the blur spreads a line.
+THIN_PX = 2.0
 
 
 class Reading:
@@ -137,10 +139,21 @@ def photo(reading, seed):
     return np.clip(np.round(s - dark + noise), 0, 255).astype(np.uint8)
 
 
+def kept(reading, only):
+    """Whether a reading belongs to the subset `only` flies: its thin cracks
+    (up to 2 px, thinner than the blur) or its resolved ones (wider)."""
+    thin = reading.width_px <= THIN_PX
+    return only == "all" or (only == "thin") == thin
+
+
 def write(args):
     out = Path(args.out)
     shots, left_out = [], []
+    # A reading's photo is the same in every subset: its noise is seeded by
+    # its place among the site's readings.
     for i, r in enumerate(readings(args.site)[: args.limit or None]):
+        if not kept(r, args.only):
+            continue
         if not 0 < r.res_mm <= MAX_RES_MM:
             left_out.append(f"{r.name} ({r.res_mm:.3g} mm per pixel)")
             continue
@@ -273,6 +286,8 @@ def main():
     w.add_argument("--site", required=True)
     w.add_argument("--out", required=True)
     w.add_argument("--limit", type=int, default=0)
+    w.add_argument("--only", choices=("all", "thin", "resolved"), default="all",
+                   help="fly the site's thin cracks (up to 2 px) or its resolved ones alone")
     s = sub.add_parser("score")
     s.add_argument("runs", nargs="+")
     p = sub.add_parser("profiles")

@@ -61,6 +61,8 @@ MIN_COMPONENT_PX = 30
 SUB = 4
 STATE_LIMITS_MM = (0.30, 1.27)
 STATES = ("good", "fair", "poor")
+# Where a mask is no longer mostly blur: the widths scored against it alone.
+WIDE_PX = 6.0
 
 
 def mask_path(photo):
@@ -237,15 +239,15 @@ class Truth:
         hit = ndimage.binary_dilation(hit, iterations=int(NEAR_PX))
         return set(np.unique(self.labels[hit & self.on])) & set(self.components)
 
-    def width_px(self, pts):
-        """95th percentile of the true widths on the axis near `pts`."""
+    def width_px(self, pts, q=95):
+        """The `q`th percentile of the true widths on the axis near `pts`."""
         if len(self.skeleton) == 0:
             return None
         from scipy.spatial import cKDTree
 
         d, _ = cKDTree(pts).query(self.skeleton)
         near = self.widths[d <= NEAR_PX]
-        return float(np.percentile(near, 95)) if len(near) else None
+        return float(np.percentile(near, q)) if len(near) else None
 
 
 @functools.lru_cache(maxsize=None)
@@ -294,6 +296,7 @@ def scored_run(flight, run):
         pts = image_points(d, frame)
         on = float(np.mean(truth.near(pts) <= NEAR_PX)) >= 0.5
         true_px = truth.width_px(pts) if on else None
+        median_px = truth.width_px(pts, 50) if on else None
         mm_per_full_px = frame["gsd_mm"] / frame["downsample"]
         width = d.get("width") or {}
         size = d["length_m"] or 0.0
@@ -301,8 +304,11 @@ def scored_run(flight, run):
             "id": d["id"], "photo": Path(frame["photo"]).name, "on": on,
             "components": truth.touched(pts) if on else set(),
             "true_px": true_px, "true_mm": None if true_px is None else true_px * mm_per_full_px,
+            "true_median_mm": None if median_px is None else median_px * mm_per_full_px,
+            "median_mm": width.get("median_mm"),
             "max_mm": width.get("max_mm"), "uncertainty_mm": width.get("uncertainty_mm"),
             "narrower_than_mm": width.get("narrower_than_mm"),
+            "method": width.get("method"), "fit": width.get("fit"),
             "state": d.get("condition"), "priority": d["confidence"] * max(size, 0.05),
             "confidence": d["confidence"], "pts": pts,
         })
@@ -333,6 +339,18 @@ def report(flight, run):
                   f"{np.median(errors):+.0%} | {np.percentile(np.abs(errors), 90):.0%} |")
         else:
             print(f"| {band} | {len(in_band)} | 0 | - | - | - |")
+    wide = [r for r in on if r["true_px"] is not None and r["true_px"] >= WIDE_PX and r["max_mm"] is not None]
+    if wide:
+        ratios = np.array([r["max_mm"] / r["true_mm"] for r in wide])
+        print(f"cracks {WIDE_PX:g} px and wider on their masks: {len(wide)}, widest over the mask's: median "
+              f"{np.median(ratios):.2f}, under half of it {np.mean(ratios < 0.5):.0%} ({np.sum(ratios < 0.5)})")
+        medians = np.array([r["median_mm"] / r["true_median_mm"] for r in wide if r["median_mm"] and r["true_median_mm"]])
+        print(f"  median along the crack over the mask's median width along it: median {np.median(medians):.2f}, "
+              f"under half of it {np.mean(medians < 0.5):.0%} ({np.sum(medians < 0.5)})")
+        print("the ten furthest under their masks (photo, candidate, mask px, read px, method, fit):")
+        for r in sorted(wide, key=lambda r: r["max_mm"] / r["true_mm"])[:10]:
+            print(f"  {r['photo']} {r['id']}: mask {r['true_px']:.1f} px, read {r['max_mm'] / r['true_mm'] * r['true_px']:.1f} px"
+                  f" ({r['method']}, {r['fit']})")
     judged = [r for r in on if r["true_mm"] is not None]
     right = sum(r["state"] == state(r["true_mm"]) for r in judged)
     none = sum(r["state"] is None for r in judged)

@@ -29,6 +29,11 @@ const GIVEN_SPREAD: f64 = 0.08;
 /// Resolved cracks that say how far one crack's interior differs from
 /// another's.
 const MIN_CRACKS_FOR_SPREAD: usize = 3;
+/// Fewest resolved cracks that say the interior of a photo's or a flight's
+/// other cracks: one or two resolved stretches in a flight of hairlines
+/// are as often something else (a shadowed edge, a stain) and would scale
+/// every hairline's width by their lighter insides.
+const MIN_CRACKS: usize = 3;
 
 /// The contrast a darkness width divides by.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -69,12 +74,14 @@ impl Contrast {
     }
 
     /// The nearest that was read: the crack's own, the photo's, the
-    /// flight's, else the setting's.
+    /// flight's (each of [`MIN_CRACKS`] cracks at least), else the
+    /// setting's.
     pub fn nearest(crack: Option<f64>, photo: &[f64], flight: &[f64], given: f64) -> Self {
+        let enough = |cracks: &[f64]| cracks.len() >= MIN_CRACKS;
         crack
             .and_then(|i| Self::of(&[i], ContrastSource::Crack))
-            .or_else(|| Self::of(photo, ContrastSource::Photo))
-            .or_else(|| Self::of(flight, ContrastSource::Flight))
+            .or_else(|| enough(photo).then(|| Self::of(photo, ContrastSource::Photo))?)
+            .or_else(|| enough(flight).then(|| Self::of(flight, ContrastSource::Flight))?)
             .unwrap_or_else(|| Self::given(given))
     }
 }
@@ -113,11 +120,11 @@ mod tests {
         assert_eq!((photo.share, photo.from), (0.82, ContrastSource::Photo));
         // Three cracks scatter by a robust sigma of 0.02 about 0.82.
         assert!((photo.spread - 1.4826 * 0.02 / 0.82).abs() < 1e-9);
-        let flight = Contrast::nearest(None, &[], &[0.7], 0.85);
-        assert_eq!(
-            (flight.share, flight.from, flight.spread),
-            (0.7, ContrastSource::Flight, GIVEN_SPREAD)
-        );
+        let flight = Contrast::nearest(None, &[0.6], &[0.7, 0.72, 0.74], 0.85);
+        assert_eq!((flight.share, flight.from), (0.72, ContrastSource::Flight));
+        // Two resolved cracks in a flight say nothing of the others.
+        let few = Contrast::nearest(None, &[0.2], &[0.2, 0.3], 0.85);
+        assert_eq!((few.share, few.from), (0.85, ContrastSource::Setting));
         let given = Contrast::nearest(None, &[], &[], 0.85);
         assert_eq!((given.share, given.from), (0.85, ContrastSource::Setting));
     }

@@ -9,7 +9,10 @@
 //! width at half depth is the blur's. What the blur keeps is the light the
 //! crack takes away, summed across it ([`Crossing::darkness`]); its walls
 //! ([`Crossing::walls`]) say its width only where it is wider than the
-//! blur. [`crate::width`] weighs the two.
+//! blur. Each wall is where its own step is half up: a crack whose inside
+//! is not dark (filled, stained, lit from one side) or that has a darkened
+//! shoulder beside it still shows where its walls stand.
+//! [`crate::width`] weighs the two.
 
 use std::collections::HashMap;
 
@@ -39,6 +42,15 @@ const FOUND_SIGMAS: f64 = 6.0;
 const REACH: f64 = 8.0;
 /// The farthest a profile reaches, pixels.
 const MAX_REACH: f64 = 64.0;
+/// How far either side of a wall its step's foot and top are looked for,
+/// pixels: a blurred step of up to 1.5 px (one sigma) is all but up by
+/// then.
+const WALL_STEP_PX: f64 = 3.0;
+/// A crossing shows its interior when its width at three quarters of its
+/// depth is at least this share of its width at half: a blurred slot's
+/// nearly is, a soft band's two thirds, a V's half; a line in a broader
+/// shade shows only the line at three quarters.
+const SHOWS_INTERIOR: f64 = 0.5;
 /// The darkness is summed this far either side of the line at least,
 /// pixels: a thin line's blur (on the gauge readings' photos about 2 px
 /// at half depth, a Gaussian of 0.85 px) lies within it.
@@ -56,6 +68,9 @@ pub struct Crossing {
     pub across: Vector2<f64>,
     /// The surface's brightness beside the crack, grey levels.
     pub surface: f64,
+    /// The surface's noise there (a robust standard deviation), grey
+    /// levels.
+    pub noise: f64,
     /// The crack's darkness below the surface at the line (the deepest
     /// within half a pixel), grey levels.
     pub depth: f64,
@@ -68,27 +83,47 @@ pub struct Crossing {
     /// grey levels times pixels.
     pub noise_limit: f64,
     /// Where the profile shows the crack's walls on the line (deeper than
-    /// [`FOUND_SIGMAS`] noise sigmas).
+    /// [`FOUND_SIGMAS`] noise sigmas, or [`CONFIRM_SIGMAS`] where the
+    /// detector's mask spans it).
     pub walls: Option<Walls>,
     /// Its width at half depth: its walls', else, where the detector's mask
     /// spans it, around its darkest line within the mask (deeper than
     /// [`CONFIRM_SIGMAS`]), pixels.
     pub half: Option<f64>,
-    /// Whether it is flat-bottomed and at least [`RESOLVED_PX`] wide at
-    /// half depth: its depth is its interior's darkness.
+    /// Whether its walls pass [`FOUND_SIGMAS`] noise sigmas, as a crack
+    /// that says the flight's blur and contrast must: fainter ones within
+    /// the detector's mask are measured, but in a textured photo are as
+    /// often the texture.
+    pub sure: bool,
+    /// Whether it is sure, flat-bottomed and at least [`RESOLVED_PX`] wide
+    /// at half depth: its depth is its interior's darkness.
     pub flat: bool,
 }
 
-/// Where a crack's walls are: its widths between them at half and at a
-/// quarter of its depth, pixels. A blurred wall's half depth lies on the
-/// wall; its quarter depth further out by what the blur spreads it. A V or
-/// U section's walls slope from its opening, so its half depth reads only
-/// part of it (half of a V's), its quarter depth three quarters of a V's
-/// and all of a U's.
+/// Where a crack's walls are: its widths between them at half, a quarter
+/// and three quarters of its depth, pixels, walking out from the line,
+/// each wall at half depth where its own step is half up. A blurred wall's
+/// half depth lies on the wall; its quarter depth further out by what the
+/// blur spreads it. A V or U section's walls slope from its opening, so
+/// its half depth reads only part of it (half of a V's), its quarter depth
+/// three quarters of a V's and all of a U's.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Walls {
     pub half: f64,
     pub quarter: f64,
+    pub three_quarters: f64,
+    /// How far each wall rises, from a quarter to three quarters of the
+    /// depth, the two walls' mean, pixels: a blurred upright wall's rise is
+    /// 1.35 of the blur's sigma.
+    pub rise: f64,
+}
+
+impl Walls {
+    /// Whether the crossing shows its interior ([`SHOWS_INTERIOR`]): its
+    /// depth is then the interior's, however dark that is.
+    pub fn show_interior(&self) -> bool {
+        self.three_quarters >= SHOWS_INTERIOR * self.half
+    }
 }
 
 impl Crossing {
@@ -121,9 +156,22 @@ pub fn crossings(
             let reach = mask_px.map_or(REACH, |px| REACH.max(1.5 * px + 4.0));
             let profile = reached(gray, centre[i], across, reach)?;
             let crossing = profile.crossing(centre[i], across, mask_px);
-            apart.alone(i, &crossing).then_some(crossing)
+            // A crack is longer than it is wide: a crossing needs as much
+            // traced line either side as half its width, or it is a line's
+            // end hooking across the crack (or a blob), whose profile runs
+            // along the crack.
+            let long = crossing
+                .walls
+                .is_none_or(|w| runs_on(neighbours, i, (w.half / 2.0).ceil() as usize));
+            (long && apart.alone(i, &crossing)).then_some(crossing)
         })
         .collect()
+}
+
+/// Whether the centre line runs on `steps` steps either side of pixel `i`
+/// (one short at most).
+fn runs_on(neighbours: &[Vec<usize>], i: usize, steps: usize) -> bool {
+    within(neighbours, i, steps).len() >= 2 * steps
 }
 
 /// Centre-line steps beyond a crossing's summed reach within which a fork
@@ -195,18 +243,23 @@ impl Profile {
     /// What it shows; `mask_px` the detector's mask's width across it,
     /// where it segments.
     fn crossing(&self, at: Point2<f64>, across: Vector2<f64>, mask_px: Option<f64>) -> Crossing {
-        let found = found(self, FOUND_SIGMAS);
+        // Where the detector's mask spans it, the mask already says a crack
+        // is there: its walls are read at a fainter depth.
+        let sigmas = if mask_px.is_some_and(|px| px >= RESOLVED_PX) {
+            CONFIRM_SIGMAS
+        } else {
+            FOUND_SIGMAS
+        };
+        let found = found(self, sigmas);
+        let sure = found
+            .as_ref()
+            .is_some_and(|f| f.depth >= FOUND_SIGMAS * self.noise.max(1.0));
         let centre = self.t.iter().position(|t| t.abs() < STEP / 2.0);
         let depth = centre.map_or(0.0, |c| self.deepest_near(c, 2));
-        let walls = found.as_ref().and_then(|f| {
-            Some(Walls {
-                half: f.width,
-                quarter: edges_at_half(self, f.centre, f.depth / 2.0, 0.0)?,
-            })
-        });
+        let walls = found.as_ref().and_then(|f| self.walls(f));
         // Where the mask spans the crack, its darkest line may lie off the
         // traced one: its half depth there.
-        let half = walls.map(|w| w.half).or_else(|| {
+        let half = found.as_ref().map(|f| f.width).or_else(|| {
             mask_px
                 .filter(|px| *px >= RESOLVED_PX)
                 .and_then(|px| half_depth(self, px / 2.0))
@@ -228,13 +281,79 @@ impl Profile {
             at,
             across,
             surface: self.surface,
+            noise: self.noise,
             depth,
             darkness,
             noise_limit,
             walls,
             half,
-            flat: found.as_ref().is_some_and(|f| self.flat(f)),
+            sure,
+            flat: sure && found.as_ref().is_some_and(|f| self.flat(f)),
         }
+    }
+
+    /// The walls of crack `f`: walking out from the line, where its
+    /// darkness falls below a half, a quarter and three quarters of its
+    /// depth, each wall at half depth moved to where its own step is half
+    /// up ([`wall`]); `None` where a level runs past the profile.
+    fn walls(&self, f: &Found) -> Option<Walls> {
+        let level = |share: f64| edges(self, f.centre, share * f.depth, 0.0);
+        let (lo, hi) = level(0.5)?;
+        let (qlo, qhi) = level(0.25)?;
+        let (tlo, thi) = level(0.75)?;
+        let (lo, hi) = (self.wall(lo, f.centre), self.wall(hi, f.centre));
+        Some(Walls {
+            half: hi - lo,
+            quarter: qhi - qlo,
+            three_quarters: thi - tlo,
+            rise: 0.5 * ((tlo - qlo) + (qhi - thi)),
+        })
+    }
+
+    /// A wall found at offset `edge` walking out from sample `centre`, moved
+    /// to where its own step is half up: from the least darkness within
+    /// [`WALL_STEP_PX`] outside it to the most within as far inside (up to
+    /// the line). A crack whose inside is filled or lit along one wall
+    /// shows a lower step there than its depth at the line; a darkened
+    /// shoulder beside it lifts the foot of the step.
+    fn wall(&self, edge: f64, centre: usize) -> f64 {
+        let i = self.index(edge);
+        let out: isize = if edge >= 0.0 { 1 } else { -1 };
+        let reach = (WALL_STEP_PX / STEP) as isize;
+        let at = |k: isize| {
+            self.smooth_at((i as isize + out * k).clamp(0, self.t.len() as isize - 1) as usize)
+        };
+        let foot = (0..=reach).map(at).fold(f64::INFINITY, f64::min);
+        let inside = (i.abs_diff(centre) as isize).min(reach);
+        let top = (-inside..=0).map(at).fold(f64::NEG_INFINITY, f64::max);
+        let half = (foot.max(0.0) + top) / 2.0;
+        // Walking out from the inside of the step to where it falls below
+        // half, found between samples.
+        let mut k = -inside;
+        while k < reach && at(k + 1) >= half {
+            k += 1;
+        }
+        let (a, b) = (at(k), at(k + 1));
+        let f = if a > b {
+            ((a - half) / (a - b)).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let t =
+            |k: isize| self.t[(i as isize + out * k).clamp(0, self.t.len() as isize - 1) as usize];
+        t(k) + f * (t(k + 1) - t(k))
+    }
+
+    /// The profile's darkness averaged over half a pixel about sample `i`.
+    fn smooth_at(&self, i: usize) -> f64 {
+        let near = &self.dark[i.saturating_sub(2)..=(i + 2).min(self.dark.len() - 1)];
+        near.iter().sum::<f64>() / near.len() as f64
+    }
+
+    /// The sample nearest offset `t`, within the profile.
+    fn index(&self, t: f64) -> usize {
+        let i = ((t - self.t[0]) / STEP).round();
+        i.clamp(0.0, (self.t.len() - 1) as f64) as usize
     }
 
     /// The darkest sample within `samples` of sample `i`.
@@ -320,16 +439,43 @@ impl Inside {
 
 /// The profile at `at` out to `reach` pixels each side, reaching further
 /// (up to [`MAX_REACH`]) while the crack's darkness runs past half of it,
-/// so the surface is read outside the crack.
+/// or the image beyond the profile is brighter than the surface it read (a
+/// crack wider than the reach, its inside taken for the surface), so the
+/// surface is read outside the crack.
 fn reached(gray: &GrayImage, at: Point2<f64>, across: Vector2<f64>, reach: f64) -> Option<Profile> {
     let mut reach = reach.min(MAX_REACH);
     loop {
         let p = profile(gray, at, across, reach)?;
-        if reach >= MAX_REACH || dark_extent(&p) < 0.5 * reach {
+        let inside = dark_extent(&p) >= 0.5 * reach || brighter_beyond(gray, at, across, reach, &p);
+        if reach >= MAX_REACH || !inside {
             return Some(p);
         }
         reach = (2.0 * reach).min(MAX_REACH);
     }
+}
+
+/// Whether the image from `reach` to twice it either side of `at` along
+/// `across` (where inside it) is brighter than profile `p`'s surface by
+/// more than its own noise allows.
+fn brighter_beyond(
+    gray: &GrayImage,
+    at: Point2<f64>,
+    across: Vector2<f64>,
+    reach: f64,
+    p: &Profile,
+) -> bool {
+    let beyond: Vec<f64> = (0..=8)
+        .map(|k| reach * (1.0 + f64::from(k) / 8.0))
+        .flat_map(|t| [t, -t])
+        .filter_map(|t| sample(gray, at + across * t))
+        .collect();
+    let Some(b) = median(beyond.clone()) else {
+        return false;
+    };
+    // Beyond's own noise: the profile's is its outer samples', which take
+    // in the crack's walls where it is wider.
+    let noise = robust_sigma(beyond.iter().map(|v| (v - b).abs()).collect()).unwrap_or(0.0);
+    b - p.surface > (3.0 * noise).max(2.0)
 }
 
 /// How far from the line the crack's darkness runs, pixels: the farther of
@@ -380,10 +526,19 @@ fn found(p: &Profile, sigmas: f64) -> Option<Found> {
 /// between samples by interpolation; `None` where the crack is no darker
 /// than `sigmas` noise sigmas or runs past the profile.
 fn edges_at_half(p: &Profile, from: usize, depth: f64, sigmas: f64) -> Option<f64> {
-    if depth < sigmas * p.noise.max(1.0) {
+    let (lo, hi) = edges(p, from, depth / 2.0, sigmas.max(0.0) / 2.0)?;
+    Some(hi - lo)
+}
+
+/// The two places, walking out from sample `from`, where the profile's
+/// darkness falls below `level`, offsets from the line, found between
+/// samples by interpolation; `None` where `level` is no more than `sigmas`
+/// noise sigmas or the crack runs past the profile.
+fn edges(p: &Profile, from: usize, level: f64, sigmas: f64) -> Option<(f64, f64)> {
+    if level < sigmas * p.noise.max(1.0) {
         return None;
     }
-    let half = depth / 2.0;
+    let half = level;
     let edge = |step: isize| -> Option<f64> {
         let mut i = from as isize;
         loop {
@@ -399,7 +554,7 @@ fn edges_at_half(p: &Profile, from: usize, depth: f64, sigmas: f64) -> Option<f6
             i = next;
         }
     };
-    Some(edge(1)? - edge(-1)?)
+    Some((edge(-1)?, edge(1)?))
 }
 
 /// Full width at half depth around the darkest point within `search`

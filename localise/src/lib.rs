@@ -22,6 +22,7 @@ pub mod joint;
 pub mod observation;
 pub mod records;
 pub mod settings;
+pub mod slot;
 pub mod stage;
 pub mod stats;
 pub mod surface;

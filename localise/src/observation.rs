@@ -101,7 +101,7 @@ pub struct Crossed {
 impl Crossed {
     /// Its width, its darkness read over `contrast`, its walls as the
     /// camera's `blur` spreads them.
-    pub fn width(&self, contrast: &Contrast, blur: Option<Blur>) -> Option<WidthRecord> {
+    pub fn width(&self, contrast: &Contrast, blur: &Blur) -> Option<WidthRecord> {
         let points = widths(&self.crossings, *contrast, blur);
         view_width(&points, &self.footing, &self.neighbours, contrast)
     }
@@ -695,14 +695,18 @@ mod tests {
                     at: *p,
                     across: nalgebra::Vector2::new(1.0, 0.0),
                     surface: 150.0,
+                    noise: 2.0,
                     depth: 120.0,
                     darkness: 360.0,
                     noise_limit: 10.0,
                     walls: Some(crate::crossing::Walls {
                         half: 3.0,
                         quarter: 3.2,
+                        three_quarters: 2.8,
+                        rise: 0.8,
                     }),
                     half: Some(3.0),
+                    sure: true,
                     flat: true,
                 })
             })
@@ -721,7 +725,7 @@ mod tests {
             p.width = p
                 .crossed
                 .take()
-                .and_then(|c| c.width(&Contrast::given(0.85), None));
+                .and_then(|c| c.width(&Contrast::given(0.85), &Blur::UNKNOWN));
             p
         };
         for sharp in [None, Some(0.5 * view.max_blur_px)] {

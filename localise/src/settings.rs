@@ -33,5 +33,13 @@ postflight_core::settings! {
         /// flight's, give the share instead).
         #[arg(long = "crack-darkness", value_name = "SHARE")]
         crack_darkness: f64 = 0.85,
+        /// The camera's blur, one standard deviation in pixels, as declared
+        /// for its lens and sensor (from a test chart: 0.187 over its MTF50
+        /// in cycles per pixel), where the flight's own cracks cannot show
+        /// it (no line thinner than the blur, no resolved crack with walls
+        /// apart); without it such a flight's blur is unknown, a middling
+        /// 1 px uncertain by half, and its widths carry that.
+        #[arg(long = "camera-blur", value_name = "PIXELS")]
+        camera_blur_px: f64,
     }
 }

@@ -139,7 +139,7 @@ pub fn localise(
 
     let by_frame = detections_by_frame(&flight, detections)?;
     let (mut observations, mut warnings) = place(&flight, &recording, by_frame, &scene, progress);
-    let widths = measure_widths(&mut observations, options.settings.crack_darkness);
+    let widths = measure_widths(&mut observations, &options.settings);
     let outcomes: Outcomes = observations.iter().map(|o| o.outcome).collect();
     let total = observations.len() as u64;
     let count = |outcome| outcomes.get(outcome);
@@ -247,13 +247,14 @@ fn place(
 
 /// Each view's width, once every crack of the flight has been crossed:
 /// its darkness over the contrast its own resolved stretches show, else
-/// the other cracks of its photo, else the flight's, else `given`; its
-/// walls as the camera's blur, which the flight's thin cracks show,
-/// spreads them.
-fn measure_widths(observations: &mut [Observation], given: f64) -> FlightWidths {
+/// the other cracks of its photo, else the flight's, else the setting's;
+/// its walls as the camera's blur spreads them (the flight's thin lines'
+/// or crack walls' blur, else the setting's, else unknown).
+fn measure_widths(observations: &mut [Observation], settings: &LocaliseConfig) -> FlightWidths {
     fn crossed(o: &Observation) -> Option<&Crossed> {
         o.placement.as_ref()?.crossed.as_ref()
     }
+    let given = settings.crack_darkness;
     let mut by_photo: BTreeMap<u32, Vec<f64>> = BTreeMap::new();
     for o in observations.iter() {
         if let Some(i) = crossed(o).and_then(|c| contrast::interior(&c.crossings)) {
@@ -268,6 +269,7 @@ fn measure_widths(observations: &mut [Observation], given: f64) -> FlightWidths 
             .filter_map(crossed)
             .flat_map(|c| c.crossings.iter().flatten()),
         flight_contrast.share,
+        settings.camera_blur_px,
     );
     observations.par_iter_mut().for_each(|o| {
         let photo = by_photo
@@ -278,14 +280,17 @@ fn measure_widths(observations: &mut [Observation], given: f64) -> FlightWidths 
         {
             let own = contrast::interior(&crossed.crossings);
             let contrast = Contrast::nearest(own, photo, &flight, given);
-            p.width = crossed.width(&contrast, blur);
+            p.width = crossed.width(&contrast, &blur);
         }
     });
     FlightWidths {
         interior_darkness: flight_contrast.share,
         contrast_from: flight_contrast.from,
         resolved_cracks: flight.len(),
-        blur_px: blur.map(|b| b.sigma_px),
+        blur_px: blur.sigma_px,
+        blur_uncertainty_px: blur.uncertainty_px,
+        blur_from: blur.from,
+        blur_samples: blur.samples,
     }
 }
 

@@ -8,7 +8,8 @@
 //! wide along its length, and its widest is its median.
 
 use nalgebra::Point3;
-use postflight_core::outputs::localise::{WidestStretch, WidthMethod, WidthRecord};
+use postflight_core::kind::Counts;
+use postflight_core::outputs::localise::{WidestStretch, WidthFit, WidthMethod, WidthRecord};
 
 use crate::contrast::Contrast;
 use crate::crossing::within;
@@ -120,6 +121,7 @@ pub fn view_width(
         WidthMethod::WallsAndDarkness
     };
     let darkness = method != WidthMethod::Walls;
+    let fit = fit_of(reads.iter().map(|(r, _)| r.fit));
     Some(WidthRecord {
         max_mm: Some(width_mm),
         median_mm: Some(median_mm),
@@ -129,6 +131,7 @@ pub fn view_width(
         method: Some(method),
         contrast_from: darkness.then_some(contrast.from),
         interior_darkness: darkness.then_some(contrast.share),
+        fit: Some(fit),
         widest: widest.and_then(|s| {
             Some(WidestStretch {
                 at: footing[s.middle]?.at.coords.into(),
@@ -136,6 +139,18 @@ pub fn view_width(
             })
         }),
     })
+}
+
+/// How a stretch's points fit a blurred slot: the misfit half of them or
+/// more show (the commoner of the two where both do), else a slot.
+fn fit_of(fits: impl Iterator<Item = WidthFit>) -> WidthFit {
+    let counts: Counts<WidthFit> = fits.collect();
+    let total = counts.total();
+    [WidthFit::WallsAndDarknessDisagree, WidthFit::SlopingWalls]
+        .into_iter()
+        .filter(|f| 2 * counts.get(*f) >= total && counts.get(*f) > 0)
+        .max_by_key(|f| counts.get(*f))
+        .unwrap_or(WidthFit::Slot)
 }
 
 /// A stretch of the crack: its points, the middle one, its median width
@@ -217,6 +232,7 @@ mod tests {
                             resolved: 0.0,
                             spread: 0.0,
                             by_contrast: 1.0,
+                            fit: WidthFit::Slot,
                         }),
                         None => Width::Below { px: 0.5 },
                     },

@@ -91,7 +91,7 @@ pub struct LocaliseSummary {
 /// What a flight's crack widths were read against: the interior contrast
 /// its resolved cracks show (a crack thinner than the blur is read by its
 /// darkness over it, where neither it nor its photo has its own) and the
-/// camera's blur its thinnest cracks show.
+/// camera's blur.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 pub struct FlightWidths {
     /// The share of the surface's brightness a crack's interior lacks: the
@@ -101,10 +101,34 @@ pub struct FlightWidths {
     pub contrast_from: ContrastSource,
     /// Cracks (detections) whose resolved stretches said it.
     pub resolved_cracks: usize,
-    /// The camera's blur, one standard deviation, pixels; none where the
-    /// flight has too few thin cracks to say (their walls are then read
-    /// without taking it off).
-    pub blur_px: Option<f64>,
+    /// The camera's blur, one standard deviation, pixels: the opening a
+    /// crack's walls mean is read through it.
+    pub blur_px: f64,
+    /// How far off `blur_px` may be, pixels (one standard deviation).
+    pub blur_uncertainty_px: f64,
+    /// Where it came from.
+    pub blur_from: BlurSource,
+    /// Crossings of the flight's cracks it was read from (none for the
+    /// setting or unknown).
+    pub blur_samples: usize,
+}
+
+crate::kind! {
+    /// Where a flight's camera blur came from.
+    pub enum BlurSource("blur source") {
+        /// The flight's lines thinner than the blur: their width at half
+        /// depth is the blur's.
+        ThinLines = "thin_lines",
+        /// The walls of the flight's resolved cracks: each a step the blur
+        /// spreads (its edge-spread function, as ISO 12233's slanted edge
+        /// reads a lens).
+        CrackWalls = "crack_walls",
+        /// `[localise] camera_blur_px`, as the camera is declared.
+        Setting = "setting",
+        /// Nothing says it: a middling blur, uncertain by half, carried in
+        /// the widths' uncertainty.
+        Unknown = "unknown",
+    }
 }
 
 /// A group of views localise set aside: something a crack detector finds
@@ -346,6 +370,10 @@ crate::table! {
         /// interior lacks.
         #[serde(default)]
         interior_darkness: Option<f64> as width_interior_darkness,
+        /// How well the crossings its widest stretch was read from fit a
+        /// slot blurred by the camera (none below resolution).
+        #[serde(default)]
+        fit: Option<WidthFit> as width_fit,
         /// Where its widest stretch is; none where no stretch is surely
         /// wider than the crack's median (it is as wide along its length).
         #[serde(default)]
@@ -370,9 +398,9 @@ crate::table! {
 crate::kind! {
     /// How a crack's width was read across it.
     pub enum WidthMethod("width method") {
-        /// Across its walls: where its grey levels cross a quarter of its
-        /// depth, less what the camera's blur spreads a wall there (at least
-        /// its width at half depth): a crack wider than the blur.
+        /// Across its walls: the opening of the blurred slot whose walls
+        /// stand where its grey levels, walking in from either side, first
+        /// reach half its depth: a crack several blurs wide.
         Walls = "walls",
         /// From its darkness: the light it takes away, summed across it,
         /// over the contrast between the surface and a crack's interior: a
@@ -382,6 +410,25 @@ crate::kind! {
         /// Both, each weighed by how far the crack resolves: a crack about
         /// as wide as the blur.
         WallsAndDarkness = "walls_and_darkness",
+    }
+}
+
+crate::kind! {
+    /// How well a crack's crossings fit the model its width is read by: a
+    /// slot of its interior's darkness, as wide as its opening, blurred by
+    /// the camera.
+    pub enum WidthFit("width fit") {
+        /// They fit it.
+        Slot = "slot",
+        /// Their walls spread wider than the blur explains: walls that slope
+        /// (a V or U section) or darkened shoulders beside them; the opening
+        /// may be wider than its walls at half depth, and the uncertainty
+        /// says by how much.
+        SlopingWalls = "sloping_walls",
+        /// About as wide as the blur, their walls and their darkness read
+        /// different widths beyond their uncertainties (a lighter interior,
+        /// a second line, a stain beside it); the uncertainty covers both.
+        WallsAndDarknessDisagree = "walls_and_darkness_disagree",
     }
 }
 
@@ -608,6 +655,7 @@ mod tests {
                     method: (best == 3).then_some(WidthMethod::WallsAndDarkness),
                     contrast_from: (best == 3).then_some(ContrastSource::Flight),
                     interior_darkness: (best == 3).then_some(0.9),
+                    fit: (best == 3).then_some(WidthFit::SlopingWalls),
                     widest: (best == 3).then_some(WidestStretch {
                         at: [1.0, 2.05, 2.45],
                         along_m: Some(0.2),
