@@ -34,6 +34,9 @@ pub const WALLS_APART_PX: f64 = 2.0;
 /// where the detector's mask spans it (the mask already says a crack is
 /// there).
 const CONFIRM_SIGMAS: f64 = 3.0;
+/// How much wider than the detector's mask walls fainter than
+/// [`FOUND_SIGMAS`] may stand and still be the mask's crack, pixels.
+const MASK_MARGIN_PX: f64 = 1.0;
 /// Noise sigmas a crack's depth must pass where nothing else says one is
 /// there.
 const FOUND_SIGMAS: f64 = 6.0;
@@ -256,7 +259,13 @@ impl Profile {
             .is_some_and(|f| f.depth >= FOUND_SIGMAS * self.noise.max(1.0));
         let centre = self.t.iter().position(|t| t.abs() < STEP / 2.0);
         let depth = centre.map_or(0.0, |c| self.deepest_near(c, 2));
-        let walls = found.as_ref().and_then(|f| self.walls(f));
+        // Fainter walls count where the mask confirms them: within it. A
+        // faint line's noise spreads its half depth past its mask, which
+        // would read a hairline wide.
+        let walls = found
+            .as_ref()
+            .and_then(|f| self.walls(f))
+            .filter(|w| sure || mask_px.is_some_and(|px| w.half <= px + MASK_MARGIN_PX));
         // Where the mask spans the crack, its darkest line may lie off the
         // traced one: its half depth there.
         let half = found.as_ref().map(|f| f.width).or_else(|| {

@@ -165,8 +165,13 @@ fn walled(c: &Crossing, interior: f64, blur: &Blur) -> Option<Walled> {
     let to = (WALLS_ALONE_BLURS * sigma).max(2.0 * RESOLVED_MIN_PX);
     let by_width = ramp(opening, from, to);
     // However light its inside, a crossing that shows it is its walls'
-    // once it is several blurs wide.
-    let shown = if w.show_interior() { by_width } else { 0.0 };
+    // once it is several blurs wide (a faint line's noise can make its
+    // blur look like an interior, so not before its walls count half).
+    let shown = if w.show_interior() {
+        ramp(by_width, 0.5, 1.0)
+    } else {
+        0.0
+    };
     let by_depth = ramp(c.depth / interior.max(1e-9), WALLS_FROM_DEPTH, 1.0).max(shown);
     let resolved = by_width * by_depth;
     // A quarter depth further out than the flight's blur puts it: sloping
