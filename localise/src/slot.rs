@@ -17,12 +17,6 @@ const TABLE_SIGMAS: f64 = 12.0;
 /// Table steps per blur.
 const TABLE_STEPS: f64 = 100.0;
 
-/// The share of its interior's darkness a slot `openings` blurs wide
-/// reaches at its middle.
-pub fn depth_share(openings: f64) -> f64 {
-    libm::erf(openings.max(0.0) / (2.0 * std::f64::consts::SQRT_2))
-}
-
 /// The width at half its depth of a slot `openings` blurs wide, in blurs:
 /// the blur's own [`THIN_FWHM_SIGMAS`] for a line, the opening for a wide
 /// slot.
@@ -104,7 +98,6 @@ mod tests {
         // Three blurs wide: the half depth reads wider by a tenth.
         let three = half_depth_width(3.0);
         assert!(three > 3.2 && three < 3.45, "{three}");
-        assert!((depth_share(0.0)).abs() < 1e-12 && depth_share(8.0) > 0.999);
     }
 
     #[test]

@@ -15,22 +15,20 @@ use postflight_core::map::{SlamMap, VoxelIndex};
 use postflight_core::motion::frame_blur_px;
 use postflight_core::outputs::detect::read_detections;
 use postflight_core::outputs::localise::{
-    self as outputs, FlightWidths, LocaliseSummary, Outcome, Outcomes, SetAside, SetAsideReason,
-    files,
+    self as outputs, LocaliseSummary, Outcome, Outcomes, SetAside, SetAsideReason, files,
 };
 use postflight_core::{
     Flight, FlownPlan, Frame, InvalidSetting, PlanFile, RunDir, Stage, ViewSettings,
 };
 use rayon::prelude::*;
 
-use crate::blur::Blur;
-use crate::contrast::{self, Contrast};
 use crate::crop::write_crop;
 use crate::crossing::{adjacency, crossings};
 use crate::error::LocaliseError;
+use crate::flight_widths;
 use crate::fusion::{DefectCandidate, fuse};
 use crate::joint;
-use crate::observation::{Crossed, Observation, Scene};
+use crate::observation::{Observation, Scene};
 use crate::records::{defect_record, observation_record};
 use crate::settings::{LocaliseConfig, keys};
 use crate::trace::{trace, trace_mask};
@@ -96,6 +94,14 @@ impl LocaliseOptions {
             self.settings.max_normal_angle_deg,
             "between 0 and 90 degrees",
         )?;
+        if let Some(blur) = self.settings.camera_blur_px {
+            InvalidSetting::check(
+                blur > 0.0 && blur <= 20.0,
+                keys::camera_blur_px,
+                blur,
+                "between 0 and 20 pixels",
+            )?;
+        }
         self.condition.resolve().check()
     }
 }
@@ -139,7 +145,7 @@ pub fn localise(
 
     let by_frame = detections_by_frame(&flight, detections)?;
     let (mut observations, mut warnings) = place(&flight, &recording, by_frame, &scene, progress);
-    let widths = measure_widths(&mut observations, &options.settings);
+    let widths = flight_widths::measure(&mut observations, &options.settings);
     let outcomes: Outcomes = observations.iter().map(|o| o.outcome).collect();
     let total = observations.len() as u64;
     let count = |outcome| outcomes.get(outcome);
@@ -243,55 +249,6 @@ fn place(
         progress(observations.len() as u64, total);
     }
     (observations, warnings)
-}
-
-/// Each view's width, once every crack of the flight has been crossed:
-/// its darkness over the contrast its own resolved stretches show, else
-/// the other cracks of its photo, else the flight's, else the setting's;
-/// its walls as the camera's blur spreads them (the flight's thin lines'
-/// or crack walls' blur, else the setting's, else unknown).
-fn measure_widths(observations: &mut [Observation], settings: &LocaliseConfig) -> FlightWidths {
-    fn crossed(o: &Observation) -> Option<&Crossed> {
-        o.placement.as_ref()?.crossed.as_ref()
-    }
-    let given = settings.crack_darkness;
-    let mut by_photo: BTreeMap<u32, Vec<f64>> = BTreeMap::new();
-    for o in observations.iter() {
-        if let Some(i) = crossed(o).and_then(|c| contrast::interior(&c.crossings)) {
-            by_photo.entry(o.detection.frame).or_default().push(i);
-        }
-    }
-    let flight: Vec<f64> = by_photo.values().flatten().copied().collect();
-    let flight_contrast = Contrast::nearest(None, &[], &flight, given);
-    let blur = Blur::of(
-        observations
-            .iter()
-            .filter_map(crossed)
-            .flat_map(|c| c.crossings.iter().flatten()),
-        flight_contrast.share,
-        settings.camera_blur_px,
-    );
-    observations.par_iter_mut().for_each(|o| {
-        let photo = by_photo
-            .get(&o.detection.frame)
-            .map_or(&[][..], Vec::as_slice);
-        if let Some(p) = o.placement.as_mut()
-            && let Some(crossed) = p.crossed.take()
-        {
-            let own = contrast::interior(&crossed.crossings);
-            let contrast = Contrast::nearest(own, photo, &flight, given);
-            p.width = crossed.width(&contrast, &blur);
-        }
-    });
-    FlightWidths {
-        interior_darkness: flight_contrast.share,
-        contrast_from: flight_contrast.from,
-        resolved_cracks: flight.len(),
-        blur_px: blur.sigma_px,
-        blur_uncertainty_px: blur.uncertainty_px,
-        blur_from: blur.from,
-        blur_samples: blur.samples,
-    }
 }
 
 /// What the summary says of detections that could not be placed.

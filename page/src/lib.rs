@@ -8,7 +8,7 @@ pub mod record;
 use maud::{DOCTYPE, Markup, html};
 use postflight_core::condition::{ConditionState, StateCall};
 use postflight_core::outputs::localise::{
-    ContrastSource, DefectRecord, LengthStatus, WidthMethod, WidthRecord,
+    ContrastSource, DefectRecord, LengthStatus, WidthFit, WidthMethod, WidthRecord,
 };
 use postflight_core::table::Named;
 
@@ -86,12 +86,27 @@ pub fn width_text(d: &DefectRecord) -> String {
                 None => "along its length".into(),
             };
             let how = method_text(&w);
-            format!("{max:.2} mm {widest}{spread}{median} ({how}; {scale})")
+            let fit = fit_text(w.fit);
+            format!("{max:.2} mm {widest}{spread}{median} ({how}{fit}; {scale})")
         }
         (None, _, Some(below)) => {
             format!("below resolution: narrower than {below:.2} mm ({scale})")
         }
         (None, _, None) => format!("not measured ({scale})"),
+    }
+}
+
+/// Where a crack's crossings do not fit the model its width is read by,
+/// for people (after the method, or nothing).
+fn fit_text(fit: Option<WidthFit>) -> &'static str {
+    match fit {
+        Some(WidthFit::SlopingWalls) => {
+            "; its walls spread wider than the camera's blur (sloping walls, a shoulder or a blurrier photo): its opening may be wider, as the uncertainty says"
+        }
+        Some(WidthFit::WallsAndDarknessDisagree) => {
+            "; its walls and its darkness read different widths (a lighter inside, a stain beside it): the uncertainty covers both"
+        }
+        Some(WidthFit::Slot) | None => "",
     }
 }
 
