@@ -4,8 +4,8 @@
 //! were at half its depth while it is several blurs wide; a narrower one
 //! never reaches its interior's darkness and spreads to the blur's own
 //! width. The model says, for an opening `w` and a blur `sigma`, how wide
-//! the blurred slot reads at half its (blurred) depth and how deep it
-//! gets, and the other way: the opening a half-depth width means.
+//! the blurred slot reads at half its (blurred) depth, and the other way:
+//! the opening a half-depth width means.
 
 use std::sync::LazyLock;
 
