@@ -287,6 +287,7 @@ link_distance_m = 0.3
 max_normal_angle_deg = 25.0
 length_range_m = 6.0
 crack_darkness = 0.7
+camera_blur_px = 1.2
 [view]
 cone_apex_deg = 25.0
 min_distance_m = 1.5

@@ -594,7 +594,7 @@ fn check_places(sim: &Path, run: &Path) -> (usize, usize) {
 /// The camera's blur the flight's thin cracks show is the simulator's lens
 /// (a Gaussian of 0.6 px by default) spread over a pixel's area (a box of
 /// 1 px, 0.29 px as a standard deviation): 0.67 px, within a quarter
-/// (motion adds to it along the track).
+/// (motion adds to it along the track), said to come from the thin lines.
 fn check_blur(sim: &Path, summary: &Value) {
     let lens = sim::SimOptions::DEFAULT_LENS_BLUR_PX;
     let truth = lens.hypot(1.0 / 12.0_f64.sqrt());
@@ -604,6 +604,10 @@ fn check_blur(sim: &Path, summary: &Value) {
         "{}: blur {read:?} px, the lens and pixel {truth:.2} px",
         sim.display()
     );
+    // Said where from: the flight's thin cracks, and how well.
+    assert_eq!(summary["widths"]["blur_from"], "thin_lines");
+    let uncertainty = summary["widths"]["blur_uncertainty_px"].as_f64().unwrap();
+    assert!(uncertainty > 0.0 && uncertainty < 0.25 * truth, "{uncertainty}");
 }
 
 /// Default flights: plumb_bob lens, a camera mounted 25 cm ahead of and
