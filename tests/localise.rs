@@ -607,7 +607,10 @@ fn check_blur(sim: &Path, summary: &Value) {
     // Said where from: the flight's thin cracks, and how well.
     assert_eq!(summary["widths"]["blur_from"], "thin_lines");
     let uncertainty = summary["widths"]["blur_uncertainty_px"].as_f64().unwrap();
-    assert!(uncertainty > 0.0 && uncertainty < 0.25 * truth, "{uncertainty}");
+    assert!(
+        uncertainty > 0.0 && uncertainty < 0.25 * truth,
+        "{uncertainty}"
+    );
 }
 
 /// Default flights: plumb_bob lens, a camera mounted 25 cm ahead of and

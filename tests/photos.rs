@@ -233,7 +233,10 @@ fn a_dji_photo_folder_with_a_utm_laz_runs_like_its_recording() {
     assert_eq!(photo_blur["blur_from"], mcap_blur["blur_from"]);
     assert_ne!(photo_blur["blur_from"], "unknown");
     let (p, m) = (f(&photo_blur["blur_px"]), f(&mcap_blur["blur_px"]));
-    assert!((p / m - 1.0).abs() <= 0.25, "blur: photos {p} px, recording {m} px");
+    assert!(
+        (p / m - 1.0).abs() <= 0.25,
+        "blur: photos {p} px, recording {m} px"
+    );
 
     dji_missions_follow_wpml_and_the_plan(&by_photos);
 }
