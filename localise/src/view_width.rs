@@ -326,10 +326,13 @@ mod tests {
         let (points, footing, mut neighbours) = line(&widths[..180]);
         let (more, more_footing, _) = line(&widths[180..]);
         let (points, footing) = ([points, more].concat(), [footing, more_footing].concat());
-        neighbours.extend((180..200).map(|i| vec![if i == 180 { 100 } else { i - 1 }]));
-        for i in 180..199 {
-            neighbours[i].push(i + 1);
-        }
+        neighbours.extend((180..200).map(|i| {
+            let before = if i == 180 { 100 } else { i - 1 };
+            [Some(before), (i < 199).then_some(i + 1)]
+                .into_iter()
+                .flatten()
+                .collect::<Vec<_>>()
+        }));
         neighbours[100].push(180);
         let w = view_width(&points, &footing, &neighbours, &Contrast::given(0.85)).unwrap();
         assert!(w.widest.is_none(), "{w:?}");
