@@ -6,6 +6,7 @@ docs/evaluation.md's "Real cracks" figures come from.
     real_cracks.py write --photos DIR --gsd MM --out DIR [--limit N] [--downsample K]
     real_cracks.py score FLIGHT RUN [FLIGHT RUN ...] [--pair FLIGHT RUN FLIGHT RUN]
     real_cracks.py darkness --photos DIR [--limit N]
+    real_cracks.py profiles FLIGHT RUN [--most N]
 
 `write` lays each photo (with its mask `lab/NAME_mask.png` beside `img/`)
 on a flat surface: a camera 1.2 m above it looking straight down, one
@@ -37,7 +38,9 @@ matched by photo and trace, and whether their widths agree within the
 sum of their uncertainties.
 
 `darkness` says how dark the photos' cracks are for their drawn width
-(see its function).
+(see its function); `profiles`, of the wide cracks a run measured, how
+wide the photo's own grey levels are at a half, a quarter and a tenth
+of their depth, against the mask and postflight (see its function).
 """
 
 import argparse
@@ -443,6 +446,72 @@ def darkness(args):
             print(f"| {low}-{high} px | {len(band)} | {np.median(band[:, 1]):.2f} |")
 
 
+def half_depths(grey, pts, mask_px):
+    """Widths at half, a quarter and a tenth of the depth of the profiles
+    across trace `pts` (photo pixels) in `grey`, every third point: the
+    surface the median of the profile from three quarters of its reach out
+    (the reach three mask widths, 20 px at least), the depth the darkest
+    within the mask's half width and 2 px of the line."""
+    from scipy import ndimage
+
+    reach = max(3.0 * mask_px, 20.0)
+    t = np.arange(-reach, reach + 0.25, 0.5)
+    widths = []
+    for i in range(4, len(pts) - 4, 3):
+        d = pts[i + 4] - pts[i - 4]
+        if not np.linalg.norm(d):
+            continue
+        d = d / np.linalg.norm(d)
+        xy = pts[i][None, :] + t[:, None] * np.array([-d[1], d[0]])[None, :]
+        profile = ndimage.map_coordinates(grey, [xy[:, 1], xy[:, 0]], order=1, mode="nearest")
+        surface = np.median(profile[np.abs(t) > 0.75 * reach])
+        k = int(np.argmin(np.where(np.abs(t) <= mask_px / 2 + 2, profile, np.inf)))
+        depth = surface - profile[k]
+        if depth <= 10:
+            continue
+        row = []
+        for share in (0.5, 0.25, 0.1):
+            level = surface - share * depth
+            lo = hi = k
+            while lo > 0 and profile[lo] < level:
+                lo -= 1
+            while hi < len(profile) - 1 and profile[hi] < level:
+                hi += 1
+            row.append((hi - lo) * 0.5)
+        widths.append(row)
+    return np.array(widths)
+
+
+def profiles(args):
+    """Of the cracks 6 px and wider on their masks that a run measured,
+    the photo's own grey levels: each crack's median width along it at
+    half, a quarter and a tenth of its profiles' depth below the surface
+    a few mask widths out (`half_depths`), and postflight's median, each
+    over the mask's median along the crack: whether a crack read under
+    half its mask shows that narrower line in the photo."""
+    photos, _, rows = scored_run(args.flight, args.run)
+    path = {Path(f["photo"]).name: f["photo"] for f in photos["frames"]}
+    out = []
+    for r in rows:
+        if not (r["on"] and r["true_px"] and r["true_px"] >= WIDE_PX and r["median_mm"] and r["true_median_mm"]):
+            continue
+        grey = np.asarray(Image.open(path[r["photo"]]).convert("L"), dtype=float)
+        widths = half_depths(grey, r["pts"], r["true_px"])
+        if not len(widths):
+            continue
+        mask = r["true_median_mm"] / r["true_mm"] * r["true_px"]
+        out.append((r["photo"], r["id"], mask, r["median_mm"] / r["true_mm"] * r["true_px"], *np.median(widths, axis=0)))
+    out.sort(key=lambda o: o[3] / o[2])
+    print("| photo | candidate | mask, median px | postflight's median | half depth | quarter | tenth |")
+    print("|---|---|---|---|---|---|---|")
+    for o in out[: args.most]:
+        print("| %s | %s | %.1f | %.1f | %.1f | %.1f | %.1f |" % o)
+    a = np.array([o[2:] for o in out])
+    for j, name in ((1, "postflight's median"), (2, "half depth"), (3, "quarter depth"), (4, "tenth depth")):
+        ratio = a[:, j] / a[:, 0]
+        print(f"{name} over the mask's median: median {np.median(ratio):.2f}, under half {np.sum(ratio < 0.5)} of {len(ratio)}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="command", required=True)
@@ -458,8 +527,12 @@ def main():
     d = sub.add_parser("darkness")
     d.add_argument("--photos", required=True)
     d.add_argument("--limit", type=int, default=0)
+    p = sub.add_parser("profiles")
+    p.add_argument("flight")
+    p.add_argument("run")
+    p.add_argument("--most", type=int, default=12, help="cracks listed, furthest under their masks first")
     args = ap.parse_args()
-    {"write": write, "score": score, "darkness": darkness}[args.command](args)
+    {"write": write, "score": score, "darkness": darkness, "profiles": profiles}[args.command](args)
 
 
 if __name__ == "__main__":

@@ -20,7 +20,6 @@ use crate::choose::{FrameWork, TilesToRun, choose};
 use crate::coco;
 use crate::detector::Detector;
 use crate::error::DetectError;
-use crate::letterbox::InputSize;
 use crate::runtime::{Runtime, locate};
 use crate::settings::{DetectConfig, Tile, keys};
 use crate::signature::Vocabulary;
@@ -161,7 +160,9 @@ pub fn detect(
     let library = locate(options.onnxruntime.as_deref())?;
     let runtime = Runtime::start(library)?;
     let session = runtime.session(&options.model, options.settings.device)?;
-    let mut warnings: Vec<String> = session.warning.iter().cloned().collect();
+    let mut warnings: Vec<String> = (session.warning.iter().cloned())
+        .chain(no_map_warning(tiles.choice))
+        .collect();
     let device = session.device;
     let (mut detector, classes) = Detector::new(session.session, options)?;
 
@@ -170,14 +171,7 @@ pub fn detect(
         .iter()
         .partition(|f| f.image_status == ImageStatus::Ok);
     let chosen = choose(&runnable, detector.feed, options, tiles);
-    let mut failed: Vec<FailedFrame> = unreadable
-        .iter()
-        .filter(|f| tiles.shard.is_none_or(|s| f.index % s.count + 1 == s.index))
-        .map(|f| FailedFrame {
-            frame: f.index,
-            why: format!("image {}", f.image_status.as_str()),
-        })
-        .collect();
+    let mut failed = unreadable_in(&unreadable, tiles.shard);
     let frames = chosen.frames + failed.len() as u64;
     let mut pace = Pace {
         start,
@@ -198,26 +192,7 @@ pub fn detect(
         told,
     )?;
     failed.sort_by_key(|f| f.frame);
-    // What the whole frame ran as (tiles run at the tile size).
-    let first = runnable.iter().find_map(|f| Some((f.width?, f.height?)));
-    let (w, h) = first
-        .map(|(fw, fh)| detector.feed.size.place(fw, fh).0)
-        .unwrap_or((options.settings.image_size, options.settings.image_size));
-    let tile = first.and_then(|(fw, fh)| detector.feed.tile(options, fw, fh));
-    if let (None, InputSize::Fixed(mw, mh), Some((fw, fh))) = (tile, detector.feed.size, first) {
-        let shrink = (fw as f32 / mw as f32).max(fh as f32 / mh as f32);
-        if shrink > 1.5 {
-            warnings.push(format!(
-                "frames of {fw}x{fh} were shrunk {shrink:.1} times to the model's fixed {mw}x{mh} input; thin cracks vanish: tile them ([detect] tile = \"auto\" or --tile {})",
-                mw.min(mh)
-            ));
-        }
-    }
-    if tiles.choice == TileChoice::NoMap {
-        warnings.push(
-            "every tile ran: the flight has no map to choose the best views of each patch by; give --map to run fewer".into(),
-        );
-    }
+    let ([w, h], tile) = detector.feed.input_shape(&runnable, options, &mut warnings);
     // Frames failed and none ran, though some were to (a share may hold
     // only frames the choice skips, or none that decode).
     let meant_to_run = !chosen.work.is_empty() || (chosen.frames == 0 && tiles.shard.is_none());
@@ -268,22 +243,46 @@ pub fn detect(
         batch: detector.batch,
         warnings,
     };
-    match tiles.shard {
-        None => {
-            // A whole run's detections replace any split's.
-            remove_shares(&flight.run, None)?;
-            write_outputs(&flight.run, &flight.frames, &found, &classes, &summary)?
-        }
-        Some(shard) => write_share(
-            &flight.run,
-            shard,
-            &flight.frames,
-            &found,
-            &classes,
-            &summary,
-        )?,
-    }
+    write(&flight, tiles.shard, &found, &classes, &summary)?;
     Ok(summary)
+}
+
+/// What a run without a map to choose views by says: every tile ran.
+fn no_map_warning(choice: TileChoice) -> Option<String> {
+    (choice == TileChoice::NoMap).then(|| {
+        "every tile ran: the flight has no map to choose the best views of each patch by; give --map to run fewer".into()
+    })
+}
+
+/// The frames of `shard` (all without one) whose images did not decode,
+/// as failed frames.
+fn unreadable_in(unreadable: &[&Frame], shard: Option<Shard>) -> Vec<FailedFrame> {
+    unreadable
+        .iter()
+        .filter(|f| shard.is_none_or(|s| f.index % s.count + 1 == s.index))
+        .map(|f| FailedFrame {
+            frame: f.index,
+            why: format!("image {}", f.image_status.as_str()),
+        })
+        .collect()
+}
+
+/// The detections and summary written: the flight's files for a whole
+/// run (replacing any split's), a share's for `shard`.
+fn write(
+    flight: &Flight,
+    shard: Option<Shard>,
+    found: &[FrameDetection],
+    classes: &[String],
+    summary: &DetectSummary,
+) -> Result<(), DetectError> {
+    match shard {
+        None => {
+            remove_shares(&flight.run, None)?;
+            write_outputs(&flight.run, &flight.frames, found, classes, summary)
+        }
+        Some(shard) => write_share(&flight.run, shard, &flight.frames, found, classes, summary),
+    }
 }
 
 /// The run's pace: what its first batches say of the whole. ONNX Runtime's

@@ -3,6 +3,7 @@
 //! convention (the [`Feed`]).
 
 use ingest::Recordings;
+use postflight_core::Frame;
 use postflight_core::outputs::detect::{FailedFrame, InputConvention};
 
 use crate::choose::FrameWork;
@@ -101,6 +102,33 @@ pub(crate) struct Feed {
 }
 
 impl Feed {
+    /// What a whole frame runs as (tiles at the tile size): the model's
+    /// input for the first of `frames` of known size, and its tile size;
+    /// a warning in `warnings` where an untiled frame shrinks so far that
+    /// thin cracks vanish.
+    pub(crate) fn input_shape(
+        &self,
+        frames: &[&Frame],
+        options: &DetectOptions,
+        warnings: &mut Vec<String>,
+    ) -> ([u32; 2], Option<u32>) {
+        let first = frames.iter().find_map(|f| Some((f.width?, f.height?)));
+        let (w, h) = first
+            .map(|(fw, fh)| self.size.place(fw, fh).0)
+            .unwrap_or((options.settings.image_size, options.settings.image_size));
+        let tile = first.and_then(|(fw, fh)| self.tile(options, fw, fh));
+        if let (None, InputSize::Fixed(mw, mh), Some((fw, fh))) = (tile, self.size, first) {
+            let shrink = (fw as f32 / mw as f32).max(fh as f32 / mh as f32);
+            if shrink > 1.5 {
+                warnings.push(format!(
+                    "frames of {fw}x{fh} were shrunk {shrink:.1} times to the model's fixed {mw}x{mh} input; thin cracks vanish: tile them ([detect] tile = \"auto\" or --tile {})",
+                    mw.min(mh)
+                ));
+            }
+        }
+        ([w, h], tile)
+    }
+
     /// The tile size a `width` x `height` frame runs with: the setting's,
     /// or with `auto` a fixed-size model's input when the frame is larger.
     pub(crate) fn tile(&self, options: &DetectOptions, width: u32, height: u32) -> Option<u32> {

@@ -99,6 +99,30 @@ pub struct Crossed {
 }
 
 impl Crossed {
+    /// The `crossings` of trace `t`, each with its footing on the surface
+    /// (`on_plane`: an image pixel onto the surface's plane).
+    fn on(
+        t: &CrackTrace,
+        crossings: Vec<Option<Crossing>>,
+        on_plane: &impl Fn(Point2<f64>) -> Option<Point3<f64>>,
+    ) -> Self {
+        let footing = crossings
+            .iter()
+            .map(|c| {
+                let c = c.as_ref()?;
+                Some(Footing {
+                    mm_per_px: surface_mm_per_px(c, on_plane)?,
+                    at: on_plane(c.at)?,
+                })
+            })
+            .collect();
+        Crossed {
+            footing,
+            crossings,
+            neighbours: crate::crossing::adjacency(t.pixels.len(), &t.edges),
+        }
+    }
+
     /// Its width, its darkness read over `contrast`, its walls as the
     /// camera's `blur` spreads them.
     pub fn width(&self, contrast: &Contrast, blur: &Blur) -> Option<WidthRecord> {
@@ -224,20 +248,9 @@ impl Scene<'_> {
         let measures_width = sharp
             && surface.incidence.to_degrees() <= MAX_WIDTH_INCIDENCE_DEG
             && !crossings.is_empty();
-        let crossed = trace.filter(|_| measures_width).map(|t| Crossed {
-            footing: crossings
-                .iter()
-                .map(|c| {
-                    let c = c.as_ref()?;
-                    Some(Footing {
-                        mm_per_px: surface_mm_per_px(c, &on_plane)?,
-                        at: on_plane(c.at)?,
-                    })
-                })
-                .collect(),
-            crossings,
-            neighbours: crate::crossing::adjacency(t.pixels.len(), &t.edges),
-        });
+        let crossed = trace
+            .filter(|_| measures_width)
+            .map(|t| Crossed::on(t, crossings, &on_plane));
         // The hit at the crack's centre, for its voxel, face, range and angle.
         let hit = SurfaceHit::new(self.map, &eye.origin(), footprint.centre, surface.normal);
         observation.outcome = match self.structure {

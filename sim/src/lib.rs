@@ -387,6 +387,61 @@ struct World {
     gimbal: bool,
 }
 
+/// A flight's scene and cracks, the changes since the earlier flight (a
+/// repeat's), and the widths its cracks taper between.
+type Cracked = (
+    Scene,
+    Cracks,
+    Option<Vec<repeat::CrackChange>>,
+    Option<crack::WidthRange>,
+);
+
+/// The flight's cracks on `scene`: drawn for a first flight (patterns,
+/// then cracks, tapered where asked), or for a repeat the earlier
+/// flight's changed, scene and cracks moved into this flight's SLAM frame.
+fn cracked(scene: Scene, options: &SimOptions) -> Result<Cracked, SimError> {
+    match &options.repeat {
+        None => {
+            // The patterns first: each needs more room on one face.
+            let mut cracks = Cracks(Vec::new());
+            cracks.add_patterns(
+                &scene,
+                options.crack_patterns,
+                options.pattern_widths,
+                &mut Rng::stream(options.seed, "crack patterns"),
+            );
+            cracks.add(
+                &scene,
+                options.cracks,
+                &mut Rng::stream(options.seed, "cracks"),
+            );
+            if let Some(range) = options.crack_widths {
+                cracks.taper(range, &mut Rng::stream(options.seed, "crack widths"));
+            }
+            Ok((scene, cracks, None, options.crack_widths))
+        }
+        Some(r) => {
+            let earlier = repeat::Earlier::read(r, &scene.name)?;
+            let (cracks, changes) = repeat::change(
+                &scene,
+                earlier.cracks(&scene),
+                earlier.crack_widths(),
+                r,
+                options.seed,
+            );
+            // The world as this flight's SLAM frame records it.
+            let iso = r.frame_offset.isometry();
+            let cracks = Cracks(cracks.0.iter().map(|c| c.transformed(&iso)).collect());
+            Ok((
+                scene.transformed(&iso),
+                cracks,
+                Some(changes),
+                earlier.crack_widths(),
+            ))
+        }
+    }
+}
+
 impl World {
     fn new(options: &SimOptions) -> Result<Self, SimError> {
         let scene = match (&options.mesh, options.scene) {
@@ -398,7 +453,6 @@ impl World {
             (None, BuiltIn::Tower) => Scene::tower(),
         };
         let seed = options.seed;
-        let mut crack_widths = options.crack_widths;
         let pitch = CAMERA_PITCH_DEG.to_radians();
         let mount = if options.gimbal {
             planner::Mount::Gimbal { pitch }
@@ -429,38 +483,7 @@ impl World {
                 frames: options.frames,
             });
         }
-        let (scene, cracks, changes) = match &options.repeat {
-            None => {
-                // The patterns first: each needs more room on one face.
-                let mut cracks = Cracks(Vec::new());
-                cracks.add_patterns(
-                    &scene,
-                    options.crack_patterns,
-                    options.pattern_widths,
-                    &mut Rng::stream(seed, "crack patterns"),
-                );
-                cracks.add(&scene, options.cracks, &mut Rng::stream(seed, "cracks"));
-                if let Some(range) = options.crack_widths {
-                    cracks.taper(range, &mut Rng::stream(seed, "crack widths"));
-                }
-                (scene, cracks, None)
-            }
-            Some(r) => {
-                let earlier = repeat::Earlier::read(r, &scene.name)?;
-                crack_widths = earlier.crack_widths();
-                let (cracks, changes) = repeat::change(
-                    &scene,
-                    earlier.cracks(&scene),
-                    earlier.crack_widths(),
-                    r,
-                    seed,
-                );
-                // The world as this flight's SLAM frame records it.
-                let iso = r.frame_offset.isometry();
-                let cracks = Cracks(cracks.0.iter().map(|c| c.transformed(&iso)).collect());
-                (scene.transformed(&iso), cracks, Some(changes))
-            }
-        };
+        let (scene, cracks, changes, crack_widths) = cracked(scene, options)?;
         // A repeat flies the earlier mission again, where this flight's
         // SLAM frame has it.
         let plan = match &options.repeat {
