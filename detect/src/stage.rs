@@ -160,9 +160,8 @@ pub fn detect(
     let library = locate(options.onnxruntime.as_deref())?;
     let runtime = Runtime::start(library)?;
     let session = runtime.session(&options.model, options.settings.device)?;
-    let mut warnings: Vec<String> = (session.warning.iter().cloned())
-        .chain(no_map_warning(tiles.choice))
-        .collect();
+    let mut warnings: Vec<String> = session.warning.iter().cloned().collect();
+    warnings.extend(no_map_warning(tiles.choice));
     let device = session.device;
     let (mut detector, classes) = Detector::new(session.session, options)?;
 
