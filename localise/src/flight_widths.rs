@@ -22,10 +22,16 @@ pub fn measure(observations: &mut [Observation], settings: &LocaliseConfig) -> F
         o.placement.as_ref()?.crossed.as_ref()
     }
     let given = settings.crack_darkness;
+    // Each view's own interior, read once: its photo's and the flight's
+    // are made of them.
+    let own: Vec<Option<f64>> = observations
+        .iter()
+        .map(|o| crossed(o).and_then(|c| contrast::interior(&c.crossings)))
+        .collect();
     let mut by_photo: BTreeMap<u32, Vec<f64>> = BTreeMap::new();
-    for o in observations.iter() {
-        if let Some(i) = crossed(o).and_then(|c| contrast::interior(&c.crossings)) {
-            by_photo.entry(o.detection.frame).or_default().push(i);
+    for (o, i) in observations.iter().zip(&own) {
+        if let Some(i) = i {
+            by_photo.entry(o.detection.frame).or_default().push(*i);
         }
     }
     let flight: Vec<f64> = by_photo.values().flatten().copied().collect();
@@ -38,14 +44,13 @@ pub fn measure(observations: &mut [Observation], settings: &LocaliseConfig) -> F
         flight_contrast.share,
         settings.camera_blur_px,
     );
-    observations.par_iter_mut().for_each(|o| {
+    observations.par_iter_mut().zip(own).for_each(|(o, own)| {
         let photo = by_photo
             .get(&o.detection.frame)
             .map_or(&[][..], Vec::as_slice);
         if let Some(p) = o.placement.as_mut()
             && let Some(crossed) = p.crossed.take()
         {
-            let own = contrast::interior(&crossed.crossings);
             let contrast = Contrast::nearest(own, photo, &flight, given);
             p.width = crossed.width(&contrast, &blur);
         }
