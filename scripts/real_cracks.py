@@ -66,6 +66,10 @@ STATE_LIMITS_MM = (0.30, 1.27)
 STATES = ("good", "fair", "poor")
 # Where a mask is no longer mostly blur: the widths scored against it alone.
 WIDE_PX = 6.0
+# The mask's widest stretch, as postflight reads a crack's (localise's
+# view_width: four steps either side, none within eight of a fork).
+STRETCH_PX = 4.0
+FORK_PX = 8.0
 
 
 def mask_path(photo):
@@ -252,6 +256,31 @@ class Truth:
         near = self.widths[d <= NEAR_PX]
         return float(np.percentile(near, q)) if len(near) else None
 
+    def widest_stretch_px(self, pts):
+        """The mask's widest stretch near `pts`, read the way postflight
+        reads a crack's: the median width on the medial axis within
+        STRETCH_PX of a point, the widest such, none within FORK_PX of a
+        junction of the axis (where a disc spans two branches)."""
+        from scipy import ndimage
+        from scipy.spatial import cKDTree
+        from skimage.morphology import skeletonize
+
+        if len(self.skeleton) == 0:
+            return None
+        if not hasattr(self, "_axis"):
+            fine = skeletonize(np.kron(self.on, np.ones((SUB, SUB), dtype=bool)))
+            branches = ndimage.convolve(fine.astype(int), np.ones((3, 3), dtype=int), mode="constant") - 1
+            ys, xs = np.nonzero(fine & (branches >= 3))
+            junctions = np.stack([(xs + 0.5) / SUB - 0.5, (ys + 0.5) / SUB - 0.5], axis=1)
+            self._axis = (cKDTree(self.skeleton), cKDTree(junctions) if len(junctions) else None)
+        axis, junctions = self._axis
+        d, _ = cKDTree(pts).query(self.skeleton)
+        near = np.nonzero(d <= NEAR_PX)[0]
+        if junctions is not None and len(near):
+            near = near[junctions.query(self.skeleton[near])[0] > FORK_PX]
+        stretches = [np.median(self.widths[axis.query_ball_point(self.skeleton[i], STRETCH_PX)]) for i in near[::SUB]]
+        return float(max(stretches)) if stretches else None
+
 
 @functools.lru_cache(maxsize=None)
 def truth_of(photo):
@@ -300,6 +329,7 @@ def scored_run(flight, run):
         on = float(np.mean(truth.near(pts) <= NEAR_PX)) >= 0.5
         true_px = truth.width_px(pts) if on else None
         median_px = truth.width_px(pts, 50) if on else None
+        stretch_px = truth.widest_stretch_px(pts) if on and true_px and true_px >= WIDE_PX else None
         mm_per_full_px = frame["gsd_mm"] / frame["downsample"]
         width = d.get("width") or {}
         size = d["length_m"] or 0.0
@@ -308,6 +338,7 @@ def scored_run(flight, run):
             "components": truth.touched(pts) if on else set(),
             "true_px": true_px, "true_mm": None if true_px is None else true_px * mm_per_full_px,
             "true_median_mm": None if median_px is None else median_px * mm_per_full_px,
+            "true_stretch_mm": None if stretch_px is None else stretch_px * mm_per_full_px,
             "median_mm": width.get("median_mm"),
             "max_mm": width.get("max_mm"), "uncertainty_mm": width.get("uncertainty_mm"),
             "narrower_than_mm": width.get("narrower_than_mm"),
@@ -347,6 +378,10 @@ def report(flight, run):
         ratios = np.array([r["max_mm"] / r["true_mm"] for r in wide])
         print(f"cracks {WIDE_PX:g} px and wider on their masks: {len(wide)}, widest over the mask's: median "
               f"{np.median(ratios):.2f}, under half of it {np.mean(ratios < 0.5):.0%} ({np.sum(ratios < 0.5)})")
+        stretch = np.array([r["max_mm"] / r["true_stretch_mm"] for r in wide if r["true_stretch_mm"]])
+        print(f"  widest over the mask's widest stretch ({STRETCH_PX:g} px along its axis, none within "
+              f"{FORK_PX:g} px of a junction): median {np.median(stretch):.2f}, "
+              f"under half of it {np.mean(stretch < 0.5):.0%} ({np.sum(stretch < 0.5)})")
         medians = np.array([r["median_mm"] / r["true_median_mm"] for r in wide if r["median_mm"] and r["true_median_mm"]])
         print(f"  median along the crack over the mask's median width along it: median {np.median(medians):.2f}, "
               f"under half of it {np.mean(medians < 0.5):.0%} ({np.sum(medians < 0.5)})")
