@@ -274,7 +274,7 @@ def train(args):
             loss.backward()
             opt.step()
             sched.step()
-            losses.append(float(loss))
+            losses.append(float(loss.detach()))
         epoch += 1
         iou = iou_on(net, val_store)
         row = {"epoch": epoch, "loss": float(np.mean(losses)), "iou": iou, "seconds": round(time.time() - t)}
