@@ -4,7 +4,8 @@
 The model segments concrete spalling and exposed reinforcement in a photo:
 a small U-Net, trained from nothing (no pretrained weights: nothing is
 downloaded) on the hand-drawn outlines of `../shared/data/spalling`
-(CC BY 4.0; see detect/models/AREA_MODEL.md for the credit), on the CPU.
+(CC BY 4.0: the model card shipped with the model credits it as the
+set's README asks), on the CPU.
 
     area_model.py split   DATA                    which photos are held back
     area_model.py train   DATA --out DIR [--minutes M] [--epochs N]
