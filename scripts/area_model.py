@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Train, export and check postflight's area-defect segmenter (issue 76).
+"""Train, export and score postflight's area-defect segmenter (issue 76).
 
 The model segments concrete spalling and exposed reinforcement in a photo:
 a small U-Net, trained from nothing (no pretrained weights: nothing is
@@ -10,6 +10,7 @@ set's README asks), on the CPU.
     area_model.py split   DATA                    which photos are held back
     area_model.py train   DATA --out DIR [--minutes M] [--epochs N]
     area_model.py export  DIR --onnx FILE
+    area_model.py score   DATA --onnx FILE        the held-back photos, by ONNX Runtime
 
 `train` checkpoints after every epoch (DIR/checkpoint.pt) and resumes from
 it, so a run cut short by a session's end goes on where it stopped; its
@@ -320,6 +321,74 @@ def export(args):
     print(f"wrote {args.onnx} ({os.path.getsize(args.onnx) / 1e6:.1f} MB) after epoch {state['epoch']}")
 
 
+# Predicted regions smaller than this (pixels at STORE_PX) are specks, not
+# instances.
+MIN_INSTANCE_PX = 64
+MATCH_IOU = 0.5
+
+
+def instances(image, size, channel):
+    """Each hand-drawn outline of `channel` as its own mask of `size`."""
+    w, h = size
+    out = []
+    for c, pts in outlines(image):
+        if c == channel and len(pts) >= 3:
+            canvas = Image.new("L", size, 0)
+            ImageDraw.Draw(canvas).polygon([(x * w, y * h) for x, y in pts], fill=1)
+            out.append(np.asarray(canvas, dtype=bool))
+    return out
+
+
+def matched(truths, preds):
+    """Pairs of truth and predicted instances at IoU MATCH_IOU or more, one
+    to one, the best pairs first."""
+    pairs = []
+    for i, t in enumerate(truths):
+        for j, p in enumerate(preds):
+            inter = np.sum(t & p)
+            if inter:
+                pairs.append((inter / np.sum(t | p), i, j))
+    used_t, used_p, n = set(), set(), 0
+    for iou, i, j in sorted(pairs, reverse=True):
+        if iou >= MATCH_IOU and i not in used_t and j not in used_p:
+            used_t.add(i)
+            used_p.add(j)
+            n += 1
+    return n
+
+
+def score(args):
+    """IoU per class (pixels summed over the held-back photos) and instance
+    precision and recall at IoU MATCH_IOU (predicted instances: connected
+    regions of MIN_INSTANCE_PX or more), the model run by ONNX Runtime."""
+    import onnxruntime as ort
+    from scipy import ndimage
+
+    session = ort.InferenceSession(args.onnx, providers=["CPUExecutionProvider"])
+    held = [p for p in photos(args.data) if held_back(p)]
+    inter, union = np.zeros(len(CLASSES)), np.zeros(len(CLASSES))
+    counts = {c: [0, 0, 0] for c in range(1, len(CLASSES))}  # matched, truths, predictions
+    for path in held:
+        img, lab = stored(path)
+        x, (h, w) = padded(img)
+        pred = session.run(None, {"images": x})[0][0].argmax(0)[:h, :w]
+        for c in range(1, len(CLASSES)):
+            inter[c] += np.sum((pred == c) & (lab == c))
+            union[c] += np.sum((pred == c) | (lab == c))
+            regions, n = ndimage.label(pred == c, structure=np.ones((3, 3)))
+            preds = [regions == k for k in range(1, n + 1) if np.sum(regions == k) >= MIN_INSTANCE_PX]
+            truths = instances(path, (w, h), c)
+            counts[c][0] += matched(truths, preds)
+            counts[c][1] += len(truths)
+            counts[c][2] += len(preds)
+    print(f"{len(held)} held-back photos, {args.onnx}")
+    print("| class | IoU | instances (hand-drawn) | predicted | precision at IoU 0.5 | recall at IoU 0.5 |")
+    print("|---|---|---|---|---|---|")
+    for c in range(1, len(CLASSES)):
+        m, t, p = counts[c]
+        print(f"| {CLASSES[c]} | {inter[c] / max(union[c], 1):.3f} | {t} | {p} | {m / max(p, 1):.2f} | {m / max(t, 1):.2f} |")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="command", required=True)
@@ -333,8 +402,11 @@ def main():
     e = sub.add_parser("export")
     e.add_argument("dir")
     e.add_argument("--onnx", required=True)
+    c = sub.add_parser("score")
+    c.add_argument("data")
+    c.add_argument("--onnx", required=True)
     args = ap.parse_args()
-    {"split": split, "train": train, "export": export}[args.command](args)
+    {"split": split, "train": train, "export": export, "score": score}[args.command](args)
 
 
 if __name__ == "__main__":
