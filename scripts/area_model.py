@@ -212,22 +212,35 @@ def padded(img):
     return x.astype(np.float32), (h, w)
 
 
+class Overlap:
+    """Each defect class's predicted and drawn pixels, summed over photos:
+    its IoU."""
+
+    def __init__(self):
+        self.inter = np.zeros(len(CLASSES))
+        self.union = np.zeros(len(CLASSES))
+
+    def add(self, pred, lab):
+        for c in range(1, len(CLASSES)):
+            self.inter[c] += np.sum((pred == c) & (lab == c))
+            self.union[c] += np.sum((pred == c) | (lab == c))
+
+    def iou(self):
+        return {CLASSES[c]: float(self.inter[c] / max(self.union[c], 1)) for c in range(1, len(CLASSES))}
+
+
 def iou_on(net, store):
-    """IoU per defect class over the held-back photos (pixels summed)."""
+    """IoU per defect class over the held-back photos."""
     import torch
 
-    inter = np.zeros(len(CLASSES))
-    union = np.zeros(len(CLASSES))
+    overlap = Overlap()
     net.eval()
     with torch.no_grad():
         for img, lab in store:
             x, (h, w) = padded(img)
-            pred = net(torch.from_numpy(x))[0].argmax(0).numpy()[:h, :w]
-            for c in range(1, len(CLASSES)):
-                inter[c] += np.sum((pred == c) & (lab == c))
-                union[c] += np.sum((pred == c) | (lab == c))
+            overlap.add(net(torch.from_numpy(x))[0].argmax(0).numpy()[:h, :w], lab)
     net.train()
-    return {CLASSES[c]: float(inter[c] / max(union[c], 1)) for c in range(1, len(CLASSES))}
+    return overlap.iou()
 
 
 def train(args):
@@ -366,15 +379,14 @@ def score(args):
 
     session = ort.InferenceSession(args.onnx, providers=["CPUExecutionProvider"])
     held = [p for p in photos(args.data) if held_back(p)]
-    inter, union = np.zeros(len(CLASSES)), np.zeros(len(CLASSES))
+    overlap = Overlap()
     counts = {c: [0, 0, 0] for c in range(1, len(CLASSES))}  # matched, truths, predictions
     for path in held:
         img, lab = stored(path)
         x, (h, w) = padded(img)
         pred = session.run(None, {"images": x})[0][0].argmax(0)[:h, :w]
+        overlap.add(pred, lab)
         for c in range(1, len(CLASSES)):
-            inter[c] += np.sum((pred == c) & (lab == c))
-            union[c] += np.sum((pred == c) | (lab == c))
             regions, n = ndimage.label(pred == c, structure=np.ones((3, 3)))
             preds = [regions == k for k in range(1, n + 1) if np.sum(regions == k) >= MIN_INSTANCE_PX]
             truths = instances(path, (w, h), c)
@@ -384,9 +396,10 @@ def score(args):
     print(f"{len(held)} held-back photos, {args.onnx}")
     print("| class | IoU | instances (hand-drawn) | predicted | precision at IoU 0.5 | recall at IoU 0.5 |")
     print("|---|---|---|---|---|---|")
+    iou = overlap.iou()
     for c in range(1, len(CLASSES)):
         m, t, p = counts[c]
-        print(f"| {CLASSES[c]} | {inter[c] / max(union[c], 1):.3f} | {t} | {p} | {m / max(p, 1):.2f} | {m / max(t, 1):.2f} |")
+        print(f"| {CLASSES[c]} | {iou[CLASSES[c]]:.3f} | {t} | {p} | {m / max(p, 1):.2f} | {m / max(t, 1):.2f} |")
 
 
 def main():
