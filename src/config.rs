@@ -267,6 +267,8 @@ recording = "drone-2.mcap"
 origin = [12.0, -3.0, 0.0, 90.0]
 [detect]
 prompts = ["crack", "spalling"]
+class_kinds = ["spalling=spall"]
+area_model = "area-unet.onnx"
 embeddings = "embeddings.json"
 confidence = 0.3
 iou = 0.6

@@ -552,6 +552,12 @@ fn stage_inputs(stage: Stage, i: &RunInputs) -> anyhow::Result<Option<StageInput
                     .iter()
                     .map(|e| ("embeddings", e.clone())),
             )
+            .chain(
+                c.detect
+                    .area_model
+                    .iter()
+                    .map(|m| ("area_model", m.clone())),
+            )
             .chain(map)
             .chain(i.structure_plan().map(|p| ("plan", p.path.clone())))
             .collect(),

@@ -166,6 +166,26 @@ pub fn detect(run: &DetectRun, quiet: bool) -> anyhow::Result<()> {
             100.0 * summary.inference_share,
             run.detect.run.display()
         );
+        match &summary.area_model {
+            Some(area) => println!(
+                "  of which the area model ({}): {} detections in {} frames at {}x{}, {:.1} s ({:.0}% in ONNX Runtime)",
+                area.kinds
+                    .iter()
+                    .map(|k| k.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                area.detections,
+                area.frames_run,
+                area.input_size[0],
+                area.input_size[1],
+                area.seconds,
+                100.0 * area.inference_share
+            ),
+            None if !summary.kinds.iter().any(|k| k.is_area()) => println!(
+                "  area defects (spalls, exposed reinforcement, ...) not looked for: give an area model ([detect] area_model)"
+            ),
+            None => {}
+        }
     }
     Ok(())
 }

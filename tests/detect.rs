@@ -679,3 +679,121 @@ fn four_shares_merged_are_one_process_and_localise_merges_them() {
     assert!(stdout(&out).contains("merged"), "{}", stdout(&out));
     assert_eq!(sorted(&run), whole);
 }
+
+/// Per COCO file (read by pycocotools): each annotation's image, category
+/// name, box and mask, and the mask IoU of each of the first file's
+/// `first` annotations with the second's `second` in the same image.
+const COCO_KINDS: &str = r#"
+import json, sys
+from pycocotools.coco import COCO
+from pycocotools import mask as mu
+a, b = COCO(sys.argv[1]), COCO(sys.argv[2])
+def of(c, name):
+    cat = c.getCatIds(catNms=[name])
+    return [x for x in c.loadAnns(c.getAnnIds(catIds=cat))] if cat else []
+mine, theirs = of(a, sys.argv[3]), of(b, sys.argv[4])
+ious = []
+for m in mine:
+    same = [t for t in theirs if t["image_id"] == m["image_id"]]
+    best = max((mu.iou([m["segmentation"]], [t["segmentation"]], [0])[0][0] for t in same), default=0.0)
+    ious.append(float(best))
+print(json.dumps({
+    "categories": [c["name"] for c in a.loadCats(a.getCatIds())],
+    "mine": len(mine), "theirs": len(theirs),
+    "min_iou": min(ious, default=0.0),
+    "mask_area": sum(int(mu.area(m["segmentation"])) for m in mine),
+}))
+"#;
+
+#[test]
+fn an_area_model_runs_at_its_own_scale_beside_the_crack_model_and_names_its_kinds() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, run) = ingested(dir.path(), &SMALL_FLIGHT);
+    // The crack segmenter renamed: its crack is this model's "spalling".
+    let semantic = models().join("crack-semantic.onnx");
+    let area = dir.path().join("area.onnx");
+    python_fixture(
+        "area_model.py",
+        &[
+            semantic.as_os_str(),
+            area.as_os_str(),
+            "--train-px".as_ref(),
+            "320".as_ref(),
+        ],
+    );
+    let alone = dir.path().join("alone");
+    copy_dir(&run, &alone);
+    let semantic = semantic.to_str().unwrap();
+    let out = detect(
+        &alone,
+        &["--model", semantic, "--tile", "off", "--imgsz", "320"],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stdout(&out).contains("not looked for"), "{}", stdout(&out));
+
+    let baked = models().join("crack-baked.onnx");
+    let args = [
+        "--model",
+        baked.to_str().unwrap(),
+        "--area-model",
+        area.to_str().unwrap(),
+    ];
+    let out = detect(&run, &args);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let said = "of which the area model (spall, exposed_rebar)";
+    assert!(stdout(&out).contains(said), "{}", stdout(&out));
+    let summary = read_json(&run.join("detect.json"));
+    assert_eq!(
+        summary["kinds"],
+        serde_json::json!(["crack", "spall", "exposed_rebar"])
+    );
+    assert_eq!(
+        summary["classes"],
+        serde_json::json!(["crack", "background", "exposed_rebar", "spalling"])
+    );
+    let pass = &summary["area_model"];
+    // 640 x 480 frames at 320 px, padded to the stride.
+    assert_eq!(pass["input_size"], serde_json::json!([320, 256]), "{pass}");
+    assert!(pass["seconds"].as_f64().unwrap() > 0.0);
+
+    // The rows: cracks from the crack model, spalls from the area model's
+    // class 2 (numbered after the crack model's one class).
+    let df = read_parquet(&run.join("detections.parquet"));
+    let kinds = df.column("kind").unwrap().str().unwrap().clone();
+    let classes = df.column("class").unwrap().u32().unwrap().clone();
+    let spalls: Vec<u32> = (0..df.height())
+        .filter(|&i| kinds.get(i) == Some("spall"))
+        .map(|i| classes.get(i).unwrap())
+        .collect();
+    assert!(spalls.iter().all(|c| *c == 3), "{spalls:?}");
+    assert_eq!(pass["detections"].as_u64().unwrap(), spalls.len() as u64);
+
+    // What the area model found as spall is what the segmenter finds as
+    // crack at that scale: the same regions, the same pixels.
+    let found = python_run(
+        COCO_KINDS,
+        &[
+            run.join("detections.coco.json").to_str().unwrap(),
+            alone.join("detections.coco.json").to_str().unwrap(),
+            "spall",
+            "crack",
+        ],
+    );
+    // pycocotools talks as it loads: the figures are the last line.
+    let found: serde_json::Value = serde_json::from_str(found.lines().last().unwrap()).unwrap();
+    assert_eq!(
+        found["categories"],
+        serde_json::json!([
+            "crack",
+            "spall",
+            "exposed_rebar",
+            "efflorescence",
+            "rust_stain",
+            "corrosion"
+        ])
+    );
+    assert!(found["mine"].as_u64().unwrap() >= 2, "{found}");
+    assert_eq!(found["mine"], found["theirs"], "{found}");
+    assert!(found["min_iou"].as_f64().unwrap() > 0.95, "{found}");
+    assert!(found["mask_area"].as_u64().unwrap() > 0, "{found}");
+}

@@ -1,6 +1,8 @@
-//! Detections: boxes in a frame's pixels, each with the detector's score
-//! and class, and its crack pixels where the model segments.
+//! Detections: boxes in a frame's pixels, each with the detector's score,
+//! class and the kind of defect that class means, and its pixels where the
+//! model segments.
 
+use crate::defect_kind::DefectKind;
 use crate::mask::Mask;
 
 crate::table! {
@@ -68,10 +70,12 @@ pub struct Detection {
     pub bbox: BoxXyxy,
     pub score: f32,
     pub class: u32,
+    /// What its class means: a crack, or an area defect.
+    pub kind: DefectKind,
     /// Tile of the frame that found it (numbered as the detect stage cuts
     /// them), -1 for the whole frame.
     pub tile: i32,
-    /// Its crack pixels, from a model that segments (`None`: boxes only).
+    /// Its pixels, from a model that segments (`None`: boxes only).
     pub mask: Option<Mask>,
 }
 

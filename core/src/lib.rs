@@ -13,8 +13,9 @@
 //!   `[condition]` settings that choose them ([`condition`]).
 //! - Where detection matters: the parts of each frame that show a patch it
 //!   is among the best views of ([`best_views`]).
-//! - Detections: boxes with their scores ([`detection`]), and the crack
-//!   pixels of those a segmentation model gives ([`mask`]); a crack's
+//! - Detections: boxes with their scores and kinds ([`detection`],
+//!   [`defect_kind`]: a crack or an area defect), and the pixels of those
+//!   a segmentation model gives ([`mask`]); a crack's
 //!   centre line on the structure ([`trace`]).
 //! - The run directory ([`RunDir`]: atomic writes), the run log of
 //!   `postflight run` ([`RunLog`]), and the file contract ([`outputs`]):
@@ -34,6 +35,7 @@ pub mod best_views;
 pub mod camera;
 pub mod condition;
 pub mod crs;
+pub mod defect_kind;
 pub mod detection;
 pub mod error;
 pub mod flight;

@@ -69,6 +69,7 @@ pub fn merge_touching(mut detections: Vec<Detection>, gap: f32) -> Vec<Detection
                         },
                         score: a.score.max(b.score),
                         class: a.class,
+                        kind: a.kind,
                         tile: if a.score >= b.score { a.tile } else { b.tile },
                         mask,
                     };
@@ -86,6 +87,7 @@ pub fn merge_touching(mut detections: Vec<Detection>, gap: f32) -> Vec<Detection
 #[cfg(test)]
 mod tests {
     use super::*;
+    use postflight_core::defect_kind::DefectKind;
 
     fn det(x0: f32, score: f32, class: u32) -> Detection {
         Detection {
@@ -97,6 +99,7 @@ mod tests {
             },
             score,
             class,
+            kind: DefectKind::Crack,
             tile: -1,
             mask: None,
         }

@@ -1,17 +1,21 @@
 //! `detections.coco.json`: the detections as COCO detection results, with
-//! their images and categories, crack pixels as COCO RLE.
+//! their images and categories (one per defect kind, named as the kind),
+//! their pixels as COCO RLE.
 
 use postflight_core::Frame;
+use postflight_core::defect_kind::DefectKind;
 use postflight_core::detection::FrameDetection;
+use postflight_core::kind::Named;
 use postflight_core::outputs::detect::DetectionRow;
 
-/// COCO detection results with their images and categories (ids from 1):
-/// the detections `found`, with `rows` their table rows (masks encoded).
+/// COCO detection results with their images and categories: the
+/// detections `found`, with `rows` their table rows (masks encoded). A
+/// category is a defect kind, its id the kind's place among them from 1,
+/// the same in every run.
 pub(crate) fn results(
     frames: &[Frame],
     found: &[FrameDetection],
     rows: &[DetectionRow],
-    classes: &[String],
 ) -> serde_json::Value {
     let images: Vec<serde_json::Value> = frames
         .iter()
@@ -34,13 +38,13 @@ pub(crate) fn results(
             let mut annotation = serde_json::json!({
                 "id": i + 1,
                 "image_id": row.detection.frame + 1,
-                "category_id": row.class + 1,
+                "category_id": category(row.kind),
                 "bbox": [b.x0, b.y0, b.width(), b.height()],
                 "area": b.area(),
                 "score": row.detection.score,
                 "iscrowd": 0,
             });
-            // Crack pixels as COCO RLE over the frame; the area is theirs.
+            // Its pixels as COCO RLE over the frame; the area is theirs.
             if let Some((counts, mask)) = row.mask.as_ref().zip(d.detection.mask.as_ref()) {
                 annotation["segmentation"] = serde_json::json!({
                     "size": [row.frame_height, row.frame_width],
@@ -51,10 +55,9 @@ pub(crate) fn results(
             annotation
         })
         .collect();
-    let categories: Vec<serde_json::Value> = classes
+    let categories: Vec<serde_json::Value> = DefectKind::ALL
         .iter()
-        .enumerate()
-        .map(|(i, c)| serde_json::json!({"id": i + 1, "name": c, "supercategory": "defect"}))
+        .map(|k| serde_json::json!({"id": category(*k), "name": k.name(), "supercategory": "defect"}))
         .collect();
     serde_json::json!({
         "info": {"description": "postflight detections", "version": env!("CARGO_PKG_VERSION")},
@@ -62,4 +65,9 @@ pub(crate) fn results(
         "annotations": annotations,
         "categories": categories,
     })
+}
+
+/// A kind's COCO category id.
+fn category(kind: DefectKind) -> usize {
+    kind.index() + 1
 }

@@ -2,6 +2,7 @@
 //! class scores, in model input pixels, then a segmenting model's `k` mask
 //! coefficients) into detections.
 
+use postflight_core::defect_kind::DefectKind;
 use postflight_core::detection::{BoxXyxy, Detection};
 
 /// Detections of image `b` of a `[batch, 4 + classes + extra, anchors]`
@@ -34,6 +35,7 @@ pub fn decode(
                 bbox: BoxXyxy::from_cxcywh(cx[a], cy[a], w[a], h[a]),
                 score,
                 class: class as u32,
+                kind: DefectKind::Crack,
                 tile: -1,
                 mask: None,
             };

@@ -10,10 +10,11 @@ use ort::session::SessionInputValue;
 use ort::value::{Tensor, TensorRef};
 use postflight_core::detection::{Detection, FrameDetection};
 
+use crate::classes::Classes;
 use crate::convention::{self, Declared};
 use crate::error::DetectError;
 use crate::letterbox::{InputSize, PAD};
-use crate::metadata::{baked_names, metadata, model_stride};
+use crate::metadata::{baked_names, metadata, model_stride, train_px};
 use crate::prompts::Embeddings;
 use crate::read::{FrameFound, Reader};
 use crate::settings::keys;
@@ -28,8 +29,10 @@ pub(crate) struct Detector {
     pub(crate) signature: Signature,
     /// How large an input each view gets, and its pixels' convention.
     pub(crate) feed: Feed,
-    /// Classes the output scores.
-    pub(crate) classes: usize,
+    /// Classes a boxes output scores.
+    pub(crate) box_classes: usize,
+    /// The model's classes and the kinds they find.
+    pub(crate) classes: Classes,
     /// Views per `run`.
     pub(crate) batch: usize,
     /// Text embeddings input: its name and value.
@@ -39,14 +42,17 @@ pub(crate) struct Detector {
 }
 
 impl Detector {
-    /// Recognise the model's interface and prepare its inputs; also returns
-    /// the class names.
+    /// Recognise the model `path`'s interface and prepare its inputs.
+    /// With `own_scale`, a model of dynamic input runs at the scale its
+    /// metadata says it was trained at (an area model), not `imgsz`.
     pub(crate) fn new(
         session: ort::session::Session,
+        path: &std::path::Path,
         options: &DetectOptions,
-    ) -> Result<(Self, Vec<String>), DetectError> {
+        own_scale: bool,
+    ) -> Result<Self, DetectError> {
         let model_error = |why: String| DetectError::Model {
-            path: options.model.clone(),
+            path: path.to_owned(),
             why,
         };
         let signature = Signature::of_session(&session).map_err(model_error)?;
@@ -55,7 +61,9 @@ impl Detector {
         let size = match signature.input_size {
             Some((h, w)) => InputSize::Fixed(w, h),
             None => InputSize::Rect {
-                size: options.settings.image_size,
+                size: train_px(&metadata)
+                    .filter(|_| own_scale)
+                    .unwrap_or(options.settings.image_size),
                 stride: model_stride(&metadata).unwrap_or(DetectOptions::DEFAULT_STRIDE),
             },
         };
@@ -90,20 +98,21 @@ impl Detector {
                 )
             }
         };
-        let classes = signature
+        let box_classes = signature
             .classes
             .or(text.as_ref().map(|t| t.1))
             .unwrap_or(names.len());
-        let detector = Self {
+        let classes = Classes::of(names, &options.settings.class_kinds).map_err(model_error)?;
+        Ok(Self {
             session,
             feed,
+            box_classes,
             classes,
             batch: signature.batch.unwrap_or(options.settings.batch),
             text: text.map(|(name, _, tensor)| (name, tensor)),
             run_seconds: 0.0,
             signature,
-        };
-        Ok((detector, names))
+        })
     }
 
     /// Run the `pending` frames, moving their detections into `found`;
@@ -171,7 +180,8 @@ impl Detector {
             self.run_seconds += started.elapsed().as_secs_f64();
             let reader = Reader {
                 head: &self.signature.head,
-                classes: self.classes,
+                box_classes: self.box_classes,
+                classes: &self.classes,
                 images,
             };
             for (b, &(i, view)) in chunk.iter().enumerate() {

@@ -9,6 +9,7 @@
 
 pub mod boxes;
 pub mod choose;
+pub mod classes;
 mod coco;
 pub mod convention;
 pub mod decode;

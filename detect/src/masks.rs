@@ -3,6 +3,7 @@
 //! reference detector's), or from instance prototypes and a detection's
 //! coefficients (Ultralytics `-seg` models).
 
+use postflight_core::defect_kind::DefectKind;
 use postflight_core::detection::{BoxXyxy, Detection};
 use postflight_core::mask::Mask;
 
@@ -67,10 +68,13 @@ impl Plane {
     }
 }
 
-/// One view's crack probability map, over its model input.
+/// One view's probability map of a class (`None`: of every class the
+/// model's boxes score, as the reference detectors' crack map), over its
+/// model input.
 #[derive(Debug, Clone)]
 pub struct ProbabilityMap {
     pub place: ViewPlace,
+    pub class: Option<u32>,
     pub probability: Plane,
 }
 
@@ -83,7 +87,7 @@ pub fn finest_first(maps: &mut [ProbabilityMap]) {
 /// Frame pixels of `bbox` whose crack probability is above `threshold`,
 /// each read from the first of `maps` (ordered by [`finest_first`])
 /// covering it; `None` when there are none.
-pub fn from_maps(maps: &[ProbabilityMap], bbox: &BoxXyxy, threshold: f32) -> Option<Mask> {
+pub fn from_maps(maps: &[&ProbabilityMap], bbox: &BoxXyxy, threshold: f32) -> Option<Mask> {
     let x0 = bbox.x0.max(0.0).floor() as u32;
     let y0 = bbox.y0.max(0.0).floor() as u32;
     let (x1, y1) = (
@@ -240,9 +244,14 @@ pub(crate) const MASK_THRESHOLD: f32 = 0.5;
 /// a finding (model pixels).
 const MIN_COMPONENT_PX: usize = 8;
 
-/// A semantic map's connected crack regions scoring at least `confidence`,
-/// as detections in model input pixels.
-pub(crate) fn regions(probability: &Plane, confidence: f32) -> Vec<(Detection, Vec<f32>)> {
+/// A semantic map's connected regions of `class` (which finds `kind`)
+/// scoring at least `confidence`, as detections in model input pixels.
+pub(crate) fn regions(
+    probability: &Plane,
+    confidence: f32,
+    class: u32,
+    kind: DefectKind,
+) -> Vec<(Detection, Vec<f32>)> {
     let s = probability.stride;
     components(probability, MASK_THRESHOLD, MIN_COMPONENT_PX)
         .into_iter()
@@ -256,7 +265,8 @@ pub(crate) fn regions(probability: &Plane, confidence: f32) -> Vec<(Detection, V
                     y1: b.y1 * s,
                 },
                 score,
-                class: 0,
+                class,
+                kind,
                 tile: -1,
                 mask: None,
             };
@@ -304,6 +314,7 @@ mod tests {
     fn a_map_gives_the_box_pixels_above_threshold_from_the_finest_view() {
         let fine = ProbabilityMap {
             place: whole(40, 30, 1.0),
+            class: None,
             probability: line(40, 30, 10),
         };
         let b = BoxXyxy {
@@ -312,17 +323,18 @@ mod tests {
             x1: 40.0,
             y1: 30.0,
         };
-        let m = from_maps(std::slice::from_ref(&fine), &b, 0.5).unwrap();
+        let m = from_maps(&[&fine], &b, 0.5).unwrap();
         assert_eq!((m.x0, m.width, m.area()), (10, 1, 26));
         // A coarse whole-frame view (half scale) of another line does not
         // override the fine one where both cover.
         let coarse = ProbabilityMap {
             place: whole(40, 30, 0.5),
+            class: None,
             probability: line(20, 15, 15),
         };
         let mut maps = vec![coarse, fine];
         finest_first(&mut maps);
-        let m = from_maps(&maps, &b, 0.5).unwrap();
+        let m = from_maps(&maps.iter().collect::<Vec<_>>(), &b, 0.5).unwrap();
         assert_eq!((m.x0, m.width), (10, 1));
     }
 

@@ -85,7 +85,9 @@ pub fn merge(run: &std::path::Path) -> Result<(DetectSummary, usize), DetectErro
             && (other.model_sha256 != summary.model_sha256
                 || other.views_per_patch != summary.views_per_patch
                 || other.tile_choice != summary.tile_choice
-                || other.classes != summary.classes)
+                || other.classes != summary.classes
+                || other.area_model.as_ref().map(|a| &a.model_sha256)
+                    != summary.area_model.as_ref().map(|a| &a.model_sha256))
         {
             return Err(shard_error(format!(
                 "share {shard} ran another model or other settings than share {}; rerun it with the same",
@@ -124,6 +126,14 @@ fn merged(summaries: Vec<DetectSummary>, detections: u64) -> DetectSummary {
         out.failed_frames.extend(s.failed_frames);
         out.seconds += s.seconds;
         out.estimate_s = out.estimate_s.zip(s.estimate_s).map(|(a, b)| a + b);
+        if let (Some(mine), Some(theirs)) = (&mut out.area_model, &s.area_model) {
+            mine.frames_run += theirs.frames_run;
+            mine.detections += theirs.detections;
+            let busy =
+                mine.inference_share * mine.seconds + theirs.inference_share * theirs.seconds;
+            mine.seconds += theirs.seconds;
+            mine.inference_share = busy / mine.seconds.max(1e-9);
+        }
         for w in s.warnings {
             if !out.warnings.contains(&w) {
                 out.warnings.push(w);

@@ -21,6 +21,14 @@ pub(crate) fn model_stride(metadata: &HashMap<String, String>) -> Option<u32> {
     stride.trim().parse().ok().filter(|s| *s > 0)
 }
 
+/// The long side, pixels, of the photos an area model was trained on
+/// (postflight's area model writes `postflight.train_px`): it runs a frame
+/// scaled to that.
+pub(crate) fn train_px(metadata: &HashMap<String, String>) -> Option<u32> {
+    let px = metadata.get("postflight.train_px")?;
+    px.trim().parse().ok().filter(|p| (32..=8192).contains(p))
+}
+
 /// Class names of a model with a baked vocabulary, from its `names` metadata
 /// (Ultralytics writes `{0: 'crack', 1: 'spalling'}`).
 pub(crate) fn baked_names(metadata: &HashMap<String, String>) -> Option<Vec<String>> {

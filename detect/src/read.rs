@@ -1,10 +1,13 @@
 //! What a run's outputs hold for each view (boxes, instance masks, a
-//! probability map), in frame pixels, gathered per frame and finished
-//! there: suppressed, merged, each detection with its crack pixels.
+//! probability map per class), in frame pixels, gathered per frame and
+//! finished there: suppressed, merged, each detection with its kind and
+//! its pixels.
 
+use postflight_core::defect_kind::DefectKind;
 use postflight_core::detection::{BoxXyxy, Detection};
 
 use crate::boxes::{merge_touching, nms, nms_with};
+use crate::classes::Classes;
 use crate::decode::decode;
 use crate::masks::{
     MASK_THRESHOLD, Plane, ProbabilityMap, Prototypes, ViewPlace, finest_first, from_maps, regions,
@@ -17,8 +20,10 @@ use crate::views::{Prepared, View};
 /// Reads a run's outputs for what each view found.
 pub(crate) struct Reader<'a> {
     pub(crate) head: &'a Head,
-    /// Classes the boxes output scores.
-    pub(crate) classes: usize,
+    /// Classes a boxes output scores.
+    pub(crate) box_classes: usize,
+    /// The model's classes and the kinds they find.
+    pub(crate) classes: &'a Classes,
     /// Images in the run.
     pub(crate) images: usize,
 }
@@ -51,15 +56,36 @@ impl Reader<'_> {
             | Head::BoxesAndMap { output: name, .. }
             | Head::Instances { output: name, .. } => self.boxes(&output, name, confidence)?,
             Head::Semantic { output: name } => {
-                let probability = crack_probability(&output, name)?;
-                let regions = regions(&probability, confidence);
-                found.maps.push(ProbabilityMap { place, probability });
-                regions
+                let mut found_here = Vec::new();
+                for (class, kind, probability) in class_probabilities(&output, name, self.classes)?
+                {
+                    found_here.extend(regions(&probability, confidence, class, kind));
+                    let class = Some(class);
+                    found.maps.push(ProbabilityMap {
+                        place,
+                        class,
+                        probability,
+                    });
+                }
+                found_here
             }
         };
+        // What each class finds; a class that finds no kind is ignored.
+        detections.retain_mut(|(d, _)| match self.classes.kind(d.class) {
+            Some(kind) => {
+                d.kind = kind;
+                true
+            }
+            None => false,
+        });
         if let Head::BoxesAndMap { map, .. } = &self.head {
             let probability = output.plane(map, 0)?;
-            found.maps.push(ProbabilityMap { place, probability });
+            let class = None;
+            found.maps.push(ProbabilityMap {
+                place,
+                class,
+                probability,
+            });
         }
         // Into frame pixels; boxes are clipped to the frame after NMS, as
         // Ultralytics does.
@@ -106,7 +132,7 @@ impl Reader<'_> {
     ) -> Result<Vec<(Detection, Vec<f32>)>, String> {
         let (shape, data) = output.tensor(name)?;
         let extra = self.head.extra_rows();
-        if shape.len() != 3 || shape[1] != 4 + self.classes + extra {
+        if shape.len() != 3 || shape[1] != 4 + self.box_classes + extra {
             let coefficients = if extra > 0 {
                 format!(" + {extra} mask coefficients")
             } else {
@@ -114,12 +140,12 @@ impl Reader<'_> {
             };
             return Err(format!(
                 "output shape {shape:?}, expected [batch, 4 + {} classes{coefficients}, anchors]",
-                self.classes
+                self.box_classes
             ));
         }
         Ok(decode(
             data,
-            self.classes,
+            self.box_classes,
             extra,
             shape[2],
             output.image,
@@ -171,33 +197,67 @@ impl Output<'_, '_> {
     }
 }
 
-/// A semantic map's crack probability: the softmax of background and crack
-/// logits (two channels), or the one channel: the sigmoid of its logits
-/// where its values leave 0..1, else the channel itself.
-pub(crate) fn crack_probability(output: &Output<'_, '_>, name: &str) -> Result<Plane, String> {
+/// A semantic map's probability of each class that finds a kind, with the
+/// class and its kind: one channel is the first class's probability (the
+/// sigmoid of its logits where its values leave 0..1); several are logits
+/// of each class, through their softmax, channel `c` the model's class `c`
+/// (names for every channel) or `c - 1` (background first, unnamed).
+pub(crate) fn class_probabilities(
+    output: &Output<'_, '_>,
+    name: &str,
+    classes: &Classes,
+) -> Result<Vec<(u32, DefectKind, Plane)>, String> {
     let sigmoid = |v: f32| 1.0 / (1.0 + (-v).exp());
     let channels = output.tensor(name)?.0.get(1).copied().unwrap_or(0);
-    if !(1..=2).contains(&channels) {
-        return Err(format!(
-            "output {name} has {channels} channels; a semantic crack map has 1 (crack probability or logit) or 2 (background and crack logits): export the model with one of those"
-        ));
-    }
-    let mut p = output.plane(name, 0)?;
-    if channels == 2 {
-        let crack = output.plane(name, 1)?;
-        for (b, c) in p.values.iter_mut().zip(&crack.values) {
-            *b = sigmoid(c - *b);
+    let named = classes.names.len();
+    let unnamed = match channels.checked_sub(named) {
+        Some(0) => 0,
+        Some(1) if channels >= 2 => 1,
+        _ => {
+            return Err(format!(
+                "output {name} has {channels} channels but the model names {named} classes ({}); give the model names metadata for every channel (or all but a first background)",
+                classes.names.join(", ")
+            ));
         }
-    } else if p.values.iter().any(|v| !(0.0..=1.0).contains(v)) {
-        p.values.iter_mut().for_each(|v| *v = sigmoid(*v));
+    };
+    if channels == 1 {
+        let mut p = output.plane(name, 0)?;
+        if p.values.iter().any(|v| !(0.0..=1.0).contains(v)) {
+            p.values.iter_mut().for_each(|v| *v = sigmoid(*v));
+        }
+        return Ok(classes.kind(0).map(|k| (0, k, p)).into_iter().collect());
     }
-    Ok(p)
+    let logits: Vec<Plane> = (0..channels)
+        .map(|c| output.plane(name, c))
+        .collect::<Result<_, _>>()?;
+    let mut out = Vec::new();
+    for (channel, logit) in logits.iter().enumerate() {
+        let Some(class) = channel.checked_sub(unnamed) else {
+            continue;
+        };
+        let Some(kind) = classes.kind(class as u32) else {
+            continue;
+        };
+        let mut p = logit.clone();
+        for (i, v) in p.values.iter_mut().enumerate() {
+            *v = if channels == 2 {
+                // The softmax of two, as the reference pipeline computes it.
+                sigmoid(*v - logits[1 - channel].values[i])
+            } else {
+                let top = logits.iter().map(|l| l.values[i]).fold(f32::MIN, f32::max);
+                let sum: f32 = logits.iter().map(|l| (l.values[i] - top).exp()).sum();
+                (*v - top).exp() / sum
+            };
+        }
+        out.push((class as u32, kind, p));
+    }
+    Ok(out)
 }
 
 /// What a frame's views found, until the frame is finished.
 pub(crate) struct FrameFound {
     pub(crate) detections: Vec<Detection>,
-    /// Each view's crack probability map (models that give one).
+    /// Each view's probability maps (models that give them), one per class.
     pub(crate) maps: Vec<ProbabilityMap>,
     /// The frame's (width, height), pixels.
     pub(crate) size: (f32, f32),
@@ -249,7 +309,11 @@ impl FrameFound {
             let mut maps = self.maps;
             finest_first(&mut maps);
             for d in &mut merged {
-                d.mask = from_maps(&maps, &d.bbox, MASK_THRESHOLD);
+                let of_class: Vec<&ProbabilityMap> = maps
+                    .iter()
+                    .filter(|m| m.class.is_none_or(|c| c == d.class))
+                    .collect();
+                d.mask = from_maps(&of_class, &d.bbox, MASK_THRESHOLD);
             }
         }
         merged

@@ -18,6 +18,19 @@ postflight_core::settings! {
         /// Class prompt for open-vocabulary models (repeatable).
         #[arg(long = "prompt", value_name = "PROMPT")]
         prompts: Vec<String> = vec!["crack".to_string()],
+        /// What a class of the model finds, NAME=KIND (repeatable; KIND
+        /// one of crack, spall, exposed_rebar, efflorescence, rust_stain,
+        /// corrosion, or none to ignore the class) [default: the kind the
+        /// class's name means (spalling: spall), the rest ignored; a model
+        /// whose classes name no kind finds cracks].
+        #[arg(long = "class-kind", value_name = "NAME=KIND")]
+        class_kinds: Vec<String> = Vec::new(),
+        /// A second model for area defects (spalls, exposed reinforcement,
+        /// ...), run over the whole frame at the scale it was trained at
+        /// (its metadata's postflight.train_px, else imgsz) beside the
+        /// crack model: a spall does not need a crack's fine pixels.
+        #[arg(long, value_name = "FILE")]
+        area_model: PathBuf,
         /// Prompt embeddings for open-vocabulary models (JSON: prompt to
         /// vector, or a .npy array with prompts.txt beside it).
         #[arg(long, value_name = "FILE")]

@@ -54,8 +54,9 @@ pub enum Head {
         coefficients: usize,
     },
     /// Semantic segmentation: one map `[batch, 1, height, width]` of crack
-    /// probability (logits where values leave 0..1), or `[batch, 2, height,
-    /// width]` logits of background and crack. The channel count is read
+    /// probability (logits where values leave 0..1), or `[batch, channels,
+    /// height, width]` logits of each class (background and crack, or the
+    /// classes the model's names list). The channel count is read
     /// from each result: PyTorch's exporter often leaves every dimension of
     /// such an output unnamed.
     Semantic { output: String },
@@ -117,7 +118,7 @@ impl Signature {
     pub fn of(inputs: &[TensorSpec], outputs: &[TensorSpec]) -> Result<Self, String> {
         let mismatch = || {
             format!(
-                "inputs {} and outputs {} match no detector interface: expected images [batch, 3, height, width] (optionally with text embeddings [1, classes, dim]), and boxes [batch, 4 + classes, anchors] (with a probability map [batch, 1, height, width] or Ultralytics mask prototypes [batch, k, h, w]), or a segmentation map [batch, 1 or 2, height, width] alone",
+                "inputs {} and outputs {} match no detector interface: expected images [batch, 3, height, width] (optionally with text embeddings [1, classes, dim]), and boxes [batch, 4 + classes, anchors] (with a probability map [batch, 1, height, width] or Ultralytics mask prototypes [batch, k, h, w]), or a segmentation map [batch, classes, height, width] alone",
                 describe(inputs),
                 describe(outputs)
             )
@@ -174,15 +175,13 @@ impl Signature {
                 _ => return Err(mismatch()),
             },
             ([], [map]) if outputs.len() == 1 && map.shape.len() == 4 => {
-                match fixed(map.shape[1]) {
-                    None | Some(1 | 2) => (
-                        Head::Semantic {
-                            output: map.name.clone(),
-                        },
-                        Some(5),
-                    ),
-                    Some(_) => return Err(mismatch()),
-                }
+                // Its classes are its channels', named by the model.
+                (
+                    Head::Semantic {
+                        output: map.name.clone(),
+                    },
+                    None,
+                )
             }
             _ => return Err(mismatch()),
         };
@@ -299,10 +298,13 @@ mod tests {
         let logits = Head::Semantic {
             output: "logits".into(),
         };
-        assert_eq!((&semantic.head, semantic.classes), (&logits, Some(1)));
+        assert_eq!((&semantic.head, semantic.classes), (&logits, None));
         // As torch.onnx.export leaves a DeepLabV3's output: nothing named.
         let exported = Signature::of(&images, &[t("logits", &[-1, -1, -1, -1])]).unwrap();
         assert_eq!(exported.head, logits);
-        assert!(Signature::of(&images, &[t("seg", &[1, 7, 640, 640])]).is_err());
+        let classes = Signature::of(&images, &[t("seg", &[1, 7, 640, 640])]).unwrap();
+        assert!(matches!(classes.head, Head::Semantic { .. }));
+        let two_maps = [t("a", &[1, 2, 64, 64]), t("b", &[1, 2, 64, 64])];
+        assert!(Signature::of(&images, &two_maps).is_err());
     }
 }

@@ -10,7 +10,7 @@ use std::time::Instant;
 use ingest::Recordings;
 use postflight_core::detection::FrameDetection;
 use postflight_core::outputs::detect::{
-    DetectSummary, DetectionRow, FailedFrame, Shard, TileChoice, files,
+    AreaModelRun, DetectSummary, DetectionRow, FailedFrame, Shard, TileChoice, files,
 };
 use postflight_core::run_log::sha256_file;
 use postflight_core::{Flight, Frame, ImageStatus, InvalidSetting, Key, RunDir};
@@ -147,7 +147,8 @@ pub struct Estimate {
 }
 
 /// Run the detector over the flight's frames: the tiles `tiles` chooses,
-/// of every frame or of a share of them.
+/// of every frame or of a share of them; then the area model, if one is
+/// given, over the whole of the same frames.
 pub fn detect(
     options: &DetectOptions,
     tiles: TilesToRun<'_>,
@@ -159,91 +160,245 @@ pub fn detect(
     let recording = Recordings::reopen(&flight)?;
     let library = locate(options.onnxruntime.as_deref())?;
     let runtime = Runtime::start(library)?;
-    let session = runtime.session(&options.model, options.settings.device)?;
-    let mut warnings: Vec<String> = session.warning.iter().cloned().collect();
-    warnings.extend(no_map_warning(tiles.choice));
-    let device = session.device;
-    let (mut detector, classes) = Detector::new(session.session, options)?;
-
     let (runnable, unreadable): (Vec<&Frame>, Vec<&Frame>) = flight
         .frames
         .iter()
         .partition(|f| f.image_status == ImageStatus::Ok);
-    let chosen = choose(&runnable, detector.feed, options, tiles);
-    let mut failed = unreadable_in(&unreadable, tiles.shard);
-    let frames = chosen.frames + failed.len() as u64;
-    let mut pace = Pace {
-        start,
-        tiles: chosen.tiles() + chosen.skipped.total(),
-        tiles_run: chosen.tiles(),
-        choice: tiles.words(),
-        device,
-        warm: None,
-        estimate_s: None,
+    let on = Flown {
+        runtime,
+        recording: &recording,
+        runnable: &runnable,
+        unreadable: &unreadable,
+        tiles,
     };
-    let (found, ran, tiles_run) = infer_all(
-        &mut detector,
-        &recording,
-        &chosen.work,
-        options,
-        &mut failed,
-        &mut pace,
-        told,
-    )?;
-    failed.sort_by_key(|f| f.frame);
-    let ([w, h], tile) = detector.feed.input_shape(&runnable, options, &mut warnings);
-    // Frames failed and none ran, though some were to (a share may hold
-    // only frames the choice skips, or none that decode).
-    let meant_to_run = !chosen.work.is_empty() || (chosen.frames == 0 && tiles.shard.is_none());
-    if ran == 0
-        && meant_to_run
-        && let Some(first) = failed.first()
-    {
-        return Err(DetectError::NoFrames {
-            frames: frames.max(1),
-            first: first.frame,
-            why: first.why.clone(),
-        });
-    }
+    let mut crack = on.pass(options, &options.model, false, start, told)?;
+    let area = match &options.settings.area_model {
+        Some(path) => Some(on.area_pass(options, path, &crack, told)?),
+        None => None,
+    };
     let seconds = start.elapsed().as_secs_f64();
-    let summary = DetectSummary {
-        model: std::path::absolute(&options.model).unwrap_or_else(|_| options.model.clone()),
-        model_bytes: std::fs::metadata(&options.model)
-            .map(|m| m.len())
-            .unwrap_or(0),
-        model_sha256: sha256_file(&options.model)?,
-        onnxruntime: runtime.library.path.clone(),
-        onnxruntime_version: runtime.version(),
-        vocabulary: match detector.signature.vocabulary {
-            Vocabulary::Baked => "baked".into(),
-            Vocabulary::Embeddings { .. } => "embeddings".into(),
-        },
-        classes: classes.clone(),
-        input_size: [w, h],
-        input: detector.feed.convention,
-        tile,
-        confidence: options.settings.confidence,
-        iou: options.settings.iou,
-        merge_gap: options.settings.merge_gap.pixels(),
-        frames,
-        frames_run: ran,
-        tile_choice: tiles.choice,
-        views_per_patch: options.settings.views_per_patch,
-        tiles_run,
-        tiles_skipped: chosen.skipped,
-        estimate_s: pace.estimate_s,
-        shard: tiles.shard,
-        detections: found.len() as u64,
-        failed_frames: failed,
-        seconds,
-        frames_per_s: ran as f64 / seconds.max(1e-9),
-        inference_share: detector.run_seconds / seconds.max(1e-9),
-        device,
-        batch: detector.batch,
-        warnings,
-    };
-    write(&flight, tiles.shard, &found, &classes, &summary)?;
+    let mut summary = crack.summary(options, runtime, tiles, seconds)?;
+    if let (Some(area), Some(path)) = (area, &options.settings.area_model) {
+        let run = area.area_summary(path)?;
+        summary.classes.extend(run.classes.iter().cloned());
+        summary.kinds.extend(&run.kinds);
+        summary.kinds.sort();
+        summary.kinds.dedup();
+        let said = area.warnings.iter().map(|w| format!("area model: {w}"));
+        summary.warnings.extend(said);
+        summary.area_model = Some(run);
+        crack.add(area);
+    }
+    summary.detections = crack.found.len() as u64;
+    write(
+        &flight,
+        tiles.shard,
+        &crack.found,
+        &summary.classes,
+        &summary,
+    )?;
     Ok(summary)
+}
+
+/// The flight a detect runs over: its frames, and which of their tiles.
+struct Flown<'a> {
+    runtime: &'a Runtime,
+    recording: &'a Recordings,
+    runnable: &'a [&'a Frame],
+    unreadable: &'a [&'a Frame],
+    tiles: TilesToRun<'a>,
+}
+
+/// One model's pass over the flight: what it found and what it cost.
+struct Pass {
+    detector: Detector,
+    found: Vec<FrameDetection>,
+    frames: u64,
+    ran: u64,
+    tiles_run: u64,
+    skipped: postflight_core::kind::Counts<postflight_core::best_views::TileSkip>,
+    failed: Vec<FailedFrame>,
+    warnings: Vec<String>,
+    device: postflight_core::detection::Device,
+    estimate_s: Option<f64>,
+    input: ([u32; 2], Option<u32>),
+    seconds: f64,
+}
+
+impl Flown<'_> {
+    /// `model` over the chosen tiles, as `options` and `own_scale` say
+    /// (see [`Detector::new`]).
+    fn pass(
+        &self,
+        options: &DetectOptions,
+        model: &std::path::Path,
+        own_scale: bool,
+        start: Instant,
+        told: &mut dyn FnMut(Told<'_>),
+    ) -> Result<Pass, DetectError> {
+        let session = self.runtime.session(model, options.settings.device)?;
+        let mut warnings: Vec<String> = session.warning.iter().cloned().collect();
+        warnings.extend(no_map_warning(self.tiles.choice));
+        let device = session.device;
+        let mut detector = Detector::new(session.session, model, options, own_scale)?;
+        warnings.extend(detector.classes.warning.clone());
+        let chosen = choose(self.runnable, detector.feed, options, self.tiles);
+        let mut failed = unreadable_in(self.unreadable, self.tiles.shard);
+        let frames = chosen.frames + failed.len() as u64;
+        let mut pace = Pace {
+            start,
+            tiles: chosen.tiles() + chosen.skipped.total(),
+            tiles_run: chosen.tiles(),
+            choice: self.tiles.words(),
+            device,
+            warm: None,
+            estimate_s: None,
+        };
+        let (found, ran, tiles_run) = infer_all(
+            &mut detector,
+            self.recording,
+            &chosen.work,
+            options,
+            &mut failed,
+            &mut pace,
+            told,
+        )?;
+        failed.sort_by_key(|f| f.frame);
+        let input = detector
+            .feed
+            .input_shape(self.runnable, options, &mut warnings);
+        // Frames failed and none ran, though some were to (a share may hold
+        // only frames the choice skips, or none that decode).
+        let meant_to_run =
+            !chosen.work.is_empty() || (chosen.frames == 0 && self.tiles.shard.is_none());
+        if ran == 0
+            && meant_to_run
+            && let Some(first) = failed.first()
+        {
+            return Err(DetectError::NoFrames {
+                frames: frames.max(1),
+                first: first.frame,
+                why: first.why.clone(),
+            });
+        }
+        Ok(Pass {
+            detector,
+            found,
+            frames,
+            ran,
+            tiles_run,
+            skipped: chosen.skipped,
+            failed,
+            warnings,
+            device,
+            estimate_s: pace.estimate_s,
+            input,
+            seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The area model at `path` over the whole of each frame the crack
+    /// model chose from, at its own scale; its progress told after the
+    /// crack model's.
+    fn area_pass(
+        &self,
+        options: &DetectOptions,
+        path: &std::path::Path,
+        crack: &Pass,
+        told: &mut dyn FnMut(Told<'_>),
+    ) -> Result<Pass, DetectError> {
+        let mut whole = options.clone();
+        whole.settings.tile = Tile::Off(crate::settings::Off::Off);
+        let before = crack.tiles_run;
+        let mut after = |t: Told<'_>| {
+            if let Told::Progress { done, total } = t {
+                told(Told::Progress {
+                    done: before + done,
+                    total: before + total,
+                });
+            }
+        };
+        self.pass(&whole, path, true, Instant::now(), &mut after)
+    }
+}
+
+impl Pass {
+    /// `detect.json` of a run whose first (crack) pass this is.
+    fn summary(
+        &self,
+        options: &DetectOptions,
+        runtime: &Runtime,
+        tiles: TilesToRun<'_>,
+        seconds: f64,
+    ) -> Result<DetectSummary, DetectError> {
+        let detector = &self.detector;
+        let ([w, h], tile) = self.input;
+        Ok(DetectSummary {
+            model: std::path::absolute(&options.model).unwrap_or_else(|_| options.model.clone()),
+            model_bytes: std::fs::metadata(&options.model)
+                .map(|m| m.len())
+                .unwrap_or(0),
+            model_sha256: sha256_file(&options.model)?,
+            onnxruntime: runtime.library.path.clone(),
+            onnxruntime_version: runtime.version(),
+            vocabulary: match detector.signature.vocabulary {
+                Vocabulary::Baked => "baked".into(),
+                Vocabulary::Embeddings { .. } => "embeddings".into(),
+            },
+            classes: detector.classes.names.clone(),
+            kinds: detector.classes.finds(),
+            area_model: None,
+            input_size: [w, h],
+            input: detector.feed.convention,
+            tile,
+            confidence: options.settings.confidence,
+            iou: options.settings.iou,
+            merge_gap: options.settings.merge_gap.pixels(),
+            frames: self.frames,
+            frames_run: self.ran,
+            tile_choice: tiles.choice,
+            views_per_patch: options.settings.views_per_patch,
+            tiles_run: self.tiles_run,
+            tiles_skipped: self.skipped.clone(),
+            estimate_s: self.estimate_s,
+            shard: tiles.shard,
+            detections: self.found.len() as u64,
+            failed_frames: self.failed.clone(),
+            seconds,
+            frames_per_s: self.ran as f64 / seconds.max(1e-9),
+            inference_share: detector.run_seconds / seconds.max(1e-9),
+            device: self.device,
+            batch: detector.batch,
+            warnings: self.warnings.clone(),
+        })
+    }
+
+    /// What an area pass (of the model at `path`) ran and cost.
+    fn area_summary(&self, path: &std::path::Path) -> Result<AreaModelRun, DetectError> {
+        Ok(AreaModelRun {
+            model: std::path::absolute(path).unwrap_or_else(|_| path.to_owned()),
+            model_bytes: std::fs::metadata(path).map(|m| m.len()).unwrap_or(0),
+            model_sha256: sha256_file(path)?,
+            classes: self.detector.classes.names.clone(),
+            kinds: self.detector.classes.finds(),
+            input_size: self.input.0,
+            input: self.detector.feed.convention,
+            frames_run: self.ran,
+            detections: self.found.len() as u64,
+            seconds: self.seconds,
+            inference_share: self.detector.run_seconds / self.seconds.max(1e-9),
+        })
+    }
+
+    /// An area pass's detections after this pass's, its class ids after
+    /// this one's classes.
+    fn add(&mut self, area: Pass) {
+        let offset = self.detector.classes.names.len() as u32;
+        self.found.extend(area.found.into_iter().map(|mut d| {
+            d.detection.class += offset;
+            d
+        }));
+    }
 }
 
 /// What a run without a map to choose views by says: every tile ran.
@@ -428,7 +583,7 @@ pub(crate) fn write_outputs(
     run.remove(files::SUMMARY)?;
     let rows = rows(frames, found, classes);
     run.write_rows(files::DETECTIONS, &rows)?;
-    run.write_json(files::COCO, &coco::results(frames, found, &rows, classes))?;
+    run.write_json(files::COCO, &coco::results(frames, found, &rows))?;
     run.write_json(files::SUMMARY, summary)?;
     Ok(())
 }

@@ -11,6 +11,7 @@ use localise::fusion::fuse;
 use localise::observation::{Observation, Scene};
 use localise::trace::CrackTrace;
 use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector3};
+use postflight_core::defect_kind::DefectKind;
 use postflight_core::detection::FrameDetection;
 use postflight_core::detection::{BoxXyxy, Detection};
 use postflight_core::map::{PointCloud, SlamMap};
@@ -168,6 +169,7 @@ fn detection(frame: u32, t: &CrackTrace) -> FrameDetection {
             },
             score: 0.6,
             class: 0,
+            kind: DefectKind::Crack,
             tile: -1,
             mask: None,
         },

@@ -481,6 +481,7 @@ mod tests {
     use super::*;
     use crate::observation::{Placement, Sight};
     use crate::surface::SurfaceHit;
+    use postflight_core::defect_kind::DefectKind;
     use postflight_core::detection::FrameDetection;
     use postflight_core::detection::{BoxXyxy, Detection};
 
@@ -505,6 +506,7 @@ mod tests {
                     },
                     score: 0.5,
                     class: 0,
+                    kind: DefectKind::Crack,
                     tile: -1,
                     mask: None,
                 },

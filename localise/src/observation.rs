@@ -505,6 +505,7 @@ mod tests {
     use crate::surface::tests::wall;
     use nalgebra::{Translation3, UnitQuaternion};
     use postflight_core::Distortion;
+    use postflight_core::defect_kind::DefectKind;
     use postflight_core::detection::{BoxXyxy, Detection};
 
     fn detection(bbox: [f32; 4]) -> FrameDetection {
@@ -520,6 +521,7 @@ mod tests {
                 },
                 score: 0.8,
                 class: 0,
+                kind: DefectKind::Crack,
                 tile: -1,
                 mask: None,
             },

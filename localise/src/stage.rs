@@ -10,6 +10,7 @@ use std::time::Instant;
 use ingest::Recordings;
 use nalgebra::Point3;
 use postflight_core::condition::{ConditionSettings, CrackLimits};
+use postflight_core::defect_kind::DefectKind;
 use postflight_core::detection::FrameDetection;
 use postflight_core::map::{SlamMap, VoxelIndex};
 use postflight_core::motion::frame_blur_px;
@@ -121,7 +122,9 @@ pub fn localise(
     options.check()?;
     let start = Instant::now();
     let flight = Flight::load(&options.run)?;
-    let detections = read_detections(&RunDir::open(&options.run, Stage::Detect)?)?;
+    // Cracks are traced and measured here; area defects are not lines.
+    let mut detections = read_detections(&RunDir::open(&options.run, Stage::Detect)?)?;
+    detections.retain(|d| d.detection.kind == DefectKind::Crack);
     // A failed rerun must not leave the last run's results looking current.
     flight.run.remove(files::SUMMARY)?;
     let plan = options.plan.as_ref().map(PlanFile::load).transpose()?;

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 
 use crate::best_views::TileSkip;
+use crate::defect_kind::DefectKind;
 use crate::detection::{BoxXyxy, Detection, Device, FrameDetection};
 use crate::error::Error;
 use crate::kind::Counts;
@@ -178,7 +179,16 @@ pub struct DetectSummary {
     pub batch: usize,
     /// `baked` or `embeddings`.
     pub vocabulary: String,
+    /// Class names, the crack model's then the area model's: a
+    /// detection's `class` indexes them.
     pub classes: Vec<String>,
+    /// The kinds of defect the run looked for (its models' classes');
+    /// without an area kind, area defects were not looked for.
+    #[serde(default = "crack_only")]
+    pub kinds: Vec<DefectKind>,
+    /// The area model's pass, when one ran (`[detect] area_model`).
+    #[serde(default)]
+    pub area_model: Option<AreaModelRun>,
     pub input_size: [u32; 2],
     /// How pixels were fed to the model.
     #[serde(default)]
@@ -221,6 +231,31 @@ pub struct DetectSummary {
     pub warnings: Vec<String>,
 }
 
+fn crack_only() -> Vec<DefectKind> {
+    vec![DefectKind::Crack]
+}
+
+/// What the area model's pass over the flight ran and cost (`detect.json`
+/// `area_model`): the whole of each frame chosen, at the model's own scale.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AreaModelRun {
+    pub model: PathBuf,
+    pub model_bytes: u64,
+    /// SHA-256 of the model file, as `sha256sum` prints it.
+    pub model_sha256: String,
+    /// Its classes, as the model names them, and the kinds they find.
+    pub classes: Vec<String>,
+    pub kinds: Vec<DefectKind>,
+    /// The input a frame ran at (width, height), pixels.
+    pub input_size: [u32; 2],
+    pub input: InputConvention,
+    pub frames_run: u64,
+    pub detections: u64,
+    /// The pass, seconds, and the share of it inside ONNX Runtime's `run`.
+    pub seconds: f64,
+    pub inference_share: f64,
+}
+
 impl TileChoice {
     fn every() -> Self {
         Self::Every
@@ -253,15 +288,19 @@ crate::table! {
     /// One row of `detections.parquet`: a detection, in its frame's pixels.
     pub struct DetectionRow {
         detection: DetectionCells,
-        /// The class id, and its name (`prompt`).
+        /// The class id (of the model that found it), and its name
+        /// (`prompt`).
         class: u32,
+        /// What the class means: `crack`, or an area defect (`spall`,
+        /// `exposed_rebar`, ...).
+        kind: DefectKind,
         /// The tile it was found in; -1 for the whole frame.
         tile: i32,
         prompt: String,
         /// The frame's size, pixels.
         frame_width: u32,
         frame_height: u32,
-        /// Its crack pixels as COCO's compressed RLE `counts` over the
+        /// Its pixels (a crack's, or an area defect's outline filled) as COCO's compressed RLE `counts` over the
         /// frame (pycocotools' `mask.decode({"size": [frame_height,
         /// frame_width], "counts": mask})`); null for a model of boxes only.
         mask: Option<String>,
@@ -277,6 +316,7 @@ impl DetectionRow {
         Self {
             detection: DetectionCells::of(d.frame, d.time_ns, d.detection.bbox, d.detection.score),
             class,
+            kind: d.detection.kind,
             tile: d.detection.tile,
             prompt: classes
                 .get(class as usize)
@@ -310,6 +350,7 @@ impl DetectionRow {
                 bbox: cells.bbox,
                 score: cells.score,
                 class: self.class,
+                kind: self.kind,
                 tile: self.tile,
                 mask,
             },
@@ -378,6 +419,11 @@ mod tests {
                     },
                     score: 0.5,
                     class: i % 2,
+                    kind: if i == 2 {
+                        DefectKind::Spall
+                    } else {
+                        DefectKind::Crack
+                    },
                     tile: -1 + i as i32,
                     mask: (i == 1).then(|| {
                         let mut m = Mask::empty(2, 3, 4, 4);
