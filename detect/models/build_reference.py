@@ -16,7 +16,10 @@ YOLO-World's interfaces exactly, so the same pipeline runs either:
   prompts.json; these are not CLIP features), and the same `mask`;
 - crack-semantic.onnx: a semantic segmentation network's interface, one
   output `logits` [B, 2, H, W] of background and crack (their softmax is the
-  per-pixel crack score), as DeepCrack- or U-Net-style crack segmenters give.
+  per-pixel crack score), as DeepCrack- or U-Net-style crack segmenters give;
+- area-reference.onnx: an area-defect segmenter for the simulator's spalls,
+  `logits` [B, 3, H, W] of background, spall and exposed_rebar, by colour
+  (see area_network), run at 320 px (`postflight.train_px`).
 
 The network: grey = luma of the image; for 8 orientations, how much darker a
 7-pixel stroke is than both of its sides 2-3 pixels away, less how much the
@@ -258,23 +261,24 @@ def backbone(nodes, inits):
     inits.append(const("i1_axes", np.array([1], dtype=np.int64)))
 
 
-def metadata(model, names):
+def metadata(model, names, extra=None):
     for key, value in {
         "description": "postflight reference crack detector (hand-designed thin-dark-line network, not trained)",
         "author": "postflight",
         "stride": str(STRIDE),
         "task": "detect",
         "names": "{" + ", ".join(f"{i}: '{n}'" for i, n in enumerate(names)) + "}",
+        **(extra or {}),
     }.items():
         entry = model.metadata_props.add()
         entry.key, entry.value = key, value
 
 
-def save(nodes, inits, inputs, outputs, path, names):
+def save(nodes, inits, inputs, outputs, path, names, extra=None):
     graph = helper.make_graph(nodes, "postflight_crack_reference", inputs, outputs, inits)
     model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 18)], producer_name="postflight")
     model.ir_version = 8
-    metadata(model, names)
+    metadata(model, names, extra)
     onnx.checker.check_model(model, full_check=True)
     onnx.save(model, path)
 
@@ -282,6 +286,63 @@ def save(nodes, inits, inputs, outputs, path, names):
 def mask_output():
     """The per-pixel crack score as the output `mask` (see backbone's Identity)."""
     return helper.make_tensor_value_info("mask", TensorProto.FLOAT, ["batch", 1, "height", "width"])
+
+
+# The area reference model: the simulator's spalls by their colour. A
+# weathered face is grey (blue nearly as strong as red); a spall's fresh
+# fracture is warmer (the sand's colour), and a bar showing in it rust
+# brown, warmer still. Warmth is (red - blue) over the pixel's sum, which
+# light and shade do not change; vegetation (green above red) is not a
+# spall however warm.
+AREA_TRAIN_PX = 320  # the long side a frame runs at: spalls need centimetres
+AREA_SMOOTH = 5  # pixels: warmth averaged over this square (JPEG's chroma is coarse)
+SPALL_WARMTH = (0.045, 0.2)  # between these: broken concrete
+REBAR_WARMTH = 0.2  # above this: a bar
+AREA_GAIN = 200.0  # logits per unit of warmth past a limit
+GREEN_WEIGHT = 4.0  # green above red counts against warmth, times this
+
+
+def area_network(nodes, inits):
+    """Nodes from `images` to `logits` [B, 3, H, W]: background, spall,
+    exposed_rebar."""
+    rows = lambda *w: np.array(w, dtype=np.float32).reshape(1, 3, 1, 1)
+    inits += [
+        const("a_sum_w", rows(1.0, 1.0, 1.0)),
+        const("a_warm_w", rows(1.0, 0.0, -1.0)),
+        const("a_green_w", rows(-1.0, 1.0, 0.0)),
+        const("a_eps", np.array(0.02, dtype=np.float32)),
+        const("a_spall_lo", np.array(SPALL_WARMTH[0], dtype=np.float32)),
+        const("a_spall_hi", np.array(SPALL_WARMTH[1], dtype=np.float32)),
+        const("a_rebar", np.array(REBAR_WARMTH, dtype=np.float32)),
+        const("a_gain", np.array(AREA_GAIN, dtype=np.float32)),
+        const("a_green", np.array(GREEN_WEIGHT, dtype=np.float32)),
+    ]
+    n = helper.make_node
+    pad = AREA_SMOOTH // 2
+    pool = dict(kernel_shape=[AREA_SMOOTH, AREA_SMOOTH], pads=[pad] * 4, count_include_pad=0)
+    nodes += [
+        n("Conv", ["images", "a_sum_w"], ["a_sum0"]),
+        n("Add", ["a_sum0", "a_eps"], ["a_sum"]),
+        n("Conv", ["images", "a_warm_w"], ["a_rb"]),
+        n("Conv", ["images", "a_green_w"], ["a_gr"]),
+        n("Div", ["a_rb", "a_sum"], ["a_warm_px"]),
+        n("Relu", ["a_gr"], ["a_gr_pos"]),
+        n("Div", ["a_gr_pos", "a_sum"], ["a_green_px"]),
+        n("AveragePool", ["a_warm_px"], ["a_warm"], **pool),
+        n("AveragePool", ["a_green_px"], ["a_greenness"], **pool),
+        n("Mul", ["a_greenness", "a_green"], ["a_green_penalty"]),
+        # Spall: warmer than the low limit and cooler than a bar.
+        n("Sub", ["a_warm", "a_spall_lo"], ["a_over_lo"]),
+        n("Sub", ["a_spall_hi", "a_warm"], ["a_under_hi"]),
+        n("Min", ["a_over_lo", "a_under_hi"], ["a_spall_margin"]),
+        n("Sub", ["a_spall_margin", "a_green_penalty"], ["a_spall_net"]),
+        n("Mul", ["a_spall_net", "a_gain"], ["spall_logit"]),
+        n("Sub", ["a_warm", "a_rebar"], ["a_rebar_margin"]),
+        n("Sub", ["a_rebar_margin", "a_green_penalty"], ["a_rebar_net"]),
+        n("Mul", ["a_rebar_net", "a_gain"], ["rebar_logit"]),
+        n("Sub", ["a_warm", "a_warm"], ["background_logit"]),
+        n("Concat", ["background_logit", "spall_logit", "rebar_logit"], ["logits"], axis=1),
+    ]
 
 
 def main():
@@ -320,6 +381,14 @@ def main():
     ]
     logits = helper.make_tensor_value_info("logits", TensorProto.FLOAT, ["batch", 2, "height", "width"])
     save(nodes, inits, [images], [logits], os.path.join(out, "crack-semantic.onnx"), ["crack"])
+
+    nodes, inits = [], []
+    area_network(nodes, inits)
+    logits = helper.make_tensor_value_info("logits", TensorProto.FLOAT, ["batch", 3, "height", "width"])
+    save(nodes, inits, [images], [logits], os.path.join(out, "area-reference.onnx"),
+         ["background", "spall", "exposed_rebar"],
+         {"description": "postflight reference area-defect segmenter for simulated flights (hand-designed colour network, not trained)",
+          "task": "segment", "postflight.train_px": str(AREA_TRAIN_PX)})
 
     with open(os.path.join(out, "prompts.json"), "w") as f:
         json.dump({name: [round(float(x), 7) for x in v] for name, v in prompt_embeddings().items()}, f)

@@ -19,6 +19,7 @@ pub mod letterbox;
 pub mod masks;
 pub mod merge;
 mod metadata;
+mod pass;
 pub mod prompts;
 mod read;
 pub mod runtime;

@@ -27,6 +27,7 @@ fn shipped_reference_models_are_what_the_script_builds() {
         "crack-baked.onnx",
         "crack-open.onnx",
         "crack-semantic.onnx",
+        "area-reference.onnx",
         "prompts.json",
     ] {
         let built = std::fs::read(dir.path().join(file)).unwrap();

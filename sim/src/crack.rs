@@ -25,8 +25,8 @@ pub struct Crack {
     pub pattern: Option<Pattern>,
     /// A triangle of the face it starts on.
     pub triangle: u32,
-    center: Point3<f64>,
-    radius: f64,
+    pub(crate) center: Point3<f64>,
+    pub(crate) radius: f64,
     /// Arc length at each point of each line, metres.
     arc: Vec<Vec<f64>>,
     /// Width where each branch leaves the main line, metres (the main line's own: `width`).

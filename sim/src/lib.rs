@@ -25,6 +25,7 @@ pub mod rng;
 pub mod scene;
 pub mod section;
 pub mod sortie;
+pub mod spall;
 pub mod truth;
 
 use std::ffi::OsString;
@@ -43,6 +44,7 @@ use crate::render::RayTable;
 use crate::rng::Rng;
 use crate::scene::{Class, Scene, area};
 use crate::sortie::Sorties;
+use crate::spall::Spalls;
 use crate::truth::{CrackTruth, FrameTruth, Truth};
 pub use error::SimError;
 use postflight_core::serde_pose::PoseJson;
@@ -97,6 +99,18 @@ pub struct SimOptions {
         conflicts_with = "repeat_of"
     )]
     pub crack_patterns: usize,
+    /// Also draw this many spalls: concrete broken out of the structure's
+    /// faces, 8 to 45 cm across and 8 to 45 mm deep, each a depression in
+    /// the geometry and the map with a rough, darker floor; two in five of
+    /// those deeper than 20 mm show reinforcing bars. truth.json lists
+    /// them (and their bars, as exposed reinforcement) in `area_defects`.
+    #[arg(
+        long,
+        default_value_t = 0,
+        value_name = "N",
+        conflicts_with = "repeat_of"
+    )]
+    pub spalls: usize,
     /// The widths a pattern's cracks open and close between (widest
     /// mid-way, as --crack-widths): fine, so that their spacing decides
     /// their state.
@@ -213,6 +227,7 @@ pub struct SimSummary {
     pub frames: u32,
     pub dropped_frames: u32,
     pub cracks: usize,
+    pub spalls: usize,
     pub duration_s: f64,
     pub map_points: usize,
     /// Every recording, in flying order (`flight.mcap` alone when whole).
@@ -286,7 +301,11 @@ pub fn simulate(
         write_mounting(rec, &world, sortie.stamp(sortie.start_s()))?;
     }
     let recorded = record_frames(&mut sorties, &world, &frame_times, options, progress)?;
-    let map = map_points(&world.scene, &mut Rng::stream(options.seed, "map"));
+    let map = map_points(
+        &world.scene,
+        &world.spalls,
+        &mut Rng::stream(options.seed, "map"),
+    );
     write_maps(&mut sorties, &map)?;
     let sortie_truth = sorties.truth(ns);
     let recordings = sorties.finish(&options.out)?;
@@ -307,6 +326,7 @@ pub fn simulate(
             .iter()
             .map(|m| truth::DistractorTruth::new(m, &world.scene))
             .collect(),
+        area_defects: world.spalls.truths(&world.scene),
         cracks: world
             .cracks
             .0
@@ -329,6 +349,7 @@ pub fn simulate(
         frames: options.frames - recorded.dropped,
         dropped_frames: recorded.dropped,
         cracks: world.cracks.0.len(),
+        spalls: world.spalls.0.len(),
         duration_s: duration,
         map_points: map.len(),
         recordings,
@@ -372,6 +393,7 @@ struct World {
     cracks: Cracks,
     /// Marks on the surface that are not cracks.
     marks: Distractors,
+    spalls: Spalls,
     /// The widths cracks taper between (a repeat's: its earlier flight's).
     crack_widths: Option<crack::WidthRange>,
     /// A repeat flight's changes since the earlier one.
@@ -490,6 +512,12 @@ impl World {
             Some(r) => planner::reflown(plan, &r.frame_offset.isometry(), &scene),
             None => plan,
         };
+        let spalls = Spalls::generate(
+            &scene,
+            options.spalls,
+            &cracks.0,
+            &mut Rng::stream(seed, "spalls"),
+        );
         let marks = if options.distractors {
             Distractors::generate(&scene, &mut Rng::stream(seed, "distractors"))
         } else {
@@ -504,6 +532,7 @@ impl World {
             scene,
             cracks,
             marks,
+            spalls,
             crack_widths,
             changes,
             plan,
@@ -642,8 +671,11 @@ fn record_frames(
             let img = render::motion_blur(
                 render::render(
                     &world.scene,
-                    &world.cracks,
-                    &world.marks,
+                    &render::Drawn {
+                        cracks: &world.cracks,
+                        marks: &world.marks,
+                        spalls: &world.spalls,
+                    },
                     &world.rays,
                     &camera,
                     i,
@@ -668,6 +700,7 @@ fn record_frames(
             fast: flight.is_fast(t),
             blur_px,
             cracks: in_view,
+            area_defects: world.spalls.seen_by(&world.scene, &world.k, &camera),
         });
         progress(u64::from(i) + 1, u64::from(n));
     }
@@ -832,8 +865,10 @@ fn blur_vector(world: &World, t: f64) -> (f64, f64) {
     }
 }
 
-/// SLAM map points: samples of every surface near the structure, with 1.5 cm noise.
-fn map_points(scene: &Scene, rng: &mut Rng) -> Vec<Point3<f64>> {
+/// SLAM map points: samples of every surface near the structure (on a
+/// spall's broken surface where one took the face away), with 1.5 cm
+/// noise.
+fn map_points(scene: &Scene, spalls: &Spalls, rng: &mut Rng) -> Vec<Point3<f64>> {
     let (lo, hi) = scene.infrastructure_bounds();
     let near = |p: &Point3<f64>| {
         p.x > lo.x - 12.0 && p.x < hi.x + 12.0 && p.y > lo.y - 12.0 && p.y < hi.y + 12.0
@@ -857,7 +892,7 @@ fn map_points(scene: &Scene, rng: &mut Rng) -> Vec<Point3<f64>> {
                 continue;
             }
             let jitter = Vector3::new(rng.normal(), rng.normal(), rng.normal()) * 0.015;
-            points.push(p + jitter);
+            points.push(spalls.sunk(p) + jitter);
         }
     }
     points

@@ -1,6 +1,7 @@
 //! Rendering a frame: one ray per pixel through the lens model into the
 //! scene, concrete shading with the cracks drawn at their true width (so a
-//! crack fades with distance), the lens's point-spread function, the
+//! crack fades with distance) and spalls' broken surfaces where the rays
+//! fall into them, the lens's point-spread function, the
 //! sensor's noise, then motion blur along the image motion.
 
 use image::RgbImage;
@@ -12,6 +13,7 @@ use crate::crack::Cracks;
 use crate::distractor::Distractors;
 use crate::rng::hash3;
 use crate::scene::{Class, Scene};
+use crate::spall::{SpallHit, Spalls};
 
 /// Farthest distance rendered, metres.
 const MAX_RANGE: f64 = 300.0;
@@ -72,11 +74,9 @@ impl Surface {
 /// deviation in pixels; 0 none), each pixel the light over its area (a
 /// crack drawn by the share of the pixel it covers), then the sensor's
 /// noise.
-#[allow(clippy::too_many_arguments)]
 pub fn render(
     scene: &Scene,
-    cracks: &Cracks,
-    marks: &Distractors,
+    drawn: &Drawn<'_>,
     rays: &RayTable,
     camera: &Isometry3<f64>,
     frame: u32,
@@ -89,15 +89,7 @@ pub fn render(
     light.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         for (x, px) in row.iter_mut().enumerate() {
             let dir = camera.rotation * rays.rays[y * w + x];
-            let rgb = shade(
-                scene,
-                cracks,
-                marks,
-                &origin,
-                &dir,
-                rays.pixel_angle,
-                surface,
-            );
+            let rgb = shade(scene, drawn, &origin, &dir, rays.pixel_angle, surface);
             *px = rgb;
         }
     });
@@ -172,10 +164,17 @@ fn lens_blur(light: Vec<[f64; 3]>, w: usize, h: usize, sigma_px: f64) -> Vec<[f6
     pass(&pass(&light, true), false)
 }
 
+/// What is drawn on the structure's surface: cracks, marks that are not
+/// cracks, and spalls.
+pub struct Drawn<'a> {
+    pub cracks: &'a Cracks,
+    pub marks: &'a Distractors,
+    pub spalls: &'a Spalls,
+}
+
 fn shade(
     scene: &Scene,
-    cracks: &Cracks,
-    marks: &Distractors,
+    drawn: &Drawn<'_>,
     origin: &Point3<f64>,
     dir: &Vector3<f64>,
     pixel_angle: f64,
@@ -187,8 +186,14 @@ fn shade(
         return [150.0 + 60.0 * (1.0 - up), 185.0 + 40.0 * (1.0 - up), 235.0];
     };
     let sun = Vector3::new(0.35, -0.25, 0.9).normalize();
+    let infrastructure = scene.class(hit.triangle) == Class::Infrastructure;
+    if let Some(broken) = drawn.spalls.hit(&hit.point, dir).filter(|_| infrastructure) {
+        let light = 0.45 + 0.55 * broken.normal.dot(&sun).max(0.0);
+        return broken_concrete(&broken).map(|c| c * light);
+    }
     let light = 0.45 + 0.55 * hit.normal.dot(&sun).max(0.0);
     let p = hit.point;
+    let (cracks, marks) = (drawn.cracks, drawn.marks);
     let base = match scene.class(hit.triangle) {
         Class::Infrastructure => {
             let g = match surface {
@@ -212,6 +217,19 @@ fn shade(
         }
     };
     base.map(|c| c * light)
+}
+
+/// The broken surface of a spall: rough concrete darker and warmer than
+/// the weathered face (fresh fracture through aggregate and paste, the
+/// sand's colour showing), a bar showing in it rust brown.
+fn broken_concrete(hit: &SpallHit) -> [f64; 3] {
+    let p = &hit.point;
+    let rough = 0.75 + 0.5 * value_noise(p, 90.0, 31) + 0.2 * (value_noise(p, 300.0, 33) - 0.5);
+    if hit.on_bar {
+        return [128.0 * rough, 72.0 * rough, 40.0 * rough];
+    }
+    let g = 110.0 * rough;
+    [g, g * 0.93, g * 0.80]
 }
 
 /// Share of a pixel `pixel` wide, centred `d` from a line's axis, that a

@@ -149,6 +149,9 @@ pub struct FrameTruth {
     /// Length of the motion blur streak, pixels.
     pub blur_px: f64,
     pub cracks: Vec<CrackInFrame>,
+    /// The area defects it sees (their ids in `area_defects`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub area_defects: Vec<String>,
 }
 
 /// How many pixels a thin line's darkness is spread over: a blur streak's
@@ -272,6 +275,9 @@ pub struct Truth {
     /// Marks on the surface that are not cracks.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub distractors: Vec<DistractorTruth>,
+    /// Spalls and the bars showing in them (`--spalls`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub area_defects: Vec<crate::spall::AreaDefectTruth>,
     pub frames: Vec<FrameTruth>,
     /// Per-voxel coverage under the plan's View model, flown and planned.
     pub coverage: crate::coverage::CoverageTruth,
