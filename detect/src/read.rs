@@ -230,6 +230,20 @@ pub(crate) fn class_probabilities(
     let logits: Vec<Plane> = (0..channels)
         .map(|c| output.plane(name, c))
         .collect::<Result<_, _>>()?;
+    // Each pixel's softmax normaliser, once for every class: its largest
+    // logit and the sum of the exponentials below it.
+    // (Two channels need none: the sigmoid of their difference.)
+    let pixels = if channels > 2 {
+        logits[0].values.len()
+    } else {
+        0
+    };
+    let top: Vec<f32> = (0..pixels)
+        .map(|i| logits.iter().map(|l| l.values[i]).fold(f32::MIN, f32::max))
+        .collect();
+    let sum: Vec<f32> = (0..pixels)
+        .map(|i| logits.iter().map(|l| (l.values[i] - top[i]).exp()).sum())
+        .collect();
     let mut out = Vec::new();
     for (channel, logit) in logits.iter().enumerate() {
         let Some(class) = channel.checked_sub(unnamed) else {
@@ -244,9 +258,7 @@ pub(crate) fn class_probabilities(
                 // The softmax of two, as the reference pipeline computes it.
                 sigmoid(*v - logits[1 - channel].values[i])
             } else {
-                let top = logits.iter().map(|l| l.values[i]).fold(f32::MIN, f32::max);
-                let sum: f32 = logits.iter().map(|l| (l.values[i] - top).exp()).sum();
-                (*v - top).exp() / sum
+                (*v - top[i]).exp() / sum[i]
             };
         }
         out.push((class as u32, kind, p));
